@@ -1,0 +1,32 @@
+# Every target creates .venv and installs the project when missing, so a fresh clone needs
+# nothing but python3 (>= 3.11) and make.
+PYTHON ?= python3
+VENV   := .venv
+PY     := $(VENV)/bin/python
+STAMP  := $(VENV)/.installed-stamp
+
+.PHONY: venv test demo bench lint clean
+
+venv: $(STAMP)
+
+$(STAMP): pyproject.toml
+	test -x $(PY) || $(PYTHON) -m venv $(VENV)
+	$(PY) -m pip install --quiet --upgrade pip
+	$(PY) -m pip install --quiet -e '.[dev,plot]'
+	touch $(STAMP)
+
+test: $(STAMP)
+	$(PY) -m pytest -q -n 2 --dist loadfile
+
+lint: $(STAMP)
+	$(VENV)/bin/ruff check robodcn firmware_sim tests bench
+
+demo: $(STAMP)
+	$(PY) -m robodcn.demo
+
+bench: $(STAMP)
+	$(PY) -m pip install --quiet -e '.[dev,plot,bench]' || echo "optional bench extras unavailable; comparisons will be skipped"
+	$(PY) -m bench
+
+clean:
+	rm -rf $(VENV) .pytest_cache .ruff_cache

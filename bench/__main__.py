@@ -1,0 +1,1 @@
+"""Run every benchmark module and rewrite docs/benchmarks.md."""
