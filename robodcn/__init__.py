@@ -1,7 +1,8 @@
 """robodcn: smooth planar rigid-motion trajectories with dual complex numbers, streamed to
 Dynamixel servos."""
 
-from robodcn import errors
+from robodcn import dcn, dualquat, errors
+from robodcn.interpolate import blend, interpolate
 
-__all__ = ["errors"]
+__all__ = ["blend", "dcn", "dualquat", "errors", "interpolate"]
 __version__ = "0.1.0"
