@@ -1,0 +1,271 @@
+"""Planar serial-arm kinematics: vectorised FK, analytic IK (2R, 3R), Jacobian, workspace.
+
+Conventions (shared/design.md §4): joint i turns about the z axis; φ_i = q_1 + … + q_i is the
+absolute angle of link i; the tool point is Σ l_i·(cos φ_i, sin φ_i) and, for a 3-joint arm,
+the tool orientation is θ = q_1 + q_2 + q_3. A 2-joint arm reaches positions only: θ of a pose
+is ignored by its IK and FK reports θ = q_1 + q_2.
+
+IK (law of cosines, e.g. Lynch & Park, *Modern Robotics* §6.1): wrist w = p − l3·(cos θ,
+sin θ) (w = p for 2R), cos q2 = (|w|² − l1² − l2²)/(2·l1·l2), q2 = ∓acos(·) and
+q1 = atan2(w_y, w_x) − atan2(l2·sin q2, l1 + l2·cos q2), q3 = θ − q1 − q2.
+Branch "up" has q2 ≤ 0 (for a target on the +x axis the elbow is above the shoulder–wrist
+line), branch "down" q2 ≥ 0.
+
+Every function takes arrays of shape (n, ...) and never loops over samples in Python.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from robodcn import _checks
+from robodcn.errors import InputError, UnreachableError
+
+#: Slack (metres) on the workspace annulus: wrist radii this far outside still count as
+#: reachable and cos q2 is rounded into [−1, 1]. Covers float rounding only (1 nm).
+REACH_TOLERANCE = 1e-9
+
+ELBOWS = ("up", "down")
+_TWO_PI = 2.0 * np.pi
+
+
+def _links(links: Sequence[float]) -> tuple[float, ...]:
+    links = tuple(float(v) for v in links)
+    if len(links) not in (2, 3) or not all(np.isfinite(v) and v > 0.0 for v in links):
+        raise InputError(f"links must be 2 or 3 positive lengths, got {links!r}", field="links",
+                         value=links)
+    return links
+
+
+def _poses(poses: ArrayLike) -> NDArray[np.float64]:
+    poses = _checks.finite("poses", poses)
+    if poses.ndim != 2 or poses.shape[1] != 3:
+        raise InputError(f"poses must have shape (n, 3), got {poses.shape}", field="poses",
+                         value=poses)
+    return poses
+
+
+def _joints(q: ArrayLike, k: int) -> NDArray[np.float64]:
+    q = _checks.finite("q", q)
+    if q.ndim != 2 or q.shape[1] != k:
+        raise InputError(f"joint angles must have shape (n, {k}), got {q.shape}", field="q",
+                         value=q)
+    return q
+
+
+def wrap(angle: ArrayLike) -> NDArray[np.float64]:
+    """Angles wrapped into [−π, π)."""
+    return np.remainder(np.asarray(angle, dtype=np.float64) + np.pi, _TWO_PI) - np.pi
+
+
+def workspace(links: Sequence[float]) -> tuple[float, float]:
+    """The annulus (r_inner, r_outer) = (|l1 − l2|, l1 + l2) the wrist point can reach."""
+    l1, l2 = _links(links)[:2]
+    return abs(l1 - l2), l1 + l2
+
+
+def wrist_points(links: Sequence[float], poses: ArrayLike) -> NDArray[np.float64]:
+    """Wrist points (n, 2): p − l3·(cos θ, sin θ) for 3 links, p itself for 2."""
+    links = _links(links)
+    poses = _poses(poses)
+    if len(links) == 2:
+        return poses[:, :2].copy()
+    return np.stack([poses[:, 0] - links[2] * np.cos(poses[:, 2]),
+                     poses[:, 1] - links[2] * np.sin(poses[:, 2])], axis=1)
+
+
+def wrist_radius(links: Sequence[float], poses: ArrayLike) -> NDArray[np.float64]:
+    """Distance (n,) of each pose's wrist point from the base."""
+    w = wrist_points(links, poses)
+    return np.hypot(w[:, 0], w[:, 1])
+
+
+def reachable(links: Sequence[float], poses: ArrayLike) -> NDArray[np.bool_]:
+    """Whether each pose's wrist point lies in the workspace annulus (± REACH_TOLERANCE)."""
+    inner, outer = workspace(links)
+    r = wrist_radius(links, poses)
+    return (r >= inner - REACH_TOLERANCE) & (r <= outer + REACH_TOLERANCE)
+
+
+def fk(links: Sequence[float], q: ArrayLike) -> NDArray[np.float64]:
+    """Forward kinematics: poses (n, 3) = (Σ l_i cos φ_i, Σ l_i sin φ_i, φ_k) for q (n, k)."""
+    links = _links(links)
+    q = _joints(q, len(links))
+    phi = np.cumsum(q, axis=1)
+    lengths = np.asarray(links)
+    out = np.empty((q.shape[0], 3))
+    out[:, 0] = np.cos(phi) @ lengths
+    out[:, 1] = np.sin(phi) @ lengths
+    out[:, 2] = phi[:, -1]
+    return out
+
+
+def ik_branches(links: Sequence[float], poses: ArrayLike
+                ) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.bool_]]:
+    """Both analytic IK solutions of every pose.
+
+    Returns
+    -------
+    up, down : (n, k) joint angles in [−π, π) of the elbow-up (q2 ≤ 0) and elbow-down
+        (q2 ≥ 0) branches; NaN rows where the pose is out of reach.
+    ok : (n,) bool, the pose is reachable (:func:`reachable`).
+    """
+    links = _links(links)
+    poses = _poses(poses)
+    l1, l2 = links[:2]
+    w = wrist_points(links, poses)
+    r2 = w[:, 0] ** 2 + w[:, 1] ** 2
+    ok = reachable(links, poses)
+    cos_q2 = np.clip((r2 - l1 * l1 - l2 * l2) / (2.0 * l1 * l2), -1.0, 1.0)
+    q2 = np.arccos(cos_q2)
+    q2 = np.where(ok, q2, np.nan)
+    base = np.arctan2(w[:, 1], w[:, 0])
+    s2 = l2 * np.sin(q2)
+    c2 = l1 + l2 * cos_q2
+    out = []
+    for sign in (-1.0, 1.0):
+        q = np.empty((poses.shape[0], len(links)))
+        q[:, 1] = sign * q2
+        q[:, 0] = wrap(base - np.arctan2(sign * s2, c2))
+        if len(links) == 3:
+            q[:, 2] = wrap(poses[:, 2] - q[:, 0] - q[:, 1])
+        out.append(q)
+    return out[0], out[1], ok
+
+
+def ik(links: Sequence[float], poses: ArrayLike, elbow: str = "up") -> NDArray[np.float64]:
+    """One IK branch, angles in [−π, π); raises UnreachableError at the first pose out of reach.
+
+    Parameters
+    ----------
+    links : 2 or 3 link lengths (metres).
+    poses : (n, 3) poses (x, y, θ); θ is ignored by a 2-link arm.
+    elbow : "up" (q2 ≤ 0) or "down" (q2 ≥ 0).
+    """
+    _checks.one_of("elbow", elbow, ELBOWS)
+    up, down, ok = ik_branches(links, poses)
+    _raise_unreachable(links, poses, ok)
+    return up if elbow == "up" else down
+
+
+def _raise_unreachable(links: Sequence[float], poses: ArrayLike, ok: NDArray[np.bool_]) -> None:
+    if ok.all():
+        return
+    i = int(np.argmin(ok))
+    poses = np.asarray(poses, dtype=np.float64)
+    inner, outer = workspace(links)
+    r = float(wrist_radius(links, poses[i:i + 1])[0])
+    x, y, th = poses[i]
+    raise UnreachableError(f"sample {i} (x={x:.4f} m, y={y:.4f} m, θ={np.degrees(th):.1f}°) "
+                           f"is out of reach: the wrist point is {r:.4f} m from the base, the "
+                           f"arm reaches {inner:.4f}..{outer:.4f} m", field="poses",
+                           value=poses[i].tolist(), sample=i, pose=poses[i].tolist())
+
+
+def _sq_dist(a: NDArray[np.float64], b: NDArray[np.float64]) -> NDArray[np.float64]:
+    """Squared joint-space distance with every angle difference wrapped into [−π, π)."""
+    return np.sum(wrap(a - b) ** 2, axis=-1)
+
+
+def choose_branches(up: NDArray[np.float64], down: NDArray[np.float64],
+                    first_down: bool) -> NDArray[np.bool_]:
+    """Per sample, whether the branch-continuous path is on "down" (vectorised, no loop).
+
+    The path stays on its branch while that branch's next sample is at least as near (wrapped
+    joint distance) as the other branch's, and switches otherwise. With stay_A[i] / stay_B[i]
+    the "keep the branch" tests when coming from up / down, the state machine
+    s_i = f(s_{i−1}) is: both true → keep, both false → flip, exactly one true → reset to
+    that branch. So s_i is the value at the last reset XOR the parity of flips since then:
+    a cumulative maximum and a cumulative sum.
+    """
+    n = up.shape[0]
+    stay_up = np.ones(n, dtype=bool)
+    stay_down = np.ones(n, dtype=bool)
+    if n > 1:
+        stay_up[1:] = _sq_dist(up[1:], up[:-1]) <= _sq_dist(down[1:], up[:-1])
+        stay_down[1:] = _sq_dist(down[1:], down[:-1]) <= _sq_dist(up[1:], down[:-1])
+    reset = stay_up != stay_down
+    reset[0] = True
+    reset_value = ~stay_up  # after a reset: down unless "up" was the branch to stay on
+    reset_value[0] = first_down
+    flips = np.cumsum(~stay_up & ~stay_down)
+    last = np.maximum.accumulate(np.where(reset, np.arange(n), 0))
+    parity = (flips - flips[last]) % 2 == 1
+    return reset_value[last] ^ parity
+
+
+def ik_path(links: Sequence[float], poses: ArrayLike, *, reference: ArrayLike | None = None,
+            elbow: str = "up", limits: ArrayLike | None = None) -> NDArray[np.float64]:
+    """Branch-continuous, unwrapped IK along a sampled path.
+
+    The first sample takes the branch nearest ``reference`` (the arm's present joints; the
+    ``elbow`` preference when None), every later sample the branch nearest the previous one
+    (:func:`choose_branches`); the angles are unwrapped along the path (np.unwrap) and each
+    joint shifted by a multiple of 2π so the first sample is nearest ``reference`` — or,
+    without a reference, nearest the middle of ``limits`` ((k, 2) rows (min, max); 0 when
+    None).
+
+    Raises
+    ------
+    UnreachableError
+        At the first pose out of reach (sample index and pose named).
+    """
+    links = _links(links)
+    poses = _poses(poses)
+    _checks.one_of("elbow", elbow, ELBOWS)
+    up, down, ok = ik_branches(links, poses)
+    _raise_unreachable(links, poses, ok)
+    k = len(links)
+    if reference is not None:
+        reference = _checks.finite("reference", reference)
+        if reference.shape != (k,):
+            raise InputError(f"reference joints must have shape ({k},), got {reference.shape}",
+                             field="start_joints", value=reference)
+    if poses.shape[0] == 0:
+        return np.empty((0, k))
+    if reference is None:
+        first_down = elbow == "down"
+    else:
+        first_down = bool(_sq_dist(down[0], reference) < _sq_dist(up[0], reference))
+    on_down = choose_branches(up, down, first_down)
+    q = np.where(on_down[:, None], down, up)
+    q = np.unwrap(q, axis=0)
+    if reference is not None:
+        target = reference
+    elif limits is not None:
+        target = np.asarray(limits, dtype=np.float64).mean(axis=1)
+    else:
+        target = np.zeros(k)
+    q += _TWO_PI * np.round((target - q[0]) / _TWO_PI)
+    return q
+
+
+def jacobian(links: Sequence[float], q: ArrayLike) -> NDArray[np.float64]:
+    """Jacobian (n, 3, k) of (x, y, θ) with respect to q: ∂x/∂q_j = −Σ_{i≥j} l_i sin φ_i,
+    ∂y/∂q_j = Σ_{i≥j} l_i cos φ_i, ∂θ/∂q_j = 1."""
+    links = _links(links)
+    q = _joints(q, len(links))
+    phi = np.cumsum(q, axis=1)
+    lengths = np.asarray(links)
+    # Reverse cumulative sums give the Σ over i ≥ j.
+    jx = -np.cumsum((lengths * np.sin(phi))[:, ::-1], axis=1)[:, ::-1]
+    jy = np.cumsum((lengths * np.cos(phi))[:, ::-1], axis=1)[:, ::-1]
+    return np.stack([jx, jy, np.ones_like(q)], axis=1)
+
+
+def manipulability(links: Sequence[float], q: ArrayLike) -> NDArray[np.float64]:
+    """|det| of the wrist-position Jacobian, l1·l2·|sin q2| (n,): 0 at the straight or folded
+    arm (for 3R it is also |det J| of the full (x, y, θ) Jacobian)."""
+    links = _links(links)
+    q = _joints(q, len(links))
+    return links[0] * links[1] * np.abs(np.sin(q[:, 1]))
+
+
+def near_singular(links: Sequence[float], q: ArrayLike, tol: float = 1e-3) -> NDArray[np.bool_]:
+    """Whether each configuration is within ``tol`` of a singularity: |sin q2| < tol."""
+    links = _links(links)
+    q = _joints(q, len(links))
+    return np.abs(np.sin(q[:, 1])) < tol

@@ -1,0 +1,71 @@
+"""Joint angles (radians) ↔ Dynamixel goal ticks, per servo offset, direction and resolution.
+
+tick = zero_offset + direction·angle·ticks_per_turn / 2π, rounded half away from zero
+(so a joint angle and its mirror image round symmetrically about the zero offset), and
+angle = direction·(tick − zero_offset)·2π / ticks_per_turn. ``ticks → radians → ticks`` is
+exact; ``radians → ticks → radians`` is within half a tick (π / ticks_per_turn).
+Tick limits are checked by the planner, never clamped here.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from robodcn import _checks
+from robodcn.config import ServoSpec
+from robodcn.errors import InputError
+
+
+def _columns(servos: Sequence[ServoSpec]) -> tuple[NDArray[np.float64], ...]:
+    offset = np.array([s.zero_offset for s in servos], dtype=np.float64)
+    direction = np.array([s.direction for s in servos], dtype=np.float64)
+    per_radian = np.array([s.ticks_per_turn for s in servos], dtype=np.float64) / (2.0 * np.pi)
+    return offset, direction, per_radian
+
+
+def _shape(name: str, array: NDArray, servos: Sequence[ServoSpec]) -> None:
+    if array.ndim not in (1, 2) or array.shape[-1] != len(servos):
+        raise InputError(f"{name} must have shape (n, {len(servos)}) or ({len(servos)},) "
+                         f"(one column per servo), got shape {array.shape}", field=name,
+                         value=array)
+
+
+def round_half_away(x: ArrayLike) -> NDArray[np.float64]:
+    """Round to the nearest integer, halves away from zero (np.round rounds halves to even)."""
+    x = np.asarray(x, dtype=np.float64)
+    return np.copysign(np.floor(np.abs(x) + 0.5), x)
+
+
+def radians_to_ticks(angles: ArrayLike, servos: Sequence[ServoSpec]) -> NDArray[np.int64]:
+    """Goal ticks for joint angles: zero_offset + round(direction·angle·ticks_per_turn/2π).
+
+    Parameters
+    ----------
+    angles : (n, k) or (k,) joint angles in radians, one column per servo.
+    servos : k servo specs in column order.
+
+    Returns
+    -------
+    int64 array of the same shape. Rounding is half away from zero about the zero offset.
+    """
+    angles = _checks.finite("angles", angles)
+    _shape("angles", angles, servos)
+    offset, direction, per_radian = _columns(servos)
+    return (offset + round_half_away(direction * angles * per_radian)).astype(np.int64)
+
+
+def ticks_to_radians(ticks: ArrayLike, servos: Sequence[ServoSpec]) -> NDArray[np.float64]:
+    """Joint angles (radians) for ticks: direction·(tick − zero_offset)·2π/ticks_per_turn.
+
+    ticks : (n, k) or (k,) integer ticks, one column per servo. Returns floats, same shape.
+    """
+    raw = _checks.finite("ticks", ticks)
+    _shape("ticks", raw, servos)
+    if not np.array_equal(raw, np.round(raw)):
+        raise InputError(f"ticks must be whole numbers, got {_checks.show(raw)}", field="ticks",
+                         value=ticks)
+    offset, direction, per_radian = _columns(servos)
+    return direction * (raw - offset) / per_radian
