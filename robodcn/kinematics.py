@@ -57,8 +57,9 @@ def _joints(q: ArrayLike, k: int) -> NDArray[np.float64]:
 
 
 def wrap(angle: ArrayLike) -> NDArray[np.float64]:
-    """Angles wrapped into [−π, π)."""
-    return np.remainder(np.asarray(angle, dtype=np.float64) + np.pi, _TWO_PI) - np.pi
+    """Angles wrapped into [−π, π] (a − 2π·rint(a/2π); ±π both possible at exact ties)."""
+    a = np.asarray(angle, dtype=np.float64)
+    return a - _TWO_PI * np.rint(a * (1.0 / _TWO_PI))
 
 
 def workspace(links: Sequence[float]) -> tuple[float, float]:
@@ -103,41 +104,75 @@ def fk(links: Sequence[float], q: ArrayLike) -> NDArray[np.float64]:
     return out
 
 
+def _columns(links: tuple[float, ...], poses: NDArray[np.float64], want: str = "both"
+             ) -> tuple[list[NDArray], list[NDArray], NDArray[np.bool_]]:
+    """Both IK branches as per-joint 1-D columns (contiguous, so every step is a fast 1-D
+    ufunc), angles not wrapped; NaN where out of reach.
+
+    q2 = ∓atan2(√(1 − c²), c) with c = cos q2; q1 = atan2(w) ∓ atan2(l2·sin|q2|, l1 + l2·c)
+    is evaluated as one atan2 of the complex product w·conj(l1 + l2c ± i·l2·sin|q2|).
+    """
+    l1, l2 = links[:2]
+    x = poses[:, 0]
+    y = poses[:, 1]
+    if len(links) == 3:
+        th = poses[:, 2]
+        wx = x - links[2] * np.cos(th)
+        wy = y - links[2] * np.sin(th)
+    else:
+        wx, wy = np.ascontiguousarray(x), np.ascontiguousarray(y)
+    r2 = wx * wx + wy * wy
+    inner, outer = abs(l1 - l2), l1 + l2
+    ok = (r2 >= max(inner - REACH_TOLERANCE, 0.0) ** 2) & (r2 <= (outer + REACH_TOLERANCE) ** 2)
+    c = (r2 - (l1 * l1 + l2 * l2)) * (1.0 / (2.0 * l1 * l2))
+    np.clip(c, -1.0, 1.0, out=c)
+    s = np.sqrt(1.0 - c * c)
+    if not ok.all():
+        s[~ok] = np.nan
+    q2 = np.arctan2(s, c)
+    a = l1 + l2 * c
+    b = l2 * s
+    # q1 = arg(w) − arg(a ± ib): branch "up" has q2 = −|q2|, so subtracts arg(a − ib).
+    re_ab = wx * a
+    im_ab = wy * a
+    re_bb = wy * b
+    im_bb = wx * b
+    up: list[NDArray] = []
+    down: list[NDArray] = []
+    if want != "down":
+        q1_up = np.arctan2(im_ab + im_bb, re_ab - re_bb)
+        up = [q1_up, -q2] if len(links) == 2 else [q1_up, -q2, th - q1_up + q2]
+    if want != "up":
+        q1_down = np.arctan2(im_ab - im_bb, re_ab + re_bb)
+        down = [q1_down, q2] if len(links) == 2 else [q1_down, q2, th - q1_down - q2]
+    return up, down, ok
+
+
+def _stack(columns: list[NDArray]) -> NDArray[np.float64]:
+    out = np.empty((columns[0].shape[0], len(columns)))
+    for j, column in enumerate(columns):
+        out[:, j] = column
+    return out
+
+
 def ik_branches(links: Sequence[float], poses: ArrayLike
                 ) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.bool_]]:
     """Both analytic IK solutions of every pose.
 
     Returns
     -------
-    up, down : (n, k) joint angles in [−π, π) of the elbow-up (q2 ≤ 0) and elbow-down
+    up, down : (n, k) joint angles in [−π, π] of the elbow-up (q2 ≤ 0) and elbow-down
         (q2 ≥ 0) branches; NaN rows where the pose is out of reach.
     ok : (n,) bool, the pose is reachable (:func:`reachable`).
     """
     links = _links(links)
     poses = _poses(poses)
-    l1, l2 = links[:2]
-    w = wrist_points(links, poses)
-    r2 = w[:, 0] ** 2 + w[:, 1] ** 2
-    ok = reachable(links, poses)
-    cos_q2 = np.clip((r2 - l1 * l1 - l2 * l2) / (2.0 * l1 * l2), -1.0, 1.0)
-    q2 = np.arccos(cos_q2)
-    q2 = np.where(ok, q2, np.nan)
-    base = np.arctan2(w[:, 1], w[:, 0])
-    s2 = l2 * np.sin(q2)
-    c2 = l1 + l2 * cos_q2
-    out = []
-    for sign in (-1.0, 1.0):
-        q = np.empty((poses.shape[0], len(links)))
-        q[:, 1] = sign * q2
-        q[:, 0] = wrap(base - np.arctan2(sign * s2, c2))
-        if len(links) == 3:
-            q[:, 2] = wrap(poses[:, 2] - q[:, 0] - q[:, 1])
-        out.append(q)
-    return out[0], out[1], ok
+    up, down, ok = _columns(links, poses)
+    return wrap(_stack(up)), wrap(_stack(down)), ok
 
 
 def ik(links: Sequence[float], poses: ArrayLike, elbow: str = "up") -> NDArray[np.float64]:
-    """One IK branch, angles in [−π, π); raises UnreachableError at the first pose out of reach.
+    """One IK branch, angles in [−π, π]; raises UnreachableError at the first pose out of reach.
 
     Parameters
     ----------
@@ -145,10 +180,15 @@ def ik(links: Sequence[float], poses: ArrayLike, elbow: str = "up") -> NDArray[n
     poses : (n, 3) poses (x, y, θ); θ is ignored by a 2-link arm.
     elbow : "up" (q2 ≤ 0) or "down" (q2 ≥ 0).
     """
+    links = _links(links)
+    poses = _poses(poses)
     _checks.one_of("elbow", elbow, ELBOWS)
-    up, down, ok = ik_branches(links, poses)
+    up, down, ok = _columns(links, poses, elbow)
     _raise_unreachable(links, poses, ok)
-    return up if elbow == "up" else down
+    columns = up if elbow == "up" else down
+    if len(links) == 3:
+        columns[2] = wrap(columns[2])  # q1, q2 are atan2 outputs already
+    return _stack(columns)
 
 
 def _raise_unreachable(links: Sequence[float], poses: ArrayLike, ok: NDArray[np.bool_]) -> None:
@@ -165,28 +205,26 @@ def _raise_unreachable(links: Sequence[float], poses: ArrayLike, ok: NDArray[np.
                            value=poses[i].tolist(), sample=i, pose=poses[i].tolist())
 
 
-def _sq_dist(a: NDArray[np.float64], b: NDArray[np.float64]) -> NDArray[np.float64]:
-    """Squared joint-space distance with every angle difference wrapped into [−π, π)."""
-    return np.sum(wrap(a - b) ** 2, axis=-1)
+def _sq_dist(a: list[NDArray], b: list[NDArray]) -> NDArray[np.float64]:
+    """Squared joint-space distance, every angle difference wrapped into [−π, π]."""
+    total = None
+    for aj, bj in zip(a, b, strict=True):
+        d = wrap(aj - bj)
+        total = d * d if total is None else total + d * d
+    return total
 
 
-def choose_branches(up: NDArray[np.float64], down: NDArray[np.float64],
-                    first_down: bool) -> NDArray[np.bool_]:
-    """Per sample, whether the branch-continuous path is on "down" (vectorised, no loop).
-
-    The path stays on its branch while that branch's next sample is at least as near (wrapped
-    joint distance) as the other branch's, and switches otherwise. With stay_A[i] / stay_B[i]
-    the "keep the branch" tests when coming from up / down, the state machine
-    s_i = f(s_{i−1}) is: both true → keep, both false → flip, exactly one true → reset to
-    that branch. So s_i is the value at the last reset XOR the parity of flips since then:
-    a cumulative maximum and a cumulative sum.
-    """
-    n = up.shape[0]
+def _choose(up: list[NDArray], down: list[NDArray], first_down: bool) -> NDArray[np.bool_]:
+    n = up[0].shape[0]
     stay_up = np.ones(n, dtype=bool)
     stay_down = np.ones(n, dtype=bool)
     if n > 1:
-        stay_up[1:] = _sq_dist(up[1:], up[:-1]) <= _sq_dist(down[1:], up[:-1])
-        stay_down[1:] = _sq_dist(down[1:], down[:-1]) <= _sq_dist(up[1:], down[:-1])
+        up_now = [c[1:] for c in up]
+        up_before = [c[:-1] for c in up]
+        down_now = [c[1:] for c in down]
+        down_before = [c[:-1] for c in down]
+        stay_up[1:] = _sq_dist(up_now, up_before) <= _sq_dist(down_now, up_before)
+        stay_down[1:] = _sq_dist(down_now, down_before) <= _sq_dist(up_now, down_before)
     reset = stay_up != stay_down
     reset[0] = True
     reset_value = ~stay_up  # after a reset: down unless "up" was the branch to stay on
@@ -197,16 +235,39 @@ def choose_branches(up: NDArray[np.float64], down: NDArray[np.float64],
     return reset_value[last] ^ parity
 
 
+def choose_branches(up: ArrayLike, down: ArrayLike, first_down: bool) -> NDArray[np.bool_]:
+    """Per sample, whether the branch-continuous path is on "down" (vectorised, no loop).
+
+    up, down : (n, k) the two IK branches along a path. The path stays on its branch while
+    that branch's next sample is at least as near (wrapped joint distance) as the other
+    branch's, and switches otherwise. With stay_A[i] / stay_B[i] the "keep the branch" tests
+    when coming from up / down, the state machine s_i = f(s_{i−1}) is: both true → keep,
+    both false → flip, exactly one true → reset to that branch. So s_i is the value at the
+    last reset XOR the parity of flips since then: a cumulative maximum and a cumulative sum.
+    """
+    up = np.asarray(up, dtype=np.float64)
+    down = np.asarray(down, dtype=np.float64)
+    return _choose(list(up.T), list(down.T), bool(first_down))
+
+
+def _unwrap(column: NDArray[np.float64]) -> NDArray[np.float64]:
+    """np.unwrap of one column: steps wrapped into [−π, π], then summed."""
+    out = np.empty_like(column)
+    out[0] = column[0]
+    np.cumsum(wrap(np.diff(column)), out=out[1:])
+    out[1:] += column[0]
+    return out
+
+
 def ik_path(links: Sequence[float], poses: ArrayLike, *, reference: ArrayLike | None = None,
             elbow: str = "up", limits: ArrayLike | None = None) -> NDArray[np.float64]:
     """Branch-continuous, unwrapped IK along a sampled path.
 
     The first sample takes the branch nearest ``reference`` (the arm's present joints; the
     ``elbow`` preference when None), every later sample the branch nearest the previous one
-    (:func:`choose_branches`); the angles are unwrapped along the path (np.unwrap) and each
-    joint shifted by a multiple of 2π so the first sample is nearest ``reference`` — or,
-    without a reference, nearest the middle of ``limits`` ((k, 2) rows (min, max); 0 when
-    None).
+    (:func:`choose_branches`); the angles are unwrapped along the path and each joint shifted
+    by a multiple of 2π so the first sample is nearest ``reference`` — or, without a
+    reference, nearest the middle of ``limits`` ((k, 2) rows (min, max); 0 when None).
 
     Raises
     ------
@@ -216,30 +277,36 @@ def ik_path(links: Sequence[float], poses: ArrayLike, *, reference: ArrayLike | 
     links = _links(links)
     poses = _poses(poses)
     _checks.one_of("elbow", elbow, ELBOWS)
-    up, down, ok = ik_branches(links, poses)
-    _raise_unreachable(links, poses, ok)
     k = len(links)
     if reference is not None:
         reference = _checks.finite("reference", reference)
         if reference.shape != (k,):
             raise InputError(f"reference joints must have shape ({k},), got {reference.shape}",
                              field="start_joints", value=reference)
-    if poses.shape[0] == 0:
+    up, down, ok = _columns(links, poses)
+    _raise_unreachable(links, poses, ok)
+    n = poses.shape[0]
+    if n == 0:
         return np.empty((0, k))
     if reference is None:
         first_down = elbow == "down"
     else:
-        first_down = bool(_sq_dist(down[0], reference) < _sq_dist(up[0], reference))
-    on_down = choose_branches(up, down, first_down)
-    q = np.where(on_down[:, None], down, up)
-    q = np.unwrap(q, axis=0)
+        first_up = [np.array([c[0]]) for c in up]
+        first_dn = [np.array([c[0]]) for c in down]
+        ref = [np.array([v]) for v in reference]
+        first_down = bool(_sq_dist(first_dn, ref)[0] < _sq_dist(first_up, ref)[0])
+    on_down = _choose(up, down, first_down)
     if reference is not None:
         target = reference
     elif limits is not None:
         target = np.asarray(limits, dtype=np.float64).mean(axis=1)
     else:
         target = np.zeros(k)
-    q += _TWO_PI * np.round((target - q[0]) / _TWO_PI)
+    q = np.empty((n, k))
+    for j in range(k):
+        column = _unwrap(np.where(on_down, down[j], up[j]))
+        column += _TWO_PI * np.round((target[j] - column[0]) / _TWO_PI)
+        q[:, j] = column
     return q
 
 
