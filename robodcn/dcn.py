@@ -248,6 +248,14 @@ def _sin_ratio(t: NDArray[np.float64], phi: NDArray[np.float64]) -> NDArray[np.f
                     np.sin(t * safe) / np.sin(safe))
 
 
+def _flip(re: NDArray[np.float64], im: NDArray[np.float64], turn: str) -> NDArray[np.bool_]:
+    """Where d0 = re + i·im must be negated for d^t to turn the way ``turn`` asks."""
+    if turn == "shortest":
+        return np.where(np.abs(re) < _HALF_TURN_TOLERANCE, im < 0.0, re < 0.0)
+    no_turn = np.abs(im) < _HALF_TURN_TOLERANCE * np.maximum(1.0, np.abs(re))
+    return np.where(no_turn, re < 0.0, im < 0.0 if turn == "ccw" else im > 0.0)
+
+
 def align(d: ArrayLike, turn: str = "shortest") -> DCNArray:
     """Choose the sign of a relative motion d so that its rotation follows ``turn``.
 
@@ -258,15 +266,7 @@ def align(d: ArrayLike, turn: str = "shortest") -> DCNArray:
     """
     _checks.one_of("turn", turn, TURNS)
     d = np.asarray(d, dtype=np.float64)
-    re, im = d[..., 0], d[..., 1]
-    half_turn = np.abs(re) < _HALF_TURN_TOLERANCE
-    if turn == "shortest":
-        flip = np.where(half_turn, im < 0.0, re < 0.0)
-    else:
-        no_turn = np.abs(im) < _HALF_TURN_TOLERANCE * np.maximum(1.0, np.abs(re))
-        wrong_way = im < 0.0 if turn == "ccw" else im > 0.0
-        flip = np.where(no_turn, re < 0.0, wrong_way)
-    return np.where(flip[..., None], -d, d)
+    return np.where(_flip(d[..., 0], d[..., 1], turn)[..., None], -d, d)
 
 
 def slerp(p: ArrayLike, q: ArrayLike, t: ArrayLike, *, turn: str = "shortest") -> DCNArray:
@@ -300,9 +300,10 @@ def slerp(p: ArrayLike, q: ArrayLike, t: ArrayLike, *, turn: str = "shortest") -
 def dlb(ps: ArrayLike, weights: ArrayLike) -> DCNArray:
     """Dual linear blend Σ wᵢpᵢ / |Σ wᵢpᵢ| of unit DCNs (Kavan et al.; design.md §2).
 
-    Each pᵢ is first brought into the hemisphere of p₁ (sign of Re(pᵢ0·conj(p₁0))), which
-    makes the blend independent of the sign ambiguity and left-invariant:
-    p₀·DLB(pᵢ; w) = DLB(p₀·pᵢ; w).
+    Each pᵢ is first brought into the hemisphere of p₁ (the sign making the relative
+    rotation pᵢ0·conj(p₁0) the shortest, an exact half turn counting as ccw), which makes
+    the blend independent of the sign ambiguity and bi-invariant:
+    p₀·DLB(pᵢ; w) = DLB(p₀·pᵢ; w) and DLB(pᵢ; w)·p₀ = DLB(pᵢ·p₀; w).
 
     Parameters
     ----------
@@ -325,13 +326,15 @@ def dlb(ps: ArrayLike, weights: ArrayLike) -> DCNArray:
                              field="weights", value=weights)
         w = w.reshape(w.shape + (1,) * (ps.ndim - 2))
     p0, p1 = split(ps)
-    sign = np.where((p0 * np.conj(p0[:1])).real < 0.0, -1.0, 1.0)
+    rel = p0 * np.conj(p0[:1])
+    sign = np.where(_flip(rel.real, rel.imag, "shortest"), -1.0, 1.0)
     s0 = np.sum(w * sign * p0, axis=0)
     s1 = np.sum(w * sign * p1, axis=0)
     size = np.abs(s0)
     if (size < 1e-12).any():
-        raise DegenerateError("dual linear blend is undefined: the weighted sum of rotations "
-                              f"vanishes (|Σ wᵢpᵢ0| = {float(size.min()):.3g})", field="weights",
+        raise DegenerateError("dual linear blend is undefined for these weights: the weighted "
+                              f"sum of rotations vanishes (|Σ wᵢpᵢ0| = {float(size.min()):.3g})",
+                              field="weights",
                               value=weights)
     return join(s0 / size, s1 / size)
 

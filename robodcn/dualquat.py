@@ -75,7 +75,7 @@ def _sinc(x: NDArray[np.float64]) -> NDArray[np.float64]:
 
 
 def _sin_ratio(alpha: NDArray[np.float64], t: NDArray[np.float64]) -> NDArray[np.float64]:
-    """sin(αt)/sin(t), with the series α·(1 + (1 − α²)t²/6) for small t."""
+    """sin(αt)/sin(t), with the series α·(1 + (1 − α²)t²/6) for |t| < 1e-4."""
     small = np.abs(t) < _SERIES_ANGLE
     safe = np.where(small, 1.0, t)
     return np.where(small, alpha * (1.0 + (1.0 - alpha * alpha) * t * t / 6.0),
@@ -258,7 +258,7 @@ def log(z: ArrayLike) -> DQArray:
     """Logarithm by Montgomery-Smith Cor. 6 (a right inverse of :func:`exp`).
 
     log(A + εB) = log|A| + (t/|a1|)(a1 + εb2) + ε·Ā·B1/|A|², t the polar angle of
-    (a0, |a1|); t/|a1| = (t/sin t)/|A| uses a series near t = 0. For a1 = 0 and a0 < 0 (a
+    (a0, |a1|), and t/|a1| → 1/|A| as a1 → 0 (a0 > 0). For a1 = 0 and a0 < 0 (a
     full turn) the paper's choice (17) is taken with p = 0: log|a0| + π·b1/|b1| + ε·B1/a0,
     the axis being z when b1 = 0.
 
@@ -272,10 +272,12 @@ def log(z: ArrayLike) -> DQArray:
     rho, t, _, big_b1, b2 = _split_dual(a, b)
     if (rho == 0.0).any():
         raise DegenerateError("log is undefined when the real part is 0", field="z", value=z)
-    k = (1.0 / _sinc(t) / rho)[..., None]
+    # t/|a1| divides two accurate numbers; only a1 = 0 needs the limit 1/|A| (a0 > 0).
+    r = np.linalg.norm(a[..., 1:], axis=-1)
+    k = np.where(r > 0.0, t / np.where(r > 0.0, r, 1.0), 1.0 / rho)[..., None]
     real = np.concatenate([np.log(rho)[..., None], k * a[..., 1:]], axis=-1)
     dual = k * _vec(b2) + qmul(qconj(a), big_b1) / (rho * rho)[..., None]
-    full_turn = (np.linalg.norm(a[..., 1:], axis=-1) == 0.0) & (a[..., 0] < 0.0)
+    full_turn = (r == 0.0) & (a[..., 0] < 0.0)
     if full_turn.any():
         b1 = big_b1[..., 1:]
         size = np.linalg.norm(b1, axis=-1, keepdims=True)
@@ -290,7 +292,8 @@ def power(z: ArrayLike, alpha: ArrayLike) -> DQArray:
     """Real power by Montgomery-Smith Cor. 7, for A ∉ (−∞, 0].
 
     (A + εB)^α = A^α + ε·α·A^{α−1}·B1 + ε·(Im A^α / Im A)·b2, where Im A^α / Im A =
-    ρ^{α−1}·sin(αt)/sin(t) → α·A^{α−1} as a1 → 0. z and alpha broadcast over leading axes.
+    ρ^{α−1}·sin(αt)/sin(t) → α·ρ^{α−1} as a1 → 0 (a series below t = 1e-4).
+    z and alpha broadcast over leading axes.
 
     Raises
     ------
@@ -305,6 +308,8 @@ def power(z: ArrayLike, alpha: ArrayLike) -> DQArray:
         raise DegenerateError("power is undefined when the real part lies on (-inf, 0]",
                               field="z", value=z)
     a_alpha = qpow(a, alpha)
+    # Im(A^α)/Im(A) = ρ^(α−1)·sin(αt)/sin(t): both sines from the same t, so that near a
+    # full turn their rounding cancels as it does in the planar DCN closed form.
     ratio = rho ** (alpha - 1.0) * _sin_ratio(alpha, t)
     dual = alpha[..., None] * qmul(qpow(a, alpha - 1.0), big_b1) + ratio[..., None] * _vec(b2)
     return _join(a_alpha, dual)
@@ -339,6 +344,16 @@ def _turn_key(v: NDArray[np.float64]) -> NDArray[np.float64]:
     return np.where(np.abs(zc) > _TIE, zc, np.where(np.abs(x) > _TIE, x, y))
 
 
+def _flip(d: NDArray[np.float64], turn: str) -> NDArray[np.bool_]:
+    """Where the quaternion d must be negated for d^t to turn the way ``turn`` asks."""
+    w, v = d[..., 0], d[..., 1:4]
+    if turn == "shortest":
+        return np.where(np.abs(w) < _TIE, _turn_key(v) < 0.0, w < 0.0)
+    zc = v[..., 2]
+    no_turn = np.abs(zc) < _TIE * np.maximum(1.0, np.abs(w))
+    return np.where(no_turn, w < 0.0, zc < 0.0 if turn == "ccw" else zc > 0.0)
+
+
 def align(d: ArrayLike, turn: str = "shortest") -> DQArray:
     """Choose the sign of a relative motion d so that d^t turns the way ``turn`` asks.
 
@@ -348,14 +363,7 @@ def align(d: ArrayLike, turn: str = "shortest") -> DQArray:
     """
     _checks.one_of("turn", turn, TURNS)
     d = np.asarray(d, np.float64)
-    w, v = d[..., 0], d[..., 1:4]
-    if turn == "shortest":
-        flip = np.where(np.abs(w) < _TIE, _turn_key(v) < 0.0, w < 0.0)
-    else:
-        zc = v[..., 2]
-        no_turn = np.abs(zc) < _TIE * np.maximum(1.0, np.abs(w))
-        flip = np.where(no_turn, w < 0.0, zc < 0.0 if turn == "ccw" else zc > 0.0)
-    return np.where(flip[..., None], -d, d)
+    return np.where(_flip(d, turn)[..., None], -d, d)
 
 
 def sclerp(a: ArrayLike, b: ArrayLike, t: ArrayLike, *, turn: str = "shortest") -> DQArray:
@@ -387,7 +395,8 @@ def dlb(zs: ArrayLike, weights: ArrayLike) -> DQArray:
     """Dual quaternion linear blending Σwᵢζᵢ / ‖Σwᵢζᵢ‖ (Kavan et al.; kenwright §DLB).
 
     zs : (n, ..., 8), blended along the first axis after bringing every ζᵢ into the hemisphere
-    of ζ₁ (sign of ⟨q_r,i, q_r,1⟩). weights : (n,).
+    of ζ₁ (the sign making q_r,1*·q_r,i the shortest rotation, ties broken as in
+    :func:`align`), so the blend is left-invariant. weights : (n,).
 
     Raises
     ------
@@ -401,7 +410,7 @@ def dlb(zs: ArrayLike, weights: ArrayLike) -> DQArray:
     if w.ndim != 1 or w.shape[0] != zs.shape[0]:
         raise InputError(f"weights must have shape ({zs.shape[0]},), got {w.shape}",
                          field="weights", value=weights)
-    sign = np.where(np.sum(zs[..., :4] * zs[:1, ..., :4], axis=-1) < 0.0, -1.0, 1.0)
+    sign = np.where(_flip(qmul(qconj(zs[:1, ..., :4]), zs[..., :4]), "shortest"), -1.0, 1.0)
     w = w.reshape(w.shape + (1,) * (zs.ndim - 2))
     blend = np.sum((w * sign)[..., None] * zs, axis=0)
     size = np.linalg.norm(blend[..., :4], axis=-1)

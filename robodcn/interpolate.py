@@ -36,12 +36,12 @@ def turn_angle(theta_start: float, theta_end: float, turn: str = "shortest") -> 
     """The signed rotation Δθ from θ_start to θ_end that ``turn`` asks for.
 
     "shortest" → (−π, π] (an exact half turn within 1e-12 rad is +π); "ccw" → [0, 2π);
-    "cw" → (−2π, 0].
+    "cw" → (−2π, 0]. Angles within 1e-12 rad of a whole turn count as no rotation.
     """
     _checks.one_of("turn", turn, dcn.TURNS)
     delta = float(np.remainder(theta_end - theta_start, _TWO_PI))  # [0, 2π)
-    if delta > _TWO_PI - _HALF_TURN_TOLERANCE:
-        delta = 0.0
+    if delta < _HALF_TURN_TOLERANCE or delta > _TWO_PI - _HALF_TURN_TOLERANCE:
+        delta = 0.0  # no rotation, also for "ccw"/"cw": never a spurious full turn
     if turn == "ccw":
         return delta
     if turn == "cw":
@@ -159,8 +159,8 @@ def _interpolate_dq(start, end, delta, s, method, beta):
 
 def _interpolate_matrix(start, end, delta, s, method, beta):
     if method not in ("sclerp", "kenlerp") or (method == "kenlerp" and beta != 1.0):
-        raise InputError(f"backend 'matrix' implements ScLERP only, not {method!r}",
-                                 field="method", value=method)
+        raise InputError(f"backend 'matrix' implements ScLERP only, not method={method!r}",
+                         field="backend", value="matrix")
     m = se2.sclerp(se2.from_pose(start), se2.from_pose(end), s, omega=delta)
     return se2.to_pose(m)
 
