@@ -427,12 +427,15 @@ class _Piece:
         if self.path is None:
             q = self.q_from + np.outer(timing.quintic(tau), self.q_to - self.q_from)
             return kinematics.fk(arm.links, q), q
-        s = timing.profile(self.profile, tau, self.accel_fraction)
-        poses = self.path(s)
-        limits = [(j.min_angle, j.max_angle) for j in arm.joints]
-        q = kinematics.ik_path(arm.links, poses, reference=reference, elbow=arm.elbow,
-                               limits=limits)
-        return poses, q
+        poses = self.path(timing.profile(self.profile, tau, self.accel_fraction))
+        return poses, _joints(arm, poses, reference)
+
+
+def _joints(arm: Arm, poses: NDArray[np.float64], reference: NDArray | None
+            ) -> NDArray[np.float64]:
+    limits = [(j.min_angle, j.max_angle) for j in arm.joints]
+    return kinematics.ik_path(arm.links, poses, reference=reference, elbow=arm.elbow,
+                              limits=limits)
 
 
 def _limits(arm: Arm) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
@@ -681,10 +684,7 @@ def _assemble(req: PlanRequest, pieces: list[_Piece], counts: list[int],
         try:
             p, q = piece.sample(n, arm, ref)
         except UnreachableError as exc:
-            # The piece's sample 0 is the plan's sample ``offset`` (shared with the last).
-            detail = exc.message.split("out of reach: ", 1)[-1]
-            _raise_at(UnreachableError, req, offset + exc.sample, exc.pose, None,
-                      f"is out of reach: {detail}", exc.pose)
+            _unreachable(req, piece, n, ref, offset, poses, joints, exc)
         lo = 0 if offset == 0 else 1
         poses[offset + lo: offset + n + 1] = p[lo:]
         joints[offset + lo: offset + n + 1] = q[lo:]
@@ -694,6 +694,23 @@ def _assemble(req: PlanRequest, pieces: list[_Piece], counts: list[int],
     ticks = _validate(req, t, poses, joints)
     return Trajectory(t, poses, joints, ticks, arm.joint_names, arm.servo_ids, rate,
                       req.method if isinstance(req.method, str) else list(req.method), req)
+
+
+def _unreachable(req: PlanRequest, piece: _Piece, n: int, ref: NDArray | None, offset: int,
+                 poses: NDArray, joints: NDArray, exc: UnreachableError) -> None:
+    """Report a sample out of reach, unless an earlier sample already fails another check."""
+    # The piece's sample 0 is the plan's sample ``offset`` (shared with the piece before).
+    local = exc.sample
+    i = offset + local
+    if local > 0:
+        tau = np.arange(local) / n
+        p = piece.path(timing.profile(piece.profile, tau, piece.accel_fraction))
+        poses[offset:i] = p
+        joints[offset:i] = _joints(req.arm, p, ref)
+    if i > 0:
+        _validate(req, np.arange(i) / req.rate_hz, poses[:i], joints[:i])
+    detail = exc.message.split("out of reach: ", 1)[-1]
+    _raise_at(UnreachableError, req, i, exc.pose, None, f"is out of reach: {detail}", exc.pose)
 
 
 def _raise_at(cls: type[PlanError], req: PlanRequest, i: int, pose: Sequence[float],
