@@ -43,8 +43,8 @@ def previous_sections() -> dict[str, str]:
 
 
 def main(argv: list[str]) -> None:
-    names = sorted(m.name.removeprefix("bench_") for m in pkgutil.iter_modules([str(ROOT / "bench")])
-                   if m.name.startswith("bench_"))
+    modules = pkgutil.iter_modules([str(ROOT / "bench")])
+    names = sorted(m.name.removeprefix("bench_") for m in modules if m.name.startswith("bench_"))
     wanted = argv or names
     sections = previous_sections()
     for name in wanted:
@@ -55,8 +55,8 @@ def main(argv: list[str]) -> None:
         sections[name] = text.rstrip() + "\n" + stamp
         print(text, flush=True)
     OUT.parent.mkdir(exist_ok=True)
-    body = ["# Benchmarks\n", "Produced by `make bench` (`python -m bench`); every figure is from the "
-            "run stamped under its section.\n"]
+    body = ["# Benchmarks\n", "Produced by `make bench` (`python -m bench`); every figure is "
+            "from the run stamped under its section.\n"]
     for name in names:
         if name in sections:
             body.append(f"<!-- bench:{name} -->\n{sections[name]}")
