@@ -120,7 +120,8 @@ CASES = [
 
 
 @pytest.mark.parametrize(("key", "value", "named", "carried"), CASES,
-                         ids=[f"{c[0]}={c[1]!r}" for c in CASES])
+                         ids=[f"{c[0]}=" + ("<missing>" if c[1] is MISSING else repr(c[1]))
+                              for c in CASES])
 def test_config_errors_name_file_key_value(key: str, value: Any, named: str, carried: Any) -> None:
     source = "/some/dir/bad-arm.toml"
     with pytest.raises(ConfigError) as info:
