@@ -1,0 +1,754 @@
+"""The servo bus: Dynamixel X-series servos over Protocol 2.0, through dynamixel-sdk only.
+
+This is the only robodcn module that imports ``dynamixel_sdk``; every byte to and from a
+servo goes through its ``PortHandler``, ``Protocol2PacketHandler``, ``GroupSyncWrite`` and
+``GroupSyncRead`` (Fast Sync Read 0x8A when every servo's firmware has it, plain Sync Read
+0x82 otherwise). Control-table addresses and units follow the ROBOTIS e-manual for the
+XM430-W350 / XL430-W250 (see ``/work/shared/dynamixel-notes.md`` §2).
+
+Defensive decoding (dynamixel-notes §4, §1.7): the SDK hands back the CRC bytes as "data"
+when a servo answers a READ with an error status and no parameters, and its fast-sync-read
+parser ignores the per-servo ERR byte, hiding the Alert bit. Every read here therefore
+checks the SDK result, the ERR byte (error number and Alert bit) and the data length
+before decoding, and decodes fast-sync-read blocks itself.
+
+Threading: a :class:`ServoBus` is used from one thread at a time. Each public method takes
+the bus's ownership lock without blocking and raises :class:`~robodcn.errors.BusyError` if
+another thread holds it; :func:`robodcn.stream.execute` holds it (:meth:`ServoBus.claim`)
+for the whole execution, so the streaming thread owns the port while an arm moves and
+other threads (an HTTP status handler, say) get a clean ``BusyError`` instead of corrupting
+a half-duplex transaction (the SDK's own ``is_using`` flag is not thread-safe).
+
+On Linux, opening a USB serial adapter (``/dev/ttyUSB*``) whose FTDI ``latency_timer`` is
+above 1 ms warns with the one-line fix: a 16 ms timer caps a read-back loop near 30–60 Hz.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import os
+import sys
+import threading
+import warnings
+from collections.abc import Iterable, Iterator, Sequence
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from dynamixel_sdk import (
+    COMM_SUCCESS,
+    GroupSyncRead,
+    GroupSyncWrite,
+    PacketHandler,
+    PortHandler,
+)
+from numpy.typing import ArrayLike, NDArray
+
+from robodcn.config import ServoSpec
+from robodcn.errors import (
+    BusError,
+    BusyError,
+    CommError,
+    InputError,
+    ServoMismatchError,
+    TickLimitError,
+)
+
+# -- control table (X-series, Protocol 2.0) --------------------------------------------------
+
+ADDR_MODEL_NUMBER = 0          # 2 bytes, R
+ADDR_FIRMWARE_VERSION = 6      # 1 byte, R
+ADDR_BAUD_RATE = 8             # 1 byte, EEPROM
+ADDR_RETURN_DELAY_TIME = 9     # 1 byte, EEPROM, 2 µs a unit
+ADDR_OPERATING_MODE = 11       # 1 byte, EEPROM
+ADDR_MAX_POSITION_LIMIT = 48   # 4 bytes, EEPROM
+ADDR_MIN_POSITION_LIMIT = 52   # 4 bytes, EEPROM
+ADDR_TORQUE_ENABLE = 64        # 1 byte, RAM; 1 locks the EEPROM area
+ADDR_HARDWARE_ERROR = 70       # 1 byte, R
+ADDR_BUS_WATCHDOG = 98         # 1 byte, RAM, 20 ms a unit, -1 (0xFF) once tripped
+ADDR_PROFILE_ACCELERATION = 108
+ADDR_PROFILE_VELOCITY = 112
+ADDR_GOAL_POSITION = 116       # 4 bytes, RAM
+ADDR_PRESENT_POSITION = 132    # 4 bytes, R, signed
+
+OPERATING_MODE_POSITION = 3
+ALERT_BIT = 0x80
+WATCHDOG_UNIT_MS = 20
+WATCHDOG_MAX = 127
+WATCHDOG_TRIPPED = 0xFF        # Bus Watchdog reads -1 after it expired
+#: Fast Sync Read needs X430/X540 firmware 45 or newer (e-manual, protocol2 "Fast Sync Read").
+FAST_SYNC_READ_MIN_FIRMWARE = 45
+
+#: Model numbers (e-manual); the first two are the models robodcn configs may name.
+MODEL_NUMBERS: dict[str, int] = {
+    "xm430-w350": 1020, "xl430-w250": 1060, "xm430-w210": 1030,
+    "xl330-m077": 1190, "xl330-m288": 1200, "xc330-t288": 1220,
+}
+MODEL_NAMES: dict[int, str] = {number: name for name, number in MODEL_NUMBERS.items()}
+
+#: Baud Rate item value → bits/s (address 8).
+BAUD_INDEX: dict[int, int] = {0: 9_600, 1: 57_600, 2: 115_200, 3: 1_000_000, 4: 2_000_000,
+                              5: 3_000_000, 6: 4_000_000, 7: 4_500_000}
+
+#: Hardware Error Status bits (address 70), for messages.
+HARDWARE_ERROR_BITS: dict[int, str] = {
+    0x01: "input voltage", 0x04: "overheating", 0x08: "motor encoder",
+    0x10: "electrical shock", 0x20: "overload",
+}
+
+SYSFS_USB_SERIAL = "/sys/bus/usb-serial/devices"
+
+
+def describe_hardware_error(bits: int) -> str:
+    """Names of the Hardware Error Status bits set in ``bits`` ("overload, overheating")."""
+    names = [name for bit, name in HARDWARE_ERROR_BITS.items() if bits & bit]
+    return ", ".join(names) if names else f"0x{bits:02x}"
+
+
+# -- results ---------------------------------------------------------------------------------
+
+@dataclass(frozen=True)
+class ServoInfo:
+    """What a servo reported: its id, model number (and name when known), firmware, baud."""
+
+    id: int
+    model_number: int
+    model: str | None
+    firmware: int | None
+    baud: int
+
+    def to_dict(self) -> dict[str, Any]:
+        return {"id": self.id, "model_number": self.model_number, "model": self.model,
+                "firmware": self.firmware, "baud": self.baud}
+
+
+@dataclass(frozen=True)
+class StreamProfile:
+    """Settings :meth:`ServoBus.configure` writes before streaming.
+
+    ``velocity``/``acceleration`` are the raw Profile Velocity (0.229 rpm a unit) and
+    Profile Acceleration (214.577 rev/min² a unit); 0/0 (the default) disables the servo's
+    own profile so the position loop follows each streamed goal directly, which is what a
+    pre-planned, rate-limited stream wants. ``return_delay_us`` is the Return Delay Time
+    (2 µs a unit; the factory 500 µs costs more than the wire time of a whole cycle).
+    """
+
+    velocity: int = 0
+    acceleration: int = 0
+    return_delay_us: int = 0
+
+    def __post_init__(self) -> None:
+        for name, value, high in (("velocity", self.velocity, 32767),
+                                  ("acceleration", self.acceleration, 32767),
+                                  ("return_delay_us", self.return_delay_us, 508)):
+            if isinstance(value, bool) or not isinstance(value, int) or not 0 <= value <= high:
+                raise InputError(f"profile.{name} must be an integer in [0, {high}], "
+                                 f"got {value!r}", field=f"profile.{name}", value=value)
+
+
+class LatencyTimerWarning(UserWarning):
+    """A USB serial adapter's latency timer is above 1 ms."""
+
+
+# -- latency timer ---------------------------------------------------------------------------
+
+def latency_timer_ms(port: str, *, sysfs: str | os.PathLike[str] = SYSFS_USB_SERIAL) -> int | None:
+    """The FTDI latency timer (ms) of a ``/dev/ttyUSB*`` port, or None when not applicable.
+
+    Follows symlinks (``/dev/serial/by-id/...``) to the tty name and reads
+    ``<sysfs>/<ttyUSBn>/latency_timer``; None off Linux, for other devices or when unreadable.
+    """
+    if not sys.platform.startswith("linux"):
+        return None
+    name = os.path.basename(os.path.realpath(port))
+    if not name.startswith("ttyUSB"):
+        return None
+    try:
+        return int(Path(sysfs, name, "latency_timer").read_text().strip())
+    except (OSError, ValueError):
+        return None
+
+
+def check_latency_timer(port: str, *,
+                        sysfs: str | os.PathLike[str] = SYSFS_USB_SERIAL) -> int | None:
+    """Warn (:class:`LatencyTimerWarning`) when ``port``'s latency timer is above 1 ms.
+
+    Returns the timer value (None when unknown). Each status packet waits up to one timer
+    period in the adapter, so the Linux default of 16 ms dominates every read-back.
+    """
+    value = latency_timer_ms(port, sysfs=sysfs)
+    if value is not None and value > 1:
+        name = os.path.basename(os.path.realpath(port))
+        path = Path(sysfs, name, "latency_timer")
+        warnings.warn(
+            f"{port}: USB latency_timer is {value} ms, which caps read-back loops near "
+            f"{1000 // (2 * value)} Hz; fix: echo 1 | sudo tee {path}",
+            LatencyTimerWarning, stacklevel=3)
+    return value
+
+
+# -- the bus ---------------------------------------------------------------------------------
+
+def _le(value: int, size: int) -> list[int]:
+    """Little-endian bytes of ``value`` (two's complement for negative values)."""
+    return list(int(value).to_bytes(size, "little", signed=value < 0))
+
+
+def _check_ids(servos: Sequence[ServoSpec]) -> tuple[int, ...]:
+    ids = tuple(s.id for s in servos)
+    if not ids:
+        raise InputError("servos must name at least one servo, got none", field="servos",
+                         value=servos)
+    if len(set(ids)) != len(ids):
+        raise InputError(f"servo ids must be unique, got {list(ids)}", field="servos",
+                         value=ids)
+    return ids
+
+
+class ServoBus:
+    """A Dynamixel Protocol 2.0 bus of X-series servos, opened at one baud rate.
+
+    Parameters
+    ----------
+    port
+        Serial device (``/dev/ttyUSB0``, or firmware_sim's pty path).
+    baud
+        Bits per second; the servos' Baud Rate item must match. The Python SDK cannot
+        set 4.5 Mbps.
+    servos
+        The servos expected on the bus, in joint order: positions and goals are arrays in
+        this order.
+    retries
+        Extra attempts for a read that fails (timeout, corrupt packet, error status).
+    rx_timeout_ms
+        Status-packet timeout of streaming reads. None keeps the SDK's own
+        (wire time + 2·16 ms + 2 ms, i.e. ≥ 34 ms); a short value makes a lost reply cost
+        little when the adapter's latency timer is 1 ms or on firmware_sim.
+    fast_read
+        Use Fast Sync Read for group reads: None decides from the firmware versions found by
+        :meth:`verify` (≥ 45), True/False forces it.
+    """
+
+    def __init__(self, port: str, baud: int = 1_000_000, *, servos: Sequence[ServoSpec],
+                 retries: int = 2, rx_timeout_ms: float | None = None,
+                 fast_read: bool | None = None) -> None:
+        if not isinstance(port, str) or not port:
+            raise InputError(f"port must be a device path, got {port!r}", field="port",
+                             value=port)
+        if baud not in BAUD_INDEX.values():
+            raise InputError(f"baud must be one of {sorted(BAUD_INDEX.values())}, got {baud!r}",
+                             field="baud", value=baud)
+        if isinstance(retries, bool) or not isinstance(retries, int) or retries < 0:
+            raise InputError(f"retries must be a non-negative integer, got {retries!r}",
+                             field="retries", value=retries)
+        if rx_timeout_ms is not None and not rx_timeout_ms > 0:
+            raise InputError(f"rx_timeout_ms must be positive, got {rx_timeout_ms!r}",
+                             field="rx_timeout_ms", value=rx_timeout_ms)
+        self.port = port
+        self.baud = baud
+        self.servos: tuple[ServoSpec, ...] = tuple(servos)
+        self.ids = _check_ids(self.servos)
+        self.retries = retries
+        self.rx_timeout_ms = rx_timeout_ms
+        self.fast_read = fast_read
+        #: Retries spent since the bus was created (the streamer reports the difference).
+        self.retries_used = 0
+        #: Ids whose last status packet carried the Alert bit (hardware error present).
+        self.last_alert_ids: tuple[int, ...] = ()
+        self.configured = False
+        self.watchdog_ms = 0
+        #: Position limits (ticks) read from each servo by :meth:`verify`, else the spec's.
+        self.limits = np.array([[s.min_tick, s.max_tick] for s in self.servos], dtype=np.int64)
+        self._lock = threading.RLock()
+        self._handler: PortHandler | None = None
+        self._packet = PacketHandler(2.0)
+        self._write_group: GroupSyncWrite | None = None
+        self._read_groups: dict[tuple[int, int], GroupSyncRead] = {}
+
+    # -- lifecycle ---------------------------------------------------------------------------
+
+    @property
+    def is_open(self) -> bool:
+        return self._handler is not None and bool(self._handler.is_open)
+
+    def open(self) -> ServoBus:
+        """Open the port at ``baud``; raises CommError when the device cannot be opened."""
+        with self.claim():
+            if self.is_open:
+                return self
+            if self.baud == 4_500_000:
+                raise InputError("baud 4500000 cannot be set through dynamixel-sdk's Python "
+                                 "PortHandler; use 4000000 or lower", field="baud",
+                                 value=self.baud)
+            check_latency_timer(self.port)
+            handler = PortHandler(self.port)
+            try:
+                # setBaudRate opens the port (openPort would first open it at 1 Mbps).
+                opened = handler.setBaudRate(self.baud)
+            except Exception as exc:  # pyserial raises SerialException / OSError
+                raise CommError(f"cannot open {self.port}: {exc}", field="port",
+                                value=self.port) from exc
+            if not opened:
+                with contextlib.suppress(Exception):
+                    handler.closePort()
+                raise CommError(f"cannot open {self.port} at {self.baud} baud", field="port",
+                                value=self.port)
+            self._handler = handler
+            self._write_group = GroupSyncWrite(handler, self._packet, ADDR_GOAL_POSITION, 4)
+            for servo_id in self.ids:
+                self._write_group.addParam(servo_id, [0, 0, 0, 0])
+            self._read_groups = {}
+            return self
+
+    def close(self) -> None:
+        """Close the port (idempotent). Torque is left as it is: holding is the safe state."""
+        with self.claim():
+            if self._handler is not None:
+                with contextlib.suppress(Exception):
+                    self._handler.closePort()
+                if self._handler.ser is not None:
+                    # pyserial keeps the fd in ``ser``; make sure nothing leaks if close raised.
+                    with contextlib.suppress(Exception):
+                        self._handler.ser.close()
+            self._handler = None
+            self._write_group = None
+            self._read_groups = {}
+
+    def __enter__(self) -> ServoBus:
+        return self.open()
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()
+
+    def __repr__(self) -> str:
+        state = "open" if self.is_open else "closed"
+        return f"ServoBus({self.port!r}, {self.baud}, ids={list(self.ids)}, {state})"
+
+    @contextlib.contextmanager
+    def claim(self) -> Iterator[ServoBus]:
+        """Hold the bus for the calling thread; BusyError if another thread holds it."""
+        if not self._lock.acquire(blocking=False):
+            raise BusyError(f"the bus on {self.port} is in use by another thread "
+                            "(a move is running)", field="bus", value=self.port)
+        try:
+            yield self
+        finally:
+            self._lock.release()
+
+    # -- low level: one servo ----------------------------------------------------------------
+
+    def _port(self) -> PortHandler:
+        if self._handler is None:
+            raise BusError(f"the bus on {self.port} is not open; call open() first",
+                           field="bus", value=self.port)
+        return self._handler
+
+    def _status(self, servo_id: int, what: str, result: int, error: int) -> bool:
+        """Raise CommError for a failed transaction or an error status; True on Alert."""
+        if result != COMM_SUCCESS:
+            raise CommError(f"servo {servo_id}: {what}: {self._packet.getTxRxResult(result)}",
+                            field=f"servo[{servo_id}]", value=result)
+        if error & ~ALERT_BIT & 0xFF:
+            raise CommError(f"servo {servo_id}: {what}: "
+                            f"{self._packet.getRxPacketError(error & ~ALERT_BIT)} "
+                            f"(status error 0x{error:02x})", field=f"servo[{servo_id}]",
+                            value=error)
+        return bool(error & ALERT_BIT)
+
+    def _attempts(self) -> range:
+        return range(self.retries + 1)
+
+    def read(self, servo_id: int, address: int, length: int) -> bytes:
+        """READ ``length`` bytes at ``address`` from one servo, with bounded retries.
+
+        Checks the SDK result, the status ERR byte and the data length before returning.
+        """
+        with self.claim():
+            port = self._port()
+            last: CommError | None = None
+            for attempt in self._attempts():
+                if attempt:
+                    self.retries_used += 1
+                data, result, error = self._packet.readTxRx(port, servo_id, address, length)
+                try:
+                    self._status(servo_id, f"read {length} byte(s) at {address}", result, error)
+                except CommError as exc:
+                    last = exc
+                    continue
+                if len(data) != length:
+                    last = CommError(f"servo {servo_id}: read at {address} returned "
+                                     f"{len(data)} byte(s), expected {length}",
+                                     field=f"servo[{servo_id}]", value=len(data))
+                    continue
+                return bytes(data)
+            assert last is not None
+            raise last
+
+    def write(self, servo_id: int, address: int, data: Sequence[int] | bytes) -> None:
+        """WRITE ``data`` at ``address`` to one servo and check its status (with retries)."""
+        with self.claim():
+            port = self._port()
+            payload = list(data)
+            last: CommError | None = None
+            for attempt in self._attempts():
+                if attempt:
+                    self.retries_used += 1
+                result, error = self._packet.writeTxRx(port, servo_id, address, len(payload),
+                                                       payload)
+                try:
+                    self._status(servo_id, f"write {len(payload)} byte(s) at {address}",
+                                 result, error)
+                    return
+                except CommError as exc:
+                    last = exc
+            assert last is not None
+            raise last
+
+    def _read_int(self, servo_id: int, address: int, length: int, *, signed: bool = False) -> int:
+        return int.from_bytes(self.read(servo_id, address, length), "little", signed=signed)
+
+    def _write_int(self, servo_id: int, address: int, value: int, length: int) -> None:
+        self.write(servo_id, address, _le(value, length))
+
+    def _write_all(self, address: int, value: int, length: int) -> None:
+        for servo_id in self.ids:
+            self._write_int(servo_id, address, value, length)
+
+    # -- discovery ---------------------------------------------------------------------------
+
+    def ping(self, servo_id: int) -> ServoInfo | None:
+        """PING one id (with retries); its model, firmware and the bus baud, or None if silent."""
+        with self.claim():
+            port = self._port()
+            for attempt in self._attempts():
+                if attempt:
+                    self.retries_used += 1
+                model_number, result, error = self._packet.ping(port, servo_id)
+                if result == COMM_SUCCESS and not error & ~ALERT_BIT & 0xFF:
+                    firmware = self._read_int(servo_id, ADDR_FIRMWARE_VERSION, 1)
+                    return ServoInfo(servo_id, model_number, MODEL_NAMES.get(model_number),
+                                     firmware, self.baud)
+            return None
+
+    def ping_all(self) -> dict[int, ServoInfo]:
+        """Ping every configured id; the servos that answered, by id."""
+        found = {}
+        for servo_id in self.ids:
+            info = self.ping(servo_id)
+            if info is not None:
+                found[servo_id] = info
+        return found
+
+    def verify(self, servos: Sequence[ServoSpec] | None = None) -> dict[int, ServoInfo]:
+        """Check that every expected servo answers with the configured model.
+
+        Also reads each servo's Min/Max Position Limit into :attr:`limits` (intersected
+        with the spec's tick limits: the servo refuses goals outside its own limits) and,
+        when ``fast_read`` is None, enables Fast Sync Read iff every firmware is ≥ 45.
+
+        Raises
+        ------
+        ServoMismatchError naming the missing ids and the ids with the wrong model.
+        """
+        servos = self.servos if servos is None else tuple(servos)
+        _check_ids(servos)
+        found = self.ping_all()
+        missing = [s.id for s in servos if s.id not in found]
+        wrong = [(s.id, s.model, found[s.id]) for s in servos
+                 if s.id in found and found[s.id].model_number != MODEL_NUMBERS.get(s.model)]
+        if missing or wrong:
+            parts = []
+            if missing:
+                parts.append(f"no reply from servo id(s) {missing} on {self.port} at "
+                             f"{self.baud} baud (check power, wiring, id and baud rate; "
+                             "`robodcn scan` lists what is there)")
+            for servo_id, model, info in wrong:
+                parts.append(f"servo {servo_id} is model {info.model or '?'} "
+                             f"(number {info.model_number}), the config says {model} "
+                             f"(number {MODEL_NUMBERS.get(model, '?')})")
+            raise ServoMismatchError("; ".join(parts), field="servos",
+                                     value={"missing": missing,
+                                            "wrong_model": [w[0] for w in wrong]})
+        with self.claim():
+            for row, spec in enumerate(self.servos):
+                high = self._read_int(spec.id, ADDR_MAX_POSITION_LIMIT, 4, signed=True)
+                low = self._read_int(spec.id, ADDR_MIN_POSITION_LIMIT, 4, signed=True)
+                self.limits[row] = (max(spec.min_tick, low), min(spec.max_tick, high))
+            if self.fast_read is None:
+                self.fast_read = all((found[i].firmware or 0) >= FAST_SYNC_READ_MIN_FIRMWARE
+                                     for i in self.ids)
+        return found
+
+    # -- configuration -----------------------------------------------------------------------
+
+    def configure(self, profile: StreamProfile | None = None) -> None:
+        """Make the servos ready to stream, without moving them.
+
+        Operating Mode 3 (position) and Return Delay Time live in EEPROM, which is locked
+        while torque is on: only when one of them differs is torque switched off, and only
+        the differing items are written (sparing the EEPROM and never letting a holding arm
+        sag for nothing). Then: Bus Watchdog cleared; Profile Acceleration and Velocity
+        (after the mode, whose change resets them); Goal Position := Present Position, so
+        torque-on holds where the arm is; torque on.
+        """
+        profile = StreamProfile() if profile is None else profile
+        rdt = profile.return_delay_us // 2
+        with self.claim():
+            changes = []
+            for servo_id in self.ids:
+                if self._read_int(servo_id, ADDR_OPERATING_MODE, 1) != OPERATING_MODE_POSITION:
+                    changes.append((servo_id, ADDR_OPERATING_MODE, OPERATING_MODE_POSITION))
+                if self._read_int(servo_id, ADDR_RETURN_DELAY_TIME, 1) != rdt:
+                    changes.append((servo_id, ADDR_RETURN_DELAY_TIME, rdt))
+            if changes:
+                self._write_all(ADDR_TORQUE_ENABLE, 0, 1)
+                for servo_id, address, value in changes:
+                    self._write_int(servo_id, address, value, 1)
+            self._write_all(ADDR_BUS_WATCHDOG, 0, 1)
+            self.watchdog_ms = 0
+            self._write_all(ADDR_PROFILE_ACCELERATION, profile.acceleration, 4)
+            self._write_all(ADDR_PROFILE_VELOCITY, profile.velocity, 4)
+            for servo_id in self.ids:
+                present = self._read_int(servo_id, ADDR_PRESENT_POSITION, 4, signed=True)
+                self._write_int(servo_id, ADDR_GOAL_POSITION, present, 4)
+            self._write_all(ADDR_TORQUE_ENABLE, 1, 1)
+            self.configured = True
+
+    def torque_enabled(self) -> dict[int, bool]:
+        """Torque Enable (address 64) per servo id."""
+        return {servo_id: bool(self._read_int(servo_id, ADDR_TORQUE_ENABLE, 1))
+                for servo_id in self.ids}
+
+    def torque(self, on: bool) -> None:
+        """Torque Enable on every servo (off releases the arm: it may fall)."""
+        self._write_all(ADDR_TORQUE_ENABLE, 1 if on else 0, 1)
+        if not on:
+            self.configured = False
+
+    def arm_watchdog(self, timeout_ms: float) -> int:
+        """Arm the Bus Watchdog: servos stop if no instruction arrives for ``timeout_ms``.
+
+        Rounded up to the 20 ms unit, within [20, 2540] ms; returns the armed value in ms.
+        Writes 0 first, which also clears a tripped watchdog.
+        """
+        units = int(min(WATCHDOG_MAX, max(1, -(-float(timeout_ms) // WATCHDOG_UNIT_MS))))
+        self._write_all(ADDR_BUS_WATCHDOG, 0, 1)
+        self._write_all(ADDR_BUS_WATCHDOG, units, 1)
+        self.watchdog_ms = units * WATCHDOG_UNIT_MS
+        return self.watchdog_ms
+
+    def disarm_watchdog(self) -> None:
+        """Bus Watchdog off (0); also makes goals writable again after a trip."""
+        self._write_all(ADDR_BUS_WATCHDOG, 0, 1)
+        self.watchdog_ms = 0
+
+    # -- group reads and writes (the streaming hot path) -------------------------------------
+
+    def _group(self, address: int, length: int) -> GroupSyncRead:
+        key = (address, length)
+        group = self._read_groups.get(key)
+        if group is None:
+            group = GroupSyncRead(self._port(), self._packet, address, length)
+            for servo_id in self.ids:
+                group.addParam(servo_id)
+            self._read_groups[key] = group
+        return group
+
+    def _sync_read_once(self, group: GroupSyncRead, length: int) -> list[bytes]:
+        """One (Fast) Sync Read; raw data per servo in bus order, ERR/length checked."""
+        port = self._port()
+        fast = bool(self.fast_read)
+        result = group.fastSyncReadTxPacket() if fast else group.txPacket()
+        if result != COMM_SUCCESS:
+            raise CommError(f"sync read: {self._packet.getTxRxResult(result)}", field="bus",
+                            value=result)
+        if self.rx_timeout_ms is not None:
+            port.setPacketTimeoutMillis(self.rx_timeout_ms)
+        alerts = []
+        out: list[bytes] = []
+        if fast:
+            # One status packet: per servo ERR, ID, data, CRC (dynamixel-notes §1.7). The SDK's
+            # own parser drops the ERR bytes; decode them here.
+            stride = length + 4
+            raw, result, _ = self._packet.fastSyncReadRx(port, 0xFE, stride * len(self.ids))
+            if result != COMM_SUCCESS:
+                raise CommError(f"fast sync read: {self._packet.getTxRxResult(result)}",
+                                field="bus", value=result)
+            if len(raw) != stride * len(self.ids):
+                raise CommError(f"fast sync read returned {len(raw)} bytes, expected "
+                                f"{stride * len(self.ids)}", field="bus", value=len(raw))
+            for index, servo_id in enumerate(self.ids):
+                block = raw[index * stride:(index + 1) * stride]
+                if block[1] != servo_id:
+                    raise CommError(f"fast sync read: block {index} is from id {block[1]}, "
+                                    f"expected {servo_id}", field=f"servo[{servo_id}]",
+                                    value=block[1])
+                if self._status(servo_id, "fast sync read", COMM_SUCCESS, block[0]):
+                    alerts.append(servo_id)
+                out.append(bytes(block[2:2 + length]))
+        else:
+            for servo_id in self.ids:
+                data, result, error = self._packet.readRx(port, servo_id, length)
+                if self._status(servo_id, "sync read", result, error):
+                    alerts.append(servo_id)
+                if len(data) != length:
+                    raise CommError(f"servo {servo_id}: sync read returned {len(data)} "
+                                    f"byte(s), expected {length}", field=f"servo[{servo_id}]",
+                                    value=len(data))
+                out.append(bytes(data))
+        self.last_alert_ids = tuple(alerts)
+        return out
+
+    def sync_read(self, address: int, length: int) -> list[bytes]:
+        """(Fast) Sync Read of one item from every servo, with bounded retries.
+
+        Returns raw bytes per servo in bus order; :attr:`last_alert_ids` lists the servos
+        whose status carried the Alert bit.
+        """
+        with self.claim():
+            group = self._group(address, length)
+            last: CommError | None = None
+            for attempt in self._attempts():
+                if attempt:
+                    self.retries_used += 1
+                try:
+                    return self._sync_read_once(group, length)
+                except CommError as exc:
+                    last = exc
+            assert last is not None
+            raise last
+
+    def read_positions(self) -> NDArray[np.int64]:
+        """Present Position of every servo (ticks, signed), shape (k,) in bus order."""
+        raw = self.sync_read(ADDR_PRESENT_POSITION, 4)
+        return np.frombuffer(b"".join(raw), dtype="<i4").astype(np.int64)
+
+    def hardware_errors(self) -> dict[int, int]:
+        """Hardware Error Status (address 70) per servo id; 0 means healthy."""
+        raw = self.sync_read(ADDR_HARDWARE_ERROR, 1)
+        return {servo_id: data[0] for servo_id, data in zip(self.ids, raw, strict=True)}
+
+    def watchdog_status(self) -> dict[int, int]:
+        """Bus Watchdog (address 98) per servo id, signed: -1 means it expired."""
+        raw = self.sync_read(ADDR_BUS_WATCHDOG, 1)
+        return {servo_id: int.from_bytes(data, "little", signed=True)
+                for servo_id, data in zip(self.ids, raw, strict=True)}
+
+    def check_ticks(self, ticks: ArrayLike) -> NDArray[np.int64]:
+        """``ticks`` (n, k) or (k,) as int64, every value inside :attr:`limits`.
+
+        Raises TickLimitError naming the first sample and servo outside its limits.
+        """
+        array = np.asarray(ticks)
+        if array.ndim not in (1, 2) or array.shape[-1] != len(self.ids):
+            raise InputError(f"ticks must have shape (n, {len(self.ids)}) or "
+                             f"({len(self.ids)},), got shape {array.shape}", field="ticks",
+                             value=array)
+        if not np.issubdtype(array.dtype, np.integer):
+            raise InputError(f"ticks must be integers, got dtype {array.dtype}", field="ticks",
+                             value=array)
+        rows = array.reshape(-1, len(self.ids)).astype(np.int64)
+        bad = (rows < self.limits[:, 0]) | (rows > self.limits[:, 1])
+        if bad.any():
+            sample, column = (int(i) for i in np.argwhere(bad)[0])
+            low, high = (int(v) for v in self.limits[column])
+            raise TickLimitError(
+                f"sample {sample}: servo {self.ids[column]} goal {int(rows[sample, column])} "
+                f"is outside its limits [{low}, {high}] ticks", field="ticks",
+                value=int(rows[sample, column]), sample=sample)
+        return rows.reshape(array.shape)
+
+    def encode_goals(self, ticks: ArrayLike) -> list[list[list[int]]]:
+        """Goal ticks (n, k) → per sample, per servo, the 4 little-endian bytes to send.
+
+        Vectorised once per trajectory so the streaming loop only hands lists to the SDK.
+        Checks the limits first (:meth:`check_ticks`).
+        """
+        rows = self.check_ticks(np.atleast_2d(np.asarray(ticks)))
+        return rows.astype("<i4").view(np.uint8).reshape(len(rows), len(self.ids), 4).tolist()
+
+    def write_encoded(self, row: Sequence[Sequence[int]]) -> None:
+        """One Sync Write of Goal Position from :meth:`encode_goals` output (one sample)."""
+        with self.claim():
+            group = self._write_group
+            if group is None:
+                self._port()
+            assert group is not None
+            for servo_id, data in zip(self.ids, row, strict=True):
+                group.changeParam(servo_id, data)
+            result = group.txPacket()
+            if result != COMM_SUCCESS:
+                raise CommError(f"sync write: {self._packet.getTxRxResult(result)}",
+                                field="bus", value=result)
+
+    def write_goals(self, ticks: ArrayLike) -> None:
+        """Sync Write Goal Position (ticks, shape (k,), bus order) after a limit check."""
+        self.write_encoded(self.encode_goals(np.asarray(ticks).reshape(1, -1))[0])
+
+
+# -- scanning --------------------------------------------------------------------------------
+
+def scan(port: str, bauds: Iterable[int] = (1_000_000,), *,
+         ids: Iterable[int] | None = None) -> list[ServoInfo]:
+    """List the servos on ``port``: id, model, firmware and baud, for each baud tried.
+
+    With ``ids`` None a broadcast PING is sent at each baud (the SDK waits its full
+    ≈0.8 s window at 1 Mbps); with ``ids`` each id is pinged in turn (a silent id costs the
+    SDK's 34 ms timeout). Results are sorted by baud, then id.
+    """
+    found: list[ServoInfo] = []
+    bauds = list(bauds)
+    for baud in bauds:
+        if baud not in BAUD_INDEX.values() or baud == 4_500_000:
+            raise InputError(f"baud must be one of {sorted(set(BAUD_INDEX.values()) - {4_500_000})}"
+                             f", got {baud!r}", field="baud", value=baud)
+    id_list = None if ids is None else list(ids)
+    if id_list is not None:
+        bad = [i for i in id_list if isinstance(i, bool) or not isinstance(i, int)
+               or not 0 <= i <= 252]
+        if bad:
+            raise InputError(f"ids must be integers in [0, 252], got {bad}", field="ids",
+                             value=bad)
+    for baud in bauds:
+        if id_list is None:
+            with _raw_port(port, baud) as (handler, packet):
+                replies, _ = packet.broadcastPing(handler)
+            for servo_id, (model_number, firmware) in sorted(replies.items()):
+                found.append(ServoInfo(servo_id, model_number, MODEL_NAMES.get(model_number),
+                                       firmware, baud))
+        else:
+            probe = ServoBus(port, baud, servos=[ServoSpec(i, "xm430-w350") for i in id_list],
+                             retries=0)
+            with probe:
+                for servo_id in id_list:
+                    info = probe.ping(servo_id)
+                    if info is not None:
+                        found.append(info)
+    return found
+
+
+@contextlib.contextmanager
+def _raw_port(port: str, baud: int) -> Iterator[tuple[PortHandler, Any]]:
+    check_latency_timer(port)
+    handler = PortHandler(port)
+    try:
+        if not handler.setBaudRate(baud):
+            raise CommError(f"cannot open {port} at {baud} baud", field="port", value=port)
+    except CommError:
+        raise
+    except Exception as exc:
+        raise CommError(f"cannot open {port}: {exc}", field="port", value=port) from exc
+    try:
+        yield handler, PacketHandler(2.0)
+    finally:
+        with contextlib.suppress(Exception):
+            handler.closePort()
+
+
+__all__ = [
+    "ADDR_GOAL_POSITION", "ADDR_HARDWARE_ERROR", "ADDR_PRESENT_POSITION", "MODEL_NAMES",
+    "MODEL_NUMBERS", "LatencyTimerWarning", "ServoBus", "ServoInfo",
+    "StreamProfile", "check_latency_timer", "describe_hardware_error", "latency_timer_ms",
+    "scan",
+]
