@@ -1,0 +1,407 @@
+"""The planner: trajectories for both arms, failures at the right sample, auto timing,
+blending, approach segments, JSON/CSV round trips, input errors."""
+
+from __future__ import annotations
+
+import csv
+import dataclasses
+import io
+import json
+import math
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pytest
+
+import robodcn
+from robodcn import kinematics, servo_units, timing
+from robodcn.config import Arm, arm_from_dict, load_arm
+from robodcn.errors import (
+    AccelerationLimitError,
+    InputError,
+    JointLimitError,
+    PlanError,
+    TickLimitError,
+    UnreachableError,
+    VelocityLimitError,
+)
+from robodcn.interpolate import interpolate
+from robodcn.planner import PlanRequest, Trajectory, plan, plan_request
+
+CONFIGS = Path(__file__).resolve().parent.parent / "configs"
+ARM3R = load_arm(CONFIGS / "arm3r.toml")
+ARM2R = load_arm(CONFIGS / "arm2r.toml")
+WAYPOINTS_3R = [[0.25, 0.10, 0.0], [0.15, 0.20, 1.0], [0.0, 0.28, 1.5]]
+WAYPOINTS_2R = [[0.18, 0.08, 0.0], [0.10, 0.15, 0.0], [-0.05, 0.2, 0.0]]
+
+
+def variant(arm: Arm, only: int | None = None, **changes: Any) -> Arm:
+    """The arm with every joint's (or servo's, keys 'servo_x') values replaced, or only
+    joint ``only``'s."""
+    data = arm.to_dict()
+    for i, joint in enumerate(data["joints"]):
+        if only is not None and i != only:
+            continue
+        for key, value in changes.items():
+            if key.startswith("servo_"):
+                joint["servo"][key.removeprefix("servo_")] = value
+            else:
+                joint[key] = value
+    return arm_from_dict(data, source=arm.source)
+
+
+def check_trajectory(traj: Trajectory, arm: Arm, waypoints: Any) -> None:
+    wp = np.asarray(waypoints, dtype=float)
+    n = traj.t.shape[0]
+    assert traj.t[0] == 0.0
+    np.testing.assert_allclose(np.diff(traj.t), 1.0 / traj.rate_hz, rtol=0, atol=1e-12)
+    assert traj.poses.shape == (n, 3) and traj.joints.shape == traj.ticks.shape == (n, arm.dof)
+    assert traj.ticks.dtype == np.int64
+    assert traj.joint_names == arm.joint_names and traj.servo_ids == arm.servo_ids
+    np.testing.assert_allclose(traj.poses[0, :2], wp[0, :2], atol=1e-12)
+    np.testing.assert_allclose(traj.poses[-1, :2], wp[-1, :2], atol=1e-12)
+    fk = kinematics.fk(arm.links, traj.joints)
+    np.testing.assert_allclose(fk[:, :2], traj.poses[:, :2], atol=1e-9)
+    if arm.dof == 3:
+        np.testing.assert_allclose(fk[:, 2], traj.poses[:, 2], atol=1e-9)
+        assert abs(kinematics.wrap(traj.poses[-1, 2] - wp[-1, 2])) < 1e-12
+    np.testing.assert_array_equal(traj.ticks, servo_units.radians_to_ticks(traj.joints,
+                                                                           arm.servos))
+    lo = np.array([j.min_angle for j in arm.joints])
+    hi = np.array([j.max_angle for j in arm.joints])
+    assert (traj.joints >= lo).all() and (traj.joints <= hi).all()
+    v = np.array([j.max_velocity for j in arm.joints])
+    a = np.array([j.max_acceleration for j in arm.joints])
+    assert (np.abs(np.diff(traj.joints, axis=0)) * traj.rate_hz <= v * (1 + 1e-9)).all()
+    assert (np.abs(np.diff(traj.joints, 2, axis=0)) * traj.rate_hz**2 <= a * (1 + 1e-9)).all()
+
+
+@pytest.mark.parametrize(("arm", "waypoints"), [(ARM3R, WAYPOINTS_3R), (ARM2R, WAYPOINTS_2R)],
+                         ids=["arm3r", "arm2r"])
+@pytest.mark.parametrize("profile", timing.PROFILES)
+@pytest.mark.parametrize("blend", [False, True])
+def test_plans_for_both_arms(arm: Arm, waypoints: Any, profile: str, blend: bool) -> None:
+    traj = robodcn.plan(arm, waypoints, profile=profile, blend=blend, rate_hz=200)
+    check_trajectory(traj, arm, waypoints)
+    assert traj.method == "sclerp" and traj.request.arm is arm
+
+
+def test_fixed_duration_and_per_segment_methods() -> None:
+    traj = plan(ARM3R, WAYPOINTS_3R, method=["seplerp", "kenlerp"], beta=0.5,
+                turn=["shortest", "shortest"], duration=3.0, rate_hz=100)
+    check_trajectory(traj, ARM3R, WAYPOINTS_3R)
+    assert traj.duration == pytest.approx(3.0)
+    assert traj.method == ["seplerp", "kenlerp"]
+    # without blend, the arm stops at the via point: a sample sits on it at rest
+    at = np.argmin(np.linalg.norm(traj.poses[:, :2] - WAYPOINTS_3R[1][:2], axis=1))
+    np.testing.assert_allclose(traj.poses[at], WAYPOINTS_3R[1], atol=1e-12)
+    steps = np.abs(np.diff(traj.joints, axis=0)).max(axis=1)
+    assert steps[at] < 1e-3 * steps.max() and steps[at - 1] < 1e-3 * steps.max()
+    # the first segment is SEP-LERP: a straight line in x, y
+    first = traj.poses[: at + 1, :2]
+    d = np.subtract(WAYPOINTS_3R[1][:2], WAYPOINTS_3R[0][:2])
+    cross = (first[:, 0] - WAYPOINTS_3R[0][0]) * d[1] - (first[:, 1] - WAYPOINTS_3R[0][1]) * d[0]
+    assert np.abs(cross).max() < 1e-12
+
+
+def test_single_segment_matches_interpolate_under_the_profile() -> None:
+    traj = plan(ARM3R, WAYPOINTS_3R[:2], method="kenlerp", beta=1.7, duration=1.5,
+                profile="trapezoid", rate_hz=100)
+    n = traj.t.shape[0] - 1
+    poses = traj.poses
+    # the profile is a trapezoid with some acceleration fraction: recover s from the
+    # interpolation itself (its θ is linear in s) and check the positions agree
+    s = (poses[:, 2] - WAYPOINTS_3R[0][2]) / (WAYPOINTS_3R[1][2] - WAYPOINTS_3R[0][2])
+    expected = interpolate(WAYPOINTS_3R[0], WAYPOINTS_3R[1], s, method="kenlerp", beta=1.7)
+    np.testing.assert_allclose(poses, expected, atol=1e-12)
+    assert n == 150
+    speed = np.diff(s)
+    assert speed.max() == pytest.approx(speed[n // 2], rel=1e-9)  # cruising in the middle
+
+
+# -- failures at the right sample ---------------------------------------------------------------
+
+def test_unreachable_sample_is_named() -> None:
+    """The tool point stays put while θ swings the long way through ±π: the wrist point
+    (l3 behind the tool) leaves the workspace in the middle, both ends are reachable."""
+    arm = variant(ARM3R, max_velocity=1e4, max_acceleration=1e7)
+    start, end = [0.32, 0.0, -2.0], [0.32, 0.0, 2.0]
+    rate, duration = 100, 4.0
+    with pytest.raises(UnreachableError) as info:
+        plan(arm, [start, end], duration=duration, rate_hz=rate)
+    n = round(duration * rate)
+    theta = -2.0 + timing.quintic(np.arange(n + 1) / n) * (4.0 - 2 * math.pi)  # shortest: cw
+    wrist = np.hypot(0.32 - arm.links[2] * np.cos(theta), -arm.links[2] * np.sin(theta))
+    expected = int(np.argmax(wrist > sum(arm.links[:2]) + kinematics.REACH_TOLERANCE))
+    err = info.value
+    assert err.sample == expected > 0
+    assert err.t == pytest.approx(expected / rate)
+    np.testing.assert_allclose(err.pose, [0.32, 0.0, theta[expected]], atol=1e-12)
+    assert f"sample {expected}" in str(err) and "out of reach" in str(err)
+    assert err.to_dict()["sample"] == expected
+
+
+def test_unreachable_waypoint_is_named() -> None:
+    wps = [*WAYPOINTS_3R, [0.6, 0.1, 0.0]]
+    with pytest.raises(UnreachableError) as info:
+        plan(ARM3R, wps)
+    assert info.value.field == "waypoints[3]"
+    assert "waypoints[3]" in str(info.value) and "0.35" in str(info.value)
+
+
+def first_bad_row(bad: np.ndarray) -> int:
+    rows = bad.any(axis=1)
+    assert rows.any()
+    return int(np.argmax(rows))
+
+
+def test_joint_limit_sample_is_named() -> None:
+    # rotate the whole arm about the base (pole at the origin): the shoulder sweeps ~80°
+    wps = [[0.28 * math.cos(0.2), 0.28 * math.sin(0.2), 0.2],
+           [0.28 * math.cos(1.6), 0.28 * math.sin(1.6), 1.6]]
+    free = plan(ARM3R, wps, duration=3.0, rate_hz=100)
+    shoulder = free.joints[:, 0]
+    limit = 0.5 * (np.abs(shoulder).min() + np.abs(shoulder).max())
+    narrow = variant(ARM3R, only=0, min=-limit, max=limit)
+    expected = first_bad_row(np.abs(free.joints[:, :1]) > limit)
+    with pytest.raises(JointLimitError) as info:
+        plan(narrow, wps, duration=3.0, rate_hz=100)
+    err = info.value
+    assert err.sample == expected and err.joint == "shoulder"
+    np.testing.assert_allclose(err.pose, free.poses[expected], atol=1e-12)
+    assert err.t == pytest.approx(free.t[expected])
+    assert "'shoulder'" in str(err) and f"sample {expected} " in str(err)
+
+
+def test_tick_limit_sample_is_named() -> None:
+    free = plan(ARM3R, WAYPOINTS_3R, duration=4.0, rate_hz=100)
+    narrow = variant(ARM3R, servo_min_tick=1500, servo_max_tick=2600)
+    expected = first_bad_row((free.ticks < 1500) | (free.ticks > 2600))
+    with pytest.raises(TickLimitError) as info:
+        plan(narrow, WAYPOINTS_3R, duration=4.0, rate_hz=100)
+    assert info.value.sample == expected
+    assert info.value.value == free.ticks[expected][
+        ARM3R.joint_names.index(info.value.joint)]
+
+
+@pytest.mark.parametrize("profile", ["quintic", "trapezoid"])
+def test_too_fast_duration_fails_at_the_first_fast_sample(profile: str) -> None:
+    wps = WAYPOINTS_3R[:2]
+    fast = variant(ARM3R, max_velocity=1e4, max_acceleration=1e7)
+    # trapezoid shape depends on the limits: compare against the quintic only
+    loose = plan(fast, wps, duration=0.3, rate_hz=100, profile="quintic")
+    q = loose.joints
+    v = np.array([j.max_velocity for j in ARM3R.joints])
+    a = np.array([j.max_acceleration for j in ARM3R.joints])
+    vel = np.zeros_like(q)
+    vel[1:] = np.abs(np.diff(q, axis=0)) * 100
+    acc = np.zeros_like(q)
+    acc[2:] = np.abs(np.diff(q, 2, axis=0)) * 100**2
+    with pytest.raises((VelocityLimitError, AccelerationLimitError)) as info:
+        plan(ARM3R, wps, duration=0.3, rate_hz=100, profile=profile)
+    err = info.value
+    assert err.field == "duration" and err.joint in ARM3R.joint_names
+    assert f"sample {err.sample} " in str(err) and "rad/s" in str(err)
+    if profile == "quintic":
+        first_v = first_bad_row(vel > v) if (vel > v).any() else len(q)
+        first_a = first_bad_row(acc > a) if (acc > a).any() else len(q)
+        expected = min(first_v, first_a)
+        assert err.sample == expected
+        kind = VelocityLimitError if first_v <= first_a else AccelerationLimitError
+        assert isinstance(err, kind)
+        np.testing.assert_allclose(err.pose, loose.poses[expected], atol=1e-12)
+
+
+# -- auto timing --------------------------------------------------------------------------------
+
+@pytest.mark.parametrize(("arm", "waypoints"), [(ARM3R, WAYPOINTS_3R[:2]),
+                                                (ARM2R, WAYPOINTS_2R[:2])], ids=["3r", "2r"])
+@pytest.mark.parametrize("profile", timing.PROFILES)
+def test_auto_is_feasible_and_minimal(arm: Arm, waypoints: Any, profile: str) -> None:
+    rate = 500
+    traj = plan(arm, waypoints, profile=profile, rate_hz=rate)
+    check_trajectory(traj, arm, waypoints)
+    total = traj.duration
+    assert total * rate > 100  # so that 0.99·T drops at least one sample period
+    again = plan(arm, waypoints, profile=profile, rate_hz=rate, duration=total)
+    np.testing.assert_allclose(again.joints, traj.joints, atol=1e-12)
+    with pytest.raises((VelocityLimitError, AccelerationLimitError)):
+        plan(arm, waypoints, profile=profile, rate_hz=rate, duration=0.99 * total)
+
+
+def test_auto_blended_is_minimal() -> None:
+    rate = 500
+    traj = plan(ARM3R, WAYPOINTS_3R, blend=True, rate_hz=rate)
+    check_trajectory(traj, ARM3R, WAYPOINTS_3R)
+    with pytest.raises((VelocityLimitError, AccelerationLimitError)):
+        plan(ARM3R, WAYPOINTS_3R, blend=True, rate_hz=rate, duration=0.99 * traj.duration)
+
+
+def test_auto_closed_form_matches_the_search() -> None:
+    """At a high rate the finite-difference auto duration tends to the closed form."""
+    wps = WAYPOINTS_3R[:2]
+    traj = plan(ARM3R, wps, rate_hz=1000)
+    dense = 20000
+    tau = np.arange(dense + 1) / dense
+    poses = interpolate(wps[0], wps[1], timing.quintic(tau))
+    q = kinematics.ik_path(ARM3R.links, poses, elbow=ARM3R.elbow)
+    closed = timing.auto_duration(np.gradient(q, tau, axis=0),
+                                  np.gradient(np.gradient(q, tau, axis=0), tau, axis=0),
+                                  [j.max_velocity for j in ARM3R.joints],
+                                  [j.max_acceleration for j in ARM3R.joints])
+    assert traj.duration == pytest.approx(closed, rel=5e-3)
+
+
+# -- blending -----------------------------------------------------------------------------------
+
+def max_velocity_jump(traj: Trajectory) -> float:
+    v = np.diff(traj.poses[:, :2], axis=0) * traj.rate_hz
+    return float(np.linalg.norm(np.diff(v, axis=0), axis=1).max())
+
+
+def test_blended_via_points_have_continuous_velocity() -> None:
+    corner = [[0.25, 0.0, 0.0], [0.25, 0.2, 0.5], [0.05, 0.25, 1.0]]
+    slow = [plan(ARM3R, corner, blend=True, duration=3.0, rate_hz=r) for r in (100, 1000)]
+    # continuous velocity: the largest step in velocity shrinks with the sample period
+    assert max_velocity_jump(slow[1]) < 0.2 * max_velocity_jump(slow[0])
+    traj = slow[1]
+    dist = np.linalg.norm(traj.poses[:, :2] - corner[1][:2], axis=1)
+    at = int(np.argmin(dist))
+    speed = np.linalg.norm(np.diff(traj.poses[:, :2], axis=0), axis=1) * traj.rate_hz
+    assert dist[at] <= speed.max() / traj.rate_hz  # passes through the via point
+    assert speed[at] > 0.3 * speed.max()  # without stopping there
+    stop = plan(ARM3R, corner, blend=False, duration=3.0, rate_hz=1000)
+    stop_speed = np.linalg.norm(np.diff(stop.poses[:, :2], axis=0), axis=1) * 1000
+    at_stop = int(np.argmin(np.linalg.norm(stop.poses[:, :2] - corner[1][:2], axis=1)))
+    assert stop_speed[at_stop] < 1e-3 * stop_speed.max()
+
+
+# -- approach -----------------------------------------------------------------------------------
+
+def test_approach_segment_from_present_joints() -> None:
+    present = np.array([0.1, -0.3, 0.2])
+    traj = plan(ARM3R, WAYPOINTS_3R, start_joints=present, rate_hz=200)
+    np.testing.assert_array_equal(traj.joints[0], present)
+    check_steps = np.abs(np.diff(traj.joints, axis=0)).max()
+    assert check_steps * 200 <= max(j.max_velocity for j in ARM3R.joints)
+    # the path proper starts where the approach ends
+    direct = plan(ARM3R, WAYPOINTS_3R, rate_hz=200)
+    assert traj.t.shape[0] > direct.t.shape[0]
+    hit = np.flatnonzero(np.linalg.norm(traj.poses - WAYPOINTS_3R[0], axis=1) < 1e-12)
+    assert hit.size and hit[0] > 0
+    np.testing.assert_allclose(traj.joints[hit[0]:], direct.joints, atol=1e-9)
+
+
+def test_no_approach_when_already_there_and_replan() -> None:
+    direct = plan(ARM3R, WAYPOINTS_3R, rate_hz=100)
+    same = plan(ARM3R, WAYPOINTS_3R, rate_hz=100, start_joints=direct.joints[0] + 1e-5)
+    assert same.t.shape == direct.t.shape
+    # the streamer's re-plan: same request, new present joints
+    again = plan_request(dataclasses.replace(direct.request,
+                                             start_joints=tuple(direct.joints[0] - 0.2)))
+    np.testing.assert_allclose(again.joints[0], direct.joints[0] - 0.2, atol=1e-15)
+    np.testing.assert_allclose(again.joints[-1], direct.joints[-1], atol=1e-9)
+
+
+def test_start_joints_pick_the_branch() -> None:
+    direct = plan(ARM3R, WAYPOINTS_3R, rate_hz=100)  # the arm's preferred elbow: up
+    down = kinematics.ik_branches(ARM3R.links, [WAYPOINTS_3R[0]])[1]
+    traj = plan(ARM3R, WAYPOINTS_3R, rate_hz=100, start_joints=down[0])
+    np.testing.assert_allclose(traj.joints[0], down[0], atol=1e-12)  # no approach needed
+    assert (traj.joints[:, 1] >= 0).all() and (direct.joints[:, 1] <= 0).all()
+
+
+# -- serialisation ------------------------------------------------------------------------------
+
+def test_json_round_trip() -> None:
+    traj = plan(ARM3R, WAYPOINTS_3R, method=["sclerp", "dlb"], blend=True, rate_hz=50,
+                start_joints=[0.0, -1.0, 0.5])
+    text = traj.to_json()
+    data = json.loads(text)
+    assert {"t", "poses", "joints", "ticks", "joint_names", "servo_ids", "rate_hz",
+            "method"} <= set(data)
+    back = Trajectory.from_json(text)
+    for name in ("t", "poses", "joints", "ticks"):
+        np.testing.assert_array_equal(getattr(back, name), getattr(traj, name))
+    assert back.ticks.dtype == np.int64
+    assert (back.joint_names, back.servo_ids, back.rate_hz, back.method) == (
+        traj.joint_names, traj.servo_ids, traj.rate_hz, traj.method)
+    assert back.request == traj.request
+    with_arm = Trajectory.from_json(text, arm=ARM3R)
+    assert with_arm.request.arm is ARM3R
+    # the rebuilt request plans the same trajectory
+    np.testing.assert_array_equal(plan_request(back.request).joints, traj.joints)
+
+
+@pytest.mark.parametrize(("edit", "field"), [
+    (lambda d: d.pop("ticks"), "ticks"),
+    (lambda d: d.__setitem__("poses", [p[:2] for p in d["poses"]]), "poses"),
+    (lambda d: d.__setitem__("joints", d["joints"][:-1]), "joints"),
+    (lambda d: d.__setitem__("t", [x * 2 for x in d["t"]]), "t"),
+    (lambda d: d.__setitem__("servo_ids", [1]), "servo_ids"),
+    (lambda d: d.__setitem__("rate_hz", 0), "rate_hz"),
+])
+def test_from_json_checks_shapes(edit: Any, field: str) -> None:
+    data = json.loads(plan(ARM3R, WAYPOINTS_3R[:2], rate_hz=50).to_json())
+    data["request"] = None
+    edit(data)
+    with pytest.raises(InputError) as info:
+        Trajectory.from_json(json.dumps(data))
+    assert info.value.field == field
+
+
+def test_csv_matches_the_arrays() -> None:
+    traj = plan(ARM2R, WAYPOINTS_2R, rate_hz=50)
+    rows = list(csv.reader(io.StringIO(traj.to_csv())))
+    assert rows[0] == ["t", "x", "y", "theta", "q_shoulder", "q_elbow", "tick_1", "tick_2"]
+    body = np.array(rows[1:], dtype=float)
+    np.testing.assert_array_equal(body[:, 0], traj.t)
+    np.testing.assert_array_equal(body[:, 1:4], traj.poses)
+    np.testing.assert_array_equal(body[:, 4:6], traj.joints)
+    np.testing.assert_array_equal(body[:, 6:], traj.ticks)
+
+
+# -- input errors -------------------------------------------------------------------------------
+
+@pytest.mark.parametrize(("kwargs", "field"), [
+    ({"waypoints": [[0.25, 0.1, 0.0]]}, "waypoints"),
+    ({"waypoints": [[0.25, 0.1], [0.2, 0.1]]}, "waypoints"),
+    ({"waypoints": [[0.25, 0.1, 0.0], [0.2, math.nan, 0.0]]}, "waypoints"),
+    ({"method": "cubic"}, "method"),
+    ({"method": ["sclerp"]}, "method"),
+    ({"turn": ["shortest", "left"]}, "turn[1]"),
+    ({"beta": math.inf}, "beta"),
+    ({"rate_hz": 0.5}, "rate_hz"),
+    ({"rate_hz": 1001}, "rate_hz"),
+    ({"duration": -1.0}, "duration"),
+    ({"duration": "fast"}, "duration"),
+    ({"duration": 2000.0, "rate_hz": 1000}, "duration"),
+    ({"duration": 0.01, "rate_hz": 100}, "duration"),
+    ({"profile": "cubic"}, "profile"),
+    ({"blend": "yes"}, "blend"),
+    ({"start_joints": [0.0, 0.0]}, "start_joints"),
+])
+def test_bad_requests_name_the_field(kwargs: dict[str, Any], field: str) -> None:
+    args = {"waypoints": WAYPOINTS_3R, **kwargs}
+    with pytest.raises(InputError) as info:
+        plan(ARM3R, **args)
+    assert info.value.field == field
+    assert not isinstance(info.value, PlanError)
+
+
+def test_auto_plan_over_the_sample_limit_is_an_input_error() -> None:
+    crawl = variant(ARM3R, max_velocity=1e-3, max_acceleration=1e-3)
+    with pytest.raises(InputError) as info:
+        plan(crawl, WAYPOINTS_3R[:2], rate_hz=1000)
+    assert info.value.field == "duration"
+
+
+def test_request_is_immutable_and_normalised() -> None:
+    req = PlanRequest(arm=ARM3R, waypoints=np.array(WAYPOINTS_3R), method=["sclerp", "dlb"],
+                      rate_hz=100)
+    assert req.waypoints == tuple(tuple(w) for w in WAYPOINTS_3R)
+    assert req.method == ("sclerp", "dlb")
+    with pytest.raises(dataclasses.FrozenInstanceError):
+        req.rate_hz = 5  # type: ignore[misc]
+    assert PlanRequest.from_dict(json.loads(json.dumps(req.to_dict()))) == req
