@@ -733,23 +733,33 @@ def _validate(req: PlanRequest, t: NDArray, poses: NDArray, joints: NDArray
     lo = np.array([j.min_angle for j in arm.joints]) - ANGLE_SLACK
     hi = np.array([j.max_angle for j in arm.joints]) + ANGLE_SLACK
     v, a = _limits(arm)
-    ticks = servo_units.radians_to_ticks(joints, arm.servos)
+    ticks = servo_units.ticks_unchecked(joints, arm.servos)
     tmin = np.array([j.servo.min_tick for j in arm.joints])
     tmax = np.array([j.servo.max_tick for j in arm.joints])
-
+    slack = 1.0 + LIMIT_SLACK
+    # Fast path: per-joint extremes on contiguous columns; per-sample arrays only on failure.
+    fine = True
+    for j in range(arm.dof):
+        q = np.ascontiguousarray(joints[:, j])
+        tick = np.ascontiguousarray(ticks[:, j])
+        fine = (lo[j] <= q.min() and q.max() <= hi[j] and tmin[j] <= tick.min()
+                and tick.max() <= tmax[j])
+        if fine and n > 1:
+            d = np.diff(q)
+            fine = max(d.max(), -d.min()) * rate <= v[j] * slack
+            if fine and n > 2:
+                d2 = np.diff(d)
+                fine = max(d2.max(), -d2.min()) * (rate * rate) <= a[j] * slack
+        if not fine:
+            break
+    if fine:
+        return ticks
     vel = np.zeros_like(joints)
     acc = np.zeros_like(joints)
     if n > 1:
         np.abs(np.diff(joints, axis=0), out=vel[1:])
     if n > 2:
         np.abs(joints[2:] - 2.0 * joints[1:-1] + joints[:-2], out=acc[2:])
-    slack = 1.0 + LIMIT_SLACK
-    # Fast path: per-joint extremes only; the per-sample arrays below only on failure.
-    if (joints.min(axis=0) >= lo).all() and (joints.max(axis=0) <= hi).all() \
-            and (ticks.min(axis=0) >= tmin).all() and (ticks.max(axis=0) <= tmax).all() \
-            and (vel.max(axis=0) * rate <= v * slack).all() \
-            and (acc.max(axis=0) * (rate * rate) <= a * slack).all():
-        return ticks
     vel *= rate
     acc *= rate * rate
     # excess[i, j] > 0 marks a violation; one array per check, rows aligned with samples.

@@ -53,8 +53,23 @@ def radians_to_ticks(angles: ArrayLike, servos: Sequence[ServoSpec]) -> NDArray[
     """
     angles = _checks.finite("angles", angles)
     _shape("angles", angles, servos)
-    offset, direction, per_radian = _columns(servos)
-    return (offset + round_half_away(direction * angles * per_radian)).astype(np.int64)
+    if angles.ndim == 1:
+        return ticks_unchecked(angles[None, :], servos)[0]
+    return ticks_unchecked(angles, servos)
+
+
+def ticks_unchecked(angles: NDArray[np.float64], servos: Sequence[ServoSpec]
+                    ) -> NDArray[np.int64]:
+    """:func:`radians_to_ticks` for a finite (n, k) array, without the argument checks.
+
+    Works one contiguous column at a time: the planner's hot path.
+    """
+    out = np.empty(angles.shape, dtype=np.int64)
+    for j, servo in enumerate(servos):
+        x = angles[:, j] * (servo.direction * servo.ticks_per_turn / (2.0 * np.pi))
+        out[:, j] = round_half_away(x)
+        out[:, j] += servo.zero_offset
+    return out
 
 
 def ticks_to_radians(ticks: ArrayLike, servos: Sequence[ServoSpec]) -> NDArray[np.float64]:
