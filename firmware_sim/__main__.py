@@ -1,0 +1,172 @@
+"""``python -m firmware_sim``: serve a simulated Dynamixel bus on a pseudo-terminal.
+
+Prints the device path as the first stdout line, then serves until SIGINT/SIGTERM.
+
+Fault flags take ``TARGET[:key=value,...]`` where TARGET is a servo ID or ``bus``::
+
+    --drop 2:n=3            drop servo 2's next 3 replies (n=0: every reply)
+    --drop bus:p=0.05       drop 5 % of all replies
+    --delay 1:ms=40         delay servo 1's next reply by 40 ms
+    --corrupt-crc 3         corrupt servo 3's next reply CRC
+    --wrong-id 2:to=9       servo 2's next reply carries ID 9
+    --truncate-fast bus:keep=1,n=0   cut every fast-read chain after one block
+    --split bus:pieces=3,gap_ms=0.5  write every reply in three pieces
+    --trip 2:bits=32,at=1.5          overload servo 2 1.5 s after start
+"""
+
+from __future__ import annotations
+
+import argparse
+import signal
+import sys
+import threading
+import time
+from collections.abc import Callable
+
+from firmware_sim.bus import SimBus
+from firmware_sim.faults import FaultInjector
+
+
+def _int_list(text: str) -> list[int]:
+    try:
+        return [int(x) for x in text.split(",") if x.strip()]
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"--ids must be comma-separated integers, got {text!r}")\
+            from None
+
+
+def _per_id(text: str, what: str) -> str | dict[int, str]:
+    """``value`` or ``id:value,id:value``."""
+    if ":" not in text:
+        return text
+    out = {}
+    for item in text.split(","):
+        key, _, value = item.partition(":")
+        try:
+            out[int(key)] = value
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"{what} entry {item!r}: expected ID:VALUE")\
+                from None
+    return out
+
+
+def _spec(text: str) -> tuple[int | None, dict[str, float]]:
+    target, _, rest = text.partition(":")
+    if target in ("bus", "all"):
+        servo_id = None
+    else:
+        try:
+            servo_id = int(target)
+        except ValueError:
+            raise argparse.ArgumentTypeError(
+                f"fault target {target!r} must be a servo ID or 'bus'") from None
+    opts: dict[str, float] = {}
+    for item in filter(None, rest.split(",")):
+        key, eq, value = item.partition("=")
+        if not eq:
+            raise argparse.ArgumentTypeError(f"fault option {item!r}: expected key=value")
+        try:
+            opts[key.strip()] = float(value)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"fault option {item!r}: value is not a number")\
+                from None
+    return servo_id, opts
+
+
+_FAULT_KEYS = {"drop": set(), "delay": {"ms"}, "corrupt_crc": set(), "wrong_id": {"to"},
+               "truncate_fast": {"keep"}, "split": {"pieces", "gap_ms"}, "trip": {"bits", "at"}}
+
+
+def _arm(faults: FaultInjector, kind: str, servo_id: int | None,
+         opts: dict[str, float]) -> Callable[[], None] | None:
+    """Arm one CLI fault; a trip is returned as a callable to run at its time."""
+    allowed = _FAULT_KEYS[kind] | ({"n", "p"} if kind != "trip" else set())
+    unknown = set(opts) - allowed
+    if unknown:
+        raise SystemExit(f"firmware_sim: --{kind.replace('_', '-')}: unknown option(s) "
+                         f"{sorted(unknown)}; allowed {sorted(allowed)}")
+    n = int(opts.get("n", 0 if "p" in opts else 1))
+    common = {"times": n if n > 0 else None, "probability": opts.get("p", 1.0)}
+    if kind == "drop":
+        faults.drop(servo_id, **common)
+    elif kind == "delay":
+        faults.delay(opts.get("ms", 40.0) / 1e3, servo_id, **common)
+    elif kind == "corrupt_crc":
+        faults.corrupt_crc(servo_id, **common)
+    elif kind == "wrong_id":
+        if "to" not in opts:
+            raise SystemExit("firmware_sim: --wrong-id needs to=ID")
+        faults.wrong_id(int(opts["to"]), servo_id, **common)
+    elif kind == "truncate_fast":
+        faults.truncate_fast(int(opts.get("keep", 1)), **common)
+    elif kind == "split":
+        faults.split(int(opts.get("pieces", 2)), opts.get("gap_ms", 0.5) / 1e3, servo_id,
+                     **common)
+    else:
+        bits = int(opts.get("bits", 0x20))
+        return lambda: faults.trip(servo_id, bits)
+    return None
+
+
+def parser() -> argparse.ArgumentParser:
+    p = argparse.ArgumentParser(prog="python -m firmware_sim", description=__doc__,
+                                formatter_class=argparse.RawDescriptionHelpFormatter)
+    p.add_argument("--ids", type=_int_list, default=[1], help="servo IDs, e.g. 1,2,3")
+    p.add_argument("--model", default="xm430-w350",
+                   help="xm430-w350 | xl430-w250, or per ID: 1:xm430-w350,2:xl430-w250")
+    p.add_argument("--firmware", default="46", help="firmware version, or per ID: 1:44,2:46")
+    p.add_argument("--baud", type=int, default=1_000_000)
+    p.add_argument("--link", help="make a symlink to the device at this path")
+    p.add_argument("--timing", choices=("realistic", "fast"), default="realistic")
+    p.add_argument("--log", metavar="FILE", help="append a packet log to FILE")
+    p.add_argument("--seed", type=int, help="seed for probabilistic faults")
+    for kind in _FAULT_KEYS:
+        p.add_argument(f"--{kind.replace('_', '-')}", action="append", type=_spec, default=[],
+                       metavar="TARGET[:k=v,...]")
+    return p
+
+
+def main(argv: list[str] | None = None) -> int:
+    args = parser().parse_args(argv)
+    model = _per_id(args.model, "--model")
+    fw_text = _per_id(args.firmware, "--firmware")
+    try:
+        firmware = ({k: int(v) for k, v in fw_text.items()} if isinstance(fw_text, dict)
+                    else int(fw_text))
+    except ValueError:
+        raise SystemExit(f"firmware_sim: --firmware must be integers, got {args.firmware!r}")\
+            from None
+    try:
+        bus = SimBus(args.ids, model, baud=args.baud, timing=args.timing, firmware=firmware,
+                     link=args.link, log=False, log_file=args.log, fault_seed=args.seed)
+    except ValueError as exc:
+        raise SystemExit(f"firmware_sim: {exc}") from None
+    trips: list[tuple[float, Callable[[], None]]] = []
+    for kind in _FAULT_KEYS:
+        for servo_id, opts in getattr(args, kind):
+            action = _arm(bus.faults, kind, servo_id, opts)
+            if action is not None:
+                trips.append((opts.get("at", 0.0), action))
+    trips.sort(key=lambda t: t[0])
+
+    stop = threading.Event()
+
+    def on_signal(signum: int, frame: object) -> None:
+        stop.set()
+
+    signal.signal(signal.SIGINT, on_signal)
+    signal.signal(signal.SIGTERM, on_signal)
+    with bus:
+        print(bus.port_path, flush=True)
+        t0 = time.monotonic()
+        while not stop.is_set():
+            if trips and time.monotonic() - t0 >= trips[0][0]:
+                trips.pop(0)[1]()
+                continue
+            wait = trips[0][0] - (time.monotonic() - t0) if trips else 1.0
+            stop.wait(max(0.0, min(wait, 1.0)))
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
