@@ -17,15 +17,20 @@ Structure of a plan
   cubic Hermite correction h₁(s)·Δ₀ + h₂(s)·Δ₁ (h₁ = s(1 − s)², h₂ = s²(s − 1): zero at both
   ends, unit slope at one end) so that at every via point the tangent dP/du equals the
   knot-weighted (Bessel) average of the two neighbouring segments' tangents. The path still
-  passes exactly through every waypoint, and the velocity is continuous there.
+  passes exactly through every waypoint, and the velocity is continuous there; between
+  waypoints the curve departs from the pure ScLERP/KenLERP/... path by that correction.
 * **Approach.** With ``start_joints`` farther than half a servo tick from the IK of the first
-  waypoint (nearest branch), a joint-space quintic from start_joints is prepended.
-* **Duration.** A number: the total time, rounded up to whole sample periods and split over
+  waypoint (the branch and 2π turn nearest start_joints, unless that turn is outside the
+  joint limits and another is inside), a joint-space quintic from start_joints is
+  prepended. It is always timed "auto" and comes on top of a numeric ``duration``.
+* **Duration.** A number: the path's time, rounded up to whole sample periods and split over
   stop segments in proportion to their own shortest durations. "auto": per piece, the
   smallest number of sample periods N for which the finite-difference checks pass. The
   estimate N = ⌈T_fd(N)·rate⌉ from :func:`robodcn.timing.fd_min_duration` (the closed form of
   uniform time scaling) is iterated, then confirmed: N passes and N − 1 fails (or N = 1).
-  The approach is always timed "auto".
+  Each piece is minimal on its own; if a join between stop segments still fails (only the
+  linear profile, whose velocity steps at the joins), all path pieces are slowed by the
+  failing ratio and re-checked, a few times at most.
 
 Validation is by finite differences at the sample rate: velocity (q_i − q_{i−1})·rate is
 charged to sample i, acceleration (q_{i+1} − 2q_i + q_{i−1})·rate² to sample i + 1 (the
@@ -252,7 +257,7 @@ def _intervals(duration: float, rate: float) -> int:
 
 # -- trajectory -------------------------------------------------------------------------------
 
-@dataclass
+@dataclass(eq=False)
 class Trajectory:
     """A validated plan: samples every 1/rate_hz s from t = 0.
 
@@ -604,6 +609,20 @@ def _blended_path(req: PlanRequest, segments: list, reference: NDArray | None) -
     return _Path(segments, req.beta, knots, corrections)
 
 
+def _within_limits(q: NDArray[np.float64], limits: Sequence[tuple[float, float]]
+                   ) -> NDArray[np.float64]:
+    """q, with any joint outside its limits moved by ±2π when that brings it inside (the
+    approach then turns the long way round instead of into a limit)."""
+    q = q.copy()
+    for j, (lo, hi) in enumerate(limits):
+        if not lo <= q[j] <= hi:
+            for shifted in (q[j] - 2.0 * math.pi, q[j] + 2.0 * math.pi):
+                if lo <= shifted <= hi:
+                    q[j] = shifted
+                    break
+    return q
+
+
 def plan_request(req: PlanRequest) -> Trajectory:
     """Plan a validated :class:`PlanRequest` (module docstring); see :func:`plan`."""
     arm = req.arm
@@ -620,6 +639,8 @@ def plan_request(req: PlanRequest) -> Trajectory:
     pieces = [_Piece(path=p, profile=req.profile) for p in paths]
     first = kinematics.ik_path(arm.links, wp[:1], reference=start, elbow=arm.elbow,
                                limits=limits)[0]
+    if start is not None:
+        first = _within_limits(first, limits)
     # Half the finest servo step: closer than that the servos cannot tell the difference.
     tolerance = min(math.pi / j.servo.ticks_per_turn for j in arm.joints)
     if start is not None and np.max(np.abs(first - start)) > tolerance:

@@ -51,7 +51,8 @@ def variant(arm: Arm, only: int | None = None, **changes: Any) -> Arm:
     return arm_from_dict(data, source=arm.source)
 
 
-def check_trajectory(traj: Trajectory, arm: Arm, waypoints: Any) -> None:
+def check_trajectory(traj: Trajectory, arm: Arm, waypoints: Any, approach: bool = False) -> None:
+    """Shapes, timing, FK consistency, ticks, and every limit, checked from the arrays."""
     wp = np.asarray(waypoints, dtype=float)
     n = traj.t.shape[0]
     assert traj.t[0] == 0.0
@@ -59,12 +60,13 @@ def check_trajectory(traj: Trajectory, arm: Arm, waypoints: Any) -> None:
     assert traj.poses.shape == (n, 3) and traj.joints.shape == traj.ticks.shape == (n, arm.dof)
     assert traj.ticks.dtype == np.int64
     assert traj.joint_names == arm.joint_names and traj.servo_ids == arm.servo_ids
-    np.testing.assert_allclose(traj.poses[0, :2], wp[0, :2], atol=1e-12)
+    if not approach:
+        np.testing.assert_allclose(traj.poses[0, :2], wp[0, :2], atol=1e-12)
     np.testing.assert_allclose(traj.poses[-1, :2], wp[-1, :2], atol=1e-12)
     fk = kinematics.fk(arm.links, traj.joints)
     np.testing.assert_allclose(fk[:, :2], traj.poses[:, :2], atol=1e-9)
     if arm.dof == 3:
-        np.testing.assert_allclose(fk[:, 2], traj.poses[:, 2], atol=1e-9)
+        assert np.abs(kinematics.wrap(fk[:, 2] - traj.poses[:, 2])).max() < 1e-9
         assert abs(kinematics.wrap(traj.poses[-1, 2] - wp[-1, 2])) < 1e-12
     np.testing.assert_array_equal(traj.ticks, servo_units.radians_to_ticks(traj.joints,
                                                                            arm.servos))
@@ -282,6 +284,7 @@ def test_blended_via_points_have_continuous_velocity() -> None:
 def test_approach_segment_from_present_joints() -> None:
     present = np.array([0.1, -0.3, 0.2])
     traj = plan(ARM3R, WAYPOINTS_3R, start_joints=present, rate_hz=200)
+    check_trajectory(traj, ARM3R, WAYPOINTS_3R, approach=True)
     np.testing.assert_array_equal(traj.joints[0], present)
     check_steps = np.abs(np.diff(traj.joints, axis=0)).max()
     assert check_steps * 200 <= max(j.max_velocity for j in ARM3R.joints)
@@ -302,6 +305,20 @@ def test_no_approach_when_already_there_and_replan() -> None:
                                              start_joints=tuple(direct.joints[0] - 0.2)))
     np.testing.assert_allclose(again.joints[0], direct.joints[0] - 0.2, atol=1e-15)
     np.testing.assert_allclose(again.joints[-1], direct.joints[-1], atol=1e-9)
+
+
+def test_approach_turns_the_long_way_inside_the_limits() -> None:
+    """The nearest turn of the first pose's shoulder angle lies beyond the +170° limit, so
+    the approach swings the shoulder the long way round instead of into the limit."""
+    target = np.array([-2.9, -0.8, 0.5])
+    pose = kinematics.fk(ARM3R.links, target[None])[0]
+    wps = [pose, pose + np.array([0.0, 0.01, 0.0])]
+    present = np.array([2.9, -0.8, 0.5])
+    traj = plan(ARM3R, wps, start_joints=present, rate_hz=100)
+    check_trajectory(traj, ARM3R, wps, approach=True)
+    reached = np.flatnonzero(np.linalg.norm(traj.poses - pose, axis=1) < 1e-12)[0]
+    np.testing.assert_allclose(traj.joints[reached], target, atol=1e-9)
+    assert traj.joints[:, 0].max() == pytest.approx(2.9) and traj.joints[:, 0].min() < -2.8
 
 
 def test_start_joints_pick_the_branch() -> None:
