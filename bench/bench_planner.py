@@ -50,11 +50,14 @@ def rtb_rows(links: tuple[float, ...], poses: np.ndarray, ours_per_pose: float) 
     rows = []
     for name, count in (("ik_LM", 200), ("ikine_LM", 20)):
         solve = getattr(robot, name)
+        solved = 0
         start = time.perf_counter()
         for target in targets[:count]:
-            solve(target.A if name == "ik_LM" else target, mask=mask)
+            # ik_LM (C++) returns a tuple (q, success, ...), ikine_LM an IKSolution
+            result = solve(target.A if name == "ik_LM" else target, mask=mask)
+            solved += bool(result[1] if name == "ik_LM" else result.success)
         per_pose = (time.perf_counter() - start) / count
-        rows.append(f"| roboticstoolbox `{name}`, per pose ({count} poses) | "
+        rows.append(f"| roboticstoolbox `{name}`, per pose ({count} poses, {solved} solved) | "
                     f"{per_pose * 1e6:.1f} µs ({per_pose / ours_per_pose:,.0f}× ours) | — |")
     return rows
 
