@@ -21,8 +21,12 @@ test: $(STAMP)
 lint: $(STAMP)
 	$(VENV)/bin/ruff check robodcn firmware_sim tests bench
 
+# The showcase: three waypoints, KenLERP β = 0.5, auto duration, on a simulated arm.
 demo: $(STAMP)
-	$(PY) -m robodcn.demo
+	mkdir -p out
+	$(VENV)/bin/robodcn sim --arm configs/arm3r.toml \
+	    --from 0.25,0.10,0 --via 0.12,0.24,60 --to -0.10,0.22,120 \
+	    --method kenlerp --beta 0.5 --duration auto --plot out/demo.png
 
 bench: $(STAMP)
 	$(PY) -m pip install --quiet -e '.[dev,plot,bench]' || echo "optional bench extras unavailable; comparisons will be skipped"
