@@ -1,0 +1,360 @@
+"""The HTTP service end to end: a real client (http.client, raw sockets) on an ephemeral port.
+
+Plan-only endpoints run against a server without an arm attached; move, stop and state run
+against :func:`robodcn.simulated.simulated_arm` in fast timing. Expected values come from the
+library itself (the planner, FK, servo units), never from a previous run.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import http.client
+import json
+import math
+import os
+import signal
+import socket
+import subprocess
+import sys
+import threading
+import time
+from collections.abc import Iterator
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pytest
+
+from robodcn import kinematics, servo_units
+from robodcn.config import arm_from_dict, load_arm
+from robodcn.errors import InputError, PlanError
+from robodcn.http_server import MAX_BODY, PLAN_FIELDS, ROUTES, make_server
+from robodcn.planner import MAX_SAMPLES, Trajectory, plan
+
+ROOT = Path(__file__).resolve().parent.parent
+ARM = load_arm(ROOT / "configs" / "arm3r.toml")
+HOME = list(ARM.home)
+TARGET = [0.18, 0.12, 0.6]
+BODY = {"waypoints": [HOME, TARGET], "duration": 0.6, "rate_hz": 100}
+
+
+@contextlib.contextmanager
+def running(server: Any) -> Iterator[Any]:
+    thread = threading.Thread(target=server.serve_forever, kwargs={"poll_interval": 0.05},
+                              daemon=True)
+    thread.start()
+    try:
+        yield server
+    finally:
+        server.shutdown()
+        server.server_close()
+        thread.join(5)
+
+
+@pytest.fixture(scope="module")
+def planner_server() -> Iterator[Any]:
+    with running(make_server(ARM, None, request_timeout=1.0)) as server:
+        yield server
+
+
+def address(server: Any) -> tuple[str, int]:
+    host, port = server.server_address[:2]
+    return ("127.0.0.1" if host == "0.0.0.0" else host), port
+
+
+def call(server: Any, method: str, path: str, body: Any = None, *,
+         headers: dict[str, str] | None = None, raw: bytes | None = None,
+         timeout: float = 10.0) -> tuple[int, dict[str, str], Any]:
+    """One request on a fresh connection; the JSON body decoded."""
+    conn = http.client.HTTPConnection(*address(server), timeout=timeout)
+    try:
+        data = raw if raw is not None else (None if body is None else json.dumps(body).encode())
+        hdrs = {"Content-Type": "application/json"} if data is not None else {}
+        hdrs.update(headers or {})
+        conn.request(method, path, body=data, headers=hdrs)
+        resp = conn.getresponse()
+        payload = resp.read()
+        assert resp.getheader("Content-Type") == "application/json"
+        return resp.status, dict(resp.getheaders()), json.loads(payload)
+    finally:
+        conn.close()
+
+
+def error_of(body: Any) -> dict[str, Any]:
+    assert set(body) == {"error"}
+    assert {"code", "message", "field"} <= set(body["error"])
+    assert body["error"]["message"]
+    return body["error"]
+
+
+# -- plan-only endpoints -----------------------------------------------------------------------
+
+def test_healthz_and_arm(planner_server: Any) -> None:
+    status, _, body = call(planner_server, "GET", "/healthz")
+    assert status == 200 and body["status"] == "ok" and body["arm"] == ARM.name
+    assert body["moving"] is False
+    status, _, body = call(planner_server, "GET", "/v1/arm")
+    assert status == 200
+    assert body["dof"] == ARM.dof and body["servo_ids"] == list(ARM.servo_ids)
+    # The config round-trips into the very arm the server holds.
+    assert arm_from_dict(body["config"], source=ARM.source) == ARM
+
+
+def test_plan_matches_the_library(planner_server: Any) -> None:
+    body = {"waypoints": [HOME, [0.2, 0.0, -0.4], TARGET], "method": "kenlerp", "beta": 0.5,
+            "turn": ["shortest", "ccw"], "duration": "auto", "profile": "trapezoid",
+            "rate_hz": 50, "blend": True}
+    status, _, data = call(planner_server, "POST", "/v1/trajectories", body)
+    assert status == 200
+    got = Trajectory.from_json(json.dumps(data), ARM)
+    want = plan(ARM, body["waypoints"], method="kenlerp", beta=0.5, turn=["shortest", "ccw"],
+                profile="trapezoid", rate_hz=50, blend=True)
+    for name in ("t", "poses", "joints", "ticks"):
+        np.testing.assert_array_equal(getattr(got, name), getattr(want, name))
+    assert got.request == want.request
+
+
+def test_plan_defaults_to_the_arm_rate_and_accepts_start_joints(planner_server: Any) -> None:
+    q0 = kinematics.ik(ARM.links, [TARGET], ARM.elbow)[0].tolist()
+    status, _, data = call(planner_server, "POST", "/v1/trajectories",
+                           {"waypoints": [HOME, TARGET], "start_joints": q0})
+    assert status == 200
+    assert data["rate_hz"] == ARM.bus.rate_hz
+    np.testing.assert_allclose(data["joints"][0], q0)  # the approach starts at start_joints
+    want = plan(ARM, [HOME, TARGET], rate_hz=ARM.bus.rate_hz, start_joints=q0)
+    assert len(data["t"]) == len(want.t)
+
+
+def test_unreachable_waypoint_is_named(planner_server: Any) -> None:
+    waypoints = [HOME, TARGET, [0.9, 0.0, 0.0]]
+    with pytest.raises(PlanError) as local:
+        plan(ARM, waypoints)
+    status, _, body = call(planner_server, "POST", "/v1/trajectories", {"waypoints": waypoints})
+    err = error_of(body)
+    assert status == 422 and err["field"] == "waypoints[2]" == local.value.field
+    assert err["code"] == local.value.code
+
+
+def test_infeasible_sample_is_named(planner_server: Any) -> None:
+    body = {"waypoints": [HOME, [0.1, 0.2, 2.5]], "duration": 0.05}
+    with pytest.raises(PlanError) as local:
+        plan(ARM, body["waypoints"], duration=0.05, rate_hz=ARM.bus.rate_hz)
+    status, _, data = call(planner_server, "POST", "/v1/trajectories", body)
+    err = error_of(data)
+    assert status == 422
+    assert err["sample"] == local.value.sample and err["joint"] == local.value.joint
+    assert math.isclose(err["t"], local.value.t)
+    assert f"sample {local.value.sample}" in err["message"]
+
+
+@pytest.mark.parametrize(("body", "field"), [
+    ({"waypoints": [HOME, TARGET], "colour": "red"}, "colour"),
+    ({"waypoints": [HOME, TARGET], "method": "slerp"}, "method"),
+    ({"waypoints": [HOME, TARGET], "turn": ["ccw", "cw"]}, "turn"),
+    ({"waypoints": [HOME, TARGET], "duration": -1}, "duration"),
+    ({"waypoints": [HOME, TARGET], "duration": "soon"}, "duration"),
+    ({"waypoints": [HOME, TARGET], "rate_hz": 5000}, "rate_hz"),
+    ({"waypoints": [HOME, TARGET], "blend": "yes"}, "blend"),
+    ({"waypoints": [HOME, TARGET], "beta": "half"}, "beta"),
+    ({"waypoints": [HOME, [0.2, 0.1]]}, "waypoints[1]"),
+    ({"waypoints": [HOME, TARGET, [0.2, "x", 0]]}, "waypoints[2]"),
+    ({"waypoints": [HOME, TARGET, [0.2, 1e400, 0]]}, "waypoints[2]"),
+    ({"waypoints": [HOME]}, "waypoints"),
+    ({"method": "sclerp"}, "waypoints"),
+    ([HOME, TARGET], "body"),
+])
+def test_bad_fields_are_422_naming_the_field(planner_server: Any, body: Any, field: str) -> None:
+    raw = json.dumps(body).encode().replace(b"Infinity", b"1e400")
+    status, _, data = call(planner_server, "POST", "/v1/trajectories", raw=raw)
+    err = error_of(data)
+    assert status == 422, err
+    assert err["field"] == field, err
+
+
+@pytest.mark.parametrize("raw", [b"{", b'{"waypoints": NaN}', b"\xff\xfe", b'{"a": 1} x'])
+def test_malformed_json_is_400(planner_server: Any, raw: bytes) -> None:
+    status, _, data = call(planner_server, "POST", "/v1/trajectories", raw=raw)
+    assert status == 400 and error_of(data)["code"] == "malformed_json"
+
+
+@pytest.mark.parametrize("ctype", ["text/plain", "application/x-www-form-urlencoded", ""])
+def test_wrong_content_type_is_415(planner_server: Any, ctype: str) -> None:
+    status, _, data = call(planner_server, "POST", "/v1/trajectories", BODY,
+                           headers={"Content-Type": ctype})
+    assert status == 415 and error_of(data)["field"] == "Content-Type"
+    # A charset parameter is fine.
+    status, _, _ = call(planner_server, "POST", "/v1/trajectories", BODY,
+                        headers={"Content-Type": "application/json; charset=utf-8"})
+    assert status == 200
+
+
+def test_oversized_body_is_413_before_it_is_read(planner_server: Any) -> None:
+    host, port = address(planner_server)
+    with socket.create_connection((host, port), timeout=5) as sock:
+        # Headers only: the server must answer from Content-Length without waiting for data.
+        sock.sendall(b"POST /v1/trajectories HTTP/1.1\r\nHost: x\r\n"
+                     b"Content-Type: application/json\r\n"
+                     + f"Content-Length: {MAX_BODY + 1}\r\n\r\n".encode())
+        reply = _read_all(sock)
+    head, _, payload = reply.partition(b"\r\n\r\n")
+    assert head.startswith(b"HTTP/1.1 413")
+    assert b"connection: close" in head.lower()
+    assert json.loads(payload)["error"]["code"] == "too_large"
+    # Exactly at the limit is read (and then judged on its content).
+    raw = b'{"waypoints": [[0.25, 0.1, 0], [0.18, 0.12, 0.6]]}'
+    raw = raw[:-1] + b" " * (MAX_BODY - len(raw)) + b"}"
+    status, _, _ = call(planner_server, "POST", "/v1/trajectories", raw=raw)
+    assert status == 200
+
+
+def test_plan_over_a_million_samples_is_413(planner_server: Any) -> None:
+    duration = (MAX_SAMPLES + 10) / 1000.0
+    with pytest.raises(InputError):
+        plan(ARM, [HOME, TARGET], duration=duration, rate_hz=1000)
+    status, _, data = call(planner_server, "POST", "/v1/trajectories",
+                           {"waypoints": [HOME, TARGET], "duration": duration, "rate_hz": 1000})
+    assert status == 413 and error_of(data)["field"] == "duration"
+
+
+def _read_all(sock: socket.socket) -> bytes:
+    chunks = []
+    while True:
+        try:
+            chunk = sock.recv(65536)
+        except (ConnectionResetError, TimeoutError):
+            break
+        if not chunk:
+            break
+        chunks.append(chunk)
+    return b"".join(chunks)
+
+
+def test_missing_length_is_411(planner_server: Any) -> None:
+    host, port = address(planner_server)
+    with socket.create_connection((host, port), timeout=5) as sock:
+        sock.sendall(b"POST /v1/trajectories HTTP/1.1\r\nHost: x\r\n"
+                     b"Content-Type: application/json\r\nConnection: close\r\n\r\n")
+        head, _, payload = _read_all(sock).partition(b"\r\n\r\n")
+    assert head.startswith(b"HTTP/1.1 411")
+    assert json.loads(payload)["error"]["field"] == "Content-Length"
+
+
+def test_unknown_path_and_method(planner_server: Any) -> None:
+    status, _, data = call(planner_server, "GET", "/v2/nothing")
+    assert status == 404 and error_of(data)["code"] == "not_found"
+    status, headers, data = call(planner_server, "DELETE", "/v1/trajectories")
+    assert status == 405 and headers["Allow"] == "POST"
+    status, headers, _ = call(planner_server, "POST", "/v1/arm", {})
+    assert status == 405 and headers["Allow"] == "GET"
+
+
+def test_move_endpoints_without_an_arm_are_503(planner_server: Any) -> None:
+    for method, path, body in (("POST", "/v1/moves", BODY), ("GET", "/v1/state", None),
+                               ("GET", "/v1/moves/1", None), ("POST", "/v1/stop", None)):
+        status, _, data = call(planner_server, method, path, body)
+        assert status == 503 and error_of(data)["code"] == "no_arm"
+
+
+def test_keep_alive_serves_many_requests_on_one_connection(planner_server: Any) -> None:
+    host, port = address(planner_server)
+    conn = http.client.HTTPConnection(host, port, timeout=5)
+    try:
+        for _ in range(3):
+            conn.request("POST", "/v1/trajectories", body=json.dumps(BODY),
+                         headers={"Content-Type": "application/json"})
+            resp = conn.getresponse()
+            assert resp.status == 200 and json.loads(resp.read())["rate_hz"] == 100
+            conn.request("GET", "/healthz")
+            resp = conn.getresponse()
+            assert resp.status == 200 and json.loads(resp.read())["status"] == "ok"
+    finally:
+        conn.close()
+
+
+def test_slow_client_does_not_block_others_and_times_out(planner_server: Any) -> None:
+    host, port = address(planner_server)
+    with socket.create_connection((host, port), timeout=5) as slow, \
+            socket.create_connection((host, port), timeout=5) as silent:
+        # One client stalls mid-body, another never sends a byte.
+        slow.sendall(b"POST /v1/trajectories HTTP/1.1\r\nHost: x\r\n"
+                     b"Content-Type: application/json\r\nContent-Length: 100\r\n\r\n{\"wa")
+        t0 = time.monotonic()
+        status, _, _ = call(planner_server, "POST", "/v1/trajectories", BODY)
+        assert status == 200
+        assert time.monotonic() - t0 < 0.5
+        # The server's 1 s socket timeout frees both threads: the sockets get closed.
+        for sock in (slow, silent):
+            sock.settimeout(4)
+            t1 = time.monotonic()
+            assert _read_all(sock) == b""
+            assert time.monotonic() - t1 < 3
+
+
+# -- OpenAPI --------------------------------------------------------------------------------------
+
+def test_openapi_matches_the_routes_answered(planner_server: Any) -> None:
+    status, _, doc = call(planner_server, "GET", "/openapi.json")
+    assert status == 200 and doc["openapi"] == "3.1.0"
+    documented = {(path, method.upper()) for path, ops in doc["paths"].items()
+                  for method in ops}
+    assert documented == {(r.path, r.method) for r in ROUTES}
+    for path, ops in doc["paths"].items():
+        concrete = path.replace("{id}", "1")
+        for method in ("GET", "POST", "PUT", "DELETE", "PATCH"):
+            body = {} if method in ("POST", "PUT", "PATCH") else None
+            status, _, _ = call(planner_server, method, concrete, body)
+            if method.lower() in ops:
+                assert status not in (404, 405), (method, path)
+            else:
+                assert status == 405, (method, path)
+        for op in ops.values():
+            for code, response in op["responses"].items():
+                ref = response["content"]["application/json"]["schema"]["$ref"]
+                assert ref.split("/")[-1] in doc["components"]["schemas"], (path, code)
+
+
+def test_openapi_body_schema_is_what_the_parser_accepts(planner_server: Any) -> None:
+    _, _, doc = call(planner_server, "GET", "/openapi.json")
+    props = doc["components"]["schemas"]["PlanBody"]["properties"]
+    assert set(props) == set(PLAN_FIELDS)
+    # Every documented field is accepted (a valid value of each, all at once).
+    body = {"waypoints": [HOME, TARGET], "method": "seplerp", "beta": 1.0, "turn": "ccw",
+            "duration": 1.5, "profile": "linear", "rate_hz": 50, "blend": False,
+            "start_joints": None}
+    assert set(body) == set(props)
+    status, _, data = call(planner_server, "POST", "/v1/trajectories", body)
+    assert status == 200, data
+    move_props = doc["components"]["schemas"]["MoveBody"]["properties"]
+    assert set(move_props) == set(props) - {"start_joints"}
+
+
+# -- token -------------------------------------------------------------------------------------------
+
+def test_non_loopback_bind_needs_a_token() -> None:
+    with pytest.raises(InputError) as exc:
+        make_server(ARM, None, host="0.0.0.0", port=0)
+    assert exc.value.field == "token"
+    with pytest.raises(InputError):
+        make_server(ARM, None, host="127.0.0.1", port=0, token="  ")
+
+
+def test_token_guards_every_post() -> None:
+    token = "s3cret-token"
+    server = make_server(ARM, None, host="0.0.0.0", port=0, token=token, request_timeout=1.0)
+    with running(server):
+        for headers in ({}, {"Authorization": "Bearer wrong"}, {"Authorization": token},
+                        {"Authorization": f"Basic {token}"}):
+            status, resp_headers, data = call(server, "POST", "/v1/trajectories", BODY,
+                                              headers=headers)
+            assert status == 401 and error_of(data)["code"] == "unauthorized"
+            assert resp_headers["WWW-Authenticate"] == "Bearer"
+        status, _, _ = call(server, "POST", "/v1/trajectories", BODY,
+                            headers={"Authorization": f"Bearer {token}"})
+        assert status == 200
+        # Stop is a POST too; reads stay open.
+        status, _, _ = call(server, "POST", "/v1/stop")
+        assert status == 401
+        assert call(server, "GET", "/healthz")[0] == 200
+        _, _, doc = call(server, "GET", "/openapi.json")
+        assert "bearer" in doc["components"]["securitySchemes"]
+        assert doc["paths"]["/v1/trajectories"]["post"]["security"] == [{"bearer": []}]
