@@ -1,0 +1,592 @@
+"""One simulated X-series servo: control-table rules, motion model, errors, watchdog.
+
+Behaviour follows the ROBOTIS e-manual (XM430-W350 / XL430-W250 control tables,
+Protocol 2.0 instructions) as summarised in /work/shared/dynamixel-notes.md §1.4 to §2.1.
+Time comes from a :class:`~firmware_sim.clock.Clock`; motion is evaluated analytically
+(:mod:`firmware_sim.profile`) whenever the servo is touched, so nothing ticks.
+
+Position frames: the profile runs in the *present* frame (what Present Position reads).
+The motor's own position is ``actual = s·(present - Homing Offset)`` with s = -1 when
+Drive Mode bit 0 (reverse) is set. Homing Offset and Drive Mode are EEPROM items, so they
+change only with torque off, when the motor is at rest: the actual position is kept and
+Present Position jumps.
+
+Error precedence of a write (all-or-nothing, nothing written on any error):
+Access (0x07: undefined, read-only, EEPROM while torque on) → Length (0x05: part of an
+item) → Range (0x04: outside the item's range; goal items while the Bus Watchdog has
+tripped) → Limit (0x06: Goal Position outside Min/Max Position Limit in mode 3, goal
+PWM/current/velocity above their limit items).
+"""
+
+from __future__ import annotations
+
+import math
+import threading
+
+from firmware_sim import control_table as ct
+from firmware_sim.clock import Clock, RealClock
+from firmware_sim.control_table import (
+    ALERT_BIT,
+    ERR_ACCESS,
+    ERR_DATA_LENGTH,
+    ERR_DATA_LIMIT,
+    ERR_DATA_RANGE,
+    ERR_INSTRUCTION,
+    ERR_RESULT_FAIL,
+    MODELS,
+    TABLE_SIZE,
+    ControlTable,
+    Item,
+    indirect_data_slot,
+)
+from firmware_sim.profile import (
+    ACCELERATION_UNIT,
+    VELOCITY_UNIT,
+    Profile,
+    hold,
+    plan_time_based,
+    plan_velocity_based,
+    plan_velocity_mode,
+)
+
+#: Parameters of CLEAR (0x10) for a multi-turn clear: 0x01 'D' 'X' 'L' '"'.
+CLEAR_MULTI_TURN = b"\x01DXL\x22"
+#: Magic of CONTROL_TABLE_BACKUP (0x20) after the option byte: 'C' 'T' 'R' 'L'.
+BACKUP_MAGIC = b"CTRL"
+BACKUP_STORE = 0x01
+BACKUP_RESTORE = 0x02
+#: FACTORY_RESET options: reset all / all but ID / all but ID and Baud Rate.
+RESET_ALL, RESET_KEEP_ID, RESET_KEEP_ID_BAUD = 0xFF, 0x01, 0x02
+#: Bus Watchdog unit, s (e-manual: 20 ms).
+WATCHDOG_UNIT_S = 0.020
+#: Pulses per revolution (12-bit absolute encoder).
+PULSES_PER_REV = 4096
+#: Default boot delay after REBOOT / FACTORY_RESET / restore, s (the servo ignores the bus).
+BOOT_DELAY_S = 0.01
+
+_POSITION_MODES = (ct.MODE_POSITION, ct.MODE_EXTENDED_POSITION, ct.MODE_CURRENT_POSITION)
+_GOALS = (ct.GOAL_PWM, ct.GOAL_CURRENT, ct.GOAL_VELOCITY, ct.GOAL_POSITION)
+
+
+def _round(x: float) -> int:
+    return math.floor(x + 0.5)
+
+
+class Servo:
+    """A simulated X-series servo.
+
+    Parameters
+    ----------
+    servo_id : int
+        Initial ID (0..252).
+    model : str
+        Key of :data:`firmware_sim.control_table.MODELS`.
+    firmware : int
+        Firmware Version item (6); below 45 the bus gives no fast-read replies.
+    baud_index : int
+        Initial Baud Rate item (8), 0..7 (see ``BAUD_RATES``).
+    clock : Clock, optional
+        Time source; :class:`RealClock` by default.
+    position : int
+        Initial Present Position, pulse (actual position with Homing Offset 0).
+    boot_delay_s : float
+        How long :meth:`booting` stays true after a reboot.
+
+    Notes
+    -----
+    :meth:`read` and :meth:`write` bring motion and watchdog up to ``clock.now()`` first.
+    Thread-safe (one internal re-entrant lock).
+    """
+
+    def __init__(self, servo_id: int, model: str = "xm430-w350", *, firmware: int = 46,
+                 baud_index: int = 3, clock: Clock | None = None, position: int = 2048,
+                 boot_delay_s: float = BOOT_DELAY_S) -> None:
+        if model not in MODELS:
+            raise ValueError(f"model {model!r} unknown; known: {sorted(MODELS)}")
+        spec = MODELS[model]
+        if not 0 <= int(servo_id) <= 252:
+            raise ValueError(f"servo_id must be 0..252, got {servo_id!r}")
+        if int(baud_index) not in ct.BAUD_RATES:
+            raise ValueError(f"baud_index must be one of {sorted(ct.BAUD_RATES)}, got "
+                             f"{baud_index!r}")
+        if not 0 <= int(firmware) <= 255:
+            raise ValueError(f"firmware must be 0..255, got {firmware!r}")
+        if not boot_delay_s >= 0:
+            raise ValueError(f"boot_delay_s must be >= 0, got {boot_delay_s!r}")
+        self.model = model
+        self.spec = spec
+        self.clock: Clock = clock if clock is not None else RealClock()
+        self.boot_delay_s = float(boot_delay_s)
+        self.table = ControlTable(spec)
+        self._lock = threading.RLock()
+        self._firmware = int(firmware)
+        self.table.set(ct.FIRMWARE_VERSION, self._firmware)
+        self.table.set(ct.ID, int(servo_id))
+        self.table.set(ct.BAUD_RATE, int(baud_index))
+        now = self.clock.now()
+        self._boot_time = now
+        self._boot_until = now        # constructed servos are up at once
+        self._profile: Profile = hold(now, float(position))
+        self._last_instruction = now
+        self._watchdog_tripped = False
+        self._watchdog_armed_at = now
+        self._registered: tuple[int, bytes] | None = None
+        self._backup: dict[int, bytes] | None = None
+        self._reset_goals()
+
+    # ---- live properties ----------------------------------------------------------
+    @property
+    def id(self) -> int:
+        return self.table.get(ct.ID)
+
+    @property
+    def model_number(self) -> int:
+        return self.table.get(ct.MODEL_NUMBER)
+
+    @property
+    def firmware_version(self) -> int:
+        return self.table.get(ct.FIRMWARE_VERSION)
+
+    @firmware_version.setter
+    def firmware_version(self, value: int) -> None:
+        if not 0 <= int(value) <= 255:
+            raise ValueError(f"firmware_version must be 0..255, got {value!r}")
+        with self._lock:
+            self._firmware = int(value)
+            self.table.set(ct.FIRMWARE_VERSION, self._firmware)
+
+    @property
+    def baud_index(self) -> int:
+        return self.table.get(ct.BAUD_RATE)
+
+    @property
+    def return_delay_us(self) -> float:
+        """Return Delay Time (9) in µs (2 µs a unit)."""
+        return 2.0 * self.table.get(ct.RETURN_DELAY_TIME)
+
+    @property
+    def status_return_level(self) -> int:
+        return self.table.get(ct.STATUS_RETURN_LEVEL)
+
+    @property
+    def hardware_error(self) -> int:
+        return self.table.get(ct.HARDWARE_ERROR_STATUS)
+
+    @property
+    def torque_enabled(self) -> bool:
+        with self._lock:
+            self.update()
+            return bool(self.table.get(ct.TORQUE_ENABLE))
+
+    @property
+    def operating_mode(self) -> int:
+        return self.table.get(ct.OPERATING_MODE)
+
+    @property
+    def goal_position(self) -> int:
+        return self.table.get(ct.GOAL_POSITION)
+
+    @property
+    def present_position(self) -> int:
+        with self._lock:
+            self.update()
+            return self.table.get(ct.PRESENT_POSITION)
+
+    @property
+    def present_velocity(self) -> int:
+        with self._lock:
+            self.update()
+            return self.table.get(ct.PRESENT_VELOCITY)
+
+    @property
+    def moving(self) -> bool:
+        with self._lock:
+            self.update()
+            return bool(self.table.get(ct.MOVING))
+
+    @property
+    def watchdog_tripped(self) -> bool:
+        with self._lock:
+            self.update()
+            return self._watchdog_tripped
+
+    @property
+    def profile(self) -> Profile:
+        """The motion plan in force (present-position frame, pulses and seconds)."""
+        return self._profile
+
+    def get(self, address: int) -> int:
+        """Typed value of the item at ``address`` after :meth:`update` (test convenience)."""
+        with self._lock:
+            self.update()
+            return self.table.get(address)
+
+    # ---- time -----------------------------------------------------------------------
+    def booting(self) -> bool:
+        """True while the servo is rebooting (it ignores the bus then)."""
+        return self.clock.now() < self._boot_until
+
+    def note_instruction(self) -> None:
+        """An instruction addressed to this servo arrived: feed the Bus Watchdog."""
+        with self._lock:
+            self.update()
+            self._last_instruction = self.clock.now()
+
+    def update(self) -> None:
+        """Advance the watchdog and the live items (Present *, Moving, tick...) to now."""
+        with self._lock:
+            now = self.clock.now()
+            self._check_watchdog(now)
+            self._refresh(now)
+
+    def _check_watchdog(self, now: float) -> None:
+        wd = self.table.get(ct.BUS_WATCHDOG)
+        if self._watchdog_tripped or wd <= 0 or not self.table.get(ct.TORQUE_ENABLE):
+            return
+        deadline = max(self._last_instruction, self._watchdog_armed_at) + wd * WATCHDOG_UNIT_S
+        if deadline <= now:
+            # stop at once where the profile was at the deadline (profile treated as 0/0)
+            p, _ = self._profile.state(deadline)
+            self._profile = hold(deadline, p)
+            self._watchdog_tripped = True
+            self.table.set(ct.BUS_WATCHDOG, -1)
+
+    def _refresh(self, now: float) -> None:
+        t = self.table
+        prof = self._profile
+        p, v = prof.state(now)
+        vel = _round(v / VELOCITY_UNIT)
+        pos = _round(p)
+        ongoing = prof.ongoing(now)
+        t.set(ct.PRESENT_POSITION, pos)
+        t.set(ct.POSITION_TRAJECTORY, pos)
+        t.set(ct.PRESENT_VELOCITY, vel)
+        t.set(ct.VELOCITY_TRAJECTORY, vel)
+        moving = ongoing or abs(vel) > t.get(ct.MOVING_THRESHOLD)
+        t.set(ct.MOVING, int(moving))
+        status = prof.kind
+        if ongoing:
+            status |= ct.MS_PROFILE_ONGOING
+        elif (t.get(ct.TORQUE_ENABLE) and t.get(ct.OPERATING_MODE) in _POSITION_MODES
+              and pos == t.get(ct.GOAL_POSITION)):
+            status |= ct.MS_IN_POSITION
+        t.set(ct.MOVING_STATUS, status)
+        t.set(ct.REALTIME_TICK, int((now - self._boot_time) * 1000.0) % 32768)
+        t.set(ct.REGISTERED_INSTRUCTION, int(self._registered is not None))
+        t.set(ct.BACKUP_READY, int(self._backup is not None))
+
+    # ---- frames ---------------------------------------------------------------------
+    def _sign(self) -> int:
+        return -1 if self.table.get(ct.DRIVE_MODE) & ct.DRIVE_REVERSE else 1
+
+    def _actual(self, present: float) -> float:
+        return self._sign() * (present - self.table.get(ct.HOMING_OFFSET))
+
+    def _present(self, actual: float) -> float:
+        return self._sign() * actual + self.table.get(ct.HOMING_OFFSET)
+
+    # ---- read -----------------------------------------------------------------------
+    def read(self, address: int, length: int) -> tuple[int, bytes]:
+        """READ: (error code, data); data is b"" on error.
+
+        Any span inside the table reads (undefined gaps read 0, as on the firmware's flat
+        memory); a span beyond the table is an Access Error. Indirect Data bytes read the
+        byte their Indirect Address names.
+        """
+        with self._lock:
+            self.update()
+            if length <= 0:
+                return ERR_DATA_LENGTH, b""
+            if address < 0 or address + length > TABLE_SIZE:
+                return ERR_ACCESS, b""
+            out = bytearray(self.table.raw(address, length))
+            for i in range(length):
+                slot = indirect_data_slot(address + i)
+                if slot is not None:
+                    target = self.table.get(slot)
+                    out[i] = 0 if indirect_data_slot(target) is not None else \
+                        self.table.data[target]
+            return 0, bytes(out)
+
+    # ---- write ----------------------------------------------------------------------
+    def write(self, address: int, data: bytes) -> int:
+        """WRITE: error code (0 = ok). All-or-nothing; see the module notes for codes."""
+        with self._lock:
+            self.update()
+            code, items = self._validate(address, bytes(data))
+            if code:
+                return code
+            return self._commit(items)
+
+    def _resolve(self, address: int, data: bytes) -> tuple[int, dict[Item, dict[int, int]]]:
+        """Map written bytes to target items (through indirect data); error on bad access."""
+        if not data:
+            return ERR_DATA_LENGTH, {}
+        if address < 0 or address + len(data) > TABLE_SIZE:
+            return ERR_ACCESS, {}
+        items: dict[Item, dict[int, int]] = {}
+        for i, byte in enumerate(data):
+            a = address + i
+            slot = indirect_data_slot(a)
+            if slot is not None:
+                a = self.table.get(slot)
+                if indirect_data_slot(a) is not None:
+                    return ERR_ACCESS, {}      # no chains of indirection
+            owner = self.spec.owner(a)
+            if owner is None or not owner.writable:
+                return ERR_ACCESS, {}
+            items.setdefault(owner, {})[a - owner.address] = byte
+        return 0, items
+
+    def _validate(self, address: int, data: bytes) -> tuple[int, dict[Item, int]]:
+        code, raw = self._resolve(address, data)
+        if code:
+            return code, {}
+        t = self.table
+        torque = t.get(ct.TORQUE_ENABLE)
+        if torque and any(it.eeprom for it in raw):
+            return ERR_ACCESS, {}
+        if any(len(parts) != it.size for it, parts in raw.items()):
+            return ERR_DATA_LENGTH, {}
+        values = {it: it.decode(bytes(parts[k] for k in range(it.size)))
+                  for it, parts in raw.items()}
+        for it, value in values.items():
+            if not it.in_range(value):
+                return ERR_DATA_RANGE, {}
+            if self._watchdog_tripped and (it.address in _GOALS
+                                           or (it.address == ct.BUS_WATCHDOG and value)):
+                return ERR_DATA_RANGE, {}
+        for it, value in values.items():
+            if it.limit and not self._within_limit(it.limit, value):
+                return ERR_DATA_LIMIT, {}
+        if values.get(self.spec.items[ct.TORQUE_ENABLE]) == 1 and not torque and \
+                t.get(ct.HARDWARE_ERROR_STATUS) & t.get(ct.SHUTDOWN):
+            return ERR_RESULT_FAIL, {}     # shut down: only a reboot re-enables torque
+        return 0, values
+
+    def _within_limit(self, kind: str, value: int) -> bool:
+        t = self.table
+        if kind == "pwm":
+            return abs(value) <= t.get(ct.PWM_LIMIT)
+        if kind == "current":
+            return abs(value) <= t.get(ct.CURRENT_LIMIT)
+        if kind == "velocity":
+            return abs(value) <= t.get(ct.VELOCITY_LIMIT)
+        if t.get(ct.OPERATING_MODE) == ct.MODE_POSITION:
+            return t.get(ct.MIN_POSITION_LIMIT) <= value <= t.get(ct.MAX_POSITION_LIMIT)
+        return True
+
+    def _commit(self, values: dict[Item, int]) -> int:
+        t = self.table
+        now = self.clock.now()
+        written = {it.address for it in values}
+        old_torque = t.get(ct.TORQUE_ENABLE)
+        actual = self._actual(self._profile.state(now)[0])
+        old_mode = t.get(ct.OPERATING_MODE)
+        for it in sorted(values, key=lambda it: it.address):
+            t.set(it.address, values[it])
+        if written & {ct.HOMING_OFFSET, ct.DRIVE_MODE}:
+            self._profile = hold(now, self._present(actual))
+        if ct.OPERATING_MODE in written and t.get(ct.OPERATING_MODE) != old_mode:
+            # e-manual: a mode change resets the profile and the goal PWM/current
+            for a in (ct.PROFILE_VELOCITY, ct.PROFILE_ACCELERATION):
+                if a not in written:
+                    t.set(a, 0)
+            self._reset_goals(keep=written)
+        if ct.TORQUE_ENABLE in written:
+            new_torque = t.get(ct.TORQUE_ENABLE)
+            if new_torque and not old_torque:
+                self._torque_on(now, keep_goal=ct.GOAL_POSITION in written)
+            elif old_torque and not new_torque:
+                self._profile = hold(now, self._profile.state(now)[0])
+        if ct.BUS_WATCHDOG in written:
+            if t.get(ct.BUS_WATCHDOG) == 0:
+                self._watchdog_tripped = False
+            self._watchdog_armed_at = now
+        if ct.GOAL_POSITION in written or ct.GOAL_VELOCITY in written:
+            self._goal_changed(now, ct.GOAL_POSITION in written)
+        self._refresh(now)
+        return 0
+
+    def _torque_on(self, now: float, keep_goal: bool) -> None:
+        # the servo holds where it is; the goal follows the present position
+        p = self._profile.state(now)[0]
+        self._profile = hold(now, p)
+        if not keep_goal:
+            self.table.set(ct.GOAL_POSITION, _round(p))
+        self._watchdog_armed_at = now
+
+    def _goal_changed(self, now: float, position: bool) -> None:
+        t = self.table
+        mode = t.get(ct.OPERATING_MODE)
+        if not t.get(ct.TORQUE_ENABLE):
+            if not (t.get(ct.DRIVE_MODE) & ct.DRIVE_TORQUE_ON_BY_GOAL) or \
+                    t.get(ct.HARDWARE_ERROR_STATUS) & t.get(ct.SHUTDOWN):
+                return
+            t.set(ct.TORQUE_ENABLE, 1)
+            self._torque_on(now, keep_goal=True)
+        p, v = self._profile.state(now)
+        if mode in _POSITION_MODES and position:
+            self._profile = self._plan_position(now, p, v, t.get(ct.GOAL_POSITION))
+        elif mode == ct.MODE_VELOCITY and not position:
+            accel = t.get(ct.PROFILE_ACCELERATION) * ACCELERATION_UNIT
+            self._profile = plan_velocity_mode(now, p, v,
+                                               t.get(ct.GOAL_VELOCITY) * VELOCITY_UNIT, accel)
+
+    def _plan_position(self, now: float, p: float, v: float, goal: int) -> Profile:
+        t = self.table
+        pv, pa = t.get(ct.PROFILE_VELOCITY), t.get(ct.PROFILE_ACCELERATION)
+        if t.get(ct.DRIVE_MODE) & ct.DRIVE_TIME_BASED:
+            return plan_time_based(now, p, v, goal, pv / 1000.0, pa / 1000.0)
+        if pv > 0:
+            pv = min(pv, t.get(ct.VELOCITY_LIMIT))
+        return plan_velocity_based(now, p, v, goal, pv * VELOCITY_UNIT, pa * ACCELERATION_UNIT)
+
+    def _reset_goals(self, keep: set[int] | frozenset[int] = frozenset()) -> None:
+        t = self.table
+        if ct.GOAL_PWM not in keep:
+            t.set(ct.GOAL_PWM, t.get(ct.PWM_LIMIT))
+        if self.spec.has_current and ct.GOAL_CURRENT not in keep:
+            t.set(ct.GOAL_CURRENT, t.get(ct.CURRENT_LIMIT))
+        if ct.GOAL_POSITION not in keep:
+            t.set(ct.GOAL_POSITION, _round(self._profile.state(self.clock.now())[0]))
+
+    # ---- registered write -------------------------------------------------------------
+    def reg_write(self, address: int, data: bytes) -> int:
+        """REG_WRITE: validate now, store; :meth:`action` applies it. Registered Instruction = 1."""
+        with self._lock:
+            self.update()
+            code, _ = self._validate(address, bytes(data))
+            if code:
+                return code
+            self._registered = (int(address), bytes(data))
+            self._refresh(self.clock.now())
+            return 0
+
+    def action(self) -> int:
+        """ACTION: apply the registered write (re-validated now); ERR_INSTRUCTION if none."""
+        with self._lock:
+            self.update()
+            if self._registered is None:
+                return ERR_INSTRUCTION
+            address, data = self._registered
+            self._registered = None
+            code = self.write(address, data)
+            self._refresh(self.clock.now())
+            return code
+
+    # ---- errors ---------------------------------------------------------------------
+    def status_error(self, code: int) -> int:
+        """ERR byte for a status packet: ``code`` plus the alert bit while Hardware Error
+        Status is non-zero."""
+        return code | ALERT_BIT if self.table.get(ct.HARDWARE_ERROR_STATUS) else code
+
+    def trip(self, bits: int) -> None:
+        """Inject hardware error ``bits`` (Shutdown bits: 0x01 voltage, 0x04 overheat,
+        0x08 encoder, 0x10 electrical shock, 0x20 overload). Torque goes off if any bit is
+        set in Shutdown (63); only a reboot clears the status."""
+        if not 0 < int(bits) <= 0xFF:
+            raise ValueError(f"hardware error bits must be 1..255, got {bits!r}")
+        with self._lock:
+            self.update()
+            t = self.table
+            t.set(ct.HARDWARE_ERROR_STATUS, t.get(ct.HARDWARE_ERROR_STATUS) | int(bits))
+            if int(bits) & t.get(ct.SHUTDOWN) and t.get(ct.TORQUE_ENABLE):
+                now = self.clock.now()
+                t.set(ct.TORQUE_ENABLE, 0)
+                self._profile = hold(now, self._profile.state(now)[0])
+            self._refresh(self.clock.now())
+
+    # ---- reboot, reset, clear, backup -------------------------------------------------
+    def reboot(self) -> None:
+        """REBOOT: torque off, RAM (64+) to defaults, hardware error cleared, multi-turn
+        lost (the absolute encoder reports one revolution), boot delay starts."""
+        with self._lock:
+            self.update()
+            self._reboot(self.clock.now())
+
+    def _reboot(self, now: float) -> None:
+        actual = self._actual(self._profile.state(now)[0]) % PULSES_PER_REV
+        self.table.reset(lambda it: not it.eeprom)
+        self._registered = None
+        self._watchdog_tripped = False
+        self._profile = hold(now, self._present(actual))
+        self._reset_goals()
+        self._boot_time = now
+        self._boot_until = now + self.boot_delay_s
+        self._last_instruction = self._watchdog_armed_at = now
+        self._refresh(now)
+
+    def factory_reset(self, option: int) -> int:
+        """FACTORY_RESET: 0xFF all items, 0x01 all but ID, 0x02 all but ID and Baud Rate;
+        then reboot. Another option is a Data Range Error and changes nothing."""
+        with self._lock:
+            self.update()
+            if option not in (RESET_ALL, RESET_KEEP_ID, RESET_KEEP_ID_BAUD):
+                return ERR_DATA_RANGE
+            now = self.clock.now()
+            actual = self._actual(self._profile.state(now)[0])
+            keep = {ct.MODEL_NUMBER, ct.FIRMWARE_VERSION}
+            if option in (RESET_KEEP_ID, RESET_KEEP_ID_BAUD):
+                keep.add(ct.ID)
+            if option == RESET_KEEP_ID_BAUD:
+                keep.add(ct.BAUD_RATE)
+            self.table.reset(lambda it: it.address not in keep)
+            self.table.set(ct.FIRMWARE_VERSION, self._firmware)
+            self._profile = hold(now, self._present(actual))
+            self._reboot(now)
+            return 0
+
+    def clear(self, params: bytes) -> int:
+        """CLEAR multi-turn (params 0x01 'D' 'X' 'L' '"'): Present Position back into one
+        revolution of the actual position. Result Fail while moving."""
+        with self._lock:
+            self.update()
+            params = bytes(params)
+            if len(params) != len(CLEAR_MULTI_TURN):
+                return ERR_DATA_LENGTH
+            if params != CLEAR_MULTI_TURN:
+                return ERR_DATA_RANGE
+            now = self.clock.now()
+            if self.table.get(ct.MOVING) or self._profile.ongoing(now):
+                return ERR_RESULT_FAIL
+            actual = self._actual(self._profile.state(now)[0]) % PULSES_PER_REV
+            self._profile = hold(now, self._present(actual))
+            if self.table.get(ct.TORQUE_ENABLE):
+                self.table.set(ct.GOAL_POSITION, _round(self._present(actual)))
+            self._refresh(now)
+            return 0
+
+    def backup(self, params: bytes) -> int:
+        """CONTROL_TABLE_BACKUP: 0x01 'C' 'T' 'R' 'L' stores every writable item, 0x02 ...
+        restores them after a reboot. Result Fail while torque is on or with no backup."""
+        with self._lock:
+            self.update()
+            params = bytes(params)
+            if len(params) != 1 + len(BACKUP_MAGIC):
+                return ERR_DATA_LENGTH
+            if params[1:] != BACKUP_MAGIC or params[0] not in (BACKUP_STORE, BACKUP_RESTORE):
+                return ERR_DATA_RANGE
+            if self.table.get(ct.TORQUE_ENABLE):
+                return ERR_RESULT_FAIL
+            now = self.clock.now()
+            saved_items = [it for it in self.spec.items.values()
+                           if it.writable and it.address != ct.TORQUE_ENABLE]
+            if params[0] == BACKUP_STORE:
+                self._backup = self.table.snapshot(saved_items)
+                self._refresh(now)
+                return 0
+            if self._backup is None:
+                return ERR_RESULT_FAIL
+            actual = self._actual(self._profile.state(now)[0])
+            self.table.restore(self._backup)
+            self._profile = hold(now, self._present(actual))
+            ram = {a: raw for a, raw in self._backup.items() if a >= ct.EEPROM_END}
+            self._reboot(now)
+            self.table.restore(ram)
+            self._refresh(now)
+            return 0
+
+    def __repr__(self) -> str:
+        return (f"Servo(id={self.id}, model={self.model!r}, firmware={self.firmware_version}, "
+                f"baud_index={self.baud_index})")
