@@ -328,7 +328,7 @@ def test_openapi_body_schema_is_what_the_parser_accepts(planner_server: Any) -> 
     assert set(move_props) == set(props) - {"start_joints"}
 
 
-# -- token -------------------------------------------------------------------------------------------
+# -- token ------------------------------------------------------------------------------------
 
 def test_non_loopback_bind_needs_a_token() -> None:
     with pytest.raises(InputError) as exc:
@@ -358,3 +358,181 @@ def test_token_guards_every_post() -> None:
         _, _, doc = call(server, "GET", "/openapi.json")
         assert "bearer" in doc["components"]["securitySchemes"]
         assert doc["paths"]["/v1/trajectories"]["post"]["security"] == [{"bearer": []}]
+
+
+# -- moves, stop and state on the simulated arm ---------------------------------------------------
+
+@pytest.fixture
+def arm_server() -> Iterator[tuple[Any, Any]]:
+    from robodcn.controller import ArmController
+    from robodcn.simulated import simulated_arm
+
+    with simulated_arm(ARM, timing="fast") as sa:
+        controller = ArmController(ARM, sa.bus)
+        try:
+            with running(make_server(ARM, controller, request_timeout=2.0)) as server:
+                yield server, sa
+        finally:
+            controller.close()
+    assert not sa.sim.errors, sa.sim.errors
+
+
+def present(sa: Any) -> list[int]:
+    return [sa.sim.servo(i).present_position for i in ARM.servo_ids]
+
+
+def poll_move(server: Any, move_id: str, until: Any, timeout: float = 10.0) -> dict[str, Any]:
+    deadline = time.monotonic() + timeout
+    while True:
+        status, _, body = call(server, "GET", f"/v1/moves/{move_id}")
+        assert status == 200, body
+        if until(body):
+            return body
+        assert time.monotonic() < deadline, body
+        time.sleep(0.01)
+
+
+def test_move_executes_and_reports(arm_server: Any) -> None:
+    server, sa = arm_server
+    status, headers, body = call(server, "POST", "/v1/moves", BODY)
+    assert status == 202, body
+    assert headers["Location"] == f"/v1/moves/{body['id']}"
+    assert body["status"] in ("queued", "running")
+    want = plan(ARM, BODY["waypoints"], duration=BODY["duration"], rate_hz=BODY["rate_hz"])
+    assert body["samples"] == len(want.t) and body["duration"] == want.duration
+    done = poll_move(server, body["id"], lambda b: b["status"] not in ("queued", "running"))
+    assert done["status"] == "done" and done["progress"] == 1.0, done
+    assert done["report"]["stop_reason"] == "completed"
+    assert done["report"]["samples_sent"] + done["report"]["samples_skipped"] == \
+        done["report"]["samples_total"]
+    # The arm ends where the plan ends; /v1/state reports it through FK.
+    deadline = time.monotonic() + 5
+    while np.abs(np.array(present(sa)) - want.ticks[-1]).max() > 1:
+        assert time.monotonic() < deadline
+        time.sleep(0.01)
+    status, _, state = call(server, "GET", "/v1/state")
+    assert status == 200 and state["moving"] is False and state["source"] == "bus"
+    assert state["ticks"] == present(sa)
+    joints = servo_units.ticks_to_radians(np.array([state["ticks"]]), ARM.servos)[0]
+    np.testing.assert_allclose(state["joints"], joints)
+    np.testing.assert_allclose(state["pose"], kinematics.fk(ARM.links, joints[None])[0])
+    np.testing.assert_allclose(state["pose"][:2], TARGET[:2], atol=2e-3)
+    assert state["torque"] is True and state["alerts"] == {}
+
+
+def test_two_concurrent_moves_one_is_409(arm_server: Any) -> None:
+    server, _ = arm_server
+    body = {**BODY, "duration": 1.0}
+    barrier = threading.Barrier(2)
+    results: list[tuple[int, Any]] = []
+
+    def post() -> None:
+        barrier.wait()
+        status, _, data = call(server, "POST", "/v1/moves", body)
+        results.append((status, data))
+
+    threads = [threading.Thread(target=post) for _ in range(2)]
+    for t in threads:
+        t.start()
+    for t in threads:
+        t.join(10)
+    assert sorted(s for s, _ in results) == [202, 409]
+    accepted = next(d for s, d in results if s == 202)
+    refused = next(d for s, d in results if s == 409)
+    assert error_of(refused)["code"] == "busy" and accepted["id"] in refused["error"]["message"]
+    _, _, health = call(server, "GET", "/healthz")
+    assert health["moving"] is True
+    final = poll_move(server, accepted["id"], lambda b: b["status"] not in ("queued", "running"))
+    assert final["status"] == "done", final["error"]
+    assert call(server, "GET", "/healthz")[2]["moving"] is False
+
+
+def test_stop_during_a_move_holds(arm_server: Any) -> None:
+    server, sa = arm_server
+    status, _, body = call(server, "POST", "/v1/moves", {**BODY, "duration": 2.0})
+    assert status == 202
+    running_move = poll_move(server, body["id"], lambda b: b["progress"] > 0.1)
+    assert running_move["status"] == "running"
+    status, _, state = call(server, "GET", "/v1/state")
+    assert status == 200 and state["moving"] and state["source"] == "stream"
+    assert state["move"] == body["id"]
+    status, _, stopped = call(server, "POST", "/v1/stop")
+    assert status == 200
+    assert stopped == {"stopped": True, "move": body["id"], "status": "stopped"}
+    final = poll_move(server, body["id"], lambda b: b["status"] != "running")
+    assert final["status"] == "stopped" and final["report"]["stop_reason"] == "stopped"
+    assert final["progress"] < 1.0
+    # The arm holds: goals stop changing and the servos stay put.
+    goals = [sa.sim.goal_history(i) for i in ARM.servo_ids]
+    held = present(sa)
+    time.sleep(0.2)
+    assert [sa.sim.goal_history(i) for i in ARM.servo_ids] == goals
+    assert np.abs(np.array(present(sa)) - held).max() <= 1
+    assert final["report"]["hold_goals"] == [g[-1] for g in goals]
+    # Stopping again is harmless; a body other than {} is refused.
+    assert call(server, "POST", "/v1/stop", {})[2]["stopped"] is False
+    status, _, data = call(server, "POST", "/v1/stop", {"now": True})
+    assert status == 422 and error_of(data)["field"] == "now"
+
+
+def test_move_errors(arm_server: Any) -> None:
+    server, sa = arm_server
+    status, _, data = call(server, "GET", "/v1/moves/999")
+    assert status == 404 and error_of(data)["field"] == "id"
+    status, _, data = call(server, "POST", "/v1/moves", {**BODY, "start_joints": [0, 0, 0]})
+    assert status == 422 and error_of(data)["field"] == "start_joints"
+    status, _, data = call(server, "POST", "/v1/moves",
+                           {"waypoints": [HOME, TARGET, [0.9, 0.0, 0.0]]})
+    assert status == 422 and error_of(data)["field"] == "waypoints[2]"
+    for raw, code in ((b"{", 400), (b"[]", 422)):
+        assert call(server, "POST", "/v1/moves", raw=raw)[0] == code
+    assert call(server, "POST", "/v1/moves", BODY, headers={"Content-Type": "text/json"})[0] \
+        == 415
+    # A bus fault: the servos stop answering.
+    sa.sim.faults.drop(times=None)
+    status, _, data = call(server, "GET", "/v1/state")
+    assert status == 503 and error_of(data)["code"] == "communication"
+    sa.sim.faults.clear()
+    assert call(server, "GET", "/v1/state")[0] == 200
+
+
+def test_a_refused_move_reports_its_fault(arm_server: Any) -> None:
+    server, sa = arm_server
+    sa.sim.faults.trip(3, bits=0x20)  # overload on the wrist servo
+    status, _, body = call(server, "POST", "/v1/moves", BODY)
+    assert status == 202
+    final = poll_move(server, body["id"], lambda b: b["status"] not in ("queued", "running"))
+    assert final["status"] == "failed" and final["error"]["code"] == "hardware_alert"
+    status, _, state = call(server, "GET", "/v1/state")
+    assert status == 200 and state["alerts"] == {"3": "overload"}
+
+
+def test_serve_runs_until_sigterm() -> None:
+    code = ("import sys; from robodcn.config import load_arm; "
+            "from robodcn.http_server import serve; "
+            f"serve(load_arm({str(ROOT / 'configs' / 'arm3r.toml')!r}), port=0, sim=True, "
+            "ready=lambda url: print(url, flush=True))")
+    env = {**os.environ, "PYTHONPATH": str(ROOT)}
+    env.pop("ROBODCN_TOKEN", None)
+    proc = subprocess.Popen([sys.executable, "-c", code], stdout=subprocess.PIPE,
+                            stderr=subprocess.PIPE, env=env, text=True)
+    try:
+        url = proc.stdout.readline().strip()
+        assert url.startswith("http://127.0.0.1:"), proc.stderr.read() if not url else url
+        host, port = url.removeprefix("http://").split(":")
+        conn = http.client.HTTPConnection(host, int(port), timeout=10)
+        conn.request("GET", "/v1/state")
+        resp = conn.getresponse()
+        state = json.loads(resp.read())
+        conn.close()
+        assert resp.status == 200 and state["source"] == "bus"
+        want = servo_units.radians_to_ticks(kinematics.ik(ARM.links, [ARM.home], ARM.elbow),
+                                            ARM.servos)[0]
+        assert state["ticks"] == want.tolist()
+        proc.send_signal(signal.SIGTERM)
+        assert proc.wait(10) == 0
+        assert proc.stderr.read() == ""  # quiet: no per-request logging, no traceback
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+            proc.wait()

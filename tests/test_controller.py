@@ -1,0 +1,188 @@
+"""ArmController against the simulated arm (firmware_sim, fast timing, the real dynamixel-sdk)."""
+
+from __future__ import annotations
+
+import threading
+import time
+from collections.abc import Iterator
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pytest
+
+from robodcn import kinematics, servo_units
+from robodcn.bus import ServoBus
+from robodcn.config import load_arm
+from robodcn.controller import ArmController
+from robodcn.errors import BusyError, CommError, InputError
+from robodcn.planner import plan
+from robodcn.simulated import SimulatedArm, simulated_arm
+
+ROOT = Path(__file__).resolve().parent.parent
+ARM = load_arm(ROOT / "configs" / "arm3r.toml")
+ARM2 = load_arm(ROOT / "configs" / "arm2r.toml")
+TARGET = (0.18, 0.12, 0.6)
+
+
+def short_move(end: tuple[float, float, float] = TARGET, duration: float = 0.6) -> Any:
+    return plan(ARM, [ARM.home, end], duration=duration)
+
+
+@pytest.fixture
+def rig() -> Iterator[tuple[SimulatedArm, ArmController]]:
+    with simulated_arm(ARM, timing="fast") as sa:
+        controller = ArmController(ARM, sa.bus)
+        try:
+            yield sa, controller
+        finally:
+            controller.close()
+    assert not sa.sim.errors, sa.sim.errors
+
+
+def present(sa: SimulatedArm) -> list[int]:
+    return [sa.sim.servo(i).present_position for i in ARM.servo_ids]
+
+
+def wait_until(predicate: Any, timeout: float = 5.0) -> None:
+    deadline = time.monotonic() + timeout
+    while not predicate():
+        assert time.monotonic() < deadline, "condition not reached in time"
+        time.sleep(0.005)
+
+
+def test_move_runs_to_completion_and_state_reads_back(rig: Any) -> None:
+    sa, controller = rig
+    traj = short_move()
+    record = controller.start_move(traj)
+    assert record.status in ("queued", "running")
+    done = controller.wait(record.id, timeout=10)
+    assert done.status == "done", done.error
+    assert done.report is not None and done.report.completed
+    assert done.progress == 1.0 and done.finished >= done.started >= done.created
+    data = done.to_dict()
+    assert data["report"]["stop_reason"] == "completed"
+    assert data["samples"] == len(traj.t)
+    wait_until(lambda: np.abs(np.array(present(sa)) - traj.ticks[-1]).max() <= 1)
+    state = controller.state()
+    assert state["source"] == "bus" and state["moving"] is False and state["torque"] is True
+    assert state["ticks"] == present(sa)
+    joints = servo_units.ticks_to_radians(np.array([state["ticks"]]), ARM.servos)[0]
+    np.testing.assert_allclose(state["joints"], joints)
+    np.testing.assert_allclose(state["pose"], kinematics.fk(ARM.links, joints[None])[0])
+    # Within a tick of the plan's end: the pose within the FK of one tick per joint.
+    np.testing.assert_allclose(state["joints"], traj.joints[-1], atol=2 * 2 * np.pi / 4096)
+    assert state["alerts"] == {}
+
+
+def test_second_move_is_busy_while_one_runs(rig: Any) -> None:
+    _, controller = rig
+    first = controller.start_move(short_move(duration=1.0))
+    with pytest.raises(BusyError) as exc:
+        controller.start_move(short_move())
+    assert exc.value.http_status == 409 and first.id in exc.value.message
+    assert controller.busy
+    controller.wait(first.id, timeout=10)
+    assert not controller.busy
+    second = controller.start_move(plan(ARM, [TARGET, ARM.home]))
+    assert controller.wait(second.id, timeout=10).status == "done"
+
+
+def test_stop_holds_the_arm(rig: Any) -> None:
+    sa, controller = rig
+    traj = short_move(duration=2.0)
+    record = controller.start_move(traj)
+    wait_until(lambda: record.progress > 0.1)
+    state = controller.state()
+    assert state["source"] == "stream" and state["moving"] and state["move"] == record.id
+    t0 = time.monotonic()
+    result = controller.stop()
+    assert time.monotonic() - t0 < 1.0
+    assert result == {"stopped": True, "move": record.id, "status": "stopped"}
+    assert record.report is not None and record.report.stop_reason == "stopped"
+    assert 0.1 < record.progress < 1.0
+    # Holding: no more goals arrive and the servos stay where they stopped.
+    goals = [len(sa.sim.goal_history(i)) for i in ARM.servo_ids]
+    held = present(sa)
+    time.sleep(0.2)
+    assert [len(sa.sim.goal_history(i)) for i in ARM.servo_ids] == goals
+    assert np.abs(np.array(present(sa)) - held).max() <= 1
+    assert list(record.report.hold_goals) == [sa.sim.servo(i).goal_position
+                                              for i in ARM.servo_ids]
+    assert controller.stop()["stopped"] is False
+
+
+def test_only_the_worker_thread_touches_the_port(rig: Any, monkeypatch: Any) -> None:
+    _, controller = rig
+    threads: set[str] = set()
+    original = ServoBus.claim
+
+    def spy(self: ServoBus) -> Any:
+        threads.add(threading.current_thread().name)
+        return original(self)
+
+    monkeypatch.setattr(ServoBus, "claim", spy)
+    controller.state()
+    record = controller.start_move(short_move(duration=0.8))
+    while not record.done.is_set():
+        controller.state()
+        controller.move(record.id)
+        time.sleep(0.01)
+    controller.state()
+    assert threads and all(name.startswith("robodcn-arm") for name in threads), threads
+
+
+def test_history_is_bounded(rig: Any) -> None:
+    sa, _ = rig
+    controller = ArmController(ARM, sa.bus, history=2)
+    try:
+        ids = []
+        there, back = plan(ARM, [ARM.home, TARGET]), plan(ARM, [TARGET, ARM.home])
+        for traj in (there, back, there):
+            record = controller.start_move(traj)
+            controller.wait(record.id, timeout=10)
+            ids.append(record.id)
+        assert len(set(ids)) == 3
+        assert controller.move(ids[0]) is None
+        assert [r.id for r in controller.moves()] == ids[1:]
+    finally:
+        controller.close()
+
+
+def test_refused_move_fails_with_the_bus_error(rig: Any) -> None:
+    sa, controller = rig
+    sa.sim.faults.trip(2, bits=0x04)  # overheating on the elbow servo
+    record = controller.wait(controller.start_move(short_move()).id, timeout=10)
+    assert record.status == "failed" and record.report is None
+    assert record.error["code"] == "hardware_alert"
+    assert "overheating" in record.error["message"]
+    state = controller.state()
+    assert state["alerts"] == {"2": "overheating"}
+    assert not controller.busy
+
+
+def test_state_read_failure_is_a_bus_error(rig: Any) -> None:
+    sa, controller = rig
+    sa.sim.faults.drop(times=None)
+    with pytest.raises(CommError) as exc:
+        controller.state()
+    assert exc.value.http_status == 503
+
+
+def test_bad_arguments() -> None:
+    with simulated_arm(ARM, timing="fast") as sa:
+        with pytest.raises(InputError):
+            ArmController(ARM2, sa.bus)
+        with pytest.raises(InputError):
+            ArmController(ARM, sa.bus, history=0)
+        with pytest.raises(InputError):
+            ArmController(ARM, sa.bus, execute_options={"stop": None})
+        controller = ArmController(ARM, sa.bus)
+        with pytest.raises(InputError):
+            controller.start_move(plan(ARM2, [(0.2, 0.1, 0.0), (0.15, 0.15, 0.0)]))
+        with pytest.raises(InputError):
+            controller.start_move("not a trajectory")  # type: ignore[arg-type]
+        controller.close()
+        controller.close()  # idempotent
+        with pytest.raises(InputError):
+            controller.start_move(short_move())

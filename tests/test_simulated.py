@@ -1,0 +1,85 @@
+"""simulated_arm: a firmware_sim bus with the arm's servos, opened through robodcn.bus."""
+
+from __future__ import annotations
+
+import os
+import threading
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from robodcn import kinematics, servo_units
+from robodcn.config import load_arm
+from robodcn.errors import InputError
+from robodcn.simulated import simulated_arm
+
+ROOT = Path(__file__).resolve().parent.parent
+ARM3 = load_arm(ROOT / "configs" / "arm3r.toml")
+ARM2 = load_arm(ROOT / "configs" / "arm2r.toml")
+
+
+def _fds() -> set[str]:
+    return set(os.listdir("/proc/self/fd"))
+
+
+@pytest.mark.parametrize("arm", [ARM3, ARM2], ids=["arm3r", "arm2r"])
+def test_starts_at_home_with_the_arms_servos(arm) -> None:
+    with simulated_arm(arm, timing="fast") as sa:
+        assert sa.arm is arm
+        assert sa.bus.is_open and sa.bus.ids == arm.servo_ids and sa.bus.configured
+        assert [sa.sim.servo(i).model for i in arm.servo_ids] == [s.model for s in arm.servos]
+        home = kinematics.ik(arm.links, [arm.home], arm.elbow)
+        want = servo_units.radians_to_ticks(home, arm.servos)[0]
+        got = sa.bus.read_positions()
+        np.testing.assert_array_equal(got, want)
+        # FK of the read-back joints is the home pose (to one tick per joint).
+        joints = servo_units.ticks_to_radians(got[None], arm.servos)
+        pose = kinematics.fk(arm.links, joints)[0]
+        np.testing.assert_allclose(pose[:2], arm.home[:2], atol=1e-3)
+        assert all(sa.bus.torque_enabled().values())
+
+
+def test_start_joints_and_fast_read_choice() -> None:
+    q = [0.3, -0.8, 0.2]
+    with simulated_arm(ARM3, timing="fast", start_joints=q, firmware=44) as sa:
+        want = servo_units.radians_to_ticks(np.array([q]), ARM3.servos)[0]
+        np.testing.assert_array_equal(sa.bus.read_positions(), want)
+        assert sa.bus.fast_read is False  # firmware 44 has no Fast Sync Read
+    with simulated_arm(ARM3, timing="fast") as sa:
+        assert sa.bus.fast_read is True
+
+
+def test_closes_everything() -> None:
+    threads = set(threading.enumerate())
+    fds = _fds()
+    with simulated_arm(ARM3, timing="fast") as sa:
+        path = sa.sim.port_path
+        assert os.path.exists(path)
+    assert not sa.bus.is_open
+    assert set(threading.enumerate()) == threads
+    assert _fds() == fds
+
+
+def test_closes_on_error_inside_the_block() -> None:
+    threads = set(threading.enumerate())
+    fds = _fds()
+    with pytest.raises(RuntimeError), simulated_arm(ARM3, timing="fast"):
+        raise RuntimeError("boom")
+    assert set(threading.enumerate()) == threads
+    assert _fds() == fds
+
+
+@pytest.mark.parametrize(("kwargs", "field"), [
+    ({"timing": "slow"}, "timing"),
+    ({"start_joints": [0.1, 0.2]}, "start_joints"),
+    ({"start_joints": [0.1, float("nan"), 0.0]}, "start_joints"),
+    ({"start_joints": [0.0, 0.0, 3.1]}, "start_joints"),   # outside the wrist's limits
+    ({"firmware": "new"}, "firmware"),
+])
+def test_bad_arguments_name_the_field(kwargs, field) -> None:
+    threads = set(threading.enumerate())
+    with pytest.raises(InputError) as exc, simulated_arm(ARM3, **kwargs):
+        pass
+    assert exc.value.field == field
+    assert set(threading.enumerate()) == threads
