@@ -46,8 +46,11 @@ _STATUS = {"completed": "done", "stopped": "stopped"}
 class MoveRecord:
     """One move: its trajectory, status and, once finished, the execution report.
 
-    ``progress`` is the fraction of samples sent (0..1); ``tracking_error`` the largest
-    |present − goal| over the joints at the latest feedback (rad); times are Unix seconds.
+    ``progress`` is the fraction of samples sent (0..1). ``tracking_error`` (rad) is, while
+    the move runs, the largest |present − goal| over the joints at the latest feedback
+    (present read just after that goal was sent), and once it has finished the report's
+    largest tracking error (present − the previous goal, robodcn.stream). Times are Unix
+    seconds.
     """
 
     id: str

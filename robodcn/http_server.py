@@ -230,7 +230,9 @@ SCHEMAS: dict[str, dict[str, Any]] = {
                             "progress": {"type": "number", "minimum": 0, "maximum": 1},
                             "elapsed": {"type": "number"}, "duration": {"type": "number"},
                             "samples": {"type": "integer"},
-                            "tracking_error": {"type": ["number", "null"]},
+                            "tracking_error": {"type": ["number", "null"], "description":
+                                               "rad; live |present − goal| while running, the "
+                                               "report's maximum once finished"},
                             "created": {"type": "number"},
                             "started": {"type": ["number", "null"]},
                             "finished": {"type": ["number", "null"]},
@@ -634,8 +636,9 @@ def serve(arm: Arm, *, host: str = "127.0.0.1", port: int = 8080, token: str | N
 
     With ``sim=True`` the arm is :func:`robodcn.simulated.simulated_arm` in realistic
     timing; otherwise ``device`` (default: the arm's bus port) is opened at ``baud`` (default:
-    the arm's), verified and configured. ``token`` defaults to ``$ROBODCN_TOKEN``.
-    ``ready(url)`` is called once the socket listens.
+    the arm's) and verified against the arm's servos (BusError when they do not answer).
+    ``token`` defaults to ``$ROBODCN_TOKEN``; ``ready(url)`` is called once the socket
+    listens.
     """
     from robodcn.controller import ArmController  # the bus stack only when serving
 
@@ -652,8 +655,8 @@ def serve(arm: Arm, *, host: str = "127.0.0.1", port: int = 8080, token: str | N
             bus = ServoBus(device or arm.bus.port, baud or arm.bus.baud, servos=arm.servos)
             stack.callback(bus.close)
             bus.open()
+            # Torque stays as it is until the first move (the streamer configures then).
             bus.verify()
-            bus.configure()
         controller = ArmController(arm, bus)
         stack.callback(controller.close)
         server = make_server(arm, controller, host=host, port=port, token=token)

@@ -507,15 +507,17 @@ def test_a_refused_move_reports_its_fault(arm_server: Any) -> None:
     assert status == 200 and state["alerts"] == {"3": "overload"}
 
 
-def test_serve_runs_until_sigterm() -> None:
-    code = ("import sys; from robodcn.config import load_arm; "
-            "from robodcn.http_server import serve; "
-            f"serve(load_arm({str(ROOT / 'configs' / 'arm3r.toml')!r}), port=0, sim=True, "
+def _serve_subprocess(extra: str) -> subprocess.Popen:
+    code = ("from robodcn.config import load_arm; from robodcn.http_server import serve; "
+            f"serve(load_arm({str(ROOT / 'configs' / 'arm3r.toml')!r}), port=0, {extra}"
             "ready=lambda url: print(url, flush=True))")
     env = {**os.environ, "PYTHONPATH": str(ROOT)}
     env.pop("ROBODCN_TOKEN", None)
-    proc = subprocess.Popen([sys.executable, "-c", code], stdout=subprocess.PIPE,
+    return subprocess.Popen([sys.executable, "-c", code], stdout=subprocess.PIPE,
                             stderr=subprocess.PIPE, env=env, text=True)
+
+
+def _state_then_sigterm(proc: subprocess.Popen) -> dict[str, Any]:
     try:
         url = proc.stdout.readline().strip()
         assert url.startswith("http://127.0.0.1:"), proc.stderr.read() if not url else url
@@ -525,14 +527,30 @@ def test_serve_runs_until_sigterm() -> None:
         resp = conn.getresponse()
         state = json.loads(resp.read())
         conn.close()
-        assert resp.status == 200 and state["source"] == "bus"
-        want = servo_units.radians_to_ticks(kinematics.ik(ARM.links, [ARM.home], ARM.elbow),
-                                            ARM.servos)[0]
-        assert state["ticks"] == want.tolist()
+        assert resp.status == 200 and state["source"] == "bus", state
         proc.send_signal(signal.SIGTERM)
         assert proc.wait(10) == 0
         assert proc.stderr.read() == ""  # quiet: no per-request logging, no traceback
+        return state
     finally:
         if proc.poll() is None:
             proc.kill()
             proc.wait()
+
+
+def test_serve_sim_runs_until_sigterm() -> None:
+    state = _state_then_sigterm(_serve_subprocess("sim=True, "))
+    want = servo_units.radians_to_ticks(kinematics.ik(ARM.links, [ARM.home], ARM.elbow),
+                                        ARM.servos)[0]
+    assert state["ticks"] == want.tolist()
+
+
+def test_serve_on_a_device() -> None:
+    from firmware_sim.bus import SimBus
+
+    with SimBus(ARM.servo_ids, timing="fast") as sim:
+        placed = [sim.servo(i).present_position for i in ARM.servo_ids]
+        state = _state_then_sigterm(_serve_subprocess(f"device={sim.port_path!r}, "
+                                                      "baud=1000000, "))
+        assert state["ticks"] == placed
+    assert not sim.errors, sim.errors
