@@ -291,7 +291,8 @@ class Servo:
 
         Any span inside the table reads (undefined gaps read 0, as on the firmware's flat
         memory); a span beyond the table is an Access Error. Indirect Data bytes read the
-        byte their Indirect Address names.
+        byte their Indirect Address names (unless that is itself an Indirect Data byte:
+        then the stored byte, so the factory self-mapping behaves as plain RAM).
         """
         with self._lock:
             self.update()
@@ -304,8 +305,8 @@ class Servo:
                 slot = indirect_data_slot(address + i)
                 if slot is not None:
                     target = self.table.get(slot)
-                    out[i] = 0 if indirect_data_slot(target) is not None else \
-                        self.table.data[target]
+                    if indirect_data_slot(target) is None:
+                        out[i] = self.table.data[target]
             return 0, bytes(out)
 
     # ---- write ----------------------------------------------------------------------
@@ -329,9 +330,11 @@ class Servo:
             a = address + i
             slot = indirect_data_slot(a)
             if slot is not None:
-                a = self.table.get(slot)
-                if indirect_data_slot(a) is not None:
-                    return ERR_ACCESS, {}      # no chains of indirection
+                target = self.table.get(slot)
+                # an Indirect Data target (the factory mapping points each at itself) is
+                # not followed: the data byte is then plain storage
+                if indirect_data_slot(target) is None:
+                    a = target
             owner = self.spec.owner(a)
             if owner is None or not owner.writable:
                 return ERR_ACCESS, {}
