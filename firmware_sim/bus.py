@@ -27,6 +27,7 @@ import contextlib
 import errno
 import os
 import select
+import sys
 import termios
 import threading
 import time
@@ -165,14 +166,24 @@ class SimBus:
         Seed for probabilistic faults.
     log_limit : int
         Oldest entries are discarded beyond this many.
+    switch_interval : float or None
+        While any bus runs, the interpreter's GIL switch interval is lowered to this
+        (restored when the last bus closes). The SDK client spins on the port holding
+        the GIL; with the default 5 ms interval the server thread can wait that long
+        for it, and under CPU load long enough to miss the SDK's 34 ms timeout.
+        None leaves the interpreter alone.
     """
+
+    _switch_users = 0
+    _switch_saved = 0.0
+    _switch_lock = threading.Lock()
 
     def __init__(self, ids: Iterable[int] = (1,), model: str | Mapping[int, str] = "xm430-w350",
                  *, baud: int = 1_000_000, timing: str = "fast",
                  firmware: int | Mapping[int, int] = 46, clock: Clock | None = None,
                  link: str | None = None, log: bool = True, log_file: str | None = None,
                  turnaround_s: float = 30e-6, fault_seed: int | None = None,
-                 log_limit: int = 100_000) -> None:
+                 log_limit: int = 100_000, switch_interval: float | None = 1e-4) -> None:
         id_list = [int(i) for i in ids]
         if not id_list:
             raise ValueError("SimBus needs at least one servo id")
@@ -224,6 +235,11 @@ class SimBus:
         self._stop = threading.Event()
         self._link_made = False
         self.rx_packets = 0
+        self._before: dict[int, tuple[int, int]] = {}
+        if switch_interval is not None and not switch_interval > 0:
+            raise ValueError(f"switch_interval must be > 0 or None, got {switch_interval}")
+        self._switch_interval = switch_interval
+        self._switch_held = False
 
     # ---- lifecycle ------------------------------------------------------------------
     def start(self) -> SimBus:
@@ -245,6 +261,7 @@ class SimBus:
             os.close(slave)
             raise
         self._master, self._slave = master, slave
+        self._hold_switch_interval()
         self._stop.clear()
         self._thread = threading.Thread(target=self._serve, name=f"SimBus {self.port_path}",
                                         daemon=True)
@@ -268,6 +285,28 @@ class SimBus:
         if self._log_fh is not None:
             self._log_fh.close()
             self._log_fh = None
+        self._release_switch_interval()
+
+    def _hold_switch_interval(self) -> None:
+        if self._switch_interval is None or self._switch_held:
+            return
+        cls = SimBus
+        with cls._switch_lock:
+            if cls._switch_users == 0:
+                cls._switch_saved = sys.getswitchinterval()
+            cls._switch_users += 1
+            sys.setswitchinterval(min(self._switch_interval, sys.getswitchinterval()))
+        self._switch_held = True
+
+    def _release_switch_interval(self) -> None:
+        if not self._switch_held:
+            return
+        cls = SimBus
+        with cls._switch_lock:
+            cls._switch_users -= 1
+            if cls._switch_users == 0:
+                sys.setswitchinterval(cls._switch_saved)
+        self._switch_held = False
 
     def __enter__(self) -> SimBus:
         return self.start() if self._thread is None else self
@@ -381,6 +420,7 @@ class SimBus:
             listening = [s for s in self._servos
                          if rate is not None and BAUD_RATES.get(s.baud_index) == rate
                          and not s.booting()]
+            self._before = {id(s): (s.id, s.status_return_level) for s in listening}
             if pkt.id == BROADCAST_ID:
                 targets = listening
             else:
@@ -399,9 +439,10 @@ class SimBus:
             end = pkt.time + len(pkt.raw) * byte_s if self.timing == "realistic" else pkt.time
             self._send(replies, end, byte_s)
 
-    @staticmethod
-    def _answers(servo: Servo, instruction: int) -> bool:
-        level = servo.status_return_level
+    def _answers(self, servo: Servo, instruction: int) -> bool:
+        # the level in force when the instruction arrived (a WRITE of SRL itself is
+        # answered, or not, under the old level)
+        level = self._before.get(id(servo), (servo.id, servo.status_return_level))[1]
         if instruction == Instruction.PING:
             return True
         if instruction in _READ_CLASS:
@@ -411,7 +452,9 @@ class SimBus:
     def _status(self, servo: Servo, instruction: int, code: int, params: bytes = b"",
                 *, error: int | None = None, reply_id: int | None = None) -> _Reply:
         err = servo.status_error(code) if error is None else error
-        rid = servo.id if reply_id is None else reply_id
+        # a reply carries the ID the servo had when the instruction arrived (a WRITE of
+        # the ID item is answered under the old ID, so the host sees it)
+        rid = self._before.get(id(servo), (servo.id, 0))[0] if reply_id is None else reply_id
         return _Reply(rid, instruction, build_status(rid, err, params),
                       servo.return_delay_us * 1e-6, status=(rid, err, bytes(params)))
 

@@ -1,0 +1,65 @@
+"""Shared helpers for the firmware_sim tests that drive SimBus through the real dynamixel-sdk."""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Iterator
+from contextlib import contextmanager
+
+from dynamixel_sdk import COMM_SUCCESS, PacketHandler, PortHandler
+
+from firmware_sim.bus import SimBus
+from firmware_sim.protocol import build_packet
+
+PH = PacketHandler(2.0)
+
+
+@contextmanager
+def sdk_port(bus: SimBus, baud: int = 1_000_000) -> Iterator[PortHandler]:
+    """An SDK PortHandler opened on the bus's pty at ``baud``; closed afterwards."""
+    port = PortHandler(bus.port_path)
+    assert port.openPort(), f"SDK could not open {bus.port_path}"
+    assert port.setBaudRate(baud), f"SDK refused baud {baud}"
+    try:
+        yield port
+    finally:
+        port.closePort()
+
+
+def raw_txrx(port: PortHandler, packet: bytes, reply_len: int = 11) -> tuple[list[int], int]:
+    """Send hand-made bytes, then let the SDK receive one status packet."""
+    port.clearPort()
+    port.writePort(list(packet))
+    port.setPacketTimeout(reply_len)
+    return PH.rxPacket(port, False)
+
+
+def raw_instruction(port: PortHandler, servo_id: int, instruction: int, params: bytes = b"",
+                    reply_len: int = 11) -> tuple[list[int], int]:
+    return raw_txrx(port, build_packet(servo_id, instruction, params), reply_len)
+
+
+def wait_ping(port: PortHandler, servo_id: int, timeout: float = 3.0) -> int:
+    """Ping until the servo answers (it may be booting); returns its model number."""
+    deadline = time.monotonic() + timeout
+    while True:
+        model, result, _ = PH.ping(port, servo_id)
+        if result == COMM_SUCCESS:
+            return model
+        if time.monotonic() > deadline:
+            raise AssertionError(f"servo {servo_id} did not answer within {timeout} s: "
+                                 f"{PH.getTxRxResult(result)}")
+        time.sleep(0.01)
+
+
+def settle(port: PortHandler, servo_id: int) -> None:
+    """Wait out stray status packets (e.g. ACTION's, which the SDK never reads), flush
+    them, then ping: once the ping answers, every earlier packet has been processed."""
+    time.sleep(0.02)
+    port.clearPort()
+    wait_ping(port, servo_id)
+
+
+def s32(value: int) -> int:
+    """Unsigned 32-bit SDK value as signed."""
+    return value - (1 << 32) if value & 0x8000_0000 else value

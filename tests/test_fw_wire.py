@@ -1,0 +1,149 @@
+"""The pty side of firmware_sim: the CLI as a subprocess, resource soak, realistic timing."""
+
+from __future__ import annotations
+
+import os
+import signal
+import statistics
+import subprocess
+import sys
+import threading
+import time
+from pathlib import Path
+
+import pytest
+from dynamixel_sdk import COMM_RX_TIMEOUT, COMM_SUCCESS, GroupSyncRead, PortHandler
+from fw_helpers import PH, sdk_port
+
+from firmware_sim.bus import SimBus, sleep_until
+
+ROOT = Path(__file__).resolve().parent.parent
+
+
+def _open_fds() -> int:
+    return len(os.listdir("/proc/self/fd"))
+
+
+def test_soak_open_close_leaks_nothing():
+    # warm up once so lazily created module state is not counted as a leak
+    with SimBus(ids=[1]) as bus, sdk_port(bus) as port:
+        assert PH.ping(port, 1)[1] == COMM_SUCCESS
+    threads, fds = threading.active_count(), _open_fds()
+    deadline = time.monotonic() + 3.0
+    rounds = 0
+    while time.monotonic() < deadline and rounds < 40:
+        with SimBus(ids=[1, 2], timing="fast") as bus, sdk_port(bus) as port:
+            assert PH.ping(port, 2)[1] == COMM_SUCCESS
+            group = GroupSyncRead(port, PH, 132, 4)
+            group.addParam(1)
+            group.addParam(2)
+            assert group.fastSyncRead() == COMM_SUCCESS
+            assert bus.errors == []
+        rounds += 1
+    assert rounds >= 10
+    assert threading.active_count() == threads
+    assert _open_fds() == fds
+
+
+def test_close_is_prompt_and_idempotent():
+    bus = SimBus(ids=[1]).start()
+    t0 = time.perf_counter()
+    bus.close()
+    assert time.perf_counter() - t0 < 0.2
+    bus.close()
+    assert not Path(bus.port_path).exists() or bus._master is None
+
+
+def test_link_symlink_created_and_removed(tmp_path):
+    link = tmp_path / "ttyDXL"
+    with SimBus(ids=[4], link=str(link)) as bus:
+        assert os.path.realpath(link) == bus.port_path
+        port = PortHandler(str(link))
+        assert port.openPort() and port.setBaudRate(1_000_000)
+        assert PH.ping(port, 4)[1] == COMM_SUCCESS
+        port.closePort()
+    assert not link.exists()
+
+
+def test_constructor_rejects_bad_arguments():
+    with pytest.raises(ValueError, match="timing"):
+        SimBus(ids=[1], timing="slow")
+    with pytest.raises(ValueError, match="baud"):
+        SimBus(ids=[1], baud=12345)
+    with pytest.raises(ValueError, match="unique"):
+        SimBus(ids=[1, 1])
+    with pytest.raises(ValueError, match="model"):
+        SimBus(ids=[1], model="ax-12")
+    with pytest.raises(ValueError, match="id"):
+        SimBus(ids=[300])
+
+
+def test_cli_serves_until_sigterm(tmp_path):
+    link = tmp_path / "ttyDXL"
+    log = tmp_path / "packets.log"
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "firmware_sim", "--ids", "1,2,3", "--timing", "fast",
+         "--link", str(link), "--log", str(log), "--drop", "2:n=0"],
+        cwd=ROOT, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    try:
+        path = proc.stdout.readline().strip()
+        assert path.startswith("/dev/"), path
+        assert os.path.realpath(link) == path
+        port = PortHandler(path)
+        assert port.openPort() and port.setBaudRate(1_000_000)
+        assert [PH.ping(port, s)[1] for s in (1, 3)] == [COMM_SUCCESS] * 2
+        assert PH.ping(port, 2)[1] == COMM_RX_TIMEOUT          # --drop 2:n=0: always
+        port.closePort()
+    finally:
+        proc.send_signal(signal.SIGTERM)
+        _, err = proc.communicate(timeout=10)
+    assert proc.returncode == 0, err
+    assert not link.exists()
+    text = log.read_text()
+    assert text.count(" rx id=1 PING") == 1 and "dropped" in text
+
+
+def test_cli_rejects_bad_flags():
+    out = subprocess.run([sys.executable, "-m", "firmware_sim", "--ids", "1", "--drop", "x"],
+                         cwd=ROOT, capture_output=True, text=True, timeout=20)
+    assert out.returncode != 0 and "fault target" in out.stderr
+
+
+def test_precise_sleep():
+    errors = []
+    for _ in range(20):
+        deadline = time.perf_counter() + 0.0015
+        sleep_until(deadline)
+        errors.append(time.perf_counter() - deadline)
+    assert min(errors) >= 0
+    assert statistics.median(errors) < 100e-6
+
+
+def _rtts(fn, n=40):
+    samples = []
+    for _ in range(n):
+        t0 = time.perf_counter()
+        assert fn() == COMM_SUCCESS
+        samples.append(time.perf_counter() - t0)
+    return samples
+
+
+def test_realistic_timing_follows_wire_time():
+    # minima: CPU load only ever adds delay, so the least disturbed sample shows the model
+    byte_s = 10 / 1_000_000
+    with SimBus(ids=[1, 2, 3], timing="realistic") as bus, sdk_port(bus) as port:
+        for s in (1, 2, 3):
+            assert PH.write1ByteTxRx(port, s, 9, 0)[0] == COMM_SUCCESS     # RDT 0
+        ping = min(_rtts(lambda: PH.ping(port, 1)[1]))
+        assert ping >= (10 + 14) * byte_s + bus.turnaround_s
+        group = GroupSyncRead(port, PH, 132, 4)
+        for s in (1, 2, 3):
+            group.addParam(s)
+        sync = min(_rtts(group.txRxPacket))
+        assert sync >= (14 + 3 + 15 * 3) * byte_s + 3 * bus.turnaround_s
+        # Return Delay Time 250 (500 µs) on each servo adds 0.5 ms per reply
+        for s in (1, 2, 3):
+            assert PH.write1ByteTxRx(port, s, 9, 250)[0] == COMM_SUCCESS
+        slow = min(_rtts(group.txRxPacket, n=30))
+        assert slow - sync == pytest.approx(3 * 500e-6, rel=0.25)
+        assert bus.errors == []
