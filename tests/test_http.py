@@ -24,6 +24,8 @@ from typing import Any
 
 import numpy as np
 import pytest
+from hypothesis import HealthCheck, event, given, settings
+from hypothesis import strategies as st
 
 from robodcn import kinematics, servo_units
 from robodcn.config import arm_from_dict, load_arm
@@ -288,6 +290,64 @@ def test_slow_client_does_not_block_others_and_times_out(planner_server: Any) ->
             t1 = time.monotonic()
             assert _read_all(sock) == b""
             assert time.monotonic() - t1 < 3
+
+
+# -- any body: a clean answer, never a crash -------------------------------------------------------
+
+_junk = st.recursive(st.none() | st.booleans() | st.integers(-10, 10) | st.text(max_size=5)
+                     | st.floats(-1.0, 1.0), lambda inner: st.lists(inner, max_size=3)
+                     | st.dictionaries(st.text(max_size=4), inner, max_size=3), max_leaves=8)
+# Mostly inside the 3R arm's workspace around home, so that many bodies plan.
+_pose = st.tuples(st.floats(0.12, 0.3), st.floats(0.0, 0.2), st.floats(-1.0, 1.0)).map(list)
+_field_values = {
+    "waypoints": st.lists(_pose, min_size=2, max_size=4) | _junk,
+    "method": st.sampled_from(["sclerp", "kenlerp", "seplerp", "dlb", "lerp"]) | _junk,
+    "beta": st.floats(-2.0, 2.0, allow_nan=False) | _junk,
+    "turn": st.sampled_from(["shortest", "ccw", "cw"]) | _junk,
+    "duration": st.floats(-1.0, 3.0, allow_nan=False) | st.just("auto") | _junk,
+    "profile": st.sampled_from(["quintic", "trapezoid", "linear"]) | _junk,
+    "rate_hz": st.floats(-10.0, 1500.0, allow_nan=False) | _junk,
+    "blend": st.booleans() | _junk,
+    "start_joints": st.none() | st.lists(st.floats(-3.0, 3.0), min_size=3, max_size=3) | _junk,
+    "extra": _junk,
+}
+_good_values = {
+    "method": st.sampled_from(["sclerp", "kenlerp", "seplerp"]),
+    "beta": st.floats(0.2, 2.0),
+    "turn": st.sampled_from(["shortest", "ccw", "cw"]),
+    "duration": st.floats(0.5, 3.0) | st.just("auto"),
+    "profile": st.sampled_from(["quintic", "trapezoid", "linear"]),
+    "rate_hz": st.floats(10.0, 500.0),
+    "blend": st.booleans(),
+}
+_bodies = (st.fixed_dictionaries({"waypoints": st.lists(_pose, min_size=2, max_size=3)},
+                                 optional=_good_values)
+           | st.fixed_dictionaries({}, optional=_field_values) | _junk)
+
+
+@settings(max_examples=80, deadline=None,
+          suppress_health_check=[HealthCheck.function_scoped_fixture])
+@given(body=_bodies)
+def test_any_body_gets_a_json_answer_not_a_crash(planner_server: Any, body: Any) -> None:
+    status, _, data = call(planner_server, "POST", "/v1/trajectories",
+                           raw=json.dumps(body).encode())
+    assert status in (200, 413, 422), data
+    event(f"status {status}")
+    if status == 200:
+        traj = Trajectory.from_json(json.dumps(data), ARM)
+        assert traj.request is not None
+        assert traj.request == parse_plan_body_for_test(body)
+    else:
+        err = error_of(data)
+        if isinstance(body, dict) and err["field"] is not None:
+            # The field named is the body field at fault (or an element of it).
+            assert err["field"].split("[")[0] in set(body) | set(PLAN_FIELDS) | {"body"}
+
+
+def parse_plan_body_for_test(body: dict[str, Any]) -> Any:
+    from robodcn.http_server import parse_plan_body
+
+    return parse_plan_body(ARM, body)
 
 
 # -- OpenAPI --------------------------------------------------------------------------------------
