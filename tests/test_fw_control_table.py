@@ -350,6 +350,7 @@ def test_indirect_data_mirrors_target_bytes(slot, data):
         assert code == 0 and raw == servo.read(ct.PRESENT_POSITION, 4)[1]
         seen.add(raw)
     assert len(seen) > 1                    # it really followed a moving value
+    clock.advance(1.0)
     assert servo.read(data, 4) == (0, (3000).to_bytes(4, "little"))
 
 
