@@ -195,6 +195,25 @@ def _le(value: int, size: int) -> list[int]:
     return list(int(value).to_bytes(size, "little", signed=value < 0))
 
 
+#: pyserial read timeout while a status packet is awaited (s); see _sleep_while_waiting.
+READ_POLL_S = 0.001
+
+
+def _sleep_while_waiting(handler: PortHandler) -> None:
+    """Let the SDK's receive loop sleep in ``select`` instead of spinning.
+
+    PortHandler opens pyserial with ``timeout=0`` and the SDK polls ``readPort`` in a tight
+    loop until its packet deadline (dynamixel-notes §4): 100 % CPU, and between polls the
+    thread re-takes the GIL at once, so a simulator or any other Python thread in the same
+    process may wait a whole switch interval (5 ms) per system call, long enough to miss
+    reply deadlines. With a short read timeout, pyserial blocks in ``select`` and returns
+    as soon as the requested bytes are there (no added latency); the SDK's deadline checks
+    stay the same, at most ``READ_POLL_S`` coarser.
+    """
+    if handler.ser is not None:
+        handler.ser.timeout = READ_POLL_S
+
+
 def _check_ids(servos: Sequence[ServoSpec]) -> tuple[int, ...]:
     ids = tuple(s.id for s in servos)
     if not ids:
@@ -294,6 +313,7 @@ class ServoBus:
                     handler.closePort()
                 raise CommError(f"cannot open {self.port} at {self.baud} baud", field="port",
                                 value=self.port)
+            _sleep_while_waiting(handler)
             self._handler = handler
             self._write_group = GroupSyncWrite(handler, self._packet, ADDR_GOAL_POSITION, 4)
             for servo_id in self.ids:
@@ -412,8 +432,16 @@ class ServoBus:
         self.write(servo_id, address, _le(value, length))
 
     def _write_all(self, address: int, value: int, length: int) -> None:
+        """Write to every servo; one that fails does not keep the others from the write
+        (a disarm or a torque-off must reach every servo that still listens)."""
+        failure: CommError | None = None
         for servo_id in self.ids:
-            self._write_int(servo_id, address, value, length)
+            try:
+                self._write_int(servo_id, address, value, length)
+            except CommError as exc:
+                failure = failure or exc
+        if failure is not None:
+            raise failure
 
     # -- discovery ---------------------------------------------------------------------------
 
@@ -735,6 +763,7 @@ def _raw_port(port: str, baud: int) -> Iterator[tuple[PortHandler, Any]]:
     try:
         if not handler.setBaudRate(baud):
             raise CommError(f"cannot open {port} at {baud} baud", field="port", value=port)
+        _sleep_while_waiting(handler)
     except CommError:
         raise
     except Exception as exc:

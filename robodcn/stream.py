@@ -24,7 +24,9 @@ Schedule
       work spilled into this slot); the sample is sent at once and counted.
     * **skip ahead** — if it is a whole period or more late, the samples whose slots have
       fully passed are not sent: it jumps to the latest due sample (never past the last)
-      and counts the skipped ones; motion stays on the planned clock.
+      and counts the skipped ones; motion stays on the planned clock. With
+      ``skip_late=False`` every sample is sent instead, the late ones back to back until
+      the loop has caught up with the clock (the servos then receive every planned goal).
 
 Feedback and health
     present positions are read after the write on every ``feedback_every``-th sample and on
@@ -240,6 +242,7 @@ def execute(trajectory: Trajectory, bus: ServoBus, *, feedback_every: int = 1,
             progress: Callable[[Progress], None] | None = None, release: bool = False,
             health_interval: float = 0.05, watchdog_ms: float | None = None,
             profile: StreamProfile | None = None, settle: float = 0.0,
+            skip_late: bool = True,
             clock: Callable[[], float] = time.perf_counter) -> ExecutionReport:
     """Stream ``trajectory`` to the servos on ``bus`` (module docstring for the rules).
 
@@ -260,6 +263,7 @@ def execute(trajectory: Trajectory, bus: ServoBus, *, feedback_every: int = 1,
     profile : passed to :meth:`ServoBus.configure` when the servos need configuring.
     settle : seconds to keep reading after the last sample until the arm is within one
         tick of the final goal (0: one read).
+    skip_late : skip samples whose slot has passed (True) or send them late (False).
     clock : monotonic clock in seconds (real time: the waits sleep on it).
 
     Returns
@@ -325,7 +329,8 @@ def execute(trajectory: Trajectory, bus: ServoBus, *, feedback_every: int = 1,
         streamer = _Streamer(trajectory, bus, feedback_every=feedback_every,
                              max_comm_failures=max_comm_failures,
                              tracking_limit=tracking_limit, stop=stop, progress=progress,
-                             health_interval=health_interval, clock=clock)
+                             health_interval=health_interval, skip_late=bool(skip_late),
+                             clock=clock)
         # -- configure (first writes) and stream --------------------------------------------
         if not bus.configured or not all(bus.torque_enabled().values()):
             bus.configure(profile)
@@ -349,7 +354,8 @@ class _Streamer:
     def __init__(self, trajectory: Trajectory, bus: ServoBus, *, feedback_every: int,
                  max_comm_failures: int, tracking_limit: float | None,
                  stop: _Waitable | None, progress: Callable[[Progress], None] | None,
-                 health_interval: float, clock: Callable[[], float]) -> None:
+                 health_interval: float, skip_late: bool,
+                 clock: Callable[[], float]) -> None:
         self.trajectory = trajectory
         self.bus = bus
         self.ticks = trajectory.ticks
@@ -363,6 +369,7 @@ class _Streamer:
         self.progress = progress
         self.health_every = max(1, round(health_interval / self.period))
         self.clock = clock
+        self.skip_late = skip_late
         self.rad_per_tick = _radians_per_tick(bus)
         self.tick_limit = (None if tracking_limit is None
                            else tracking_limit / self.rad_per_tick)
@@ -496,7 +503,7 @@ class _Streamer:
                     now = clock()
                 elif now > due:
                     self.overruns += 1
-                    if now - due >= period and i < n - 1:
+                    if self.skip_late and now - due >= period and i < n - 1:
                         j = min(n - 1, int((now - t0) / period))
                         self.skipped += j - i
                         i = j

@@ -1,0 +1,312 @@
+"""robodcn.bus through the real dynamixel-sdk against firmware_sim's SimBus (timing "fast")."""
+
+from __future__ import annotations
+
+import json
+import os
+import threading
+import warnings
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+from hypothesis.extra import numpy as hnp
+
+from firmware_sim.bus import SimBus
+from robodcn import cli
+from robodcn.bus import (
+    ADDR_GOAL_POSITION,
+    ADDR_PRESENT_POSITION,
+    MODEL_NUMBERS,
+    LatencyTimerWarning,
+    ServoBus,
+    StreamProfile,
+    check_latency_timer,
+    latency_timer_ms,
+    scan,
+)
+from robodcn.config import ServoSpec
+from robodcn.errors import BusyError, CommError, InputError, ServoMismatchError, TickLimitError
+
+WRITES = ("WRITE", "SYNC_WRITE", "REG_WRITE", "BULK_WRITE")
+
+
+def specs(ids=(1, 2, 3), model="xm430-w350", **kw) -> list[ServoSpec]:
+    return [ServoSpec(i, model, **kw) for i in ids]
+
+
+@pytest.fixture
+def sim():
+    with SimBus((1, 2, 3), timing="fast") as bus:
+        yield bus
+    assert not bus.errors, bus.errors
+
+
+@pytest.fixture
+def bus(sim):
+    with ServoBus(sim.port_path, servos=specs()) as b:
+        yield b
+
+
+def write_count(sim: SimBus) -> int:
+    return sum(len(sim.packets("rx", name)) for name in WRITES)
+
+
+# -- pure parts (no port) ----------------------------------------------------------------------
+
+@settings(max_examples=50, deadline=None)
+@given(hnp.arrays(np.int64, st.tuples(st.integers(1, 6), st.just(3)),
+                  elements=st.integers(0, 4095)))
+def test_encode_goals_is_little_endian_int32(ticks):
+    b = ServoBus("/dev/null-not-opened", servos=specs())
+    rows = b.encode_goals(ticks)
+    decoded = np.frombuffer(bytes(np.array(rows, dtype=np.uint8).ravel()), dtype="<i4")
+    assert np.array_equal(decoded.reshape(ticks.shape), ticks)
+    # Same bytes as the SDK's own 4-byte split (DXL_LOBYTE/HIBYTE of LOWORD/HIWORD).
+    for row, values in zip(rows, ticks, strict=True):
+        for data, v in zip(row, values, strict=True):
+            assert data == [v & 0xFF, (v >> 8) & 0xFF, (v >> 16) & 0xFF, (v >> 24) & 0xFF]
+
+
+def test_check_ticks_names_sample_and_servo():
+    b = ServoBus("/dev/null-not-opened", servos=specs(min_tick=100, max_tick=4000))
+    good = np.array([[100, 2000, 4000], [150, 2100, 3900]])
+    assert np.array_equal(b.check_ticks(good), good)
+    bad = good.copy()
+    bad[1, 2] = 4001
+    with pytest.raises(TickLimitError) as err:
+        b.check_ticks(bad)
+    assert err.value.sample == 1 and "servo 3" in err.value.message and "4001" in err.value.message
+    with pytest.raises(InputError, match="shape"):
+        b.check_ticks(np.zeros((2, 2), dtype=int))
+    with pytest.raises(InputError, match="integers"):
+        b.check_ticks(good.astype(float))
+
+
+@pytest.mark.parametrize("kwargs, field", [
+    ({"baud": 123}, "baud"), ({"retries": -1}, "retries"), ({"rx_timeout_ms": 0}, "rx_timeout_ms"),
+    ({"servos": []}, "servos"), ({"servos": specs((1, 1))}, "servos"),
+])
+def test_bad_bus_arguments_name_the_field(kwargs, field):
+    args = {"servos": specs(), **kwargs}
+    with pytest.raises(InputError) as err:
+        ServoBus("/dev/ttyX", **args)
+    assert err.value.field == field
+
+
+@pytest.mark.parametrize("kwargs", [{"velocity": -1}, {"acceleration": 40000},
+                                    {"return_delay_us": 600}, {"velocity": 1.5}])
+def test_bad_profile_is_refused(kwargs):
+    with pytest.raises(InputError):
+        StreamProfile(**kwargs)
+
+
+def test_latency_timer_warning_gives_the_fix(tmp_path):
+    (tmp_path / "ttyUSB7").mkdir()
+    (tmp_path / "ttyUSB7" / "latency_timer").write_text("16\n")
+    with pytest.warns(LatencyTimerWarning, match=r"echo 1 \| sudo tee .*ttyUSB7/latency_timer"):
+        assert check_latency_timer("/dev/ttyUSB7", sysfs=tmp_path) == 16
+    (tmp_path / "ttyUSB7" / "latency_timer").write_text("1\n")
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        assert check_latency_timer("/dev/ttyUSB7", sysfs=tmp_path) == 1
+    # A symlink (like /dev/serial/by-id/...) is followed to the tty name.
+    link = tmp_path / "by-id"
+    link.symlink_to("/dev/ttyUSB7")
+    assert latency_timer_ms(str(link), sysfs=tmp_path) == 1
+    assert latency_timer_ms("/dev/pts/3", sysfs=tmp_path) is None
+    assert latency_timer_ms("/dev/ttyUSB9", sysfs=tmp_path) is None
+
+
+def test_open_missing_device_is_a_comm_error(tmp_path):
+    with pytest.raises(CommError, match="cannot open"):
+        ServoBus(str(tmp_path / "nope"), servos=specs()).open()
+
+
+# -- against the simulator ---------------------------------------------------------------------
+
+def test_verify_reports_models_and_firmware(sim, bus):
+    found = bus.verify()
+    assert sorted(found) == [1, 2, 3]
+    for info in found.values():
+        assert info.model == "xm430-w350"
+        assert info.model_number == sim.servo(info.id).model_number == MODEL_NUMBERS["xm430-w350"]
+        assert info.firmware == sim.servo(info.id).firmware_version
+    assert bus.fast_read is True
+
+
+def test_verify_names_missing_and_wrong_servos():
+    with SimBus((1, 3), model={1: "xm430-w350", 3: "xl430-w250"}, timing="fast") as sim:
+        with ServoBus(sim.port_path, servos=specs(), retries=0) as b:
+            with pytest.raises(ServoMismatchError) as err:
+                b.verify()
+        assert err.value.value == {"missing": [2], "wrong_model": [3]}
+        assert "[2]" in err.value.message and "servo 3 is model xl430-w250" in err.value.message
+        assert write_count(sim) == 0
+
+
+def test_configure_sets_streaming_state_without_moving(sim, bus):
+    bus.verify()
+    for i in (1, 2, 3):
+        sim.servo(i).write(9, bytes([250]))          # factory Return Delay Time 500 µs
+    before = bus.read_positions()
+    bus.configure(StreamProfile(velocity=0, acceleration=0))
+    for i, present in zip((1, 2, 3), before, strict=True):
+        servo = sim.servo(i)
+        assert servo.torque_enabled
+        assert servo.return_delay_us == 0
+        assert servo.goal_position == present
+        assert sim.goal_history(i)[-1] == present
+    assert np.array_equal(bus.read_positions(), before)
+    assert all(bus.torque_enabled().values())
+
+
+def test_configure_leaves_torque_on_when_eeprom_is_already_right(sim, bus):
+    bus.verify()
+    bus.configure()
+    sim.clear_log()
+    bus.configure()
+    writes = [(e.id, int.from_bytes(e.params[:2], "little"), e.params[2:])
+              for e in sim.packets("rx", "WRITE")]
+    assert writes, "configure wrote nothing"
+    assert (1, 64, b"\x00") not in writes and all(a != 64 or d == b"\x01" for _, a, d in writes)
+    assert all(a >= 64 for _, a, _ in writes)       # no EEPROM write either
+    assert all(sim.servo(i).torque_enabled for i in (1, 2, 3))
+
+
+def test_positions_round_trip_through_goals(sim, bus):
+    bus.verify()
+    bus.configure()
+    goals = np.array([1000, 2048, 3000])
+    bus.write_goals(goals)
+    bus.read(1, ADDR_GOAL_POSITION, 4)        # a round trip: the sim has handled the write
+    assert [sim.goal_history(i)[-1] for i in (1, 2, 3)] == goals.tolist()
+    assert [sim.servo(i).goal_position for i in (1, 2, 3)] == goals.tolist()
+    present = bus.read_positions()
+    assert present.tolist() == [sim.servo(i).present_position for i in (1, 2, 3)]
+    with pytest.raises(TickLimitError):
+        bus.write_goals([1000, 2048, 5000])
+    assert [sim.goal_history(i)[-1] for i in (1, 2, 3)] == goals.tolist()
+
+
+@pytest.mark.parametrize("firmware, instruction", [(46, "FAST_SYNC_READ"), (44, "SYNC_READ")])
+def test_group_read_falls_back_to_plain_sync_read(firmware, instruction):
+    with SimBus((1, 2, 3), firmware={1: 46, 2: firmware, 3: 46}, timing="fast") as sim:
+        with ServoBus(sim.port_path, servos=specs()) as b:
+            b.verify()
+            assert b.fast_read is (firmware >= 45)
+            sim.clear_log()
+            positions = b.read_positions()
+        assert positions.tolist() == [sim.servo(i).present_position for i in (1, 2, 3)]
+        assert len(sim.packets("rx", instruction)) == 1
+
+
+def test_error_status_is_not_decoded_as_data(sim, bus):
+    # An undefined address answers with an error status and no data: the SDK would hand
+    # back the CRC bytes as "data".
+    with pytest.raises(CommError, match="status error"):
+        bus.read(1, 700, 4)
+    assert bus.read(1, ADDR_PRESENT_POSITION, 4) == \
+        sim.servo(1).present_position.to_bytes(4, "little", signed=True)
+
+
+@pytest.mark.parametrize("firmware", [46, 44])
+def test_hardware_alert_is_seen_in_group_reads(firmware):
+    with SimBus((1, 2, 3), firmware=firmware, timing="fast") as sim:
+        with ServoBus(sim.port_path, servos=specs()) as b:
+            b.verify()
+            b.configure()
+            b.read_positions()
+            assert b.last_alert_ids == ()
+            assert b.hardware_errors() == {1: 0, 2: 0, 3: 0}
+            sim.faults.trip(2, 0x20)
+            b.read_positions()
+            assert b.last_alert_ids == (2,)
+            assert b.hardware_errors() == {1: 0, 2: 0x20, 3: 0}
+            assert not sim.servo(2).torque_enabled
+
+
+def test_retries_recover_one_bad_reply_and_give_up_on_persistent_ones(sim, bus):
+    bus.verify()
+    expected = [sim.servo(i).present_position for i in (1, 2, 3)]
+    sim.faults.corrupt_crc(times=1)
+    before = bus.retries_used
+    assert bus.read_positions().tolist() == expected
+    assert bus.retries_used == before + 1
+    sim.faults.drop(2, times=None)
+    with pytest.raises(CommError):
+        bus.read_positions()
+    assert bus.retries_used == before + 1 + bus.retries
+
+
+def test_watchdog_arms_in_20ms_units(sim, bus):
+    bus.verify()
+    bus.configure()
+    assert bus.arm_watchdog(45) == 60
+    assert bus.watchdog_status() == {1: 3, 2: 3, 3: 3}
+    bus.disarm_watchdog()
+    assert bus.watchdog_status() == {1: 0, 2: 0, 3: 0}
+
+
+def test_other_threads_get_busy_while_the_bus_is_claimed(bus):
+    errors = []
+
+    def other():
+        try:
+            bus.read_positions()
+        except BusyError as exc:
+            errors.append(exc)
+
+    with bus.claim():
+        thread = threading.Thread(target=other)
+        thread.start()
+        thread.join()
+        bus.read_positions()                   # the owner itself may re-enter
+    assert len(errors) == 1 and errors[0].exit_code == 4
+    bus.read_positions()
+
+
+def test_open_close_leaks_no_fds(sim):
+    fds = len(os.listdir("/proc/self/fd"))
+    for _ in range(20):
+        with ServoBus(sim.port_path, servos=specs()) as b:
+            b.read(1, ADDR_GOAL_POSITION, 4)
+    assert len(os.listdir("/proc/self/fd")) == fds
+
+
+# -- scan and the CLI --------------------------------------------------------------------------
+
+def test_scan_lists_id_model_firmware_baud():
+    with SimBus((1, 4), model={1: "xm430-w350", 4: "xl430-w250"}, firmware={1: 46, 4: 44},
+                timing="fast") as sim:
+        by_ping = scan(sim.port_path, ids=[1, 2, 3, 4])
+        broadcast = scan(sim.port_path)
+        wrong_baud = scan(sim.port_path, [57_600], ids=[1, 4])
+    expected = [(1, "xm430-w350", 46, 1_000_000), (4, "xl430-w250", 44, 1_000_000)]
+    assert [(s.id, s.model, s.firmware, s.baud) for s in by_ping] == expected
+    assert [(s.id, s.model, s.firmware, s.baud) for s in broadcast] == expected
+    assert wrong_baud == []
+
+
+def test_cli_scan_prints_the_servos(capsys):
+    with SimBus((2, 3), timing="fast") as sim:
+        code = cli.main(["scan", "--port", sim.port_path, "--ids", "1-3", "--json"])
+        out = json.loads(capsys.readouterr().out)
+        assert code == 0
+        assert [s["id"] for s in out["servos"]] == [2, 3]
+        assert {s["model"] for s in out["servos"]} == {"xm430-w350"}
+        assert cli.main(["scan", "--port", sim.port_path, "--ids", "2"]) == 0
+        table = capsys.readouterr().out.splitlines()
+        assert table[0].split()[:2] == ["ID", "model"] and table[1].split()[:2] == ["2",
+                                                                                  "xm430-w350"]
+        assert cli.main(["scan", "--port", sim.port_path, "--ids", "7"]) == 1
+
+
+def test_cli_scan_errors_are_one_line_with_exit_codes(capsys, tmp_path):
+    assert cli.main(["scan"]) == 2
+    assert capsys.readouterr().err.startswith("robodcn: scan needs --port")
+    assert cli.main(["scan", "--port", str(tmp_path / "none"), "--ids", "1"]) == 4
+    assert "cannot open" in capsys.readouterr().err
+    with pytest.raises(SystemExit):
+        cli.main(["scan", "--port", "x", "--ids", "300"])

@@ -1,0 +1,383 @@
+"""robodcn.stream.execute through the real dynamixel-sdk against firmware_sim (timing "fast")."""
+
+from __future__ import annotations
+
+import json
+import math
+import os
+import threading
+import time
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import robodcn
+from firmware_sim.bus import SimBus
+from robodcn import servo_units
+from robodcn.bus import ServoBus
+from robodcn.errors import (
+    HardwareAlertError,
+    InputError,
+    ServoMismatchError,
+    StartMismatchError,
+    TickLimitError,
+)
+from robodcn.planner import Trajectory
+from robodcn.stream import STOP_REASONS, ExecutionReport, Progress, StopSignal, execute
+
+ROOT = Path(__file__).resolve().parent.parent
+ARM = robodcn.load_arm(ROOT / "configs" / "arm3r.toml")
+IDS = ARM.servo_ids
+WRITES = ("WRITE", "SYNC_WRITE", "REG_WRITE", "BULK_WRITE")
+RATE = 100.0
+
+
+def plan(rate: float = RATE, end=(0.22, 0.18, 0.6)) -> Trajectory:
+    return robodcn.plan(ARM, [ARM.home, end], rate_hz=rate)
+
+
+TRAJ = plan()
+
+
+@pytest.fixture
+def sim():
+    with SimBus(IDS, timing="fast") as bus:
+        yield bus
+    assert not bus.errors, bus.errors
+
+
+def open_bus(sim: SimBus, servos=ARM.servos, **kw) -> ServoBus:
+    return ServoBus(sim.port_path, servos=servos, **kw).open()
+
+
+def place(bus: ServoBus, ticks, timeout: float = 5.0) -> None:
+    """Move the simulated arm to ``ticks`` through the SDK and wait until it is there."""
+    bus.verify()
+    bus.configure()
+    bus.write_goals(np.asarray(ticks))
+    deadline = time.monotonic() + timeout
+    while np.abs(bus.read_positions() - ticks).max() > 1:
+        assert time.monotonic() < deadline, "the simulated arm never reached its goal"
+        time.sleep(0.01)
+
+
+def history(sim: SimBus) -> np.ndarray:
+    """Goals each servo accepted, (n, k) in joint order."""
+    return np.array([sim.goal_history(i) for i in IDS]).T
+
+
+def write_count(sim: SimBus) -> int:
+    return sum(len(sim.packets("rx", name)) for name in WRITES)
+
+
+def present(sim: SimBus) -> list[int]:
+    return [sim.servo(i).present_position for i in IDS]
+
+
+def assert_holds(sim: SimBus, report: ExecutionReport) -> None:
+    """After a stop the servos keep the hold goals and stay where they are."""
+    assert report.hold_goals is not None
+    assert [sim.servo(i).goal_position for i in IDS] == list(report.hold_goals)
+    assert history(sim)[-1].tolist() == list(report.hold_goals)
+    time.sleep(0.2)                                # let a servo finish its last step
+    first = present(sim)
+    time.sleep(0.05)
+    assert present(sim) == first
+    assert sim.servo(IDS[0]).torque_enabled        # no release was asked for
+
+
+# -- the happy path ----------------------------------------------------------------------------
+
+def test_trajectory_executes_end_to_end(sim):
+    with open_bus(sim) as bus:
+        place(bus, TRAJ.ticks[0])
+        before = len(history(sim))
+        report = execute(TRAJ, bus, settle=2.0, skip_late=False)
+    assert report.stop_reason == "completed" and report.completed, report.message
+    assert report.samples_sent == report.samples_total == len(TRAJ.ticks)
+    assert report.samples_skipped == 0 and report.hold_goals is None
+    # Every goal the simulator accepted during the run is the plan, in order.
+    assert np.array_equal(history(sim)[before:], TRAJ.ticks)
+    # Feedback: the arm reached the end; tracking stayed within the limit.
+    assert report.final_positions == tuple(present(sim))
+    assert max(abs(e) for e in report.final_error_ticks) <= 1
+    assert np.abs(np.array(present(sim)) - TRAJ.ticks[-1]).max() <= 1
+    assert report.feedback_reads == report.samples_sent
+    assert max(report.tracking_error_max_rad) < 0.25
+    assert all(r <= m + 1e-12 for r, m in zip(report.tracking_error_rms_rad,
+                                               report.tracking_error_max_rad, strict=True))
+    per_tick = np.array([2 * math.pi / s.ticks_per_turn for s in ARM.servos])
+    assert np.allclose(np.array(report.tracking_error_max_ticks) * per_tick,
+                       report.tracking_error_max_rad)
+    assert report.fast_read and report.comm_failures == 0
+    # Timing (loose: the suite shares two cores with everything else).
+    assert report.achieved_rate_hz == pytest.approx(RATE, rel=0.1)
+    assert report.duration_s == pytest.approx(TRAJ.duration, abs=5 / RATE)
+    assert report.jitter_p50_s <= report.jitter_p99_s <= report.jitter_max_s
+    data = json.loads(json.dumps(report.to_dict()))
+    assert data["stop_reason"] == "completed" and data["servo_ids"] == list(IDS)
+    # Completed moves keep holding, torque on, watchdog disarmed.
+    assert all(sim.servo(i).torque_enabled for i in IDS)
+    assert [sim.servo(i).read(98, 1)[1] for i in IDS] == [b"\x00"] * 3
+
+
+def test_feedback_every_k_samples_and_at_the_end(sim):
+    with open_bus(sim) as bus:
+        place(bus, TRAJ.ticks[0])
+        sim.clear_log()
+        report = execute(TRAJ, bus, feedback_every=4, health_interval=10.0, skip_late=False)
+    n = len(TRAJ.ticks)
+    expected = sum(1 for i in range(n) if i % 4 == 0 or i == n - 1)
+    assert report.completed and report.feedback_reads == expected
+    reads = [e for e in sim.packets("rx", "FAST_SYNC_READ")
+             if int.from_bytes(e.params[:2], "little") == 132]
+    # The pre-flight read, the streaming reads, the final read.
+    assert len(reads) == expected + 2
+    assert len(sim.packets("rx", "SYNC_WRITE")) == n
+
+
+def test_release_turns_torque_off_at_the_end(sim):
+    with open_bus(sim) as bus:
+        place(bus, TRAJ.ticks[0])
+        report = execute(TRAJ, bus, release=True)
+    assert report.completed and report.released
+    assert not any(sim.servo(i).torque_enabled for i in IDS)
+
+
+# -- refusals before any write -----------------------------------------------------------------
+
+def test_missing_servo_is_refused_before_any_write():
+    with SimBus(IDS[:2], timing="fast") as sim, open_bus(sim, retries=0) as bus:
+        with pytest.raises(ServoMismatchError, match=rf"\[{IDS[2]}\]"):
+            execute(TRAJ, bus)
+        assert write_count(sim) == 0
+
+
+def test_wrong_model_is_refused_before_any_write():
+    models = {i: "xm430-w350" for i in IDS} | {IDS[1]: "xl430-w250"}
+    with SimBus(IDS, model=models, timing="fast") as sim, open_bus(sim) as bus:
+        with pytest.raises(ServoMismatchError, match="xl430-w250") as err:
+            execute(TRAJ, bus)
+        assert err.value.value["wrong_model"] == [IDS[1]]
+        assert write_count(sim) == 0
+
+
+def test_out_of_limit_tick_is_refused_before_any_write(sim):
+    # The servos' own Position Limits are tighter than the plan (the servo would refuse).
+    low = int(TRAJ.ticks[:, 1].min()) + 5
+    for i in IDS:
+        sim.servo(i).write(52, low.to_bytes(4, "little"))
+    with open_bus(sim) as bus:
+        with pytest.raises(TickLimitError, match=f"servo {IDS[1]}") as err:
+            execute(TRAJ, bus)
+    assert TRAJ.ticks[err.value.sample, 1] < low
+    assert write_count(sim) == 0
+
+
+def test_arm_far_from_start_is_refused_before_any_write(sim):
+    with open_bus(sim) as bus:
+        with pytest.raises(StartMismatchError, match="approach=True"):
+            execute(TRAJ, bus)
+    assert write_count(sim) == 0
+
+
+def test_hardware_error_before_start_is_refused(sim):
+    with open_bus(sim) as bus:
+        place(bus, TRAJ.ticks[0])
+        sim.faults.trip(IDS[2], 0x04)
+        writes = write_count(sim)
+        with pytest.raises(HardwareAlertError, match="overheating"):
+            execute(TRAJ, bus)
+    assert write_count(sim) == writes
+
+
+def test_approach_segment_starts_from_the_present_positions(sim):
+    with open_bus(sim) as bus:
+        bus.verify()
+        start = bus.read_positions()
+        report = execute(TRAJ, bus, approach=True, settle=2.0)
+    assert report.completed and report.approach, report.message
+    goals = history(sim)
+    assert report.samples_sent > len(TRAJ.ticks)
+    streamed = goals[-report.samples_sent:]
+    # The approach leaves from where the arm was (within half a tick of the planner's
+    # joint-space start) and ends on the original plan.
+    assert np.abs(streamed[0] - start).max() <= 1
+    assert np.array_equal(streamed[-len(TRAJ.ticks):], TRAJ.ticks)
+
+
+def test_trajectory_for_other_servos_is_refused(sim):
+    with open_bus(sim, servos=ARM.servos[:2]) as bus:
+        with pytest.raises(ServoMismatchError, match="same order"):
+            execute(TRAJ, bus)
+
+
+@pytest.mark.parametrize("kwargs, field", [
+    ({"feedback_every": -1}, "feedback_every"), ({"max_comm_failures": 0}, "max_comm_failures"),
+    ({"tracking_limit": 0.0}, "tracking_limit"), ({"start_tolerance": math.nan},
+                                                   "start_tolerance"),
+    ({"stop": object()}, "stop"), ({"settle": -1.0}, "settle"),
+])
+def test_bad_arguments_name_the_field(sim, kwargs, field):
+    with open_bus(sim) as bus:
+        with pytest.raises(InputError) as err:
+            execute(TRAJ, bus, **kwargs)
+    assert err.value.field == field
+    assert write_count(sim) == 0
+
+
+# -- faults stop the stream and the arm holds --------------------------------------------------
+
+def inject_at(sample: int, action):
+    """A progress callback that runs ``action`` once, at the first report past ``sample``."""
+    done = []
+
+    def callback(p: Progress) -> None:
+        if p.sample >= sample and not done:
+            done.append(p.sample)
+            action()
+
+    return callback
+
+
+@pytest.mark.parametrize("fault", ["drop", "corrupt_crc"])
+def test_comm_faults_stop_with_comm_failure_and_hold(sim, fault):
+    with open_bus(sim) as bus:
+        place(bus, TRAJ.ticks[0])
+        arm = getattr(sim.faults, fault)
+        report = execute(TRAJ, bus, max_comm_failures=3,
+                         progress=inject_at(10, lambda: arm(IDS[1], times=None)))
+        sim.faults.clear()
+    assert report.stop_reason == "comm_failure", report.message
+    assert report.comm_failures == 3 and report.retries >= 3 * bus.retries
+    assert report.samples_sent < report.samples_total
+    assert_holds(sim, report)
+
+
+def test_overload_stops_with_hardware_alert(sim):
+    with open_bus(sim) as bus:
+        place(bus, TRAJ.ticks[0])
+        report = execute(TRAJ, bus, progress=inject_at(10, lambda: sim.faults.trip(IDS[0])))
+    assert report.stop_reason == "hardware_alert", report.message
+    assert report.hardware_errors[IDS[0]] == 0x20 and "overload" in report.message
+    assert report.samples_sent < report.samples_total
+    # The servo's Shutdown already took its torque off; the others hold.
+    assert not sim.servo(IDS[0]).torque_enabled
+    assert report.hold_goals is not None
+    assert [sim.servo(i).goal_position for i in IDS] == list(report.hold_goals)
+
+
+def test_host_stall_past_the_watchdog_stops_with_hardware_alert(sim):
+    with open_bus(sim) as bus:
+        place(bus, TRAJ.ticks[0])
+        report = execute(TRAJ, bus, watchdog_ms=40,
+                         progress=inject_at(10, lambda: time.sleep(0.15)))
+    assert report.stop_reason == "hardware_alert" and "watchdog" in report.message
+    # The hold disarmed the tripped watchdog, which made goals writable again.
+    assert [sim.servo(i).read(98, 1)[1] for i in IDS] == [b"\x00"] * 3
+    assert_holds(sim, report)
+
+
+def test_tracking_error_above_the_limit_stops(sim):
+    with open_bus(sim) as bus:
+        place(bus, TRAJ.ticks[0])
+        # Servo 2 stops following without any alert: its torque goes off behind our back.
+        report = execute(TRAJ, bus, tracking_limit=0.05, progress=inject_at(
+            5, lambda: sim.servo(IDS[1]).write(64, b"\x00")))
+    assert report.stop_reason == "tracking_error", report.message
+    assert "'elbow'" in report.message
+    assert report.tracking_error_max_rad[1] > 0.05
+    assert report.samples_sent < report.samples_total
+    assert report.hold_goals is not None
+    assert [sim.servo(i).goal_position for i in IDS] == list(report.hold_goals)
+
+
+def test_stop_request_stops_within_two_periods(sim):
+    stop = StopSignal()
+    marks = {}
+    with open_bus(sim) as bus:
+        place(bus, TRAJ.ticks[0])
+        before = len(history(sim))
+
+        def watcher():
+            while len(sim.goal_history(IDS[0])) < before + 10:
+                time.sleep(0.0005)
+            marks["t"] = time.perf_counter()
+            stop.request("operator stop")
+            marks["count"] = len(sim.goal_history(IDS[0]))
+
+        thread = threading.Thread(target=watcher)
+        thread.start()
+        report = execute(TRAJ, bus, stop=stop)
+        returned = time.perf_counter()
+        thread.join()
+    assert report.stop_reason == "stopped" and report.message == "operator stop"
+    # At most the write in flight when the request came, and one more: two periods.
+    streamed_after = len(sim.goal_history(IDS[0])) - 1 - marks["count"]   # minus the hold
+    assert 0 <= streamed_after <= 2 and report.samples_sent >= 10
+    # The last streamed goal reached the simulator within two periods of the request.
+    last = sim.packets("rx", "SYNC_WRITE")[-2].time        # [-1] is the hold
+    assert last - marks["t"] < 2 / RATE
+    assert returned - marks["t"] < 2 / RATE + 0.5           # + the hold's round trips
+    assert_holds(sim, report)
+
+
+def test_a_threading_event_stops_too(sim):
+    event = threading.Event()
+    event.set()
+    with open_bus(sim) as bus:
+        place(bus, TRAJ.ticks[0])
+        report = execute(TRAJ, bus, stop=event)
+    assert report.stop_reason == "stopped" and report.samples_sent == 0
+    assert_holds(sim, report)
+
+
+def test_overruns_skip_ahead_without_accumulating(sim):
+    with open_bus(sim) as bus:
+        place(bus, TRAJ.ticks[0])
+        before = len(history(sim))
+        report = execute(TRAJ, bus, progress=inject_at(5, lambda: time.sleep(3.5 / RATE)))
+    assert report.completed, report.message
+    assert report.overruns >= 1 and report.samples_skipped >= 2
+    assert report.samples_sent + report.samples_skipped == report.samples_total
+    # The schedule did not slip: the run still ends on the planned clock.
+    assert report.duration_s == pytest.approx(TRAJ.duration, abs=3 / RATE)
+    # What was sent is the plan with the skipped samples left out, in order, ending on the
+    # last sample.
+    sent = history(sim)[before:]
+    assert len(sent) == report.samples_sent
+    rows, k = [], 0
+    for row in sent:
+        while not np.array_equal(TRAJ.ticks[k], row):
+            k += 1                                  # IndexError: not a subsequence
+        rows.append(k)
+        k += 1
+    assert rows[-1] == len(TRAJ.ticks) - 1
+    assert len(rows) == len(TRAJ.ticks) - report.samples_skipped
+
+
+# -- resources ---------------------------------------------------------------------------------
+
+def test_no_thread_or_fd_leak_after_100_executions(sim):
+    with open_bus(sim) as bus:
+        place(bus, TRAJ.ticks[0])
+        here = bus.read_positions()
+    joints = servo_units.ticks_to_radians(here, ARM.servos)
+    short = Trajectory(t=np.arange(3) / 1000.0, poses=np.zeros((3, 3)),
+                       joints=np.tile(joints, (3, 1)), ticks=np.tile(here, (3, 1)),
+                       joint_names=ARM.joint_names, servo_ids=IDS, rate_hz=1000.0,
+                       method="sclerp")
+    fds = len(os.listdir("/proc/self/fd"))
+    threads = threading.active_count()
+    for _ in range(100):
+        with open_bus(sim) as bus:
+            report = execute(short, bus)
+        assert report.completed, report.message
+    assert len(os.listdir("/proc/self/fd")) == fds
+    assert threading.active_count() == threads
+
+
+def test_stop_reasons_are_the_documented_ones():
+    assert STOP_REASONS == ("completed", "stopped", "comm_failure", "hardware_alert",
+                            "tracking_error")
