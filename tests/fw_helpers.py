@@ -12,6 +12,7 @@ from firmware_sim.bus import SimBus
 from firmware_sim.protocol import build_packet
 
 PH = PacketHandler(2.0)
+READ_TIMEOUT_S = 0.001
 
 
 @contextmanager
@@ -20,6 +21,11 @@ def sdk_port(bus: SimBus, baud: int = 1_000_000) -> Iterator[PortHandler]:
     port = PortHandler(bus.port_path)
     assert port.openPort(), f"SDK could not open {bus.port_path}"
     assert port.setBaudRate(baud), f"SDK refused baud {baud}"
+    # The SDK polls pyserial with timeout=0 and spins at 100 % CPU holding the GIL; with
+    # the simulator in the same interpreter (and pytest -n 2 on two cores) that spinning
+    # starves the server thread. A 1 ms read timeout makes the same SDK code wait in
+    # select() instead; its packet logic and its own timeouts are unchanged.
+    port.ser.timeout = READ_TIMEOUT_S
     try:
         yield port
     finally:

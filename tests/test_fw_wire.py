@@ -15,7 +15,9 @@ import pytest
 from dynamixel_sdk import COMM_RX_TIMEOUT, COMM_SUCCESS, GroupSyncRead, PortHandler
 from fw_helpers import PH, sdk_port
 
+from firmware_sim import __main__ as cli
 from firmware_sim.bus import SimBus, sleep_until
+from firmware_sim.faults import FaultInjector, FaultKind
 
 ROOT = Path(__file__).resolve().parent.parent
 
@@ -147,3 +149,48 @@ def test_realistic_timing_follows_wire_time():
         slow = min(_rtts(group.txRxPacket, n=30))
         assert slow - sync == pytest.approx(3 * 500e-6, rel=0.25)
         assert bus.errors == []
+
+
+@pytest.mark.parametrize(("flag", "kind", "check"), [
+    ("--drop=2:n=3", FaultKind.DROP, lambda f: f.servo_id == 2 and f.times == 3),
+    ("--drop=bus:p=0.25", FaultKind.DROP, lambda f: f.servo_id is None and f.times is None
+     and f.probability == 0.25),
+    ("--delay=1:ms=40", FaultKind.DELAY, lambda f: f.delay_s == pytest.approx(0.040)),
+    ("--corrupt-crc=3:n=0", FaultKind.CORRUPT_CRC, lambda f: f.servo_id == 3 and f.times is None),
+    ("--wrong-id=2:to=9", FaultKind.WRONG_ID, lambda f: f.to_id == 9),
+    ("--truncate-fast=bus:keep=1", FaultKind.TRUNCATE_FAST, lambda f: f.keep == 1),
+    ("--split=bus:pieces=3,gap_ms=0.5", FaultKind.SPLIT,
+     lambda f: f.pieces == 3 and f.gap_s == pytest.approx(0.0005)),
+])
+def test_cli_fault_flags_arm_the_injector(flag, kind, check):
+    args = cli.parser().parse_args([flag])
+    injector = FaultInjector()
+    attr = flag[2:].split("=")[0].replace("-", "_")
+    for servo_id, opts in getattr(args, attr):
+        assert cli._arm(injector, attr, servo_id, opts) is None
+    (fault,) = injector.active
+    assert fault.kind is kind and check(fault)
+
+
+def test_cli_trip_flag_is_scheduled_and_unknown_options_refused():
+    args = cli.parser().parse_args(["--trip", "2:bits=4,at=0.5"])
+    tripped = []
+    injector = FaultInjector(_tripper=lambda sid, bits: tripped.append((sid, bits)))
+    ((servo_id, opts),) = args.trip
+    action = cli._arm(injector, "trip", servo_id, opts)
+    assert opts["at"] == 0.5 and tripped == []
+    action()
+    assert tripped == [(2, 4)]
+    with pytest.raises(SystemExit, match="unknown option"):
+        cli._arm(injector, "delay", 1, {"bogus": 1.0})
+
+
+def test_cli_exits_cleanly_on_sigint():
+    proc = subprocess.Popen([sys.executable, "-m", "firmware_sim", "--ids", "7"], cwd=ROOT,
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    try:
+        assert proc.stdout.readline().startswith("/dev/")
+    finally:
+        proc.send_signal(signal.SIGINT)
+        _, err = proc.communicate(timeout=10)
+    assert proc.returncode == 0, err
