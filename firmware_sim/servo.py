@@ -271,7 +271,8 @@ class Servo:
               and pos == t.get(ct.GOAL_POSITION)):
             status |= ct.MS_IN_POSITION
         t.set(ct.MOVING_STATUS, status)
-        t.set(ct.REALTIME_TICK, int((now - self._boot_time) * 1000.0) % 32768)
+        # the epsilon keeps 1.234 s from reading 1233 ms through float rounding
+        t.set(ct.REALTIME_TICK, math.floor((now - self._boot_time) * 1000.0 + 1e-6) % 32768)
         t.set(ct.REGISTERED_INSTRUCTION, int(self._registered is not None))
         t.set(ct.BACKUP_READY, int(self._backup is not None))
 

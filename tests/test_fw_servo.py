@@ -1,0 +1,526 @@
+"""firmware_sim Servo: motion model, watchdog, hardware errors and instructions.
+
+Servo with a VirtualClock, no pty. Durations are checked against the X-series formulas
+computed here from the e-manual (t_accel = 64·V/A ms, cruise 64·|Δ|/V ms, triangle
+2·sqrt(|Δ|/a) with a = A·214.577 rev/min²), not against numbers from a run.
+"""
+
+from __future__ import annotations
+
+import itertools
+import math
+
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from firmware_sim import control_table as ct
+from firmware_sim.clock import RealClock, VirtualClock
+from firmware_sim.control_table import (
+    ALERT_BIT,
+    ERR_ACCESS,
+    ERR_DATA_LENGTH,
+    ERR_DATA_RANGE,
+    ERR_INSTRUCTION,
+    ERR_RESULT_FAIL,
+)
+from firmware_sim.servo import BACKUP_MAGIC, CLEAR_MULTI_TURN, Servo
+
+#: One control period of the simulated firmware, s (Realtime Tick resolution).
+PERIOD = 0.001
+#: Profile Acceleration unit in pulse/s² (e-manual 214.577 rev/min², 4096 pulse/rev).
+A_UNIT = 214.577 * 4096 / 3600.0
+
+
+def make(model: str = "xm430-w350", **kw) -> tuple[Servo, VirtualClock]:
+    clock = VirtualClock(100.0)
+    return Servo(1, model, clock=clock, **kw), clock
+
+
+def put(servo: Servo, address: int, value: int) -> None:
+    it = servo.spec.item(address)
+    code = servo.write(address, value.to_bytes(it.size, "little", signed=it.signed))
+    assert code == 0, f"write {it.name}={value} -> error {code:#x}"
+
+
+def setup_move(servo: Servo, velocity: int, acceleration: int, drive_mode: int = 0,
+               mode: int = ct.MODE_POSITION) -> None:
+    put(servo, ct.TORQUE_ENABLE, 0)
+    put(servo, ct.OPERATING_MODE, mode)
+    put(servo, ct.DRIVE_MODE, drive_mode)
+    put(servo, ct.PROFILE_VELOCITY, velocity)
+    put(servo, ct.PROFILE_ACCELERATION, acceleration)
+    put(servo, ct.TORQUE_ENABLE, 1)
+
+
+def expected_duration_s(delta: int, v: int, a: int) -> float:
+    """X-series velocity-based profile time, e-manual formulas (dynamixel-notes §2.1)."""
+    delta = abs(delta)
+    if v == 0:
+        return 0.0
+    if a == 0:
+        return 0.064 * delta / v
+    t_accel = 0.064 * v / a
+    if delta >= v * v / a:                       # V is reached: trapezoid
+        return t_accel + 0.064 * delta / v
+    return 2 * math.sqrt(delta / (a * A_UNIT))   # triangle
+
+
+def assert_duration(servo: Servo, clock: VirtualClock, goal: int, expected: float) -> None:
+    """Goal written now: moving one period before ``expected``, done one period after."""
+    t0 = clock.now()
+    put(servo, ct.GOAL_POSITION, goal)
+    if expected > PERIOD:
+        clock.set(t0 + expected - PERIOD)
+        assert servo.moving and servo.get(ct.MOVING_STATUS) & ct.MS_PROFILE_ONGOING
+    clock.set(t0 + expected + PERIOD)
+    assert not servo.moving
+    assert servo.present_position == goal and servo.present_velocity == 0
+    status = servo.get(ct.MOVING_STATUS)
+    assert status & ct.MS_IN_POSITION and not status & ct.MS_PROFILE_ONGOING
+
+
+# ---- profile types ----------------------------------------------------------------------
+def test_step_profile_when_velocity_is_zero():
+    servo, _ = make()
+    setup_move(servo, 0, 50)
+    put(servo, ct.GOAL_POSITION, 3000)
+    assert servo.present_position == 3000 and not servo.moving
+    assert servo.get(ct.MOVING_STATUS) & 0x30 == 0
+
+
+def test_rectangle_profile_when_acceleration_is_zero():
+    servo, clock = make()
+    setup_move(servo, 100, 0)
+    t0 = clock.now()
+    put(servo, ct.GOAL_POSITION, 1048)
+    clock.set(t0 + 0.1)
+    assert servo.present_velocity == -100                     # full speed at once
+    assert servo.get(ct.MOVING_STATUS) == ct.MS_PROFILE_RECTANGLE | ct.MS_PROFILE_ONGOING
+    servo2, clock2 = make()
+    setup_move(servo2, 100, 0)
+    assert_duration(servo2, clock2, 1048, expected_duration_s(1000, 100, 0))
+
+
+def test_trapezoid_duration_and_shape():
+    servo, clock = make()
+    v, a, goal = 120, 15, 2048 + 3000
+    setup_move(servo, v, a, mode=ct.MODE_EXTENDED_POSITION)
+    t0 = clock.now()
+    t_accel = 0.064 * v / a
+    put(servo, ct.GOAL_POSITION, goal)
+    clock.set(t0 + t_accel / 2)
+    assert 0 < servo.present_velocity < v
+    assert servo.get(ct.MOVING_STATUS) == ct.MS_PROFILE_TRAPEZOID | ct.MS_PROFILE_ONGOING
+    clock.set(t0 + t_accel + 0.1)
+    assert servo.present_velocity == v                        # cruising at Profile Velocity
+    assert servo.get(ct.VELOCITY_TRAJECTORY) == v
+    assert servo.get(ct.POSITION_TRAJECTORY) == servo.present_position
+    servo2, clock2 = make()
+    setup_move(servo2, v, a, mode=ct.MODE_EXTENDED_POSITION)
+    assert_duration(servo2, clock2, goal, expected_duration_s(3000, v, a))
+
+
+def test_triangle_when_velocity_cannot_be_reached():
+    servo, clock = make()
+    v, a = 300, 10          # V²/A = 9000 pulses > the move
+    setup_move(servo, v, a)
+    put(servo, ct.TORQUE_ENABLE, 0)
+    put(servo, ct.VELOCITY_LIMIT, 1023)
+    put(servo, ct.TORQUE_ENABLE, 1)
+    t0 = clock.now()
+    put(servo, ct.GOAL_POSITION, 3548)
+    clock.set(t0 + 0.05)
+    assert servo.get(ct.MOVING_STATUS) == ct.MS_PROFILE_TRIANGLE | ct.MS_PROFILE_ONGOING
+    half = math.sqrt(1500 / (a * A_UNIT))
+    clock.set(t0 + half)
+    assert abs(servo.present_position - (2048 + 750)) <= 2     # symmetric: halfway at half time
+    assert servo.present_velocity < v
+    servo2, clock2 = make()
+    setup_move(servo2, v, a)
+    put(servo2, ct.TORQUE_ENABLE, 0)
+    put(servo2, ct.VELOCITY_LIMIT, 1023)
+    put(servo2, ct.TORQUE_ENABLE, 1)
+    assert_duration(servo2, clock2, 3548, expected_duration_s(1500, v, a))
+
+
+@settings(max_examples=60, deadline=None)
+@given(delta=st.integers(-1_000_000, 1_000_000).filter(lambda d: d != 0),
+       v=st.integers(1, 1023), a=st.integers(0, 32767))
+def test_profiled_move_duration_matches_xseries_formula(delta, v, a):
+    servo, clock = make()
+    setup_move(servo, v, a, mode=ct.MODE_EXTENDED_POSITION)
+    put(servo, ct.TORQUE_ENABLE, 0)
+    put(servo, ct.VELOCITY_LIMIT, 1023)
+    put(servo, ct.TORQUE_ENABLE, 1)
+    goal = servo.present_position + delta
+    if abs(goal) > ct.EXTENDED_POSITION_RANGE:
+        goal = servo.present_position - delta
+    assert_duration(servo, clock, goal, expected_duration_s(delta, v, a))
+
+
+def test_velocity_limit_caps_profile_velocity():
+    servo, clock = make()
+    setup_move(servo, 500, 0)                   # Velocity Limit default 200 on the XM430
+    limit = servo.get(ct.VELOCITY_LIMIT)
+    assert limit == 200
+    assert_duration(servo, clock, 2048 + 2000, expected_duration_s(2000, limit, 0))
+
+
+def test_time_based_profile():
+    for accel_ms, kind in ((300, ct.MS_PROFILE_TRAPEZOID), (700, ct.MS_PROFILE_TRIANGLE),
+                           (0, ct.MS_PROFILE_RECTANGLE)):
+        servo, clock = make()
+        setup_move(servo, 1000, accel_ms, drive_mode=ct.DRIVE_TIME_BASED)
+        t0 = clock.now()
+        put(servo, ct.GOAL_POSITION, 2048 + 1200)
+        clock.set(t0 + 0.01)
+        assert servo.get(ct.MOVING_STATUS) & 0x30 == kind
+        t1 = min(accel_ms, 500) / 1000
+        if t1:
+            peak = 1200 / (1.0 - t1)             # Δ = vp·(t3 - t1)
+            clock.set(t0 + t1)
+            assert abs(servo.present_position - (2048 + peak * t1 / 2)) <= 1
+        clock.set(t0 + 0.5)                      # symmetric profile: halfway at half time
+        assert abs(servo.present_position - (2048 + 600)) <= 1
+        clock.set(t0 + 1.0 - PERIOD)
+        assert servo.moving
+        clock.set(t0 + 1.0 + PERIOD)
+        assert not servo.moving and servo.present_position == 2048 + 1200
+    servo, clock = make()
+    setup_move(servo, 0, 0, drive_mode=ct.DRIVE_TIME_BASED)
+    put(servo, ct.GOAL_POSITION, 100)
+    assert servo.present_position == 100          # total time 0: step
+
+
+# ---- re-planning ------------------------------------------------------------------------
+def _velocity_trace(servo: Servo, clock: VirtualClock, until: float, dt: float) -> list[int]:
+    out = []
+    while clock.now() < until:
+        clock.advance(dt)
+        out.append(servo.present_velocity)
+    return out
+
+
+@settings(max_examples=25, deadline=None)
+@given(first=st.integers(-3000, 3000).filter(lambda d: abs(d) > 50),
+       second=st.integers(-3000, 3000), frac=st.floats(0.05, 0.95),
+       v=st.integers(50, 200), a=st.integers(20, 200))
+def test_new_goal_replans_with_continuous_velocity(first, second, frac, v, a):
+    servo, clock = make()
+    setup_move(servo, v, a, mode=ct.MODE_EXTENDED_POSITION)
+    t0 = clock.now()
+    put(servo, ct.GOAL_POSITION, 2048 + first)
+    clock.set(t0 + frac * expected_duration_s(first, v, a))
+    before = servo.present_velocity
+    put(servo, ct.GOAL_POSITION, 2048 + second)
+    assert servo.present_velocity == before                   # same instant, same velocity
+    dt = 0.004
+    max_step = a / 64 * dt * 1000 + 1                         # A is V units per 64 ms
+    trace = [before, *_velocity_trace(servo, clock, clock.now() + 6.0, dt)]
+    assert max(abs(p - q) for p, q in itertools.pairwise(trace)) <= max_step
+    assert max(abs(x) for x in trace) <= v
+    assert servo.present_position == 2048 + second and not servo.moving
+
+
+def test_replan_towards_a_goal_behind_brakes_first():
+    servo, clock = make()
+    setup_move(servo, 100, 20, mode=ct.MODE_EXTENDED_POSITION)
+    t0 = clock.now()
+    put(servo, ct.GOAL_POSITION, 2048 + 4000)
+    clock.set(t0 + 1.0)
+    assert servo.present_velocity == 100
+    here = servo.present_position
+    put(servo, ct.GOAL_POSITION, here)               # goal already passed at speed
+    clock.advance(0.064 * 100 / 20 / 2)
+    assert servo.present_position > here and 0 < servo.present_velocity < 100
+    clock.advance(5.0)
+    assert servo.present_position == here and servo.present_velocity == 0
+
+
+# ---- frames, modes, torque ----------------------------------------------------------------
+def test_homing_offset_and_reverse():
+    servo, clock = make(position=1000)
+    assert servo.present_position == 1000
+    put(servo, ct.HOMING_OFFSET, 300)
+    assert servo.present_position == 1300                     # present = actual + offset
+    put(servo, ct.DRIVE_MODE, ct.DRIVE_REVERSE)
+    assert servo.present_position == -1000 + 300
+    put(servo, ct.OPERATING_MODE, ct.MODE_EXTENDED_POSITION)
+    put(servo, ct.PROFILE_VELOCITY, 200)
+    put(servo, ct.TORQUE_ENABLE, 1)
+    put(servo, ct.GOAL_POSITION, -700 + 500)
+    clock.advance(2.0)
+    assert servo.present_position == -200
+    put(servo, ct.TORQUE_ENABLE, 0)
+    # back to the motor's own frame: the actual position moved by -500 (reversed)
+    put(servo, ct.DRIVE_MODE, 0)
+    put(servo, ct.HOMING_OFFSET, 0)
+    assert servo.present_position == 1000 - 500
+
+
+def test_torque_off_stops_where_it_is_and_goal_alone_does_not_move():
+    servo, clock = make()
+    put(servo, ct.GOAL_POSITION, 3000)                # torque off: stored, no motion
+    clock.advance(2.0)
+    assert servo.present_position == 2048 and servo.goal_position == 3000
+    setup_move(servo, 100, 10)
+    assert servo.goal_position == 2048                # torque on holds the present position
+    put(servo, ct.GOAL_POSITION, 3000)
+    clock.advance(0.5)
+    mid = servo.present_position
+    assert 2048 < mid < 3000
+    put(servo, ct.TORQUE_ENABLE, 0)
+    clock.advance(2.0)
+    assert servo.present_position == mid and not servo.moving
+
+
+def test_torque_on_by_goal_update():
+    servo, clock = make()
+    put(servo, ct.DRIVE_MODE, ct.DRIVE_TORQUE_ON_BY_GOAL)
+    put(servo, ct.GOAL_POSITION, 2500)
+    assert servo.torque_enabled
+    clock.advance(0.1)
+    assert servo.present_position == 2500
+
+
+def test_velocity_mode_ramps_then_keeps_goal_velocity():
+    servo, clock = make()
+    setup_move(servo, 0, 20, mode=ct.MODE_VELOCITY)
+    t0 = clock.now()
+    put(servo, ct.GOAL_VELOCITY, 100)
+    ramp = 0.064 * 100 / 20
+    clock.set(t0 + ramp / 2)
+    assert servo.present_velocity in (49, 50, 51)
+    clock.set(t0 + ramp)
+    p1 = servo.present_position
+    assert servo.present_velocity == 100
+    clock.set(t0 + ramp + 1.0)
+    assert abs(servo.present_position - p1 - 100 / 0.064) <= 1     # Δ = V·t/64 ms
+    assert servo.moving and servo.get(ct.MOVING_STATUS) & ct.MS_PROFILE_ONGOING == 0
+
+
+def test_realtime_tick_counts_ms_and_wraps():
+    servo, clock = make()
+    t = servo.get(ct.REALTIME_TICK)
+    clock.advance(1.234)
+    assert servo.get(ct.REALTIME_TICK) == (t + 1234) % 32768
+    clock.advance(32.768)
+    assert servo.get(ct.REALTIME_TICK) == (t + 1234) % 32768
+
+
+# ---- bus watchdog -----------------------------------------------------------------------
+def test_bus_watchdog_trips_and_recovers():
+    servo, clock = make()
+    setup_move(servo, 100, 10)
+    put(servo, ct.BUS_WATCHDOG, 5)                   # 100 ms
+    t0 = clock.now()
+    put(servo, ct.GOAL_POSITION, 3500)
+    for _ in range(10):                              # fed every 60 ms: keeps running
+        clock.advance(0.06)
+        servo.note_instruction()
+    assert servo.get(ct.BUS_WATCHDOG) == 5 and servo.moving
+    deadline = clock.now() + 0.1
+    clock.advance(0.5)
+    assert servo.read(ct.BUS_WATCHDOG, 1) == (0, b"\xff")    # -1
+    stopped = servo.present_position
+    assert not servo.moving and 2048 < stopped < 3500
+    # it stopped where the same move was at the deadline, not at the time of the read
+    ref, ref_clock = make()
+    setup_move(ref, 100, 10)
+    ref_t0 = ref_clock.now()
+    put(ref, ct.GOAL_POSITION, 3500)
+    ref_clock.set(ref_t0 + (deadline - t0))
+    assert ref.present_position == stopped
+    for address, size in ((ct.GOAL_POSITION, 4), (ct.GOAL_VELOCITY, 4), (ct.GOAL_PWM, 2),
+                          (ct.GOAL_CURRENT, 2)):
+        assert servo.write(address, bytes(size)) == ERR_DATA_RANGE
+    assert servo.write(ct.BUS_WATCHDOG, b"\x05") == ERR_DATA_RANGE
+    clock.advance(1.0)
+    assert servo.present_position == stopped
+    put(servo, ct.BUS_WATCHDOG, 0)
+    put(servo, ct.GOAL_POSITION, 3500)
+    clock.advance(3.0)
+    assert servo.present_position == 3500
+
+
+def test_bus_watchdog_deadline_is_value_times_20ms():
+    servo, clock = make()
+    setup_move(servo, 0, 0)
+    put(servo, ct.BUS_WATCHDOG, 10)
+    servo.note_instruction()
+    clock.advance(0.2 - PERIOD)
+    assert servo.get(ct.BUS_WATCHDOG) == 10
+    clock.advance(2 * PERIOD)
+    assert servo.get(ct.BUS_WATCHDOG) == -1
+    # with torque off the watchdog does not run
+    servo2, clock2 = make()
+    put(servo2, ct.BUS_WATCHDOG, 1)
+    clock2.advance(1.0)
+    assert servo2.get(ct.BUS_WATCHDOG) == 1
+
+
+# ---- hardware errors --------------------------------------------------------------------
+def test_trip_shutdown_and_reboot():
+    servo, clock = make()
+    setup_move(servo, 100, 10)
+    put(servo, ct.LED, 1)
+    put(servo, ct.GOAL_POSITION, 3500)
+    clock.advance(0.5)
+    servo.trip(ct.HW_OVERLOAD)                       # in Shutdown (0x34): torque off
+    where = servo.present_position
+    assert not servo.torque_enabled and servo.hardware_error == ct.HW_OVERLOAD
+    assert servo.status_error(0) == ALERT_BIT
+    clock.advance(2.0)
+    assert servo.present_position == where
+    assert servo.write(ct.TORQUE_ENABLE, b"\x01") == ERR_RESULT_FAIL
+    assert servo.status_error(ERR_RESULT_FAIL) == ALERT_BIT | ERR_RESULT_FAIL
+    clock.advance(10.0)
+    assert servo.hardware_error == ct.HW_OVERLOAD    # nothing but a reboot clears it
+    servo.reboot()
+    assert servo.hardware_error == 0 and servo.status_error(0) == 0
+    assert servo.get(ct.LED) == 0                    # RAM back to defaults
+    put(servo, ct.TORQUE_ENABLE, 1)
+
+
+def test_trip_outside_shutdown_keeps_torque():
+    servo, _ = make()
+    setup_move(servo, 0, 0)
+    servo.trip(ct.HW_INPUT_VOLTAGE)                  # not in the default Shutdown 0x34
+    assert servo.torque_enabled and servo.status_error(0) == ALERT_BIT
+    put(servo, ct.GOAL_POSITION, 100)
+    assert servo.present_position == 100
+    with pytest.raises(ValueError, match="bits"):
+        servo.trip(0)
+
+
+# ---- reboot, factory reset ---------------------------------------------------------------
+def test_reboot_keeps_eeprom_resets_ram_and_boots():
+    servo, clock = make()
+    put(servo, ct.RETURN_DELAY_TIME, 7)
+    put(servo, ct.OPERATING_MODE, ct.MODE_EXTENDED_POSITION)
+    put(servo, ct.PROFILE_VELOCITY, 300)
+    put(servo, ct.TORQUE_ENABLE, 1)
+    put(servo, ct.GOAL_POSITION, 2048 + 3 * 4096)
+    clock.advance(10.0)
+    assert servo.present_position == 2048 + 3 * 4096
+    tick = servo.get(ct.REALTIME_TICK)
+    servo.reboot()
+    assert servo.booting()
+    clock.advance(servo.boot_delay_s)
+    assert not servo.booting()
+    assert servo.return_delay_us == 14 and servo.get(ct.OPERATING_MODE) == 4
+    assert servo.get(ct.PROFILE_VELOCITY) == 0 and not servo.torque_enabled
+    assert servo.present_position == 2048            # multi-turn is lost on a reboot
+    assert servo.get(ct.REALTIME_TICK) != tick
+
+
+@pytest.mark.parametrize("option, keeps_id, keeps_baud", [(0xFF, False, False),
+                                                          (0x01, True, False),
+                                                          (0x02, True, True)])
+@pytest.mark.parametrize("model", sorted(ct.MODELS))
+def test_factory_reset_options(option, keeps_id, keeps_baud, model):
+    clock = VirtualClock()
+    servo = Servo(7, model, baud_index=4, clock=clock, firmware=45)
+    put(servo, ct.RETURN_DELAY_TIME, 0)
+    put(servo, ct.HOMING_OFFSET, 100)
+    put(servo, ct.LED, 1)
+    assert servo.factory_reset(option) == 0
+    assert servo.id == (7 if keeps_id else 1)
+    assert servo.baud_index == (4 if keeps_baud else 1)
+    spec = servo.spec
+    assert servo.return_delay_us == 2 * spec.item(ct.RETURN_DELAY_TIME).default
+    assert servo.get(ct.HOMING_OFFSET) == 0 and servo.get(ct.LED) == 0
+    assert servo.firmware_version == 45 and servo.model_number == spec.model_number
+    assert servo.present_position == 2048 and servo.booting()
+
+
+def test_factory_reset_bad_option_changes_nothing():
+    servo, _ = make()
+    put(servo, ct.RETURN_DELAY_TIME, 0)
+    assert servo.factory_reset(0x03) == ERR_DATA_RANGE
+    assert servo.return_delay_us == 0 and not servo.booting()
+
+
+# ---- clear, backup, registered write -----------------------------------------------------
+def test_clear_multi_turn():
+    servo, clock = make()
+    setup_move(servo, 200, 0, mode=ct.MODE_EXTENDED_POSITION)
+    put(servo, ct.GOAL_POSITION, 2 * 4096 + 100)
+    clock.advance(0.1)
+    assert servo.moving
+    assert servo.clear(CLEAR_MULTI_TURN) == ERR_RESULT_FAIL
+    clock.advance(10.0)
+    assert servo.present_position == 2 * 4096 + 100
+    assert servo.clear(b"\x01DXL!") == ERR_DATA_RANGE
+    assert servo.clear(b"\x01DXL") == ERR_DATA_LENGTH
+    assert servo.clear(CLEAR_MULTI_TURN) == 0
+    assert servo.present_position == 100 and servo.goal_position == 100
+    clock.advance(1.0)
+    assert servo.present_position == 100             # no drive back to the old turn
+
+
+def test_control_table_backup_store_and_restore():
+    servo, _ = make()
+    put(servo, ct.RETURN_DELAY_TIME, 3)
+    put(servo, ct.INDIRECT_ADDRESS_1, ct.LED)
+    put(servo, ct.PROFILE_VELOCITY, 77)
+    assert servo.backup(b"\x02" + BACKUP_MAGIC) == ERR_RESULT_FAIL      # nothing stored yet
+    put(servo, ct.TORQUE_ENABLE, 1)
+    assert servo.backup(b"\x01" + BACKUP_MAGIC) == ERR_RESULT_FAIL      # torque on
+    put(servo, ct.TORQUE_ENABLE, 0)
+    assert servo.get(ct.BACKUP_READY) == 0
+    assert servo.backup(b"\x01" + BACKUP_MAGIC) == 0
+    assert servo.get(ct.BACKUP_READY) == 1
+    put(servo, ct.RETURN_DELAY_TIME, 200)
+    put(servo, ct.INDIRECT_ADDRESS_1, ct.MOVING)
+    put(servo, ct.PROFILE_VELOCITY, 5)
+    assert servo.backup(b"\x03" + BACKUP_MAGIC) == ERR_DATA_RANGE
+    assert servo.backup(b"\x02CTRX") == ERR_DATA_RANGE
+    assert servo.backup(b"\x02CTR") == ERR_DATA_LENGTH
+    assert servo.backup(b"\x02" + BACKUP_MAGIC) == 0
+    assert servo.return_delay_us == 6
+    assert servo.get(ct.INDIRECT_ADDRESS_1) == ct.LED
+    assert servo.get(ct.PROFILE_VELOCITY) == 77
+    assert servo.booting()
+
+
+def test_reg_write_and_action():
+    servo, _ = make()
+    setup_move(servo, 0, 0)
+    assert servo.action() == ERR_INSTRUCTION
+    assert servo.reg_write(ct.GOAL_POSITION, (1000).to_bytes(4, "little")) == 0
+    assert servo.get(ct.REGISTERED_INSTRUCTION) == 1
+    assert servo.goal_position == 2048 and servo.present_position == 2048
+    assert servo.action() == 0
+    assert servo.goal_position == 1000 and servo.present_position == 1000
+    assert servo.get(ct.REGISTERED_INSTRUCTION) == 0
+    assert servo.action() == ERR_INSTRUCTION
+    # a registered write is checked like a write, and a bad one is not registered
+    assert servo.reg_write(ct.GOAL_POSITION, b"\x00\x00") == ERR_DATA_LENGTH
+    assert servo.reg_write(ct.RETURN_DELAY_TIME, b"\x00") == ERR_ACCESS       # torque on
+    assert servo.get(ct.REGISTERED_INSTRUCTION) == 0
+
+
+# ---- construction -----------------------------------------------------------------------
+def test_constructor_validation_and_defaults():
+    s = Servo(3)
+    assert isinstance(s.clock, RealClock)
+    assert (s.id, s.baud_index, s.firmware_version, s.present_position) == (3, 3, 46, 2048)
+    assert s.status_return_level == 2 and s.return_delay_us == 500 and not s.booting()
+    for kwargs, word in (({"servo_id": 253}, "servo_id"), ({"model": "mx-28"}, "model"),
+                         ({"baud_index": 8}, "baud_index"), ({"firmware": 300}, "firmware")):
+        args = {"servo_id": 1, **kwargs}
+        with pytest.raises(ValueError, match=word):
+            Servo(**args)
+
+
+def test_virtual_clock_is_monotonic():
+    clock = VirtualClock(5.0)
+    clock.advance(1.5)
+    assert clock.now() == 6.5
+    clock.set(7.0)
+    with pytest.raises(ValueError, match="monotonic"):
+        clock.set(6.0)
+    with pytest.raises(ValueError, match="dt"):
+        clock.advance(-1)
