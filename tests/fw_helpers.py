@@ -66,6 +66,15 @@ def settle(port: PortHandler, servo_id: int) -> None:
     wait_ping(port, servo_id)
 
 
+def wait_until(condition, timeout: float = 2.0) -> None:
+    """Poll ``condition()`` until true (e.g. the server thread has seen a packet)."""
+    deadline = time.monotonic() + timeout
+    while not condition():
+        if time.monotonic() > deadline:
+            raise AssertionError(f"condition not met within {timeout} s")
+        time.sleep(0.0005)
+
+
 def s32(value: int) -> int:
     """Unsigned 32-bit SDK value as signed."""
     return value - (1 << 32) if value & 0x8000_0000 else value

@@ -20,7 +20,16 @@ from dynamixel_sdk import (
     GroupSyncRead,
     GroupSyncWrite,
 )
-from fw_helpers import PH, raw_instruction, raw_txrx, s32, sdk_port, settle, wait_ping
+from fw_helpers import (
+    PH,
+    raw_instruction,
+    raw_txrx,
+    s32,
+    sdk_port,
+    settle,
+    wait_ping,
+    wait_until,
+)
 
 from firmware_sim.bus import SimBus
 from firmware_sim.clock import VirtualClock
@@ -33,7 +42,7 @@ from firmware_sim.protocol import (
 )
 
 RETURN_DELAY, OPERATING_MODE, HOMING_OFFSET, MAX_POS = 9, 11, 20, 48
-TORQUE, SRL, REGISTERED, HW_ERROR = 64, 68, 69, 70
+TORQUE, SRL, REGISTERED, HW_ERROR, BUS_WATCHDOG = 64, 68, 69, 70, 98
 PROFILE_ACC, PROFILE_VEL, GOAL, MOVING, PRESENT_POS = 108, 112, 116, 122, 132
 IND_ADDR_1, IND_DATA_1 = 168, 224
 
@@ -426,4 +435,24 @@ def test_profiled_move_matches_x_series_formula(velocity, accel, distance):
         assert seen[-1] == target
         assert all((b - a) * (target - start) >= 0 for a, b in itertools.pairwise(seen))
         assert t == pytest.approx(expected, abs=2 * step)
+        assert bus.errors == []
+
+
+def test_bus_watchdog_fed_only_by_instructions_addressed_to_the_servo():
+    clock = VirtualClock()
+    with SimBus(ids=[1, 2], clock=clock) as bus, sdk_port(bus) as port:
+        for sid in (1, 2):
+            assert PH.write1ByteTxRx(port, sid, TORQUE, 1) == (COMM_SUCCESS, 0)
+            assert PH.write1ByteTxRx(port, sid, BUS_WATCHDOG, 2) == (COMM_SUCCESS, 0)  # 40 ms
+        group = GroupSyncWrite(port, PH, GOAL, 4)
+        group.addParam(1, u32(bus.servo(1).goal_position))
+        for _ in range(4):
+            clock.advance(0.030)
+            seen = bus.rx_packets
+            assert group.txPacket() == COMM_SUCCESS      # names servo 1 only
+            wait_until(lambda n=seen: bus.rx_packets > n)
+        assert not bus.servo(1).watchdog_tripped
+        assert bus.servo(2).watchdog_tripped
+        value, result, _ = PH.read1ByteTxRx(port, 2, BUS_WATCHDOG)
+        assert (result, value) == (COMM_SUCCESS, 0xFF)      # -1 as a signed byte
         assert bus.errors == []

@@ -194,3 +194,20 @@ def test_cli_exits_cleanly_on_sigint():
         proc.send_signal(signal.SIGINT)
         _, err = proc.communicate(timeout=10)
     assert proc.returncode == 0, err
+
+
+def test_realistic_broadcast_ping_answers_in_id_slots():
+    with SimBus(ids=[5, 1, 3], timing="realistic") as bus, sdk_port(bus) as port:
+        for s in (1, 3, 5):
+            assert PH.write1ByteTxRx(port, s, 9, 0)[0] == COMM_SUCCESS     # RDT 0
+        bus.clear_log()
+        found, result = PH.broadcastPing(port)
+        assert result == COMM_SUCCESS and sorted(found) == [1, 3, 5]
+        (rx,) = bus.packets("rx")
+        tx = bus.packets("tx")
+        assert [e.id for e in tx] == [1, 3, 5]
+        slot = 14 * 10e-6 + bus.turnaround_s
+        wire_end = rx.time + len(rx.raw) * 10e-6
+        for e in tx:
+            assert e.time >= wire_end + e.id * slot
+        assert bus.errors == []
