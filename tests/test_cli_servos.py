@@ -1,0 +1,154 @@
+"""The motion commands end to end in subprocesses: sim (in-process simulated bus), move and
+scan against `python -m firmware_sim`, serve, Ctrl-C, and progress only on a terminal."""
+
+from __future__ import annotations
+
+import json
+import os
+import pty
+import re
+import select
+import signal
+import subprocess
+import sys
+import time
+import urllib.request
+from collections.abc import Iterator
+from pathlib import Path
+
+import pytest
+
+ROOT = Path(__file__).resolve().parent.parent
+ARM3R = str(ROOT / "configs" / "arm3r.toml")
+MOVE = ("--to", "0.12,0.24,60")
+
+
+def robodcn(*args: str, timeout: float = 60.0, **kwargs) -> subprocess.CompletedProcess:
+    return subprocess.run([sys.executable, "-m", "robodcn", *args], capture_output=True,
+                          text=True, timeout=timeout, cwd=ROOT, **kwargs)
+
+
+@pytest.fixture
+def firmware(request) -> Iterator[str]:
+    """A `python -m firmware_sim` process; yields its device path."""
+    ids = getattr(request, "param", "1,2,3")
+    proc = subprocess.Popen([sys.executable, "-m", "firmware_sim", "--ids", ids, "--timing",
+                             "fast"], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+                            cwd=ROOT)
+    try:
+        device = proc.stdout.readline().strip()
+        assert device.startswith("/dev/"), proc.stderr.read()
+        yield device
+    finally:
+        proc.send_signal(signal.SIGTERM)
+        assert proc.wait(timeout=10) == 0
+
+
+def test_sim_runs_a_move_and_plots(tmp_path):
+    plot = tmp_path / "move.png"
+    out = robodcn("sim", "--arm", ARM3R, "--from", "0.25,0.10,0", "--via", "0.12,0.24,60",
+                  "--to", "-0.10,0.22,120", "--method", "kenlerp", "--beta", "0.5",
+                  "--plot", str(plot))
+    assert out.returncode == 0, out.stderr
+    assert out.stdout.startswith("completed")
+    assert plot.stat().st_size > 10_000 and plot.read_bytes()[:4] == b"\x89PNG"
+    assert f"plot: {plot}" in out.stdout
+
+
+def test_sim_json_report_sends_every_sample():
+    out = robodcn("sim", "--arm", ARM3R, *MOVE, "--timing", "fast", "--json")
+    assert out.returncode == 0, out.stderr
+    report = json.loads(out.stdout)
+    assert report["stop_reason"] == "completed"
+    assert report["samples_sent"] + report["samples_skipped"] == report["samples_total"] > 10
+    assert report["final_error_ticks"] == [0, 0, 0]
+
+
+def test_move_and_scan_against_firmware_sim(firmware):
+    scan = robodcn("scan", "--port", firmware, "--ids", "1-4", "--json")
+    assert scan.returncode == 0, scan.stderr
+    assert [s["id"] for s in json.loads(scan.stdout)["servos"]] == [1, 2, 3]
+    first = robodcn("move", "--arm", ARM3R, "--port", firmware, *MOVE, "--json")
+    assert first.returncode == 0, first.stderr
+    assert json.loads(first.stdout)["final_error_ticks"] == [0, 0, 0]
+    # The second move starts where the first ended (its present pose) and comes back.
+    back = robodcn("move", "--arm", ARM3R, "--port", firmware, "--to", "0.25,0.10,0", "--json")
+    assert back.returncode == 0, back.stderr
+    assert json.loads(back.stdout)["stop_reason"] == "completed"
+
+
+@pytest.mark.parametrize("firmware", ["1,2"], indirect=True)
+def test_move_with_a_missing_servo_is_a_bus_fault(firmware):
+    out = robodcn("move", "--arm", ARM3R, "--port", firmware, *MOVE)
+    assert out.returncode == 4, out.stderr
+    assert "3" in out.stderr and "Traceback" not in out.stderr
+
+
+def test_infeasible_move_exits_3_before_moving(firmware):
+    out = robodcn("move", "--arm", ARM3R, "--port", firmware, "--to", "0.6,0.0,0")
+    assert out.returncode == 3, out.stderr
+    assert "out of reach" in out.stderr
+
+
+def test_ctrl_c_stops_and_holds():
+    proc = subprocess.Popen([sys.executable, "-m", "robodcn", "sim", "--arm", ARM3R, *MOVE,
+                             "--duration", "6", "--timing", "fast", "--json"],
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, cwd=ROOT)
+    time.sleep(2.5)  # start-up (imports, bus set-up) plus part of the move
+    proc.send_signal(signal.SIGINT)
+    stdout, stderr = proc.communicate(timeout=30)
+    assert proc.returncode == 130, stderr
+    report = json.loads(stdout)
+    assert report["stop_reason"] == "stopped"
+    assert 0 < report["samples_sent"] < report["samples_total"]
+    assert report["hold_goals"] is not None
+
+
+def _run_on_a_terminal(args: list[str], timeout: float = 60.0) -> tuple[int, str]:
+    """Run with stdin/stdout/stderr on a pseudo-terminal; returns (exit code, output)."""
+    leader, follower = pty.openpty()
+    proc = subprocess.Popen([sys.executable, "-m", "robodcn", *args], stdin=follower,
+                            stdout=follower, stderr=follower, cwd=ROOT, close_fds=True)
+    os.close(follower)
+    chunks, deadline = [], time.monotonic() + timeout
+    while time.monotonic() < deadline:
+        ready, _, _ = select.select([leader], [], [], 0.1)
+        if ready:
+            try:
+                data = os.read(leader, 4096)
+            except OSError:
+                break
+            if not data:
+                break
+            chunks.append(data)
+        elif proc.poll() is not None:
+            break
+    os.close(leader)
+    return proc.wait(timeout=10), b"".join(chunks).decode(errors="replace")
+
+
+def test_progress_is_shown_on_a_terminal_only():
+    args = ["sim", "--arm", ARM3R, *MOVE, "--timing", "fast", "--duration", "1.5"]
+    code, text = _run_on_a_terminal(args)
+    assert code == 0, text
+    assert re.search(r"\r\[#+ *\] +\d+\.\d%", text), text[-500:]
+    plain = robodcn(*args)
+    assert plain.returncode == 0
+    assert "\r" not in plain.stderr and "%" not in plain.stderr
+
+
+def test_serve_sim_answers_and_exits_on_sigterm():
+    proc = subprocess.Popen([sys.executable, "-m", "robodcn", "serve", "--arm", ARM3R, "--sim",
+                             "--port", "0"], stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+                            text=True, cwd=ROOT)
+    try:
+        line = proc.stdout.readline()
+        url = re.search(r"http://[\d.]+:\d+", line)
+        assert url, line + proc.stderr.read()
+        with urllib.request.urlopen(url.group(0) + "/healthz", timeout=10) as response:
+            assert response.status == 200
+        with urllib.request.urlopen(url.group(0) + "/v1/arm", timeout=10) as response:
+            assert json.loads(response.read())["name"] == "arm3r"
+    finally:
+        proc.send_signal(signal.SIGTERM)
+        assert proc.wait(timeout=15) == 0
