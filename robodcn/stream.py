@@ -51,6 +51,13 @@ Bus Watchdog
     armed for the execution (``watchdog_ms``; default max(100 ms, 10 periods), at most
     2.54 s) so servos stop by themselves if this process dies or stalls; disarmed at the end.
 
+Real-time priority
+    with ``realtime=True`` the calling thread runs under SCHED_FIFO (priority
+    ``REALTIME_PRIORITY``) for the execution and gets its old policy back afterwards; where
+    that is not permitted (no CAP_SYS_NICE / rtprio limit, not Linux) a RuntimeWarning says
+    so and the stream runs at normal priority. On a loaded machine this is what keeps a
+    1 kHz schedule: a normal thread can lose the CPU for a whole scheduler slice.
+
 Threading
     ``execute`` holds the bus (:meth:`ServoBus.claim`) for its whole duration: the calling
     thread owns the port; other threads get BusyError from the bus and stop through the
@@ -59,11 +66,14 @@ Threading
 
 from __future__ import annotations
 
+import contextlib
 import dataclasses
 import math
+import os
 import threading
 import time
-from collections.abc import Callable, Sequence
+import warnings
+from collections.abc import Callable, Iterator, Sequence
 from dataclasses import dataclass, field
 from typing import Any, Protocol
 
@@ -85,6 +95,9 @@ from robodcn.planner import Trajectory, plan_request
 STOP_REASONS = ("completed", "stopped", "comm_failure", "hardware_alert", "tracking_error")
 #: The last part of every wait is spun on the clock: sleeps overshoot by 50–100 µs on Linux.
 SPIN_S = 0.0004
+#: SCHED_FIFO priority of the streaming thread with ``realtime=True`` (1..99; 50 leaves room
+#: above for kernel threads such as USB interrupt handlers).
+REALTIME_PRIORITY = 50
 #: Minimum time between progress callbacks (s).
 PROGRESS_INTERVAL_S = 0.05
 
@@ -176,6 +189,7 @@ class ExecutionReport:
     approach: bool = False
     released: bool = False
     fast_read: bool = False
+    realtime: bool = False
 
     @property
     def completed(self) -> bool:
@@ -188,6 +202,29 @@ class ExecutionReport:
             if isinstance(value, tuple):
                 data[key] = list(value)
         return data
+
+
+@contextlib.contextmanager
+def _realtime_priority(enabled: bool) -> Iterator[bool]:
+    """SCHED_FIFO for the calling thread inside the block (Linux); yields whether it is on."""
+    if not enabled:
+        yield False
+        return
+    try:
+        # pid 0 is the calling thread on Linux: only the streaming thread changes policy.
+        old_policy = os.sched_getscheduler(0)
+        old_param = os.sched_getparam(0)
+        os.sched_setscheduler(0, os.SCHED_FIFO, os.sched_param(REALTIME_PRIORITY))
+    except (AttributeError, OSError) as exc:
+        warnings.warn(f"realtime=True: cannot switch to SCHED_FIFO ({exc}); streaming at "
+                      "normal priority (grant CAP_SYS_NICE or an rtprio limit in "
+                      "/etc/security/limits.conf)", RuntimeWarning, stacklevel=4)
+        yield False
+        return
+    try:
+        yield True
+    finally:
+        os.sched_setscheduler(0, old_policy, old_param)
 
 
 class _Stop(Exception):
@@ -242,7 +279,7 @@ def execute(trajectory: Trajectory, bus: ServoBus, *, feedback_every: int = 1,
             progress: Callable[[Progress], None] | None = None, release: bool = False,
             health_interval: float = 0.05, watchdog_ms: float | None = None,
             profile: StreamProfile | None = None, settle: float = 0.0,
-            skip_late: bool = True,
+            skip_late: bool = True, realtime: bool = False,
             clock: Callable[[], float] = time.perf_counter) -> ExecutionReport:
     """Stream ``trajectory`` to the servos on ``bus`` (module docstring for the rules).
 
@@ -264,6 +301,7 @@ def execute(trajectory: Trajectory, bus: ServoBus, *, feedback_every: int = 1,
     settle : seconds to keep reading after the last sample until the arm is within one
         tick of the final goal (0: one read).
     skip_late : skip samples whose slot has passed (True) or send them late (False).
+    realtime : run the calling thread under SCHED_FIFO while streaming (see above).
     clock : monotonic clock in seconds (real time: the waits sleep on it).
 
     Returns
@@ -340,7 +378,8 @@ def execute(trajectory: Trajectory, bus: ServoBus, *, feedback_every: int = 1,
         if watchdog_ms:
             bus.arm_watchdog(watchdog_ms)
         try:
-            streamer.run()
+            with _realtime_priority(realtime) as streamer.realtime:
+                streamer.run()
         except BaseException:
             streamer.finish(hold=True, release=release, settle=0.0)
             raise
@@ -396,6 +435,7 @@ class _Streamer:
         self.hold_goals: NDArray[np.int64] | None = None
         self.final: NDArray[np.int64] | None = None
         self.released = False
+        self.realtime = False
         self.t_start = 0.0
         self.t_end = 0.0
         self._last_progress = -math.inf
@@ -640,7 +680,7 @@ class _Streamer:
             hold_goals=None if self.hold_goals is None else tuple(int(v)
                                                                   for v in self.hold_goals),
             hardware_errors=dict(self.hardware), approach=approached, released=self.released,
-            fast_read=bool(self.bus.fast_read))
+            fast_read=bool(self.bus.fast_read), realtime=self.realtime)
 
 
 __all__ = ["STOP_REASONS", "ExecutionReport", "Progress", "StopSignal", "execute"]

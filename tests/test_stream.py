@@ -7,6 +7,7 @@ import math
 import os
 import threading
 import time
+import warnings
 from pathlib import Path
 
 import numpy as np
@@ -381,3 +382,18 @@ def test_no_thread_or_fd_leak_after_100_executions(sim):
 def test_stop_reasons_are_the_documented_ones():
     assert STOP_REASONS == ("completed", "stopped", "comm_failure", "hardware_alert",
                             "tracking_error")
+
+
+def test_realtime_priority_is_restored_or_warned(sim):
+    policy = os.sched_getscheduler(0)
+    with open_bus(sim) as bus:
+        place(bus, TRAJ.ticks[0])
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always")
+            report = execute(TRAJ, bus, realtime=True)
+    assert report.completed, report.message
+    # Either the stream ran under SCHED_FIFO or the caller was told why not.
+    warned = any(issubclass(w.category, RuntimeWarning) and "SCHED_FIFO" in str(w.message)
+                 for w in caught)
+    assert report.realtime != warned
+    assert os.sched_getscheduler(0) == policy
