@@ -21,6 +21,7 @@ PWM/current/velocity above their limit items).
 from __future__ import annotations
 
 import math
+import struct
 import threading
 
 from firmware_sim import control_table as ct
@@ -68,8 +69,27 @@ _POSITION_MODES = (ct.MODE_POSITION, ct.MODE_EXTENDED_POSITION, ct.MODE_CURRENT_
 _GOALS = (ct.GOAL_PWM, ct.GOAL_CURRENT, ct.GOAL_VELOCITY, ct.GOAL_POSITION)
 
 
+# Realtime Tick, Moving, Moving Status at 120; Present Velocity, Present Position,
+# Velocity Trajectory, Position Trajectory at 128
+_TICK_MOVING = struct.Struct("<HBB")
+_VEL_POS_TRAJ = struct.Struct("<iiii")
+_S8 = struct.Struct("<b")
+_S32 = struct.Struct("<i")
+_U32 = struct.Struct("<I")
+
+
 def _round(x: float) -> int:
     return math.floor(x + 0.5)
+
+
+def _touches_indirect_data(address: int, length: int) -> bool:
+    return any(address < data_base + count and data_base < address + length
+               for _, data_base, count in ct.INDIRECT_BANKS)
+
+
+def _wrap32(x: int) -> int:
+    """Two's-complement wrap to int32, as the firmware's 4-byte items do."""
+    return (x + (1 << 31)) % (1 << 32) - (1 << 31)
 
 
 class Servo:
@@ -240,8 +260,9 @@ class Servo:
             self._refresh(now)
 
     def _check_watchdog(self, now: float) -> None:
-        wd = self.table.get(ct.BUS_WATCHDOG)
-        if self._watchdog_tripped or wd <= 0 or not self.table.get(ct.TORQUE_ENABLE):
+        data = self.table.data
+        wd = _S8.unpack_from(data, ct.BUS_WATCHDOG)[0]
+        if self._watchdog_tripped or wd <= 0 or not data[ct.TORQUE_ENABLE]:
             return
         deadline = max(self._last_instruction, self._watchdog_armed_at) + wd * WATCHDOG_UNIT_S
         if deadline <= now:
@@ -252,29 +273,26 @@ class Servo:
             self.table.set(ct.BUS_WATCHDOG, -1)
 
     def _refresh(self, now: float) -> None:
-        t = self.table
+        # hot path (every read): struct on the byte image rather than typed item access
+        data = self.table.data
         prof = self._profile
         p, v = prof.state(now)
-        vel = _round(v / VELOCITY_UNIT)
-        pos = _round(p)
+        vel = _wrap32(_round(v / VELOCITY_UNIT))
+        pos = _wrap32(_round(p))
         ongoing = prof.ongoing(now)
-        t.set(ct.PRESENT_POSITION, pos)
-        t.set(ct.POSITION_TRAJECTORY, pos)
-        t.set(ct.PRESENT_VELOCITY, vel)
-        t.set(ct.VELOCITY_TRAJECTORY, vel)
-        moving = ongoing or abs(vel) > t.get(ct.MOVING_THRESHOLD)
-        t.set(ct.MOVING, int(moving))
+        moving = ongoing or abs(vel) > _U32.unpack_from(data, ct.MOVING_THRESHOLD)[0]
         status = prof.kind
         if ongoing:
             status |= ct.MS_PROFILE_ONGOING
-        elif (t.get(ct.TORQUE_ENABLE) and t.get(ct.OPERATING_MODE) in _POSITION_MODES
-              and pos == t.get(ct.GOAL_POSITION)):
+        elif (data[ct.TORQUE_ENABLE] and data[ct.OPERATING_MODE] in _POSITION_MODES
+              and pos == _S32.unpack_from(data, ct.GOAL_POSITION)[0]):
             status |= ct.MS_IN_POSITION
-        t.set(ct.MOVING_STATUS, status)
         # the epsilon keeps 1.234 s from reading 1233 ms through float rounding
-        t.set(ct.REALTIME_TICK, math.floor((now - self._boot_time) * 1000.0 + 1e-6) % 32768)
-        t.set(ct.REGISTERED_INSTRUCTION, int(self._registered is not None))
-        t.set(ct.BACKUP_READY, int(self._backup is not None))
+        tick = math.floor((now - self._boot_time) * 1000.0 + 1e-6) % 32768
+        _TICK_MOVING.pack_into(data, ct.REALTIME_TICK, tick, int(moving), status)
+        _VEL_POS_TRAJ.pack_into(data, ct.PRESENT_VELOCITY, vel, pos, vel, pos)
+        data[ct.REGISTERED_INSTRUCTION] = int(self._registered is not None)
+        data[ct.BACKUP_READY] = int(self._backup is not None)
 
     # ---- frames ---------------------------------------------------------------------
     def _sign(self) -> int:
@@ -302,6 +320,8 @@ class Servo:
             if address < 0 or address + length > TABLE_SIZE:
                 return ERR_ACCESS, b""
             out = bytearray(self.table.raw(address, length))
+            if not _touches_indirect_data(address, length):
+                return 0, bytes(out)
             for i in range(length):
                 slot = indirect_data_slot(address + i)
                 if slot is not None:
