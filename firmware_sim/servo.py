@@ -62,6 +62,11 @@ RESET_ALL, RESET_KEEP_ID, RESET_KEEP_ID_BAUD = 0xFF, 0x01, 0x02
 WATCHDOG_UNIT_S = 0.020
 #: Pulses per revolution (12-bit absolute encoder).
 PULSES_PER_REV = 4096
+#: Startup Configuration (60) bits (fw >= 45).
+STARTUP_TORQUE_ON = 0x01
+STARTUP_RAM_RESTORE = 0x02
+#: First firmware with CONTROL_TABLE_BACKUP on the X430 (e-manual: Backup Ready from V45).
+BACKUP_MIN_FIRMWARE = 45
 #: Default boot delay after REBOOT / FACTORY_RESET / restore, s (the servo ignores the bus).
 BOOT_DELAY_S = 0.01
 
@@ -176,6 +181,17 @@ class Servo:
             self.table.set(ct.FIRMWARE_VERSION, self._firmware)
 
     @property
+    def secondary_id(self) -> int | None:
+        """Secondary (Shadow) ID (12): the servo also executes packets for it, never
+        replying to them; None when 255 (off)."""
+        value = self.table.get(ct.SECONDARY_ID)
+        return None if value == 255 else value
+
+    @property
+    def protocol_type(self) -> int:
+        return self.table.get(ct.PROTOCOL_TYPE)
+
+    @property
     def baud_index(self) -> int:
         return self.table.get(ct.BAUD_RATE)
 
@@ -271,6 +287,9 @@ class Servo:
             self._profile = hold(deadline, p)
             self._watchdog_tripped = True
             self.table.set(ct.BUS_WATCHDOG, -1)
+            # e-manual Bus Watchdog example: on the stop both profile items become 0
+            self.table.set(ct.PROFILE_VELOCITY, 0)
+            self.table.set(ct.PROFILE_ACCELERATION, 0)
 
     def _refresh(self, now: float) -> None:
         # hot path (every read): struct on the byte image rather than typed item access
@@ -412,7 +431,10 @@ class Servo:
         if written & {ct.HOMING_OFFSET, ct.DRIVE_MODE}:
             self._profile = hold(now, self._present(actual))
         if ct.OPERATING_MODE in written and t.get(ct.OPERATING_MODE) != old_mode:
-            # e-manual: a mode change resets the profile and the goal PWM/current
+            # e-manual: a mode change resets the profile and the goal PWM/current; entering
+            # (extended) position control re-reads the absolute encoder (one turn)
+            if t.get(ct.OPERATING_MODE) in (ct.MODE_POSITION, ct.MODE_EXTENDED_POSITION):
+                self._single_turn(now)
             for a in (ct.PROFILE_VELOCITY, ct.PROFILE_ACCELERATION):
                 if a not in written:
                     t.set(a, 0)
@@ -432,8 +454,16 @@ class Servo:
         self._refresh(now)
         return 0
 
+    def _single_turn(self, now: float) -> None:
+        """Present Position back to the absolute encoder's one-turn value (plus offset)."""
+        actual = self._actual(self._profile.state(now)[0]) % PULSES_PER_REV
+        self._profile = hold(now, self._present(actual))
+
     def _torque_on(self, now: float, keep_goal: bool) -> None:
-        # the servo holds where it is; the goal follows the present position
+        # the servo holds where it is; the goal follows the present position. In
+        # position control mode torque-on re-reads the absolute encoder (e-manual note)
+        if self.table.get(ct.OPERATING_MODE) == ct.MODE_POSITION:
+            self._single_turn(now)
         p = self._profile.state(now)[0]
         self._profile = hold(now, p)
         if not keep_goal:
@@ -539,7 +569,18 @@ class Servo:
         self._boot_time = now
         self._boot_until = now + self.boot_delay_s
         self._last_instruction = self._watchdog_armed_at = now
+        startup = self.table.get(ct.STARTUP_CONFIGURATION)
+        if startup & STARTUP_RAM_RESTORE and self._backup is not None:
+            self.table.restore(self._ram_part(self._backup))
+            self.table.set(ct.GOAL_POSITION, _round(self._profile.state(now)[0]))
+        if startup & STARTUP_TORQUE_ON:
+            self.table.set(ct.TORQUE_ENABLE, 1)
+            self._torque_on(now, keep_goal=False)
         self._refresh(now)
+
+    @staticmethod
+    def _ram_part(saved: dict[int, bytes]) -> dict[int, bytes]:
+        return {a: raw for a, raw in saved.items() if a >= ct.EEPROM_END}
 
     def factory_reset(self, option: int) -> int:
         """FACTORY_RESET: 0xFF all items, 0x01 all but ID, 0x02 all but ID and Baud Rate;
@@ -583,9 +624,12 @@ class Servo:
 
     def backup(self, params: bytes) -> int:
         """CONTROL_TABLE_BACKUP: 0x01 'C' 'T' 'R' 'L' stores every writable item, 0x02 ...
-        restores them after a reboot. Result Fail while torque is on or with no backup."""
+        restores them after a reboot. Result Fail while torque is on or with no backup;
+        Instruction Error below firmware 45 (no such instruction there)."""
         with self._lock:
             self.update()
+            if self._firmware < BACKUP_MIN_FIRMWARE:
+                return ERR_INSTRUCTION
             params = bytes(params)
             if len(params) != 1 + len(BACKUP_MAGIC):
                 return ERR_DATA_LENGTH
@@ -605,9 +649,8 @@ class Servo:
             actual = self._actual(self._profile.state(now)[0])
             self.table.restore(self._backup)
             self._profile = hold(now, self._present(actual))
-            ram = {a: raw for a, raw in self._backup.items() if a >= ct.EEPROM_END}
             self._reboot(now)
-            self.table.restore(ram)
+            self.table.restore(self._ram_part(self._backup))
             self._refresh(now)
             return 0
 

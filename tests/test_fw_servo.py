@@ -336,11 +336,13 @@ def test_bus_watchdog_trips_and_recovers():
                           (ct.GOAL_CURRENT, 2)):
         assert servo.write(address, bytes(size)) == ERR_DATA_RANGE
     assert servo.write(ct.BUS_WATCHDOG, b"\x05") == ERR_DATA_RANGE
+    # e-manual: the stop sets both profile items to 0
+    assert servo.get(ct.PROFILE_VELOCITY) == servo.get(ct.PROFILE_ACCELERATION) == 0
     clock.advance(1.0)
     assert servo.present_position == stopped
     put(servo, ct.BUS_WATCHDOG, 0)
-    put(servo, ct.GOAL_POSITION, 3500)
-    clock.advance(3.0)
+    put(servo, ct.GOAL_POSITION, 3500)             # step now: the profile was zeroed
+    clock.advance(PERIOD)
     assert servo.present_position == 3500
 
 
@@ -524,3 +526,57 @@ def test_virtual_clock_is_monotonic():
         clock.set(6.0)
     with pytest.raises(ValueError, match="dt"):
         clock.advance(-1)
+
+
+# ---- one-turn resets, startup configuration, firmware gates ------------------------------
+def test_present_position_resets_to_one_turn_per_emanual():
+    servo, _ = make()
+    setup_move(servo, 0, 0, mode=ct.MODE_EXTENDED_POSITION)
+    put(servo, ct.GOAL_POSITION, 3 * 4096 + 500)
+    assert servo.present_position == 3 * 4096 + 500
+    put(servo, ct.TORQUE_ENABLE, 0)
+    put(servo, ct.HOMING_OFFSET, 10)
+    assert servo.present_position == 3 * 4096 + 510            # torque off: continuous range
+    put(servo, ct.TORQUE_ENABLE, 1)                            # mode 4: torque-on keeps turns
+    assert servo.present_position == 3 * 4096 + 510
+    put(servo, ct.TORQUE_ENABLE, 0)
+    put(servo, ct.OPERATING_MODE, ct.MODE_POSITION)            # entering mode 3: one turn
+    assert servo.present_position == 510
+    servo2, _ = make()
+    setup_move(servo2, 0, 0, mode=ct.MODE_EXTENDED_POSITION)
+    put(servo2, ct.GOAL_POSITION, -2 * 4096 + 7)
+    put(servo2, ct.TORQUE_ENABLE, 0)
+    put(servo2, ct.OPERATING_MODE, ct.MODE_VELOCITY)
+    assert servo2.present_position == -2 * 4096 + 7            # not on leaving position modes
+    put(servo2, ct.OPERATING_MODE, ct.MODE_POSITION)
+    assert servo2.present_position == 7
+
+
+def test_startup_configuration_torque_on_and_ram_restore():
+    servo, _ = make()
+    put(servo, ct.PROFILE_VELOCITY, 33)
+    assert servo.backup(b"\x01" + BACKUP_MAGIC) == 0
+    put(servo, ct.STARTUP_CONFIGURATION, 0x03)
+    put(servo, ct.PROFILE_VELOCITY, 44)
+    servo.reboot()
+    assert servo.torque_enabled and servo.goal_position == servo.present_position
+    assert servo.get(ct.PROFILE_VELOCITY) == 33                # RAM restored from the backup
+    put(servo, ct.TORQUE_ENABLE, 0)
+    put(servo, ct.STARTUP_CONFIGURATION, 0)
+    servo.reboot()
+    assert not servo.torque_enabled and servo.get(ct.PROFILE_VELOCITY) == 0
+
+
+def test_backup_needs_firmware_45():
+    servo, _ = make(firmware=44)
+    assert servo.backup(b"\x01" + BACKUP_MAGIC) == ERR_INSTRUCTION
+    servo.firmware_version = 45
+    assert servo.backup(b"\x01" + BACKUP_MAGIC) == 0
+
+
+def test_secondary_id_and_protocol_type():
+    servo, _ = make()
+    assert servo.secondary_id is None and servo.protocol_type == 2
+    put(servo, ct.SECONDARY_ID, 9)
+    assert servo.secondary_id == 9
+    assert servo.write(ct.SECONDARY_ID, bytes([253])) == ERR_DATA_RANGE
