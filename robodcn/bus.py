@@ -29,6 +29,7 @@ import contextlib
 import os
 import sys
 import threading
+import time
 import warnings
 from collections.abc import Iterable, Iterator, Sequence
 from dataclasses import dataclass
@@ -553,6 +554,31 @@ class ServoBus:
         self._write_all(ADDR_TORQUE_ENABLE, 1 if on else 0, 1)
         if not on:
             self.configured = False
+
+    def reboot(self, servo_ids: Iterable[int] | None = None, *, timeout: float = 2.0) -> None:
+        """REBOOT servos (default: all) and wait until each answers a ping again.
+
+        The only way to clear a Hardware Error Status (overload, overheating ...): the servo
+        comes back with torque off and RAM at defaults, so :meth:`configure` is due again.
+        """
+        ids = self.ids if servo_ids is None else tuple(servo_ids)
+        with self.claim():
+            port = self._port()
+            for servo_id in ids:
+                result, error = self._packet.reboot(port, servo_id)
+                self._status(servo_id, "reboot", result, error)
+            self.configured = False
+            deadline = time.monotonic() + timeout
+            for servo_id in ids:
+                while True:
+                    _, result, _ = self._packet.ping(port, servo_id)
+                    if result == COMM_SUCCESS:
+                        break
+                    if time.monotonic() > deadline:
+                        raise CommError(f"servo {servo_id} did not answer within {timeout} s "
+                                        "of its reboot", field=f"servo[{servo_id}]",
+                                        value=timeout)
+                    time.sleep(0.01)
 
     def arm_watchdog(self, timeout_ms: float) -> int:
         """Arm the Bus Watchdog: servos stop if no instruction arrives for ``timeout_ms``.

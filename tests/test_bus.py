@@ -227,6 +227,17 @@ def test_hardware_alert_is_seen_in_group_reads(firmware):
             assert not sim.servo(2).torque_enabled
 
 
+def test_reboot_clears_a_hardware_error(sim, bus):
+    bus.verify()
+    bus.configure()
+    sim.faults.trip(3, 0x20)
+    assert bus.hardware_errors()[3] == 0x20
+    bus.reboot([3])
+    assert bus.hardware_errors() == {1: 0, 2: 0, 3: 0}
+    assert bus.last_alert_ids == ()
+    assert not bus.configured and not sim.servo(3).torque_enabled
+
+
 def test_retries_recover_one_bad_reply_and_give_up_on_persistent_ones(sim, bus):
     bus.verify()
     expected = [sim.servo(i).present_position for i in (1, 2, 3)]
