@@ -75,6 +75,8 @@ class Profile:
         Moving Status profile bits (0x30 trapezoid, 0x20 triangle, 0x10 rectangle, 0 step).
     endless : bool
         The last segment runs forever (velocity mode).
+    key : tuple or None
+        The request the plan answers, set by the caller.
     """
 
     start: float
@@ -83,6 +85,8 @@ class Profile:
     end: float
     kind: int
     endless: bool = False
+    #: What the plan was made from (the servo skips re-planning an identical request).
+    key: tuple[object, ...] | None = None
 
     def state(self, t: float) -> tuple[float, float]:
         """(position pulses, velocity pulse/s) at time ``t``."""

@@ -20,6 +20,7 @@ PWM/current/velocity above their limit items).
 
 from __future__ import annotations
 
+import dataclasses
 import math
 import struct
 import threading
@@ -494,7 +495,13 @@ class Servo:
             return plan_time_based(now, p, v, goal, pv / 1000.0, pa / 1000.0)
         if pv > 0:
             pv = min(pv, t.get(ct.VELOCITY_LIMIT))
-        return plan_velocity_based(now, p, v, goal, pv * VELOCITY_UNIT, pa * ACCELERATION_UNIT)
+        key = ("velocity-based", goal, pv, pa)
+        if self._profile.key == key:
+            # the same goal again (streaming): the plan in force (running or finished)
+            # already answers it; re-planning would only add float noise
+            return self._profile
+        plan = plan_velocity_based(now, p, v, goal, pv * VELOCITY_UNIT, pa * ACCELERATION_UNIT)
+        return dataclasses.replace(plan, key=key)
 
     def _reset_goals(self, keep: set[int] | frozenset[int] = frozenset()) -> None:
         t = self.table

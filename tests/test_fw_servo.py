@@ -194,33 +194,70 @@ def test_time_based_profile():
 
 
 # ---- re-planning ------------------------------------------------------------------------
-def _velocity_trace(servo: Servo, clock: VirtualClock, until: float, dt: float) -> list[int]:
-    out = []
-    while clock.now() < until:
-        clock.advance(dt)
-        out.append(servo.present_velocity)
-    return out
-
-
-@settings(max_examples=25, deadline=None)
+@settings(max_examples=30, deadline=None)
 @given(first=st.integers(-3000, 3000).filter(lambda d: abs(d) > 50),
        second=st.integers(-3000, 3000), frac=st.floats(0.05, 0.95),
-       v=st.integers(50, 200), a=st.integers(20, 200))
-def test_new_goal_replans_with_continuous_velocity(first, second, frac, v, a):
+       v=st.integers(50, 200), v2=st.integers(20, 200), a=st.integers(20, 200))
+def test_new_goal_replans_with_continuous_velocity(first, second, frac, v, v2, a):
     servo, clock = make()
     setup_move(servo, v, a, mode=ct.MODE_EXTENDED_POSITION)
     t0 = clock.now()
     put(servo, ct.GOAL_POSITION, 2048 + first)
     clock.set(t0 + frac * expected_duration_s(first, v, a))
     before = servo.present_velocity
+    put(servo, ct.PROFILE_VELOCITY, v2)             # takes effect with the next goal only
+    assert servo.present_velocity == before
     put(servo, ct.GOAL_POSITION, 2048 + second)
     assert servo.present_velocity == before                   # same instant, same velocity
     dt = 0.004
     max_step = a / 64 * dt * 1000 + 1                         # A is V units per 64 ms
-    trace = [before, *_velocity_trace(servo, clock, clock.now() + 6.0, dt)]
-    assert max(abs(p - q) for p, q in itertools.pairwise(trace)) <= max_step
-    assert max(abs(x) for x in trace) <= v
+    positions, velocities = [servo.present_position], [before]
+    while servo.moving and clock.now() < t0 + 60.0:
+        clock.advance(dt)
+        positions.append(servo.present_position)
+        velocities.append(servo.present_velocity)
+    assert max(abs(p - q) for p, q in itertools.pairwise(velocities)) <= max_step
+    top = max(abs(x) for x in velocities)
+    assert top <= max(v, v2)
+    assert max(abs(p - q) for p, q in itertools.pairwise(positions)) <= top / 64 * dt * 1000 + 1
     assert servo.present_position == 2048 + second and not servo.moving
+
+
+def test_rewriting_the_same_goal_keeps_the_plan():
+    servo, clock = make()
+    setup_move(servo, 100, 10)
+    t0 = clock.now()
+    put(servo, ct.GOAL_POSITION, 4000)
+    trace = []
+    for k in range(1, 200):
+        clock.set(t0 + 0.01 * k)
+        put(servo, ct.GOAL_POSITION, 4000)          # streamed duplicate goal every 10 ms
+        trace.append((servo.present_position, servo.get(ct.MOVING_STATUS)))
+    ref, ref_clock = make()
+    setup_move(ref, 100, 10)
+    r0 = ref_clock.now()
+    put(ref, ct.GOAL_POSITION, 4000)
+    expected = []
+    for k in range(1, 200):
+        ref_clock.set(r0 + 0.01 * k)
+        expected.append((ref.present_position, ref.get(ct.MOVING_STATUS)))
+    assert trace == expected
+
+
+def test_time_based_replan_restarts_the_clock_with_continuous_velocity():
+    servo, clock = make()
+    setup_move(servo, 800, 200, drive_mode=ct.DRIVE_TIME_BASED)
+    t0 = clock.now()
+    put(servo, ct.GOAL_POSITION, 3048)
+    clock.set(t0 + 0.4)
+    before = servo.present_velocity
+    assert before > 0
+    put(servo, ct.GOAL_POSITION, 1500)
+    assert servo.present_velocity == before
+    clock.set(t0 + 0.4 + 0.8 - PERIOD)
+    assert servo.moving
+    clock.set(t0 + 0.4 + 0.8 + PERIOD)
+    assert not servo.moving and servo.present_position == 1500
 
 
 def test_replan_towards_a_goal_behind_brakes_first():
