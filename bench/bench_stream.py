@@ -126,6 +126,67 @@ def _run(rate: float, feedback_every: int, fast_read: bool, realtime: bool = Fal
     return report
 
 
+def _back_to_back(fast_read: bool, realtime: bool, cycles: int = 2000) -> tuple[float, float]:
+    """Sync Write + (Fast) Sync Read with no schedule: median and p99 cycle time (µs)."""
+    import time
+
+    import numpy as np
+
+    from robodcn.bus import ServoBus
+    from robodcn.stream import _realtime_priority
+
+    arm, traj = _trajectory(100.0)
+    with _Sim(realtime=realtime) as sim, \
+            ServoBus(sim.path, BAUD, servos=arm.servos, rx_timeout_ms=10,
+                     fast_read=fast_read) as bus:
+        bus.verify()
+        bus.configure()
+        rows = bus.encode_goals(np.repeat(traj.ticks[:1], cycles, axis=0))
+        times = np.empty(cycles)
+        with _realtime_priority(realtime):
+            for i, row in enumerate(rows):
+                start = time.perf_counter()
+                bus.write_encoded(row)
+                bus.read_positions()
+                times[i] = time.perf_counter() - start
+    return float(np.median(times)) * 1e6, float(np.percentile(times, 99)) * 1e6
+
+
+def _profile(cycles: int = 500) -> str:
+    """Where a write + Fast Sync Read cycle's time goes (cProfile, normal priority)."""
+    import cProfile
+    import pstats
+
+    import numpy as np
+
+    from robodcn.bus import ServoBus
+
+    arm, traj = _trajectory(100.0)
+    with _Sim() as sim, ServoBus(sim.path, BAUD, servos=arm.servos, rx_timeout_ms=10) as bus:
+        bus.verify()
+        bus.configure()
+        rows = bus.encode_goals(np.repeat(traj.ticks[:1], cycles, axis=0))
+        profiler = cProfile.Profile()
+        profiler.enable()
+        for row in rows:
+            bus.write_encoded(row)
+            bus.read_positions()
+        profiler.disable()
+    stats = pstats.Stats(profiler).stats  # type: ignore[attr-defined]
+    total = sum(v[2] for v in stats.values())
+    waiting = sum(v[2] for k, v in stats.items() if k[2] == "<built-in method select.select>")
+    syscalls = sum(v[2] for k, v in stats.items() if k[2] in (
+        "<built-in method posix.write>", "<built-in method posix.read>",
+        "<built-in method termios.tcflush>"))
+    python = total - waiting - syscalls
+    per = 1e6 / cycles
+    return (f"Profile (cProfile, {cycles} back-to-back write + Fast Sync Read cycles, normal "
+            f"priority, load {_load()}): {total * per:.0f} µs a cycle = waiting for the reply "
+            f"in select {waiting * per:.0f} µs + pty write/read/flush system calls "
+            f"{syscalls * per:.0f} µs + Python (SDK packet building and CRC, pyserial, our "
+            f"decoding and checks) {python * per:.0f} µs.")
+
+
 def _row(name: str, rate: float, report, wire_us: float, reply_us: float, load: str) -> str:
     work50 = report.work_p50_s * 1e6
     work99 = report.work_p99_s * 1e6
@@ -153,6 +214,17 @@ def run() -> str:
             load = _load()
             report = _run(rate, k, fast, realtime)
             rows.append(_row(name, rate, report, wire, reply, load))
+    limits = []
+    for realtime in priorities:
+        for name, fast, wire, reply in (("write + Fast Sync Read", True, WIRE_WRITE + WIRE_FAST,
+                                         WIRE_FAST + 30.0),
+                                        ("write + Sync Read", False, WIRE_WRITE + WIRE_SYNC,
+                                         WIRE_SYNC + 3 * 30.0)):
+            load = _load()
+            p50, p99 = _back_to_back(fast, realtime)
+            limits.append(f"| {name} | {'SCHED_FIFO' if realtime else 'normal'} | {p50:.0f} / "
+                          f"{p99:.0f} | {1e6 / p50:.0f} | {wire:.0f} ({1e6 / wire:.0f} Hz) | "
+                          f"{p50 / wire:.2f} | {reply:.0f} | {p50 - reply:.0f} | {load} |")
     return "\n".join([
         "## Streaming to servos (robodcn.stream)",
         "",
@@ -170,6 +242,16 @@ def run() -> str:
         "| Python µs | load avg 1/5/15 min | meets target |",
         "|---|---|---|---|---|---|---|---|---|---|---|---|---|",
         *rows,
+        "",
+        "Back to back (no schedule: Sync Write + read as fast as the loop goes, 2000 "
+        "cycles), the shortest cycle the stack achieves against the wire time of §5:",
+        "",
+        "| cycle | priority | cycle p50 / p99 µs | cycles/s | wire µs (§5) | cycle / wire | "
+        "simulated reply µs | Python + pty µs | load avg |",
+        "|---|---|---|---|---|---|---|---|---|",
+        *limits,
+        "",
+        _profile(),
         "",
         "*Cycle work* is the time from the start of a sample's Sync Write to the end of its "
         "reads. *Wire* is design.md §5's pure wire time of that cycle. The pty has no "
