@@ -269,6 +269,21 @@ def test_overload_stops_with_hardware_alert(sim):
     assert [sim.servo(i).goal_position for i in IDS] == list(report.hold_goals)
 
 
+def test_health_poll_catches_an_alert_in_write_only_streaming(sim):
+    with open_bus(sim) as bus:
+        place(bus, TRAJ.ticks[0])
+        sim.clear_log()
+        report = execute(TRAJ, bus, feedback_every=0, health_interval=0.03,
+                         progress=inject_at(8, lambda: sim.faults.trip(IDS[2], 0x20)))
+    assert report.stop_reason == "hardware_alert", report.message
+    assert report.feedback_reads == 0 and report.health_polls >= 1
+    assert report.hardware_errors[IDS[2]] == 0x20
+    # Only the pre-flight read and the hold read asked for positions.
+    reads = [e for e in sim.packets("rx", "FAST_SYNC_READ")
+             if int.from_bytes(e.params[:2], "little") == 132]
+    assert len(reads) == 3                       # pre-flight, hold, final
+
+
 def test_host_stall_past_the_watchdog_stops_with_hardware_alert(sim):
     with open_bus(sim) as bus:
         place(bus, TRAJ.ticks[0])
@@ -332,6 +347,16 @@ def test_a_threading_event_stops_too(sim):
         report = execute(TRAJ, bus, stop=event)
     assert report.stop_reason == "stopped" and report.samples_sent == 0
     assert_holds(sim, report)
+
+
+def test_late_samples_are_all_sent_without_skip_late(sim):
+    with open_bus(sim) as bus:
+        place(bus, TRAJ.ticks[0])
+        before = len(history(sim))
+        report = execute(TRAJ, bus, skip_late=False,
+                         progress=inject_at(5, lambda: time.sleep(3.5 / RATE)))
+    assert report.completed and report.overruns >= 1 and report.samples_skipped == 0
+    assert np.array_equal(history(sim)[before:], TRAJ.ticks)
 
 
 def test_overruns_skip_ahead_without_accumulating(sim):
