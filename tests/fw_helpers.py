@@ -15,17 +15,23 @@ PH = PacketHandler(2.0)
 READ_TIMEOUT_S = 0.001
 
 
-@contextmanager
-def sdk_port(bus: SimBus, baud: int = 1_000_000) -> Iterator[PortHandler]:
-    """An SDK PortHandler opened on the bus's pty at ``baud``; closed afterwards."""
-    port = PortHandler(bus.port_path)
-    assert port.openPort(), f"SDK could not open {bus.port_path}"
+def open_port(path: str, baud: int = 1_000_000) -> PortHandler:
+    """An SDK PortHandler opened on ``path`` at ``baud`` (see the read-timeout note)."""
+    port = PortHandler(path)
+    assert port.openPort(), f"SDK could not open {path}"
     assert port.setBaudRate(baud), f"SDK refused baud {baud}"
     # The SDK polls pyserial with timeout=0 and spins at 100 % CPU holding the GIL; with
     # the simulator in the same interpreter (and pytest -n 2 on two cores) that spinning
     # starves the server thread. A 1 ms read timeout makes the same SDK code wait in
     # select() instead; its packet logic and its own timeouts are unchanged.
     port.ser.timeout = READ_TIMEOUT_S
+    return port
+
+
+@contextmanager
+def sdk_port(bus: SimBus, baud: int = 1_000_000) -> Iterator[PortHandler]:
+    """An SDK PortHandler opened on the bus's pty at ``baud``; closed afterwards."""
+    port = open_port(bus.port_path, baud)
     try:
         yield port
     finally:
