@@ -205,8 +205,17 @@ def test_clear_multi_turn(bus, port):
 
 def test_control_table_backup(bus, port):
     store = bytes([0x01, 0x43, 0x54, 0x52, 0x4C])
+    restore = bytes([0x02, 0x43, 0x54, 0x52, 0x4C])
+    rx, result = raw_instruction(port, 1, Instruction.CONTROL_TABLE_BACKUP, restore)
+    assert result == COMM_SUCCESS and parse_packet(bytes(rx)).error == 0x01   # nothing stored
+    assert PH.write1ByteTxRx(port, 1, RETURN_DELAY, 42) == (COMM_SUCCESS, 0)
     rx, result = raw_instruction(port, 1, Instruction.CONTROL_TABLE_BACKUP, store)
     assert result == COMM_SUCCESS and parse_packet(bytes(rx)).error == 0
+    assert PH.write1ByteTxRx(port, 1, RETURN_DELAY, 7) == (COMM_SUCCESS, 0)
+    rx, result = raw_instruction(port, 1, Instruction.CONTROL_TABLE_BACKUP, restore)
+    assert result == COMM_SUCCESS and parse_packet(bytes(rx)).error == 0
+    wait_ping(port, 1)                     # restore reboots the servo
+    assert PH.read1ByteTxRx(port, 1, RETURN_DELAY)[:2] == (42, COMM_SUCCESS)
     assert PH.write1ByteTxRx(port, 1, TORQUE, 1) == (COMM_SUCCESS, 0)
     rx, result = raw_instruction(port, 1, Instruction.CONTROL_TABLE_BACKUP, store)
     assert result == COMM_SUCCESS and parse_packet(bytes(rx)).error == 0x01
