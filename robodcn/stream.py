@@ -30,11 +30,13 @@ Schedule
 
 Feedback and health
     present positions are read after the write on every ``feedback_every``-th sample and on
-    the last one (0: only at the end). Tracking error of joint j is present − the goal sent
-    in the previous cycle (the newest goal the servo has had a full period to follow),
-    in ticks and radians. Fast Sync Read hides a servo's Alert bit in the SDK, so the bus
-    decodes the per-servo ERR bytes itself, and every ``health_interval`` seconds the
-    streamer polls Hardware Error Status (70) and Bus Watchdog (98) in turn.
+    the last one (0: only at the end). Tracking error of joint j is how far the present
+    position lies outside the last commanded step, [previous goal, goal just sent]: a
+    servo that follows within one sample (instantly, or a period behind) has error 0, one
+    that lags or overshoots by more has the excess, in ticks and radians. Fast Sync Read
+    hides a servo's Alert bit in the SDK, so the bus decodes the per-servo ERR bytes
+    itself, and every ``health_interval`` seconds the streamer polls Hardware Error Status
+    (70) and Bus Watchdog (98) in turn.
 
 Stops (``stop_reason``)
     "stopped" (a :class:`StopSignal`/``threading.Event`` set from any thread; acted on within
@@ -48,8 +50,11 @@ Stops (``stop_reason``)
     ``release=True`` (also after a completed move).
 
 Bus Watchdog
-    armed for the execution (``watchdog_ms``; default max(100 ms, 10 periods), at most
+    armed for the execution (``watchdog_ms``; default max(250 ms, 10 periods), at most
     2.54 s) so servos stop by themselves if this process dies or stalls; disarmed at the end.
+    In position mode a servo already holds its last goal when the stream stops; the
+    watchdog additionally freezes any profile in progress, so a generous timeout costs
+    little and does not trip on a host that is merely slow for a moment.
 
 Real-time priority
     with ``realtime=True`` the calling thread runs under SCHED_FIFO (priority
@@ -296,7 +301,7 @@ def execute(trajectory: Trajectory, bus: ServoBus, *, feedback_every: int = 1,
     progress : called with :class:`Progress` at most every 50 ms and at the end.
     release : torque off when finished or stopped (otherwise the servos hold).
     health_interval : seconds between Hardware Error Status / Bus Watchdog polls.
-    watchdog_ms : Bus Watchdog timeout; None = max(100 ms, 10 periods); 0 = not armed.
+    watchdog_ms : Bus Watchdog timeout; None = max(250 ms, 10 periods); 0 = not armed.
     profile : passed to :meth:`ServoBus.configure` when the servos need configuring.
     settle : seconds to keep reading after the last sample until the arm is within one
         tick of the final goal (0: one read).
@@ -374,7 +379,7 @@ def execute(trajectory: Trajectory, bus: ServoBus, *, feedback_every: int = 1,
             bus.configure(profile)
         period = 1.0 / trajectory.rate_hz
         if watchdog_ms is None:
-            watchdog_ms = max(100.0, 10_000.0 * period)
+            watchdog_ms = max(250.0, 10_000.0 * period)
         if watchdog_ms:
             bus.arm_watchdog(watchdog_ms)
         try:
@@ -474,7 +479,7 @@ class _Streamer:
                      for i, e in self.hardware.items() if e}
         raise _Stop("hardware_alert", f"hardware alert on servo(s) {described or list(ids)}")
 
-    def _feedback(self, sample: int) -> None:
+    def _feedback(self, sample: int, goal: NDArray[np.int64]) -> None:
         try:
             present = self.bus.read_positions()
         except CommError as exc:
@@ -485,8 +490,9 @@ class _Streamer:
         self.last_present = present
         if self.bus.last_alert_ids:
             self._alert(self.bus.last_alert_ids)
-        reference = self.previous_goal if self.previous_goal is not None else self.ticks[0]
-        error = present - reference
+        previous = self.previous_goal if self.previous_goal is not None else goal
+        error = present - np.clip(present, np.minimum(previous, goal),
+                                  np.maximum(previous, goal))
         self.errors.append(error)
         if self.tick_limit is not None:
             over = np.abs(error) > self.tick_limit
@@ -569,7 +575,7 @@ class _Streamer:
                 self.sent += 1
                 goal = self.ticks[i]
                 if (feedback_every and i % feedback_every == 0) or i == n - 1:
-                    self._feedback(i)
+                    self._feedback(i, goal)
                 if (i + 1) % self.health_every == 0:
                     self._health()
                 self.previous_goal = goal
