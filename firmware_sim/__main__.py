@@ -98,6 +98,9 @@ def _arm(faults: FaultInjector, kind: str, servo_id: int | None,
             raise SystemExit("firmware_sim: --wrong-id needs to=ID")
         faults.wrong_id(int(opts["to"]), servo_id, **common)
     elif kind == "truncate_fast":
+        if servo_id is not None:
+            raise SystemExit("firmware_sim: --truncate-fast cuts the whole fast-read chain; "
+                             f"use target 'bus', not servo {servo_id}")
         faults.truncate_fast(int(opts.get("keep", 1)), **common)
     elif kind == "split":
         faults.split(int(opts.get("pieces", 2)), opts.get("gap_ms", 0.5) / 1e3, servo_id,
