@@ -27,6 +27,9 @@ TIMINGS = ("fast", "realistic")
 #: shares this process's interpreter lock with the streamer, the HTTP threads and tests: a
 #: reply can be a few 5 ms GIL switch intervals late without being lost.
 RX_TIMEOUT_MS = 50.0
+#: Extra attempts per read: a lost reply here means the simulator thread was starved of CPU
+#: (a loaded machine), never a wire fault, so be patient (injected faults still surface).
+RETRIES = 5
 
 
 @dataclass(frozen=True)
@@ -119,7 +122,7 @@ def simulated_arm(arm: Arm, *, timing: str = "realistic", start_joints: ArrayLik
         _place(sim, arm.servo_ids, ticks)
         sim.start()
         stack.callback(sim.close)
-        bus = ServoBus(sim.port_path, arm.bus.baud, servos=arm.servos,
+        bus = ServoBus(sim.port_path, arm.bus.baud, servos=arm.servos, retries=RETRIES,
                        rx_timeout_ms=RX_TIMEOUT_MS)
         bus.open()
         stack.callback(bus.close)

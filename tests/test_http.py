@@ -38,6 +38,10 @@ ARM = load_arm(ROOT / "configs" / "arm3r.toml")
 HOME = list(ARM.home)
 TARGET = [0.18, 0.12, 0.6]
 BODY = {"waypoints": [HOME, TARGET], "duration": 0.6, "rate_hz": 100}
+#: The simulator shares this process (and a busy test machine): a stall of the streaming
+#: thread past the default 100 ms Bus Watchdog would stop a move for reasons these tests are
+#: not about (robodcn.stream's own tests cover the watchdog).
+LOADED_MACHINE = {"watchdog_ms": 1000}
 
 
 @contextlib.contextmanager
@@ -283,7 +287,7 @@ def test_slow_client_does_not_block_others_and_times_out(planner_server: Any) ->
         t0 = time.monotonic()
         status, _, _ = call(planner_server, "POST", "/v1/trajectories", BODY)
         assert status == 200
-        assert time.monotonic() - t0 < 0.5
+        assert time.monotonic() - t0 < 0.9  # answered before the stalled ones time out
         # The server's 1 s socket timeout frees both threads: the sockets get closed.
         for sock in (slow, silent):
             sock.settimeout(4)
@@ -428,7 +432,7 @@ def arm_server() -> Iterator[tuple[Any, Any]]:
     from robodcn.simulated import simulated_arm
 
     with simulated_arm(ARM, timing="fast") as sa:
-        controller = ArmController(ARM, sa.bus)
+        controller = ArmController(ARM, sa.bus, execute_options=LOADED_MACHINE)
         try:
             with running(make_server(ARM, controller, request_timeout=2.0)) as server:
                 yield server, sa
@@ -448,6 +452,7 @@ def poll_move(server: Any, move_id: str, until: Any, timeout: float = 10.0) -> d
         assert status == 200, body
         if until(body):
             return body
+        assert body["status"] != "failed", body["error"]
         assert time.monotonic() < deadline, body
         time.sleep(0.01)
 
