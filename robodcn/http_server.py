@@ -465,6 +465,17 @@ class Handler(BaseHTTPRequestHandler):
         except (ConnectionError, TimeoutError):
             self.close_connection = True
 
+    def handle_expect_100(self) -> bool:
+        """Refuse an oversized body before the client sends it (no 100 Continue then)."""
+        length = (self.headers.get("Content-Length") or "").strip()
+        if length.isdigit() and int(length) > MAX_BODY:
+            self._body_pending = True
+            self._send(413, {"error": {"code": "too_large", "message": f"the body is {length} "
+                                       f"bytes; the limit is {MAX_BODY} (1 MiB)",
+                                       "field": "body"}})
+            return False
+        return super().handle_expect_100()
+
     def send_error(self, code: int, message: str | None = None,
                    explain: str | None = None) -> None:
         """The stdlib's own refusals (bad request line, oversized headers) as JSON too."""

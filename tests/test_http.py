@@ -206,6 +206,12 @@ def test_oversized_body_is_413_before_it_is_read(planner_server: Any) -> None:
     assert head.startswith(b"HTTP/1.1 413")
     assert b"connection: close" in head.lower()
     assert json.loads(payload)["error"]["code"] == "too_large"
+    # A client asking first (Expect: 100-continue) is told 413 instead of "continue".
+    with socket.create_connection((host, port), timeout=5) as sock:
+        sock.sendall(b"POST /v1/trajectories HTTP/1.1\r\nHost: x\r\n"
+                     b"Content-Type: application/json\r\nExpect: 100-continue\r\n"
+                     + f"Content-Length: {MAX_BODY + 1}\r\n\r\n".encode())
+        assert _read_all(sock).startswith(b"HTTP/1.1 413")
     # Exactly at the limit is read (and then judged on its content).
     raw = b'{"waypoints": [[0.25, 0.1, 0], [0.18, 0.12, 0.6]]}'
     raw = raw[:-1] + b" " * (MAX_BODY - len(raw)) + b"}"
