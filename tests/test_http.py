@@ -302,6 +302,29 @@ def test_slow_client_does_not_block_others_and_times_out(planner_server: Any) ->
             assert time.monotonic() - t1 < 3
 
 
+def test_connections_beyond_the_cap_get_503_at_once() -> None:
+    with running(make_server(ARM, None, request_timeout=5.0, max_connections=2)) as server:
+        idle = [socket.create_connection(address(server), timeout=5) for _ in range(2)]
+        try:
+            # Both idle sockets hold a slot once accepted; the next connection is refused.
+            deadline = time.monotonic() + 5
+            while True:
+                status, headers, data = call(server, "GET", "/healthz")
+                if status == 503 or time.monotonic() > deadline:
+                    break
+                time.sleep(0.02)
+            assert status == 503 and error_of(data)["code"] == "too_many_connections"
+            assert headers["Retry-After"] == "1"
+        finally:
+            idle[0].close()
+        # Closing one frees its slot (the handler sees EOF), well before the 5 s timeout.
+        t0 = time.monotonic()
+        while call(server, "GET", "/healthz")[0] != 200:
+            assert time.monotonic() - t0 < 3
+            time.sleep(0.02)
+        idle[1].close()
+
+
 # -- any body: a clean answer, never a crash -------------------------------------------------------
 
 _junk = st.recursive(st.none() | st.booleans() | st.integers(-10, 10) | st.text(max_size=5)
