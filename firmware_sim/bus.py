@@ -73,6 +73,7 @@ _ALREADY_WAITING_S = 50e-6
 _SPIN_S = 200e-6
 _SPIN_TIGHT_S = 40e-6        # spin window once the thread's timer slack is 1 µs
 _PR_SET_TIMERSLACK = 29
+_SERVER_NICE = -5
 _PACE_CHUNK_S = 100e-6
 
 
@@ -379,6 +380,10 @@ class SimBus:
     # ---- server thread --------------------------------------------------------------
     def _serve(self) -> None:
         self._spin_s = _SPIN_TIGHT_S if _tighten_timer_slack() else _SPIN_S
+        # Real servos do not share the host's CPU; where allowed (root, CAP_SYS_NICE),
+        # favour this mostly sleeping thread so host load disturbs its timing less.
+        with contextlib.suppress(OSError):
+            os.setpriority(os.PRIO_PROCESS, threading.get_native_id(), _SERVER_NICE)
         parser = PacketParser()
         master = self._master
         assert master is not None
