@@ -144,16 +144,19 @@ class ArmController:
             if self._closed:
                 raise InputError("the controller is closed", field="controller", value=None)
             if self._current is not None:
-                current = self._current
-                raise BusyError(f"move {current.id} is {current.status}: wait for it (GET "
-                                f"/v1/moves/{current.id}) or stop it (POST /v1/stop)",
-                                field="move", value=current.id)
+                raise self._busy(self._current)
             record = MoveRecord(id=str(next(self._ids)), trajectory=trajectory)
             self._current = record
             self._moves[record.id] = record
             self._trim()
         self._worker.submit(self._run, record)
         return record
+
+    @staticmethod
+    def _busy(current: MoveRecord) -> BusyError:
+        return BusyError(f"move {current.id} is {current.status}: wait for it (GET "
+                         f"/v1/moves/{current.id}) or stop it (POST /v1/stop)",
+                         field="move", value=current.id)
 
     def _trim(self) -> None:
         while len(self._moves) > self.history:
@@ -297,6 +300,31 @@ class ArmController:
         except FutureTimeout:
             raise CommError(f"reading the arm's state took over {STATE_TIMEOUT:g} s",
                             field="bus", value=None) from None
+
+    def present_joints(self) -> np.ndarray:
+        """The arm's present joint angles (k,) rad, read on the worker thread.
+
+        Raises BusyError while a move is queued or running (the arm is not where it will
+        start from), BusError when the servos do not answer.
+        """
+        with self._lock:
+            if self._closed:
+                raise InputError("the controller is closed", field="controller", value=None)
+            if self._current is not None:
+                raise self._busy(self._current)
+        future = self._worker.submit(self._read_ticks)
+        try:
+            ticks = future.result(STATE_TIMEOUT)
+        except FutureTimeout:
+            raise CommError(f"reading the arm's position took over {STATE_TIMEOUT:g} s",
+                            field="bus", value=None) from None
+        return servo_units.ticks_to_radians(ticks[None, :], self.arm.servos)[0]
+
+    def _read_ticks(self) -> np.ndarray:
+        ticks = self.bus.read_positions()
+        with self._lock:
+            self._last_ticks = tuple(int(v) for v in ticks)
+        return ticks
 
     def close(self, *, timeout: float = 5.0) -> None:
         """Stop any move (the arm holds), finish the worker thread. Idempotent.

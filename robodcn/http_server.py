@@ -27,6 +27,7 @@ logger at DEBUG level, never straight to stderr.
 from __future__ import annotations
 
 import contextlib
+import dataclasses
 import hmac
 import ipaddress
 import json
@@ -515,6 +516,10 @@ class Handler(BaseHTTPRequestHandler):
     def _op_start_move(self, params: dict[str, str]) -> tuple[int, Any]:
         controller = self._controller()
         req = parse_plan_body(self.server.arm, self._read_json(), MOVE_FIELDS)
+        # Plan from where the arm is (409 at once if it is moving), so an infeasible approach
+        # is a 422 now rather than a failed move later, and the record shows what will run.
+        present = controller.present_joints()
+        req = dataclasses.replace(req, start_joints=tuple(float(q) for q in present))
         with self.server.plan_lock:
             trajectory = plan_request(req)
         record = controller.start_move(trajectory)

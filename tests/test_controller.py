@@ -116,6 +116,19 @@ def test_stop_holds_the_arm(rig: Any) -> None:
     assert controller.stop()["stopped"] is False
 
 
+def test_present_joints_reads_the_servos_and_is_busy_while_moving(rig: Any) -> None:
+    sa, controller = rig
+    want = servo_units.ticks_to_radians(np.array([present(sa)]), ARM.servos)[0]
+    np.testing.assert_array_equal(controller.present_joints(), want)
+    record = controller.start_move(short_move())
+    with pytest.raises(BusyError):
+        controller.present_joints()
+    controller.wait(record.id, timeout=10)
+    wait_until(lambda: np.abs(np.array(present(sa)) - record.trajectory.ticks[-1]).max() <= 1)
+    np.testing.assert_allclose(controller.present_joints(), record.trajectory.joints[-1],
+                               atol=2 * np.pi / 4096)
+
+
 def test_only_the_worker_thread_touches_the_port(rig: Any, monkeypatch: Any) -> None:
     _, controller = rig
     threads: set[str] = set()
@@ -127,6 +140,7 @@ def test_only_the_worker_thread_touches_the_port(rig: Any, monkeypatch: Any) -> 
 
     monkeypatch.setattr(ServoBus, "claim", spy)
     controller.state()
+    controller.present_joints()
     record = controller.start_move(short_move(duration=0.8))
     while not record.done.is_set():
         controller.state()

@@ -488,11 +488,14 @@ def poll_move(server: Any, move_id: str, until: Any, timeout: float = 10.0) -> d
 
 def test_move_executes_and_reports(arm_server: Any) -> None:
     server, sa = arm_server
+    start = servo_units.ticks_to_radians(np.array([present(sa)]), ARM.servos)[0]
     status, headers, body = call(server, "POST", "/v1/moves", BODY)
     assert status == 202, body
     assert headers["Location"] == f"/v1/moves/{body['id']}"
     assert body["status"] in ("queued", "running")
-    want = plan(ARM, BODY["waypoints"], duration=BODY["duration"], rate_hz=BODY["rate_hz"])
+    # Planned from the arm's present joints.
+    want = plan(ARM, BODY["waypoints"], duration=BODY["duration"], rate_hz=BODY["rate_hz"],
+                start_joints=start)
     assert body["samples"] == len(want.t) and body["duration"] == want.duration
     done = poll_move(server, body["id"], lambda b: b["status"] not in ("queued", "running"))
     assert done["status"] == "done" and done["progress"] == 1.0, done
