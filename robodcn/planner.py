@@ -73,7 +73,7 @@ MAX_SAMPLES = 1_000_000
 LIMIT_SLACK = 1e-9
 #: Slack on joint position limits (rad), float rounding only.
 ANGLE_SLACK = 1e-9
-_MAX_SEARCH_STEPS = 12
+_MAX_SEARCH_STEPS = 40
 _COARSE = 128
 
 
@@ -492,34 +492,45 @@ def _estimate(piece: _Piece, arm: Arm, reference: NDArray | None
 
 
 def _search(piece: _Piece, arm: Arm, reference: NDArray | None, rate: float) -> int:
-    """Smallest N (sample periods) whose samples pass the velocity/acceleration checks."""
-    n = _intervals(max(_estimate(piece, arm, reference)[0], 1e-12), rate)
-    best = None
-    for _ in range(_MAX_SEARCH_STEPS):
-        if n + 1 > MAX_SAMPLES:
-            break
+    """Smallest N (sample periods) whose samples pass the velocity/acceleration checks.
+
+    Bracket, then bisect: from the estimate, grow N (to the finite-difference closed form's
+    ⌈T_fd(N)·rate⌉, at least doubling) until it passes; then try the closed form's guess just
+    below and bisect between the largest failing and the smallest passing N until they are
+    neighbours. The result passes and N − 1 fails (or N = 1). Typically 2–3 evaluations.
+    """
+
+    def need(n: int) -> float | None:
         try:
-            need = _fd_need(piece.sample(n, arm, reference)[1], arm)
+            return _fd_need(piece.sample(n, arm, reference)[1], arm)
         except UnreachableError:
-            return best or n
-        if need <= n / rate:
-            best = n if best is None else min(best, n)
-            if n == 1:
-                return 1
-            try:
-                need_below = _fd_need(piece.sample(n - 1, arm, reference)[1], arm)
-            except UnreachableError:
-                return n
-            if need_below > (n - 1) / rate:
-                return n
-            n = max(1, min(n - 1, math.ceil(need_below * rate - 1e-9)))
+            return None  # validation reports it with the real sample index
+
+    n = _intervals(max(_estimate(piece, arm, reference)[0], 1e-12), rate)
+    fail, ok = 0, None  # largest N known to fail (0: none), smallest known to pass
+    guess = None
+    for _ in range(_MAX_SEARCH_STEPS):
+        if ok is not None and ok - fail <= 1:
+            return ok
+        if n + 1 > MAX_SAMPLES:
+            raise InputError(f"the 'auto' duration needs more than {MAX_SAMPLES} samples at "
+                             f"{rate:g} Hz: lower rate_hz or raise the joint limits",
+                             field="duration", value="auto")
+        t_need = need(n)
+        if t_need is None:
+            return ok or n
+        guess = max(1, math.ceil(t_need * rate - 1e-9))
+        if t_need <= n / rate:
+            ok = n
+            # the closed form's guess below, else bisect
+            n = guess if fail < guess < ok else (fail + ok) // 2
         else:
-            n = max(n + 1, math.ceil(need * rate - 1e-9))
-    if best is None:
-        raise InputError(f"the 'auto' duration needs more than {MAX_SAMPLES} samples at "
-                         f"{rate:g} Hz: lower rate_hz or raise the joint limits",
-                         field="duration", value="auto")
-    return best
+            fail = n
+            if ok is None:
+                n = max(guess, 2 * n)
+            else:
+                n = guess if fail < guess < ok else (fail + ok) // 2
+    return ok if ok is not None else n
 
 
 def _split(total: int, weights: Sequence[float]) -> list[int]:
@@ -729,7 +740,10 @@ def _unreachable(req: PlanRequest, piece: _Piece, n: int, ref: NDArray | None, o
         poses[offset:i] = p
         joints[offset:i] = _joints(req.arm, p, ref)
     if i > 0:
-        _validate(req, np.arange(i) / req.rate_hz, poses[:i], joints[:i])
+        # With "auto" the search could not time a path that leaves the workspace, so speeds
+        # before the gap say nothing: report the gap itself.
+        _validate(req, np.arange(i) / req.rate_hz, poses[:i], joints[:i],
+                  dynamics=req.duration != "auto")
     detail = exc.message.split("out of reach: ", 1)[-1]
     _raise_at(UnreachableError, req, i, exc.pose, None, f"is out of reach: {detail}", exc.pose)
 
@@ -744,16 +758,18 @@ def _raise_at(cls: type[PlanError], req: PlanRequest, i: int, pose: Sequence[flo
               value=value, sample=i, t=t, pose=pose, joint=joint)
 
 
-def _validate(req: PlanRequest, t: NDArray, poses: NDArray, joints: NDArray
-              ) -> NDArray[np.int64]:
+def _validate(req: PlanRequest, t: NDArray, poses: NDArray, joints: NDArray,
+              dynamics: bool = True) -> NDArray[np.int64]:
     """All checks at once; raises for the earliest failing sample (ties: position limits,
-    ticks, velocity, acceleration)."""
+    ticks, velocity, acceleration). ``dynamics=False`` skips velocity and acceleration."""
     arm = req.arm
     rate = req.rate_hz
     n = joints.shape[0]
     lo = np.array([j.min_angle for j in arm.joints]) - ANGLE_SLACK
     hi = np.array([j.max_angle for j in arm.joints]) + ANGLE_SLACK
     v, a = _limits(arm)
+    if not dynamics:
+        v = a = np.full(arm.dof, np.inf)
     ticks = servo_units.ticks_unchecked(joints, arm.servos)
     tmin = np.array([j.servo.min_tick for j in arm.joints])
     tmax = np.array([j.servo.max_tick for j in arm.joints])
@@ -819,10 +835,10 @@ def _validate(req: PlanRequest, t: NDArray, poses: NDArray, joints: NDArray
                 f"limits {spec.servo.min_tick}..{spec.servo.max_tick}")
         _raise_at(cls, req, i, poses[i], name, what, int(ticks[i, j]))
     if cls is VelocityLimitError:
-        what = (f"needs {vel[i, j]:.3g} rad/s, limit {spec.max_velocity:.3g} rad/s: lengthen "
+        what = (f"needs {vel[i, j]:.4g} rad/s, limit {spec.max_velocity:.4g} rad/s: lengthen "
                 "the duration")
         _raise_at(cls, req, i, poses[i], name, what, float(vel[i, j]), field="duration")
-    what = (f"needs {acc[i, j]:.3g} rad/s², limit {spec.max_acceleration:.3g} rad/s²: lengthen "
+    what = (f"needs {acc[i, j]:.4g} rad/s², limit {spec.max_acceleration:.4g} rad/s²: lengthen "
             "the duration")
     _raise_at(cls, req, i, poses[i], name, what, float(acc[i, j]), field="duration")
     raise AssertionError("unreachable")  # pragma: no cover
