@@ -465,7 +465,8 @@ class Handler(BaseHTTPRequestHandler):
             for key, value in (headers or {}).items():
                 self.send_header(key, value)
             self.end_headers()
-            self.wfile.write(body)
+            if self.command != "HEAD":  # the stdlib answers HEAD with 501 through send_error
+                self.wfile.write(body)
         except (ConnectionError, TimeoutError):
             self.close_connection = True
 
