@@ -142,3 +142,10 @@ def test_fault_validation_and_clear(bus, port):
     assert len(bus.faults.active) == 1
     bus.faults.clear()
     assert PH.ping(port, 1)[1] == COMM_SUCCESS
+
+
+def test_split_with_gap_beyond_timeout_is_a_partial_packet(bus, port):
+    bus.faults.split(pieces=2, gap_s=0.060, servo_id=3)
+    assert PH.ping(port, 3)[1] == COMM_RX_CORRUPT           # half a packet, then timeout
+    time.sleep(0.07)
+    assert PH.ping(port, 3)[1] == COMM_SUCCESS

@@ -213,3 +213,15 @@ def test_realistic_broadcast_ping_answers_in_id_slots():
         for e in tx:
             assert e.time >= wire_end + e.id * slot
         assert bus.errors == []
+
+
+def test_log_limit_keeps_newest_and_switch_interval_restored():
+    before = sys.getswitchinterval()
+    with SimBus(ids=[1], log_limit=4) as bus, sdk_port(bus) as port:
+        assert sys.getswitchinterval() <= 1e-4
+        for _ in range(5):
+            assert PH.ping(port, 1)[1] == COMM_SUCCESS
+        assert len(bus.log) == 4
+        assert [e.direction for e in bus.log] == ["rx", "tx", "rx", "tx"]
+        assert bus.rx_packets == 5
+    assert sys.getswitchinterval() == before
