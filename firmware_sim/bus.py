@@ -793,8 +793,9 @@ class SimBus:
                 step = -(-len(data) // split.pieces)
                 pieces = [data[k:k + step] for k in range(0, len(data), step)]
                 note = _join(note, f"split in {len(pieces)}")
-            if data:
-                self._log_tx(start, r, data, note)
+            self._log_tx(start, r, data, note)
+            if not data:
+                continue
             t = start
             for k, piece in enumerate(pieces):
                 if k and split:
