@@ -170,6 +170,12 @@ class ArmController:
         with self._lock:
             return self._moves.get(str(move_id))
 
+    def move_info(self, move_id: str) -> dict[str, Any] | None:
+        """A consistent JSON-ready snapshot of a move (:meth:`MoveRecord.to_dict`), or None."""
+        with self._lock:
+            record = self._moves.get(str(move_id))
+            return None if record is None else record.to_dict()
+
     def moves(self) -> list[MoveRecord]:
         """Remembered moves, oldest first."""
         with self._lock:

@@ -524,14 +524,14 @@ class Handler(BaseHTTPRequestHandler):
         with self.server.plan_lock:
             trajectory = plan_request(req)
         record = controller.start_move(trajectory)
-        return 202, record.to_dict()
+        return 202, controller.move_info(record.id)
 
     def _op_get_move(self, params: dict[str, str]) -> tuple[int, Any]:
-        record = self._controller().move(params["id"])
-        if record is None:
+        info = self._controller().move_info(params["id"])
+        if info is None:
             raise HTTPError(404, "not_found", f"no move {params['id']!r} (the service keeps "
                             "the most recent moves only)", "id")
-        return 200, record.to_dict()
+        return 200, info
 
     def _op_stop(self, params: dict[str, str]) -> tuple[int, Any]:
         controller = self._controller()
