@@ -749,7 +749,7 @@ def scan(port: str, bauds: Iterable[int] = (1_000_000,), *,
 
     With ``ids`` None a broadcast PING is sent at each baud (the SDK waits its full
     ≈0.8 s window at 1 Mbps); with ``ids`` each id is pinged in turn (a silent id costs the
-    SDK's 34 ms timeout). Results are sorted by baud, then id.
+    SDK's 34 ms timeout, twice: one retry). Results are sorted by baud, then id.
     """
     found: list[ServoInfo] = []
     bauds = list(bauds)
@@ -772,8 +772,9 @@ def scan(port: str, bauds: Iterable[int] = (1_000_000,), *,
                 found.append(ServoInfo(servo_id, model_number, MODEL_NAMES.get(model_number),
                                        firmware, baud))
         else:
+            # One retry: a servo that misses one ping is not reported missing.
             probe = ServoBus(port, baud, servos=[ServoSpec(i, "xm430-w350") for i in id_list],
-                             retries=0)
+                             retries=1)
             with probe:
                 for servo_id in id_list:
                     info = probe.ping(servo_id)
