@@ -712,7 +712,13 @@ def _assemble(req: PlanRequest, pieces: list[_Piece], counts: list[int],
     joints = np.empty((total, arm.dof))
     offset = 0
     ref = reference
+    marks: dict[int, int] = {}  # sample index → waypoint index, where a waypoint is sampled
+    segment = 0
     for piece, n in zip(pieces, counts, strict=True):
+        if piece.path is not None:
+            last = segment + len(piece.path.segments)
+            marks[offset], marks[offset + n] = segment, last
+            segment = last
         try:
             p, q = piece.sample(n, arm, ref)
         except UnreachableError as exc:
@@ -723,7 +729,7 @@ def _assemble(req: PlanRequest, pieces: list[_Piece], counts: list[int],
         offset += n
         ref = q[-1]
     t = np.arange(total) / rate
-    ticks = _validate(req, t, poses, joints)
+    ticks = _validate(req, t, poses, joints, marks=marks)
     return Trajectory(t, poses, joints, ticks, arm.joint_names, arm.servo_ids, rate,
                       req.method if isinstance(req.method, str) else list(req.method), req)
 
@@ -749,19 +755,26 @@ def _unreachable(req: PlanRequest, piece: _Piece, n: int, ref: NDArray | None, o
 
 
 def _raise_at(cls: type[PlanError], req: PlanRequest, i: int, pose: Sequence[float],
-              joint: str | None, what: str, value: Any = None, field: str = "waypoints"
-              ) -> None:
+              joint: str | None, what: str, value: Any = None, field: str = "waypoints",
+              waypoint: int | None = None) -> None:
     t = i / req.rate_hz
     pose = [float(v) for v in pose]
     who = f"joint {joint!r} " if joint else ""
-    raise cls(f"sample {i} (t={t:.3f} s, {_fmt_pose(pose)}): {who}{what}", field=field,
+    where = ""
+    if waypoint is not None:
+        field = f"waypoints[{waypoint}]"
+        where = f"{field}, "
+    raise cls(f"sample {i} ({where}t={t:.3f} s, {_fmt_pose(pose)}): {who}{what}", field=field,
               value=value, sample=i, t=t, pose=pose, joint=joint)
 
 
 def _validate(req: PlanRequest, t: NDArray, poses: NDArray, joints: NDArray,
-              dynamics: bool = True) -> NDArray[np.int64]:
+              dynamics: bool = True, marks: dict[int, int] | None = None
+              ) -> NDArray[np.int64]:
     """All checks at once; raises for the earliest failing sample (ties: position limits,
-    ticks, velocity, acceleration). ``dynamics=False`` skips velocity and acceleration."""
+    ticks, velocity, acceleration). ``dynamics=False`` skips velocity and acceleration;
+    ``marks`` maps sample indices to the waypoints sampled there, so that a waypoint outside
+    the joint or tick limits is named as such."""
     arm = req.arm
     rate = req.rate_hz
     n = joints.shape[0]
@@ -829,11 +842,13 @@ def _validate(req: PlanRequest, t: NDArray, poses: NDArray, joints: NDArray,
         what = (f"at {joints[i, j]:.4f} rad ({math.degrees(joints[i, j]):.1f}°) is outside its "
                 f"limits {spec.min_angle:.4f}..{spec.max_angle:.4f} rad "
                 f"({math.degrees(spec.min_angle):.1f}..{math.degrees(spec.max_angle):.1f}°)")
-        _raise_at(cls, req, i, poses[i], name, what, float(joints[i, j]))
+        _raise_at(cls, req, i, poses[i], name, what, float(joints[i, j]),
+                  waypoint=(marks or {}).get(i))
     if cls is TickLimitError:
         what = (f"needs tick {ticks[i, j]} (servo id {spec.servo.id}), outside its tick "
                 f"limits {spec.servo.min_tick}..{spec.servo.max_tick}")
-        _raise_at(cls, req, i, poses[i], name, what, int(ticks[i, j]))
+        _raise_at(cls, req, i, poses[i], name, what, int(ticks[i, j]),
+                  waypoint=(marks or {}).get(i))
     if cls is VelocityLimitError:
         what = (f"needs {vel[i, j]:.4g} rad/s, limit {spec.max_velocity:.4g} rad/s: lengthen "
                 "the duration")

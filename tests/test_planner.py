@@ -178,6 +178,16 @@ def test_joint_limit_sample_is_named() -> None:
     assert "'shoulder'" in str(err) and f"sample {expected} " in str(err)
 
 
+def test_waypoint_outside_the_limits_is_named() -> None:
+    free = plan(ARM3R, WAYPOINTS_3R, duration=3.0, rate_hz=100)
+    limit = abs(free.joints[0, 0]) * 0.9  # the first waypoint's shoulder is beyond it
+    narrow = variant(ARM3R, only=0, min=-limit, max=limit)
+    with pytest.raises(JointLimitError) as info:
+        plan(narrow, WAYPOINTS_3R, duration=3.0, rate_hz=100)
+    assert info.value.sample == 0 and info.value.field == "waypoints[0]"
+    assert "waypoints[0]" in str(info.value)
+
+
 def test_tick_limit_sample_is_named() -> None:
     free = plan(ARM3R, WAYPOINTS_3R, duration=4.0, rate_hz=100)
     narrow = variant(ARM3R, servo_min_tick=1500, servo_max_tick=2600)
