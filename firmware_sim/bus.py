@@ -185,6 +185,10 @@ class SimBus:
         Seed for probabilistic faults.
     log_limit : int
         Oldest entries are discarded beyond this many.
+    fast_chain_stops : bool
+        What later servos of a Fast Sync/Bulk Read do when an earlier one stays silent
+        (undocumented): False, they append their blocks anyway; True, the chain ends.
+        Either way the packet is shorter than its LEN and the SDK reports RX_CORRUPT.
     switch_interval : float or None
         While any bus runs, the interpreter's GIL switch interval is lowered to this
         (restored when the last bus closes). The SDK client spins on the port holding
@@ -202,7 +206,8 @@ class SimBus:
                  firmware: int | Mapping[int, int] = 46, clock: Clock | None = None,
                  link: str | None = None, log: bool = True, log_file: str | None = None,
                  turnaround_s: float = 30e-6, fault_seed: int | None = None,
-                 log_limit: int = 100_000, switch_interval: float | None = 1e-4) -> None:
+                 log_limit: int = 100_000, fast_chain_stops: bool = False,
+                 switch_interval: float | None = 1e-4) -> None:
         id_list = [int(i) for i in ids]
         if not id_list:
             raise ValueError("SimBus needs at least one servo id")
@@ -230,6 +235,7 @@ class SimBus:
         self.baud = int(baud)
         self.timing = timing
         self.turnaround_s = float(turnaround_s)
+        self.fast_chain_stops = bool(fast_chain_stops)
         self.link = link
         self.clock = clock
         self._servos = [Servo(i, models[i], firmware=int(firmwares.get(i, 46)),
@@ -671,9 +677,14 @@ class SimBus:
             s = self._find(targets, servo_id)
             if (s is None or s.firmware_version < FAST_READ_MIN_FIRMWARE
                     or not self._answers(s, pkt.instruction)):
+                ids.append(f"{servo_id} silent")
+                if self.fast_chain_stops:
+                    break
                 continue
             if self.faults.take(FaultKind.DROP, s.id, pkt.instruction, bus_wide=False):
                 ids.append(f"{s.id} dropped")
+                if self.fast_chain_stops:
+                    break
                 continue
             code, data = s.read(address, length)
             data = data if not code else b""

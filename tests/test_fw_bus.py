@@ -263,12 +263,27 @@ def test_fast_sync_read_fails_with_old_firmware_but_sync_read_works():
         assert group.txRxPacket() == COMM_SUCCESS
         assert [s32(group.getData(s, PRESENT_POS, 4)) for s in (1, 2, 3)] == \
             [bus.servo(s).present_position for s in (1, 2, 3)]
+        assert bus.packets("tx")[-4].note == "fast: 1,2 silent,3"
         # every servo below 45: nobody answers at all
     with SimBus(ids=[1, 2], firmware=44) as bus, sdk_port(bus) as port:
         group = GroupSyncRead(port, PH, PRESENT_POS, 4)
         group.addParam(1)
         group.addParam(2)
         assert group.fastSyncRead() == COMM_RX_TIMEOUT
+
+
+@pytest.mark.parametrize("stops", [False, True])
+def test_fast_chain_with_a_silent_member(stops):
+    with SimBus(ids=[1, 2, 3], firmware={1: 46, 2: 44, 3: 46}, fast_chain_stops=stops) as bus, \
+            sdk_port(bus) as port:
+        group = GroupSyncRead(port, PH, PRESENT_POS, 4)
+        for sid in (1, 2, 3):
+            group.addParam(sid)
+        assert group.fastSyncRead() == COMM_RX_CORRUPT
+        (reply,) = bus.packets("tx")
+        assert len(reply.raw) == 8 + 8 * (1 if stops else 2)
+        assert reply.raw[5] == 1 + 3 * 8                 # LEN still announces all three
+        assert bus.errors == []
 
 
 def _bulk_read(port, fast):
