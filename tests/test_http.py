@@ -12,6 +12,7 @@ import http.client
 import json
 import math
 import os
+import re
 import signal
 import socket
 import subprocess
@@ -401,9 +402,14 @@ def test_openapi_matches_the_routes_answered(planner_server: Any) -> None:
             else:
                 assert status == 405, (method, path)
         for op in ops.values():
+            # Every {param} of the path is declared, and nothing else.
+            declared = {p["name"] for p in op.get("parameters", []) if p["in"] == "path"}
+            assert declared == set(re.findall(r"\{(\w+)\}", path)), path
             for code, response in op["responses"].items():
                 ref = response["content"]["application/json"]["schema"]["$ref"]
                 assert ref.split("/")[-1] in doc["components"]["schemas"], (path, code)
+    ids = [op["operationId"] for ops in doc["paths"].values() for op in ops.values()]
+    assert len(ids) == len(set(ids))
 
 
 def test_openapi_body_schema_is_what_the_parser_accepts(planner_server: Any) -> None:
