@@ -117,14 +117,18 @@ class StopSignal:
 
     ``request(reason)`` from any thread; the streamer wakes from its sleep at once and stops
     before the next write. Behaves like ``threading.Event`` (``is_set``, ``wait``, ``clear``).
+    ``requested_at`` (``time.perf_counter()``) lets the report give the stop latency.
     """
 
     def __init__(self) -> None:
         self._event = threading.Event()
         self.reason: str | None = None
+        self.requested_at: float | None = None
 
     def request(self, reason: str = "stop requested") -> None:
-        self.reason = reason
+        if not self._event.is_set():
+            self.reason = reason
+            self.requested_at = time.perf_counter()
         self._event.set()
 
     set = request
@@ -137,6 +141,7 @@ class StopSignal:
 
     def clear(self) -> None:
         self.reason = None
+        self.requested_at = None
         self._event.clear()
 
 
@@ -160,6 +165,7 @@ class ExecutionReport:
     consecutive writes (w: write start, d: due time). ``work_*`` is the time from a write's
     start to the end of that cycle's reads. Tracking errors are per joint, over the feedback
     samples; ``final_error_*`` compares the last present positions read with the last goal.
+    ``stop_latency_s``: from :meth:`StopSignal.request` to the loop's exit (no write after).
     """
 
     stop_reason: str
@@ -195,6 +201,7 @@ class ExecutionReport:
     released: bool = False
     fast_read: bool = False
     realtime: bool = False
+    stop_latency_s: float | None = None
 
     @property
     def completed(self) -> bool:
@@ -441,6 +448,7 @@ class _Streamer:
         self.final: NDArray[np.int64] | None = None
         self.released = False
         self.realtime = False
+        self.stop_latency: float | None = None
         self.t_start = 0.0
         self.t_end = 0.0
         self._last_progress = -math.inf
@@ -589,6 +597,9 @@ class _Streamer:
         except _Stop as stop:
             self.reason = stop.reason
             self.message = stop.message
+            requested = getattr(self.stop, "requested_at", None)
+            if stop.reason == "stopped" and requested is not None:
+                self.stop_latency = time.perf_counter() - requested
         self.t_end = clock()
         if self.progress is not None and self.sent:
             self._report_progress(self.sent_index[self.sent - 1], self.t_end)
@@ -686,7 +697,8 @@ class _Streamer:
             hold_goals=None if self.hold_goals is None else tuple(int(v)
                                                                   for v in self.hold_goals),
             hardware_errors=dict(self.hardware), approach=approached, released=self.released,
-            fast_read=bool(self.bus.fast_read), realtime=self.realtime)
+            fast_read=bool(self.bus.fast_read), realtime=self.realtime,
+            stop_latency_s=self.stop_latency)
 
 
 __all__ = ["STOP_REASONS", "ExecutionReport", "Progress", "StopSignal", "execute"]
