@@ -620,18 +620,29 @@ def _serve_subprocess(extra: str) -> subprocess.Popen:
                             stderr=subprocess.PIPE, env=env, text=True)
 
 
-def _state_then_sigterm(proc: subprocess.Popen) -> dict[str, Any]:
+def _request(url: str, method: str, path: str, body: Any = None) -> tuple[int, Any]:
+    host, port = url.removeprefix("http://").split(":")
+    conn = http.client.HTTPConnection(host, int(port), timeout=10)
+    try:
+        data = None if body is None else json.dumps(body)
+        conn.request(method, path, body=data, headers={"Content-Type": "application/json"})
+        resp = conn.getresponse()
+        return resp.status, json.loads(resp.read())
+    finally:
+        conn.close()
+
+
+def _state_then_signal(proc: subprocess.Popen, sig: int = signal.SIGTERM,
+                       during: Any = None) -> dict[str, Any]:
+    """GET /v1/state, optionally ``during(url)``, then the signal: a clean, quiet exit."""
     try:
         url = proc.stdout.readline().strip()
         assert url.startswith("http://127.0.0.1:"), proc.stderr.read() if not url else url
-        host, port = url.removeprefix("http://").split(":")
-        conn = http.client.HTTPConnection(host, int(port), timeout=10)
-        conn.request("GET", "/v1/state")
-        resp = conn.getresponse()
-        state = json.loads(resp.read())
-        conn.close()
-        assert resp.status == 200 and state["source"] == "bus", state
-        proc.send_signal(signal.SIGTERM)
+        status, state = _request(url, "GET", "/v1/state")
+        assert status == 200 and state["source"] == "bus", state
+        if during is not None:
+            during(url)
+        proc.send_signal(sig)
         assert proc.wait(10) == 0
         assert proc.stderr.read() == ""  # quiet: no per-request logging, no traceback
         return state
@@ -641,19 +652,36 @@ def _state_then_sigterm(proc: subprocess.Popen) -> dict[str, Any]:
             proc.wait()
 
 
-def test_serve_sim_runs_until_sigterm() -> None:
-    state = _state_then_sigterm(_serve_subprocess("sim=True, "))
+@pytest.mark.parametrize("sig", [signal.SIGTERM, signal.SIGINT], ids=["SIGTERM", "SIGINT"])
+def test_serve_sim_runs_until_a_signal(sig: int) -> None:
+    state = _state_then_signal(_serve_subprocess("sim=True, "), sig)
     want = servo_units.radians_to_ticks(kinematics.ik(ARM.links, [ARM.home], ARM.elbow),
                                         ARM.servos)[0]
     assert state["ticks"] == want.tolist()
 
 
-def test_serve_on_a_device() -> None:
+def test_serve_on_a_device_stops_a_move_and_holds_on_sigterm() -> None:
     from firmware_sim.bus import SimBus
+
+    def start_move(url: str) -> None:
+        status, body = _request(url, "POST", "/v1/moves", {**BODY, "duration": 3.0})
+        assert status == 202, body
+        deadline = time.monotonic() + 10
+        while _request(url, "GET", f"/v1/moves/{body['id']}")[1]["progress"] < 0.05:
+            assert time.monotonic() < deadline
+            time.sleep(0.01)
 
     with SimBus(ARM.servo_ids, timing="fast") as sim:
         placed = [sim.servo(i).present_position for i in ARM.servo_ids]
-        state = _state_then_sigterm(_serve_subprocess(f"device={sim.port_path!r}, "
-                                                      "baud=1000000, "))
+        proc = _serve_subprocess(f"device={sim.port_path!r}, baud=1000000, ")
+        state = _state_then_signal(proc, signal.SIGTERM, start_move)
         assert state["ticks"] == placed
+        # The service stopped the move on its way out: the arm holds, torque on.
+        goals = [sim.goal_history(i) for i in ARM.servo_ids]
+        full = len(plan(ARM, BODY["waypoints"], duration=3.0, rate_hz=BODY["rate_hz"]).t)
+        assert 1 < len(goals[0]) < full  # cut short, not run to its end
+        time.sleep(0.1)
+        assert [sim.goal_history(i) for i in ARM.servo_ids] == goals
+        assert all(sim.servo(i).torque_enabled for i in ARM.servo_ids)
+        assert [sim.servo(i).goal_position for i in ARM.servo_ids] == [g[-1] for g in goals]
     assert not sim.errors, sim.errors
