@@ -38,6 +38,8 @@ from firmware_sim.control_table import (
 VELOCITY_UNIT = 1000.0 / 64.0
 #: pulse/s² per Profile Acceleration unit (one velocity unit per 64 ms).
 ACCELERATION_UNIT = VELOCITY_UNIT / 0.064
+#: Shortest ramp the generators build, s (far below the firmware's 1 ms resolution).
+_MIN_RAMP_S = 1e-9
 #: Moving Status bits for "no profile" (step).
 PROFILE_STEP = 0x00
 
@@ -182,7 +184,8 @@ def plan_velocity_based(t: float, p: float, v: float, goal: float, vmax: float,
     brake = peak * peak / (2 * amax)
     cruise = max(dist - ramp - brake, 0.0)
     b.add(abs(peak - w) / amax, s * amax * (1 if peak >= w else -1))
-    b.add(cruise / peak, 0.0)
+    if cruise > 0:
+        b.add(cruise / peak, 0.0)
     b.add(peak / amax, -s * amax)
     return Profile(t, tuple(b.segs), float(goal), b.t, kind)
 
@@ -199,7 +202,7 @@ def plan_time_based(t: float, p: float, v: float, goal: float, total: float,
     d = goal - p
     t1 = min(max(accel, 0.0), total / 2)
     b = _Builder(t, p, v)
-    if t1 == 0:
+    if t1 < _MIN_RAMP_S:        # a ramp shorter than this is a rectangle in floating point
         b.v = d / total
         b.add(total, 0.0)
         return Profile(t, tuple(b.segs), float(goal), t + total, MS_PROFILE_RECTANGLE)

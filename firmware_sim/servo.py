@@ -139,6 +139,8 @@ class Servo:
             raise ValueError(f"firmware must be 0..255, got {firmware!r}")
         if not boot_delay_s >= 0:
             raise ValueError(f"boot_delay_s must be >= 0, got {boot_delay_s!r}")
+        if not -(1 << 31) <= int(position) < (1 << 31):
+            raise ValueError(f"position must fit Present Position (int32), got {position!r}")
         self.model = model
         self.spec = spec
         self.clock: Clock = clock if clock is not None else RealClock()

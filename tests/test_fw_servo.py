@@ -24,6 +24,11 @@ from firmware_sim.control_table import (
     ERR_INSTRUCTION,
     ERR_RESULT_FAIL,
 )
+from firmware_sim.profile import (
+    plan_time_based,
+    plan_velocity_based,
+    plan_velocity_mode,
+)
 from firmware_sim.servo import BACKUP_MAGIC, CLEAR_MULTI_TURN, Servo
 
 #: One control period of the simulated firmware, s (Realtime Tick resolution).
@@ -548,7 +553,9 @@ def test_constructor_validation_and_defaults():
     assert (s.id, s.baud_index, s.firmware_version, s.present_position) == (3, 3, 46, 2048)
     assert s.status_return_level == 2 and s.return_delay_us == 500 and not s.booting()
     for kwargs, word in (({"servo_id": 253}, "servo_id"), ({"model": "mx-28"}, "model"),
-                         ({"baud_index": 8}, "baud_index"), ({"firmware": 300}, "firmware")):
+                         ({"baud_index": 8}, "baud_index"), ({"firmware": 300}, "firmware"),
+                         ({"position": 1 << 31}, "position"),
+                         ({"boot_delay_s": -1.0}, "boot_delay_s")):
         args = {"servo_id": 1, **kwargs}
         with pytest.raises(ValueError, match=word):
             Servo(**args)
@@ -617,3 +624,61 @@ def test_secondary_id_and_protocol_type():
     put(servo, ct.SECONDARY_ID, 9)
     assert servo.secondary_id == 9
     assert servo.write(ct.SECONDARY_ID, bytes([253])) == ERR_DATA_RANGE
+
+
+# ---- the profile generator on its own ------------------------------------------------------
+def _check_plan(plan, p0, v0, goal, vmax, amax, tol=1e-6):
+    """Invariants: starts at (p0, v0), ends at rest on goal, |a| <= amax, |v| <= max(v0, vmax),
+    segments contiguous in time, position and velocity."""
+    assert plan.state(plan.start) == pytest.approx((p0, v0), abs=1e-6) or not plan.segments
+    t = plan.start
+    p, v = p0, v0
+    for seg in plan.segments:
+        assert seg.t0 == pytest.approx(t, abs=1e-9) and seg.dur > 0
+        assert (seg.p0, seg.v0) == pytest.approx((p, v), abs=1e-6 * max(1.0, abs(p)))
+        assert abs(seg.a) <= amax * (1 + tol)
+        p, v = seg.at(seg.t0 + seg.dur)
+        assert abs(seg.v0) <= max(abs(v0), vmax) * (1 + tol) + tol
+        t = seg.t0 + seg.dur
+    if plan.segments:
+        # float error grows with the distance covered (a brake can run far past the goal)
+        scale = 1.0 + abs(goal) + abs(p0) + v0 * v0 / amax
+        assert (p, v) == pytest.approx((goal, 0.0), abs=1e-9 * scale)
+    assert plan.end == pytest.approx(t, abs=1e-9)
+    assert plan.state(plan.end + 1.0) == (goal, 0.0)
+
+
+@settings(max_examples=300)
+@given(p0=st.floats(-1e6, 1e6), v0=st.floats(-2e4, 2e4), goal=st.floats(-1e6, 1e6),
+       vmax=st.floats(1.0, 2e4), amax=st.floats(1.0, 1e6))
+def test_velocity_based_plan_invariants(p0, v0, goal, vmax, amax):
+    plan = plan_velocity_based(3.0, p0, v0, goal, vmax, amax)
+    _check_plan(plan, p0, v0, goal, vmax, amax)
+    # never slower than needed: from rest, the plan takes the textbook minimum time
+    if v0 == 0:
+        d = abs(goal - p0)
+        minimum = (vmax / amax + d / vmax) if d >= vmax * vmax / amax else 2 * math.sqrt(d / amax)
+        assert plan.end - plan.start == pytest.approx(minimum, rel=1e-9, abs=1e-9)
+
+
+@settings(max_examples=200)
+@given(p0=st.floats(-1e5, 1e5), v0=st.floats(-5e3, 5e3), goal=st.floats(-1e5, 1e5),
+       total=st.floats(0.01, 30.0), accel=st.floats(0.0, 30.0))
+def test_time_based_plan_invariants(p0, v0, goal, total, accel):
+    plan = plan_time_based(1.0, p0, v0, goal, total, accel)
+    assert plan.end == pytest.approx(1.0 + total)
+    p, _ = plan.state(1.0 + total - 1e-12)
+    assert p == pytest.approx(goal, abs=1e-3 * max(1.0, abs(v0) + abs(goal - p0)))
+    assert plan.state(plan.end) == (goal, 0.0)
+    if accel >= 1e-6:                              # starts from the present velocity
+        assert plan.state(1.0)[1] == pytest.approx(v0)
+
+
+def test_velocity_mode_plan():
+    plan = plan_velocity_mode(0.0, 10.0, 0.0, 500.0, 1000.0)
+    assert plan.end == pytest.approx(0.5)
+    assert plan.state(0.25) == pytest.approx((10.0 + 0.5 * 1000 * 0.25**2, 250.0))
+    p_end = 10.0 + 0.5 * 1000 * 0.5**2
+    assert plan.state(2.5) == pytest.approx((p_end + 500.0 * 2.0, 500.0))
+    step = plan_velocity_mode(0.0, 0.0, 100.0, -300.0, 0.0)
+    assert step.state(1.0) == pytest.approx((-300.0, -300.0))
