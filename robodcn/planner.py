@@ -30,7 +30,9 @@ Structure of a plan
   uniform time scaling) is iterated, then confirmed: N passes and N − 1 fails (or N = 1).
   Each piece is minimal on its own; if a join between stop segments still fails (only the
   linear profile, whose velocity steps at the joins), all path pieces are slowed by the
-  failing ratio and re-checked, a few times at most.
+  failing ratio and re-checked, a few times at most. A path that leaves the workspace
+  cannot be timed: its UnreachableError names the first sample out of reach in the plan
+  timed by the estimate, ignoring the speeds before it (which that timing did not set).
 
 Validation is by finite differences at the sample rate: velocity (q_i − q_{i−1})·rate is
 charged to sample i, acceleration (q_{i+1} − 2q_i + q_{i−1})·rate² to sample i + 1 (the
