@@ -144,6 +144,14 @@ def test_unreachable_sample_is_named() -> None:
     np.testing.assert_allclose(err.pose, [0.32, 0.0, theta[expected]], atol=1e-12)
     assert f"sample {expected}" in str(err) and "out of reach" in str(err)
     assert err.to_dict()["sample"] == expected
+    # "auto" cannot time a path with a gap: it reports the gap, not the speeds before it
+    with pytest.raises(UnreachableError) as info:
+        plan(ARM3R, [start, end], rate_hz=rate)
+    assert wrist_radius_at(info.value.pose) > sum(arm.links[:2])
+
+
+def wrist_radius_at(pose: Any) -> float:
+    return float(kinematics.wrist_radius(ARM3R.links, [pose])[0])
 
 
 def test_unreachable_waypoint_is_named() -> None:
