@@ -682,3 +682,31 @@ def test_velocity_mode_plan():
     assert plan.state(2.5) == pytest.approx((p_end + 500.0 * 2.0, 500.0))
     step = plan_velocity_mode(0.0, 0.0, 100.0, -300.0, 0.0)
     assert step.state(1.0) == pytest.approx((-300.0, -300.0))
+
+
+def test_moving_follows_threshold_and_watchdog_stops_velocity_mode():
+    servo, clock = make()
+    setup_move(servo, 0, 0, mode=ct.MODE_VELOCITY)
+    threshold = servo.get(ct.MOVING_THRESHOLD)
+    put(servo, ct.GOAL_VELOCITY, threshold)           # no ramp (A = 0), at the threshold
+    clock.advance(0.5)
+    assert servo.present_velocity == threshold and not servo.moving
+    put(servo, ct.GOAL_VELOCITY, threshold + 1)
+    clock.advance(0.5)
+    assert servo.moving
+    # e-manual Bus Watchdog example: velocity mode spinning, then the bus goes quiet
+    put(servo, ct.BUS_WATCHDOG, 3)
+    servo.note_instruction()
+    clock.advance(0.059)
+    assert servo.get(ct.BUS_WATCHDOG) == 3 and servo.moving
+    clock.advance(0.002)
+    p = servo.present_position
+    assert servo.get(ct.BUS_WATCHDOG) == -1 and servo.present_velocity == 0
+    assert not servo.moving
+    assert servo.write(ct.GOAL_VELOCITY, (50).to_bytes(4, "little")) == ERR_DATA_RANGE
+    clock.advance(1.0)
+    assert servo.present_position == p
+    put(servo, ct.BUS_WATCHDOG, 0)
+    put(servo, ct.GOAL_VELOCITY, 50)
+    clock.advance(1.0)
+    assert servo.present_velocity == 50 and servo.present_position > p
