@@ -330,8 +330,9 @@ class Servo:
     def read(self, address: int, length: int) -> tuple[int, bytes]:
         """READ: (error code, data); data is b"" on error.
 
-        Any span inside the table reads (undefined gaps read 0, as on the firmware's flat
-        memory); a span beyond the table is an Access Error. Indirect Data bytes read the
+        A read must start on a defined item and stay inside the table, else it is an
+        Access Error; undefined gaps inside a longer block read 0 (block reads of the
+        table work on the firmware). Indirect Data bytes read the
         byte their Indirect Address names (unless that is itself an Indirect Data byte:
         then the stored byte, so the factory self-mapping behaves as plain RAM).
         """
@@ -339,7 +340,7 @@ class Servo:
             self.update()
             if length <= 0:
                 return ERR_DATA_LENGTH, b""
-            if address < 0 or address + length > TABLE_SIZE:
+            if address < 0 or address + length > TABLE_SIZE or self.spec.owner(address) is None:
                 return ERR_ACCESS, b""
             out = bytearray(self.table.raw(address, length))
             if not _touches_indirect_data(address, length):

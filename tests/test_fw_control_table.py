@@ -181,6 +181,8 @@ def test_reads():
     assert servo.read(TABLE_SIZE - 1, 2) == (ERR_ACCESS, b"")
     assert servo.read(5000, 4) == (ERR_ACCESS, b"")
     assert servo.read(0, 0) == (ERR_DATA_LENGTH, b"")
+    assert servo.read(14, 1) == (ERR_ACCESS, b"")          # starts on an undefined address
+    assert servo.read(99, 4) == (ERR_ACCESS, b"")
     # a gap reads as zeros inside a longer read, and a partial read of an item is allowed
     code, raw = servo.read(ct.PROTOCOL_TYPE, ct.HOMING_OFFSET - ct.PROTOCOL_TYPE + 4)
     assert code == 0 and raw[1:7] == bytes(6)
