@@ -510,7 +510,7 @@ def _search(piece: _Piece, arm: Arm, reference: NDArray | None, rate: float) -> 
 
     n = _intervals(max(_estimate(piece, arm, reference)[0], 1e-12), rate)
     fail, ok = 0, None  # largest N known to fail (0: none), smallest known to pass
-    guess = None
+    stepped_down = False
     for _ in range(_MAX_SEARCH_STEPS):
         if ok is not None and ok - fail <= 1:
             return ok
@@ -524,8 +524,12 @@ def _search(piece: _Piece, arm: Arm, reference: NDArray | None, rate: float) -> 
         guess = max(1, math.ceil(t_need * rate - 1e-9))
         if t_need <= n / rate:
             ok = n
-            # the closed form's guess below, else bisect
-            n = guess if fail < guess < ok else (fail + ok) // 2
+            if fail < guess < ok:
+                n = guess
+            elif not stepped_down:
+                n, stepped_down = ok - 1, True  # usually the estimate was exact: confirm
+            else:
+                n = (fail + ok) // 2
         else:
             fail = n
             if ok is None:
