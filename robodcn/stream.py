@@ -16,8 +16,10 @@ Before any write
 
 Schedule
     sample i is due at t0 + i/rate on a monotonic clock (``time.perf_counter``); the wait
-    sleeps until ``SPIN_S`` before the due time (on the stop signal, so a stop request wakes
-    it at once) and spins the rest. Time is never accumulated: a late cycle makes only its
+    sleeps until ``SPIN_S`` (``SPIN_REALTIME_S`` under SCHED_FIFO) before the due time (on
+    the stop signal, so a stop request wakes it at once) and spins the rest; the thread's
+    timer slack is set to 1 µs while streaming (Linux ``PR_SET_TIMERSLACK``) so the sleep
+    itself ends close to its deadline. Time is never accumulated: a late cycle makes only its
     own write late. Rules:
 
     * **overrun** — the loop reached sample i after its due time (the previous cycle's
@@ -72,9 +74,11 @@ Threading
 from __future__ import annotations
 
 import contextlib
+import ctypes
 import dataclasses
 import math
 import os
+import sys
 import threading
 import time
 import warnings
@@ -100,6 +104,10 @@ from robodcn.planner import Trajectory, plan_request
 STOP_REASONS = ("completed", "stopped", "comm_failure", "hardware_alert", "tracking_error")
 #: The last part of every wait is spun on the clock: sleeps overshoot by 50–100 µs on Linux.
 SPIN_S = 0.0004
+#: Spin window under SCHED_FIFO, where a 1 µs-slack sleep overshoots by < 50 µs; kept short
+#: so a real-time spinner leaves the CPU to the kernel threads that move the serial bytes.
+SPIN_REALTIME_S = 0.0001
+_PR_SET_TIMERSLACK, _PR_GET_TIMERSLACK = 29, 30
 #: SCHED_FIFO priority of the streaming thread with ``realtime=True`` (1..99; 50 leaves room
 #: above for kernel threads such as USB interrupt handlers).
 REALTIME_PRIORITY = 50
@@ -214,6 +222,23 @@ class ExecutionReport:
             if isinstance(value, tuple):
                 data[key] = list(value)
         return data
+
+
+@contextlib.contextmanager
+def _timer_slack(ns: int = 1000) -> Iterator[None]:
+    """The calling thread's timer slack set to ``ns`` inside the block (Linux; else no-op)."""
+    prctl = None
+    if sys.platform.startswith("linux"):
+        with contextlib.suppress(OSError, AttributeError):
+            prctl = ctypes.CDLL(None, use_errno=True).prctl
+    old = prctl(_PR_GET_TIMERSLACK, 0, 0, 0, 0) if prctl is not None else -1
+    if old > 0:
+        prctl(_PR_SET_TIMERSLACK, ns, 0, 0, 0)
+    try:
+        yield
+    finally:
+        if old > 0:
+            prctl(_PR_SET_TIMERSLACK, old, 0, 0, 0)
 
 
 @contextlib.contextmanager
@@ -390,7 +415,9 @@ def execute(trajectory: Trajectory, bus: ServoBus, *, feedback_every: int = 1,
         if watchdog_ms:
             bus.arm_watchdog(watchdog_ms)
         try:
-            with _realtime_priority(realtime) as streamer.realtime:
+            with _timer_slack(), _realtime_priority(realtime) as streamer.realtime:
+                if streamer.realtime:
+                    streamer.spin = SPIN_REALTIME_S
                 streamer.run()
         except BaseException:
             streamer.finish(hold=True, release=release, settle=0.0)
@@ -421,6 +448,7 @@ class _Streamer:
         self.health_every = max(1, round(health_interval / self.period))
         self.clock = clock
         self.skip_late = skip_late
+        self.spin = SPIN_S
         self.rad_per_tick = _radians_per_tick(bus)
         self.tick_limit = (None if tracking_limit is None
                            else tracking_limit / self.rad_per_tick)
@@ -458,7 +486,7 @@ class _Streamer:
     def _wait(self, due: float) -> bool:
         """Sleep until ``due``; True if a stop was requested meanwhile."""
         clock = self.clock
-        remaining = due - clock() - SPIN_S
+        remaining = due - clock() - self.spin
         if remaining > 0:
             if self.stop is not None:
                 if self.stop.wait(remaining):
