@@ -185,3 +185,15 @@ def test_bad_shapes_are_named() -> None:
     with pytest.raises(InputError) as info:
         K.ik((0.1, -0.2), np.zeros((1, 3)))
     assert info.value.field == "links"
+
+
+def test_orientation_at_and_near_the_half_turn() -> None:
+    """θ = ±π puts tan(θ/2) (used for the wrist point) at its pole; IK must not care."""
+    links = ARMS["3r"]
+    theta = np.array([math.pi, -math.pi, math.pi - 1e-12, math.pi + 1e-12, 3 * math.pi,
+                      -101 * math.pi, math.nextafter(math.pi, 4.0)])
+    poses = np.column_stack([np.full(theta.size, 0.2), np.full(theta.size, 0.1), theta])
+    for elbow in K.ELBOWS:
+        back = K.fk(links, K.ik(links, poses, elbow))
+        np.testing.assert_allclose(back[:, :2], poses[:, :2], atol=1e-13)
+        assert np.abs(K.wrap(back[:, 2] - theta)).max() < 1e-12
