@@ -38,7 +38,9 @@ Feedback and health
     that lags or overshoots by more has the excess, in ticks and radians. Fast Sync Read
     hides a servo's Alert bit in the SDK, so the bus decodes the per-servo ERR bytes
     itself, and every ``health_interval`` seconds the streamer polls Hardware Error Status
-    (70) and Bus Watchdog (98) in turn.
+    (70) and Bus Watchdog (98) in turn. A cycle reads at most once: a health poll takes the
+    place of that cycle's position read (the last sample always reads positions), so no
+    cycle carries two round trips.
 
 Stops (``stop_reason``)
     "stopped" (a :class:`StopSignal`/``threading.Event`` set from any thread; acted on within
@@ -610,10 +612,10 @@ class _Streamer:
                 self.due_at[slot] = due
                 self.sent += 1
                 goal = self.ticks[i]
-                if (feedback_every and i % feedback_every == 0) or i == n - 1:
-                    self._feedback(i, goal)
-                if (i + 1) % self.health_every == 0:
+                if (i + 1) % self.health_every == 0 and i != n - 1:
                     self._health()
+                elif (feedback_every and i % feedback_every == 0) or i == n - 1:
+                    self._feedback(i, goal)
                 self.previous_goal = goal
                 self.last_goal = goal
                 self.work[slot] = clock() - start
