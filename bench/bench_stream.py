@@ -66,10 +66,11 @@ def _load() -> str:
 class _Sim:
     """``python -m firmware_sim`` in a child process; the pty path is its first stdout line."""
 
-    def __init__(self, timing: str = "realistic", realtime: bool = False) -> None:
+    def __init__(self, timing: str = "realistic", realtime: bool = False,
+                 log: str | None = None) -> None:
         self.proc = subprocess.Popen(
             [sys.executable, "-m", "firmware_sim", "--ids", ",".join(map(str, range(1, N + 1))),
-             "--baud", str(BAUD), "--timing", timing],
+             "--baud", str(BAUD), "--timing", timing, *(["--log", log] if log else [])],
             cwd=ROOT, stdout=subprocess.PIPE, text=True,
             preexec_fn=_sim_priority if realtime else None)
         assert self.proc.stdout is not None
@@ -150,6 +151,85 @@ def _back_to_back(fast_read: bool, realtime: bool, cycles: int = 2000) -> tuple[
                 bus.read_positions()
                 times[i] = time.perf_counter() - start
     return float(np.median(times)) * 1e6, float(np.percentile(times, 99)) * 1e6
+
+
+def _slow_cycles(cycles: int = 3000, slow_us: float = 1500.0) -> str:
+    """Split slow write + Fast Sync Read round trips by the simulator's own timestamps.
+
+    Both processes stamp with ``time.perf_counter()`` (CLOCK_MONOTONIC, shared): our read's
+    start → the simulator parsing the instruction (delivery to the servo side), its modelled
+    turnaround, and its reply start → our read's end (delivery back, reply bytes included).
+    """
+    import tempfile
+    import time
+
+    import numpy as np
+
+    from robodcn.bus import ServoBus
+    from robodcn.stream import _realtime_priority, _timer_slack
+
+    realtime = _realtime_allowed()
+    arm, traj = _trajectory(500.0)
+    spans: list[tuple[float, float]] = []
+    with tempfile.TemporaryDirectory() as tmp:
+        log = os.path.join(tmp, "sim.log")
+        with _Sim(realtime=realtime, log=log) as sim, \
+                ServoBus(sim.path, BAUD, servos=arm.servos, rx_timeout_ms=10) as bus:
+            bus.verify()
+            bus.configure()
+            rows = bus.encode_goals(np.repeat(traj.ticks[:1], cycles, axis=0))
+            with _timer_slack(), _realtime_priority(realtime):
+                t0 = time.perf_counter()
+                for i, row in enumerate(rows):
+                    due = t0 + i * 0.002
+                    while time.perf_counter() < due - 0.0003:
+                        time.sleep(0.0002)
+                    while time.perf_counter() < due:
+                        pass
+                    bus.write_encoded(row)
+                    start = time.perf_counter()
+                    bus.read_positions()
+                    spans.append((start, time.perf_counter()))
+        rx, tx = [], []
+        with open(log, encoding="utf-8") as fh:
+            for line in fh:
+                parts = line.split()
+                if len(parts) >= 4 and parts[1] == "rx" and parts[3] == "FAST_SYNC_READ":
+                    rx.append(float(parts[0]))
+                elif len(parts) >= 4 and parts[1] == "tx" and "[fast" in line:
+                    tx.append(float(parts[0]))
+    ev = np.array(spans)
+    rx_a, tx_a = np.array(rx[-cycles:]), np.array(tx[-cycles:])
+    if len(rx_a) != cycles or len(tx_a) != cycles:
+        return "(slow-cycle split unavailable: simulator log did not match the reads)"
+    total = (ev[:, 1] - ev[:, 0]) * 1e6
+    to_sim = (rx_a - ev[:, 0]) * 1e6
+    turn = (tx_a - rx_a) * 1e6
+    back = (ev[:, 1] - tx_a) * 1e6
+    slow = total > slow_us
+    k = int(slow.sum())
+    text = (f"Where slow round trips go ({cycles} Fast Sync Reads after a Sync Write at 500 Hz, "
+            f"{'SCHED_FIFO' if realtime else 'normal priority'}, load {_load()}; timestamps "
+            f"of both processes): median read {np.median(total):.0f} µs = to the simulator "
+            f"{np.median(to_sim):.0f} + its modelled turnaround {np.median(turn):.0f} + "
+            f"reply back {np.median(back):.0f} µs. {k} reads took over {slow_us / 1e3:g} ms")
+    if k:
+        inbound = slow & (to_sim > back)
+        outbound = slow & ~(to_sim > back)
+        parts = []
+        if inbound.any():
+            parts.append(f"in {int(inbound.sum())} the instruction reached the simulator "
+                         f"late (median {np.median(to_sim[inbound]):.0f} µs)")
+        if outbound.any():
+            parts.append(f"in {int(outbound.sum())} the reply came back late (median "
+                         f"{np.median(back[outbound]):.0f} µs)")
+        text += (": " + ", ".join(parts) + f"; the simulator's computed turnaround stayed at "
+                 f"{np.max(turn[slow]):.0f} µs at most. The time goes between the two "
+                 "programs (pty delivery, thread wake-ups, the simulator's paced writes), "
+                 "not into computing.")
+    else:
+        text += "."
+    return text
 
 
 def _profile(cycles: int = 500) -> str:
@@ -253,6 +333,8 @@ def run() -> str:
         "",
         _profile(),
         "",
+        _slow_cycles(),
+        "",
         "*Cycle work* is the time from the start of a sample's Sync Write to the end of its "
         "reads. *Wire* is design.md §5's pure wire time of that cycle. The pty has no "
         "baud-rate timing of its own: the simulator paces its *replies* (instruction and "
@@ -273,8 +355,9 @@ def run() -> str:
         "jitter columns). Instrumenting the loop (indices of late samples, work per cycle) "
         "put them on health-poll cycles and in bursts that come and go with other jobs on "
         "this 2-core machine; they stayed with the garbage collector disabled and with both "
-        "processes under SCHED_FIFO, which points at the pty's delivery path (the kernel "
-        "moves pty bytes in a kworker at normal priority) rather than at Python. At normal "
+        "processes under SCHED_FIFO, and the split above (from both programs' timestamps) "
+        "puts the lost time between the programs, mostly on the way back, rather than in "
+        "Python. At normal "
         "priority the streaming thread also loses the CPU to other jobs for whole scheduler "
         "slices, hence the much larger counts there. Fixes made after the first numbers: "
         "the SDK's receive loop no longer spins (pyserial read timeout: it was starving the "
