@@ -21,6 +21,13 @@ a half-duplex transaction (the SDK's own ``is_using`` flag is not thread-safe).
 
 On Linux, opening a USB serial adapter (``/dev/ttyUSB*``) whose FTDI ``latency_timer`` is
 above 1 ms warns with the one-line fix: a 16 ms timer caps a read-back loop near 30–60 Hz.
+
+Waiting for a status packet sleeps in ``select`` (a 1 ms pyserial read timeout) instead of
+the SDK's busy poll, which burns a core and starves other Python threads of the GIL.
+
+Bus Watchdog: :meth:`ServoBus.configure` clears it; :func:`robodcn.stream.execute` arms it
+for the duration of a stream (:meth:`ServoBus.arm_watchdog`) and disarms it afterwards, so
+servos stop by themselves if the host dies mid-stream but an idle, holding arm never trips it.
 """
 
 from __future__ import annotations
