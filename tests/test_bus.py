@@ -151,13 +151,17 @@ def test_verify_names_missing_and_wrong_servos():
 def test_configure_sets_streaming_state_without_moving(sim, bus):
     bus.verify()
     for i in (1, 2, 3):
-        sim.servo(i).write(9, bytes([250]))          # factory Return Delay Time 500 µs
+        assert sim.servo(i).write(9, bytes([250])) == 0       # factory RDT 500 µs
+        assert sim.servo(i).write(11, bytes([4])) == 0        # extended position mode
     before = bus.read_positions()
-    bus.configure(StreamProfile(velocity=0, acceleration=0))
+    bus.configure(StreamProfile(velocity=120, acceleration=30))
     for i, present in zip((1, 2, 3), before, strict=True):
         servo = sim.servo(i)
         assert servo.torque_enabled
         assert servo.return_delay_us == 0
+        assert servo.read(11, 1) == (0, bytes([3]))
+        assert servo.read(112, 4) == (0, (120).to_bytes(4, "little"))
+        assert servo.read(108, 4) == (0, (30).to_bytes(4, "little"))
         assert servo.goal_position == present
         assert sim.goal_history(i)[-1] == present
     assert np.array_equal(bus.read_positions(), before)

@@ -5,6 +5,9 @@ from __future__ import annotations
 import json
 import math
 import os
+import signal
+import subprocess
+import sys
 import threading
 import time
 import warnings
@@ -15,7 +18,7 @@ import pytest
 
 import robodcn
 from firmware_sim.bus import SimBus
-from robodcn import servo_units
+from robodcn import cli, servo_units
 from robodcn.bus import ServoBus
 from robodcn.errors import (
     HardwareAlertError,
@@ -430,3 +433,24 @@ def test_realtime_priority_is_restored_or_warned(sim):
                  for w in caught)
     assert report.realtime != warned
     assert os.sched_getscheduler(0) == policy
+
+
+def test_scan_and_execute_against_python_m_firmware_sim(capsys):
+    """The acceptance path: a separate ``python -m firmware_sim`` process on its pty."""
+    proc = subprocess.Popen([sys.executable, "-m", "firmware_sim", "--ids", "1,2,3",
+                             "--timing", "fast"], cwd=ROOT, stdout=subprocess.PIPE, text=True)
+    try:
+        assert proc.stdout is not None
+        port = proc.stdout.readline().strip()
+        assert cli.main(["scan", "--port", port, "--ids", "1-4", "--json"]) == 0
+        found = json.loads(capsys.readouterr().out)["servos"]
+        assert [(s["id"], s["model"]) for s in found] == [(i, "xm430-w350") for i in IDS]
+        with ServoBus(port, servos=ARM.servos, retries=5) as bus:
+            report = execute(TRAJ, bus, approach=True, settle=2.0)
+            assert report.completed, report.message
+            assert np.abs(bus.read_positions() - TRAJ.ticks[-1]).max() <= 1
+    finally:
+        proc.send_signal(signal.SIGINT)
+        proc.wait(10)
+        if proc.stdout is not None:
+            proc.stdout.close()
