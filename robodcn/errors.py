@@ -8,7 +8,8 @@ The classes map onto CLI exit codes and HTTP statuses through ``exit_code`` and
     RobodcnError                      exit 1   500
     ├── InputError (ValueError)       exit 2   422  bad argument, shape, method, value
     │   ├── ConfigError               exit 2   422  bad arm/bus TOML (file, key, value)
-    │   └── DegenerateError           exit 2   422  e.g. DLB with a zero denominator
+    │   ├── DegenerateError           exit 2   422  e.g. DLB with a zero denominator
+    │   └── TooLargeError             exit 2   413  a plan over the 10⁶-sample limit
     ├── PlanError                     exit 3   422  plan infeasible (names the sample)
     │   ├── UnreachableError
     │   ├── JointLimitError
@@ -82,6 +83,13 @@ class DegenerateError(InputError):
     """The input is well-formed but the operation is undefined for it (zero denominator)."""
 
     code = "degenerate"
+
+
+class TooLargeError(InputError):
+    """The request is well-formed but larger than the service handles (e.g. > 10⁶ samples)."""
+
+    code = "too_large"
+    http_status = 413
 
 
 class PlanError(RobodcnError):

@@ -48,7 +48,7 @@ import robodcn
 from robodcn.config import Arm
 from robodcn.errors import BusError, InputError, RobodcnError
 from robodcn.interpolate import METHODS
-from robodcn.planner import MAX_SAMPLES, PROFILES, TURNS, PlanRequest, plan_request
+from robodcn.planner import PROFILES, TURNS, PlanRequest, plan_request
 
 log = logging.getLogger("robodcn.http")
 
@@ -137,11 +137,6 @@ def parse_plan_body(arm: Arm, body: Any, fields: dict[str, Any] = PLAN_FIELDS) -
         if isinstance(args.get(key), list):
             args[key] = tuple(args[key])
     return PlanRequest(arm=arm, **args)
-
-
-def _too_large(exc: InputError) -> bool:
-    """The planner's "more than 10⁶ samples" refusal (→ 413 rather than 422)."""
-    return exc.field == "duration" and f"more than {MAX_SAMPLES}" in exc.message
 
 
 # -- the route table ----------------------------------------------------------------------------
@@ -371,8 +366,6 @@ class Handler(BaseHTTPRequestHandler):
             return
         except RobodcnError as exc:
             status, body = exc.http_status, exc.to_dict()
-            if isinstance(exc, InputError) and _too_large(exc):
-                status, body["code"] = 413, "too_large"
             if isinstance(exc, BusError):
                 log.warning("bus fault: %s", exc.message)
             self._send(status, {"error": body})

@@ -36,8 +36,10 @@ Structure of a plan
 
 Validation is by finite differences at the sample rate: velocity (q_i − q_{i−1})·rate is
 charged to sample i, acceleration (q_{i+1} − 2q_i + q_{i−1})·rate² to sample i + 1 (the
-first sample that cannot be reached in time). The samples before t = 0 and after the end are
-not assumed at rest, so the linear profile's start and end steps are not checked.
+first sample that cannot be reached in time). The arm is at rest before t = 0 and after the
+end (the streamer starts from a standing arm and holds the last goal), so q_{−1} = q_0 and
+q_{n} = q_{n−1}: a velocity step at either end, as the linear profile has, is an acceleration
+like any other (the end one is charged to the last sample).
 """
 
 from __future__ import annotations
@@ -61,6 +63,7 @@ from robodcn.errors import (
     JointLimitError,
     PlanError,
     TickLimitError,
+    TooLargeError,
     UnreachableError,
     VelocityLimitError,
 )
@@ -170,7 +173,7 @@ class PlanRequest:
             put(self, "duration", float(self.duration))
             n = _intervals(self.duration, self.rate_hz)
             if n + 1 > MAX_SAMPLES:
-                raise InputError(f"duration {self.duration:g} s at {self.rate_hz:g} Hz needs "
+                raise TooLargeError(f"duration {self.duration:g} s at {self.rate_hz:g} Hz needs "
                                  f"{n + 1} samples, more than {MAX_SAMPLES}: shorten the "
                                  "duration or lower rate_hz", field="duration",
                                  value=self.duration)
@@ -515,7 +518,7 @@ def _search(piece: _Piece, arm: Arm, reference: NDArray | None, rate: float) -> 
         if ok is not None and ok - fail <= 1:
             return ok
         if n + 1 > MAX_SAMPLES:
-            raise InputError(f"the 'auto' duration needs more than {MAX_SAMPLES} samples at "
+            raise TooLargeError(f"the 'auto' duration needs more than {MAX_SAMPLES} samples at "
                              f"{rate:g} Hz: lower rate_hz or raise the joint limits",
                              field="duration", value="auto")
         t_need = need(n)
@@ -696,7 +699,10 @@ def plan_request(req: PlanRequest) -> Trajectory:
             joint = arm.joints[arm.joint_names.index(exc.joint)]
             limit = (joint.max_velocity if isinstance(exc, VelocityLimitError)
                      else joint.max_acceleration)
-            factor = max(1.0, float(exc.value) / limit) * (1.0 + 1e-6)
+            ratio = max(1.0, float(exc.value) / limit)
+            # Uniform time scaling: velocities go as 1/T, accelerations as 1/T².
+            factor = (ratio if isinstance(exc, VelocityLimitError) else math.sqrt(ratio))
+            factor *= 1.0 + 1e-6
             scaled = [math.ceil(c * factor) if p.path is not None else c
                       for c, p in zip(counts, pieces, strict=True)]
             if scaled == counts:
@@ -711,7 +717,7 @@ def _assemble(req: PlanRequest, pieces: list[_Piece], counts: list[int],
     rate = req.rate_hz
     total = 1 + sum(counts)
     if total > MAX_SAMPLES:
-        raise InputError(f"the plan needs {total} samples at {rate:g} Hz, more than "
+        raise TooLargeError(f"the plan needs {total} samples at {rate:g} Hz, more than "
                          f"{MAX_SAMPLES}: lower rate_hz or shorten the motion",
                          field="duration", value=req.duration)
     poses = np.empty((total, 3))
@@ -803,9 +809,11 @@ def _validate(req: PlanRequest, t: NDArray, poses: NDArray, joints: NDArray,
         if fine and n > 1:
             d = np.diff(q)
             fine = max(d.max(), -d.min()) * rate <= v[j] * slack
-            if fine and n > 2:
-                d2 = np.diff(d)
-                fine = max(d2.max(), -d2.min()) * (rate * rate) <= a[j] * slack
+            if fine:
+                # At rest on both sides: the end velocities are accelerations from/to zero.
+                d2 = np.diff(d) if n > 2 else np.empty(0)
+                step = max(abs(d[0]), abs(d[-1]), d2.max(initial=0.0), -d2.min(initial=0.0))
+                fine = step * (rate * rate) <= a[j] * slack
         if not fine:
             break
     if fine:
@@ -816,6 +824,10 @@ def _validate(req: PlanRequest, t: NDArray, poses: NDArray, joints: NDArray,
         np.abs(np.diff(joints, axis=0), out=vel[1:])
     if n > 2:
         np.abs(joints[2:] - 2.0 * joints[1:-1] + joints[:-2], out=acc[2:])
+    if n > 1:
+        # Starting from and ending at rest (module docstring).
+        acc[1] = np.maximum(acc[1], vel[1])
+        acc[-1] = np.maximum(acc[-1], vel[-1])
     vel *= rate
     acc *= rate * rate
     # excess[i, j] > 0 marks a violation; one array per check, rows aligned with samples.

@@ -135,11 +135,14 @@ def auto_duration(dq_dtau: ArrayLike, d2q_dtau2: ArrayLike, v_max: ArrayLike,
     return float(max(np.max(d1.max(axis=0) / v), np.sqrt(np.max(d2.max(axis=0) / a))))
 
 
-def fd_min_duration(q: ArrayLike, v_max: ArrayLike, a_max: ArrayLike) -> float:
+def fd_min_duration(q: ArrayLike, v_max: ArrayLike, a_max: ArrayLike, *,
+                    at_rest: bool = True) -> float:
     """Shortest T for which N + 1 samples q_i = q(i/N), spaced T/N, pass finite differences.
 
     Velocity (q_{i} − q_{i−1})·N/T ≤ v and acceleration (q_{i+1} − 2q_i + q_{i−1})·N²/T² ≤ a
-    give T ≥ N·max|Δq|/v and T ≥ N·√(max|Δ²q|/a).
+    give T ≥ N·max|Δq|/v and T ≥ N·√(max|Δ²q|/a). With ``at_rest`` the arm rests before the
+    first and after the last sample (q_{−1} = q_0, q_{N+1} = q_N), as it does when a streamed
+    move starts and ends, so a velocity step there counts as an acceleration.
     """
     q = _checks.finite("q", q)
     v, a = _limits(q, v_max, a_max)
@@ -147,7 +150,9 @@ def fd_min_duration(q: ArrayLike, v_max: ArrayLike, a_max: ArrayLike) -> float:
     need = 0.0
     if n >= 1:
         need = float(np.max(np.abs(np.diff(q, axis=0)).max(axis=0) / v)) * n
-    if n >= 2:
+        if at_rest:
+            q = np.concatenate([q[:1], q, q[-1:]])
+    if q.shape[0] >= 3:
         d2 = np.abs(q[2:] - 2.0 * q[1:-1] + q[:-2]).max(axis=0)
         need = max(need, n * math.sqrt(float(np.max(d2 / a))))
     return need

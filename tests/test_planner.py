@@ -79,6 +79,9 @@ def check_trajectory(traj: Trajectory, arm: Arm, waypoints: Any, approach: bool 
     a = np.array([j.max_acceleration for j in arm.joints])
     assert (np.abs(np.diff(traj.joints, axis=0)) * traj.rate_hz <= v * (1 + 1e-9)).all()
     assert (np.abs(np.diff(traj.joints, 2, axis=0)) * traj.rate_hz**2 <= a * (1 + 1e-9)).all()
+    # the arm starts from and ends at rest: the first and last steps are accelerations too
+    ends = np.abs(traj.joints[[1, -1]] - traj.joints[[0, -2]]) * traj.rate_hz**2
+    assert (ends <= a * (1 + 1e-9)).all()
 
 
 @pytest.mark.parametrize(("arm", "waypoints"), [(ARM3R, WAYPOINTS_3R), (ARM2R, WAYPOINTS_2R)],
@@ -250,6 +253,25 @@ def test_auto_is_feasible_and_minimal(arm: Arm, waypoints: Any, profile: str) ->
     np.testing.assert_allclose(again.joints, traj.joints, atol=1e-12)
     with pytest.raises((VelocityLimitError, AccelerationLimitError)):
         plan(arm, waypoints, profile=profile, rate_hz=rate, duration=0.99 * total)
+
+
+def test_linear_profile_starts_from_rest() -> None:
+    """The velocity step at t = 0 is an acceleration from a standing arm, named at sample 1."""
+    wps = WAYPOINTS_3R[:2]
+    rate = 100
+    auto = plan(ARM3R, wps, profile="linear", rate_hz=rate)
+    check_trajectory(auto, ARM3R, wps)
+    # A duration whose constant velocity is within every limit but whose first step is not:
+    q = auto.joints
+    a = np.array([j.max_acceleration for j in ARM3R.joints])
+    v = np.array([j.max_velocity for j in ARM3R.joints])
+    travel = np.abs(q[-1] - q[0])
+    fast = float(np.max(travel / v)) * 1.2  # about 80 % of the velocity limit
+    first_step = travel / (fast * rate)
+    assert (first_step * rate**2 > a).any()  # the premise of the test
+    with pytest.raises(AccelerationLimitError) as info:
+        plan(ARM3R, wps, profile="linear", rate_hz=rate, duration=fast)
+    assert info.value.sample == 1
 
 
 def test_auto_blended_is_minimal() -> None:
