@@ -249,9 +249,9 @@ class ServoBus:
     retries
         Extra attempts for a read that fails (timeout, corrupt packet, error status).
     rx_timeout_ms
-        Status-packet timeout of streaming reads. None keeps the SDK's own
-        (wire time + 2·16 ms + 2 ms, i.e. ≥ 34 ms); a short value makes a lost reply cost
-        little when the adapter's latency timer is 1 ms or on firmware_sim.
+        Status-packet timeout of reads, writes and group reads (pings keep the SDK's).
+        None keeps the SDK's own (wire time + 2·16 ms + 2 ms, i.e. ≥ 34 ms); a short value
+        makes a lost reply cost little when the adapter's latency timer is 1 ms.
     fast_read
         Use Fast Sync Read for group reads: None decides from the firmware versions found by
         :meth:`verify` (≥ 45), True/False forces it.
@@ -387,6 +387,29 @@ class ServoBus:
     def _attempts(self) -> range:
         return range(self.retries + 1)
 
+    def _read_txrx(self, port: PortHandler, servo_id: int, address: int,
+                   length: int) -> tuple[list[int], int, int]:
+        """readTxRx, or readTx + readRx with our own status timeout (``rx_timeout_ms``)."""
+        if self.rx_timeout_ms is None:
+            return self._packet.readTxRx(port, servo_id, address, length)
+        result = self._packet.readTx(port, servo_id, address, length)
+        if result != COMM_SUCCESS:
+            return [], result, 0
+        port.setPacketTimeoutMillis(self.rx_timeout_ms)
+        return self._packet.readRx(port, servo_id, length)
+
+    def _write_txrx(self, port: PortHandler, servo_id: int, address: int,
+                    payload: list[int]) -> tuple[int, int]:
+        """writeTxRx, or writeTxOnly + the status packet read with ``rx_timeout_ms``."""
+        if self.rx_timeout_ms is None:
+            return self._packet.writeTxRx(port, servo_id, address, len(payload), payload)
+        result = self._packet.writeTxOnly(port, servo_id, address, len(payload), payload)
+        if result != COMM_SUCCESS:
+            return result, 0
+        port.setPacketTimeoutMillis(self.rx_timeout_ms)
+        _, result, error = self._packet.readRx(port, servo_id, 0)
+        return result, error
+
     def read(self, servo_id: int, address: int, length: int) -> bytes:
         """READ ``length`` bytes at ``address`` from one servo, with bounded retries.
 
@@ -398,7 +421,7 @@ class ServoBus:
             for attempt in self._attempts():
                 if attempt:
                     self.retries_used += 1
-                data, result, error = self._packet.readTxRx(port, servo_id, address, length)
+                data, result, error = self._read_txrx(port, servo_id, address, length)
                 try:
                     self._status(servo_id, f"read {length} byte(s) at {address}", result, error)
                 except CommError as exc:
@@ -422,8 +445,7 @@ class ServoBus:
             for attempt in self._attempts():
                 if attempt:
                     self.retries_used += 1
-                result, error = self._packet.writeTxRx(port, servo_id, address, len(payload),
-                                                       payload)
+                result, error = self._write_txrx(port, servo_id, address, payload)
                 try:
                     self._status(servo_id, f"write {len(payload)} byte(s) at {address}",
                                  result, error)

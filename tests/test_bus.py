@@ -5,6 +5,7 @@ from __future__ import annotations
 import json
 import os
 import threading
+import time
 import warnings
 
 import numpy as np
@@ -45,9 +46,9 @@ def sim():
 
 @pytest.fixture
 def bus(sim):
-    # Extra retries: on a loaded machine the in-process simulator thread can miss a reply
-    # deadline (it shares the CPU and the GIL with the test); real servos do not.
-    with ServoBus(sim.port_path, servos=specs(), retries=5) as b:
+    # Generous reply timeout and extra retries: on a loaded machine the in-process simulator
+    # thread can answer late (it shares the CPU and the GIL with the test); real servos do not.
+    with ServoBus(sim.port_path, servos=specs(), retries=3, rx_timeout_ms=150) as b:
         yield b
 
 
@@ -199,7 +200,7 @@ def test_positions_round_trip_through_goals(sim, bus):
 @pytest.mark.parametrize("firmware, instruction", [(46, "FAST_SYNC_READ"), (44, "SYNC_READ")])
 def test_group_read_falls_back_to_plain_sync_read(firmware, instruction):
     with SimBus((1, 2, 3), firmware={1: 46, 2: firmware, 3: 46}, timing="fast") as sim:
-        with ServoBus(sim.port_path, servos=specs(), retries=5) as b:
+        with ServoBus(sim.port_path, servos=specs(), retries=3, rx_timeout_ms=150) as b:
             b.verify()
             assert b.fast_read is (firmware >= 45)
             sim.clear_log()
@@ -220,7 +221,7 @@ def test_error_status_is_not_decoded_as_data(sim, bus):
 @pytest.mark.parametrize("firmware", [46, 44])
 def test_hardware_alert_is_seen_in_group_reads(firmware):
     with SimBus((1, 2, 3), firmware=firmware, timing="fast") as sim:
-        with ServoBus(sim.port_path, servos=specs(), retries=5) as b:
+        with ServoBus(sim.port_path, servos=specs(), retries=3, rx_timeout_ms=150) as b:
             b.verify()
             b.configure()
             b.read_positions()
@@ -242,6 +243,24 @@ def test_reboot_clears_a_hardware_error(sim, bus):
     assert bus.hardware_errors() == {1: 0, 2: 0, 3: 0}
     assert bus.last_alert_ids == ()
     assert not bus.configured and not sim.servo(3).torque_enabled
+
+
+def test_rx_timeout_applies_to_unicast_reads_and_writes(sim):
+    late = 0.06                        # past the SDK's own 34 ms, well inside 150 ms
+    with ServoBus(sim.port_path, servos=specs(), retries=0) as sdk_timeout:
+        sim.faults.delay(late, 1)
+        with pytest.raises(CommError, match="no status packet"):
+            sdk_timeout.read(1, ADDR_PRESENT_POSITION, 4)
+        # Let the late reply land and be flushed: status packets carry no sequence number,
+        # so a stale one would pass for the next reply from the same id.
+        time.sleep(3 * late)
+    with ServoBus(sim.port_path, servos=specs(), retries=0, rx_timeout_ms=150) as ours:
+        sim.faults.delay(late, 1)
+        assert ours.read(1, ADDR_PRESENT_POSITION, 4) == \
+            sim.servo(1).present_position.to_bytes(4, "little", signed=True)
+        sim.faults.delay(late, 1)
+        ours.write(1, 65, [1])                                    # LED on, status checked
+        assert ours.read(1, 65, 1) == b"\x01"
 
 
 def test_retries_recover_one_bad_reply_and_give_up_on_persistent_ones(sim, bus):

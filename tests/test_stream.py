@@ -55,9 +55,11 @@ def sim():
 
 
 def open_bus(sim: SimBus, servos=ARM.servos, **kw) -> ServoBus:
-    # Extra retries: on a loaded machine the in-process simulator thread can miss a reply
-    # deadline (it shares the CPU and the GIL with the test); real servos do not.
-    kw.setdefault("retries", 5)
+    # Generous reply timeout and extra retries: on a loaded machine the in-process simulator
+    # thread can answer late (it shares the CPU and the GIL with the test); real servos do
+    # not. Fault tests that expect lost replies pass short values.
+    kw.setdefault("retries", 3)
+    kw.setdefault("rx_timeout_ms", 150)
     return ServoBus(sim.port_path, servos=servos, **kw).open()
 
 
@@ -103,7 +105,7 @@ def test_trajectory_executes_end_to_end(sim):
     with open_bus(sim) as bus:
         place(bus, TRAJ.ticks[0])
         before = len(history(sim))
-        report = execute(TRAJ, bus, settle=2.0, skip_late=False)
+        report = execute(TRAJ, bus, settle=2.0, skip_late=False, tracking_limit=None)
     assert report.stop_reason == "completed" and report.completed, report.message
     assert report.samples_sent == report.samples_total == len(TRAJ.ticks)
     assert report.samples_skipped == 0 and report.hold_goals is None
@@ -116,7 +118,10 @@ def test_trajectory_executes_end_to_end(sim):
     # One read per cycle: positions, or a health poll in its place (never on the last).
     assert report.health_polls >= 1
     assert report.feedback_reads + report.health_polls == report.samples_sent
-    assert max(report.tracking_error_max_rad) < 0.25
+    if report.overruns == 0:
+        # On time, the simulated servos follow within the last commanded step. (A loaded
+        # machine that delays the stream makes the servos lag a burst of late goals.)
+        assert max(report.tracking_error_max_rad) < 0.05
     assert all(r <= m + 1e-12 for r, m in zip(report.tracking_error_rms_rad,
                                                report.tracking_error_max_rad, strict=True))
     per_tick = np.array([2 * math.pi / s.ticks_per_turn for s in ARM.servos])
@@ -208,7 +213,8 @@ def test_approach_segment_starts_from_the_present_positions(sim):
     with open_bus(sim) as bus:
         bus.verify()
         start = bus.read_positions()
-        report = execute(TRAJ, bus, approach=True, settle=2.0, skip_late=False)
+        report = execute(TRAJ, bus, approach=True, settle=2.0, skip_late=False,
+                         tracking_limit=None)
     assert report.completed and report.approach, report.message
     goals = history(sim)
     assert report.samples_sent > len(TRAJ.ticks)
@@ -255,7 +261,7 @@ def inject_at(sample: int, action):
 
 @pytest.mark.parametrize("fault", ["drop", "corrupt_crc"])
 def test_comm_faults_stop_with_comm_failure_and_hold(sim, fault):
-    with open_bus(sim) as bus:
+    with open_bus(sim, retries=2, rx_timeout_ms=30) as bus:
         place(bus, TRAJ.ticks[0])
         arm = getattr(sim.faults, fault)
         report = execute(LONG, bus, max_comm_failures=3,
