@@ -203,6 +203,8 @@ def _le(value: int, size: int) -> list[int]:
     return list(int(value).to_bytes(size, "little", signed=value < 0))
 
 
+#: Pause before a retry, for a late reply to the failed attempt to arrive and be flushed (s).
+STRAGGLER_S = 0.002
 #: pyserial read timeout while a status packet is awaited (s); see _sleep_while_waiting.
 READ_POLL_S = 0.001
 
@@ -387,6 +389,17 @@ class ServoBus:
     def _attempts(self) -> range:
         return range(self.retries + 1)
 
+    def _before_retry(self, port: PortHandler) -> None:
+        """Count a retry and drop a straggling reply to the failed attempt first.
+
+        Status packets carry no sequence number: a late reply arriving after the retry's
+        instruction went out would pass for its answer (same id; the length check catches
+        only a different size). Waiting ``STRAGGLER_S`` and flushing keeps most out.
+        """
+        self.retries_used += 1
+        time.sleep(STRAGGLER_S)
+        port.clearPort()
+
     def _read_txrx(self, port: PortHandler, servo_id: int, address: int,
                    length: int) -> tuple[list[int], int, int]:
         """readTxRx, or readTx + readRx with our own status timeout (``rx_timeout_ms``)."""
@@ -420,7 +433,7 @@ class ServoBus:
             last: CommError | None = None
             for attempt in self._attempts():
                 if attempt:
-                    self.retries_used += 1
+                    self._before_retry(port)
                 data, result, error = self._read_txrx(port, servo_id, address, length)
                 try:
                     self._status(servo_id, f"read {length} byte(s) at {address}", result, error)
@@ -444,7 +457,7 @@ class ServoBus:
             last: CommError | None = None
             for attempt in self._attempts():
                 if attempt:
-                    self.retries_used += 1
+                    self._before_retry(port)
                 result, error = self._write_txrx(port, servo_id, address, payload)
                 try:
                     self._status(servo_id, f"write {len(payload)} byte(s) at {address}",
@@ -694,7 +707,7 @@ class ServoBus:
             last: CommError | None = None
             for attempt in self._attempts():
                 if attempt:
-                    self.retries_used += 1
+                    self._before_retry(self._port())
                 try:
                     return self._sync_read_once(group, length)
                 except CommError as exc:
