@@ -305,10 +305,11 @@ def run() -> str:
                                      f"{report.jitter_p99_s * 1e3:.3f} ms")
     verdict = (f"Targets met: {'; '.join(met) if met else 'none'}. Missed: "
                f"{'; '.join(missed) if missed else 'none'}. The misses are the isolated slow "
-               "round trips described above. Runs vary: at similar load (≈ 0.5) other runs of "
-               "the same code gave the SCHED_FIFO rows 1–7 overruns in 10 s, so zero overruns "
-               "is reached on this shared machine often but not every time; on hardware a "
-               "U2D2 with latency_timer 1 adds USB-frame jitter of its own.")
+               "round trips described above. Runs vary: in five runs at load ≈ 0.3–1 during "
+               "development, write-only at SCHED_FIFO had 0–1 overruns in 10 s (zero in "
+               "four) and write + Fast Sync Read at SCHED_FIFO 0–7 (zero in one); the p99 "
+               "jitter target was met in every SCHED_FIFO run. On hardware a U2D2 with "
+               "latency_timer 1 adds USB-frame jitter of its own.")
     limits = []
     for realtime in priorities:
         for name, fast, wire, reply in (("write + Fast Sync Read", True, WIRE_WRITE + WIRE_FAST,
