@@ -307,7 +307,7 @@ def run() -> str:
                f"{'; '.join(missed) if missed else 'none'}. The misses are the isolated slow "
                "round trips described above. Runs vary: in five runs at load ≈ 0.3–1 during "
                "development, write-only at SCHED_FIFO had 0–1 overruns in 10 s (zero in "
-               "four) and write + Fast Sync Read at SCHED_FIFO 0–7 (zero in one); the p99 "
+               "three) and write + Fast Sync Read at SCHED_FIFO 0–7 (zero in one); the p99 "
                "jitter target was met in every SCHED_FIFO run. On hardware a U2D2 with "
                "latency_timer 1 adds USB-frame jitter of its own.")
     limits = []
