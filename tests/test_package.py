@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import subprocess
 import sys
+from pathlib import Path
 
 import pytest
 
@@ -24,7 +25,7 @@ def test_planning_does_not_import_the_serial_stack():
     code = ("import sys, robodcn; robodcn.plan(robodcn.load_arm('configs/arm3r.toml'), "
             "[[0.25, 0.1, 0.0], [0.12, 0.24, 1.0]]); print('dynamixel_sdk' in sys.modules)")
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
-                         cwd=str(__import__("pathlib").Path(__file__).parent.parent), timeout=60)
+                         cwd=Path(__file__).resolve().parent.parent, timeout=60)
     assert out.returncode == 0, out.stderr
     assert out.stdout.strip() == "False"
 
