@@ -105,10 +105,8 @@ def test_stuffing_round_trip_and_matches_sdk(params: bytes) -> None:
     sdk = SDK.addStuffing(plain)
     assert bytes(sdk[:-2]) == pkt[:-2]
     assert parse_packet(pkt).params == params
-    # SDK's removeStuffing of our packet recovers the original
-    back = SDK.removeStuffing(list(pkt))
-    n = (back[5] | back[6] << 8) + 7
-    assert bytes(back[7:n - 2]) == body
+    # (The SDK's removeStuffing is not a reference: on FF FF FD FF FD FD it also drops the FD
+    # of the second, unstuffed FF FD — the SDK only ever unstuffs status packets it parsed.)
 
 
 def test_stuffing_of_value_with_header_bytes() -> None:
