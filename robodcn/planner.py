@@ -55,7 +55,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from robodcn import kinematics, servo_units, timing
+from robodcn import _checks, kinematics, servo_units, timing
 from robodcn.config import RATE_RANGE, Arm, arm_from_dict
 from robodcn.errors import (
     AccelerationLimitError,
@@ -146,7 +146,7 @@ class PlanRequest:
         if not isinstance(self.arm, Arm):
             raise InputError(f"arm must be an Arm (robodcn.load_arm), got {type(self.arm)!r}",
                              field="arm", value=self.arm)
-        wp = _finite_array("waypoints", self.waypoints)
+        wp = _checks.finite("waypoints", self.waypoints)
         if wp.ndim != 2 or wp.shape[1] != 3 or wp.shape[0] < 2:
             raise InputError(f"waypoints must be at least 2 poses (x, y, θ), shape (m, 3), got "
                              f"shape {wp.shape}", field="waypoints", value=self.waypoints)
@@ -186,7 +186,7 @@ class PlanRequest:
                              value=self.blend)
         put(self, "blend", bool(self.blend))
         if self.start_joints is not None:
-            q = _finite_array("start_joints", self.start_joints)
+            q = _checks.finite("start_joints", self.start_joints)
             if q.shape != (self.arm.dof,):
                 raise InputError(f"start_joints must have shape ({self.arm.dof},) for arm "
                                  f"{self.arm.name!r}, got {q.shape}", field="start_joints",
@@ -240,19 +240,6 @@ class PlanRequest:
             raise InputError(f"unknown request field {name!r}", field=f"request.{name}",
                              value=data[name])
         return cls(arm=arm, **data)
-
-
-def _finite_array(name: str, value: Any) -> NDArray[np.float64]:
-    try:
-        array = np.asarray(value, dtype=np.float64)
-    except (TypeError, ValueError) as exc:
-        raise InputError(f"{name} must be numeric, got {value!r}", field=name,
-                         value=value) from exc
-    if not np.isfinite(array).all():
-        index = [int(i) for i in np.argwhere(~np.isfinite(array))[0]]
-        raise InputError(f"{name}{index} must be finite, got {array[tuple(index)]!r}",
-                         field=name, value=value)
-    return array
 
 
 def _intervals(duration: float, rate: float) -> int:
@@ -363,7 +350,7 @@ class Trajectory:
             request = PlanRequest.from_dict(data["request"], arm)
         arrays = {}
         for key in ("t", "poses", "joints", "ticks"):
-            arrays[key] = _finite_array(key, data[key])
+            arrays[key] = _checks.finite(key, data[key])
         names = data["joint_names"]
         if not isinstance(names, list) or not all(isinstance(n, str) for n in names):
             raise InputError("joint_names must be a list of strings", field="joint_names",
