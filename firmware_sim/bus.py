@@ -34,6 +34,7 @@ import threading
 import time
 import traceback
 import tty
+from collections import deque
 from collections.abc import Callable, Iterable, Mapping
 from dataclasses import dataclass, field
 from typing import IO, ClassVar
@@ -185,6 +186,9 @@ class SimBus:
         Seed for probabilistic faults.
     log_limit : int
         Oldest entries are discarded beyond this many.
+    goal_limit : int
+        Goal history kept per servo (:meth:`goal_history`); older goals are dropped, so a
+        long-running ``serve --sim`` does not grow without bound.
     fast_chain_stops : bool
         What later servos of a Fast Sync/Bulk Read do when an earlier one stays silent
         (undocumented): False, they append their blocks anyway; True, the chain ends.
@@ -206,7 +210,8 @@ class SimBus:
                  firmware: int | Mapping[int, int] = 46, clock: Clock | None = None,
                  link: str | None = None, log: bool = True, log_file: str | None = None,
                  turnaround_s: float = 30e-6, fault_seed: int | None = None,
-                 log_limit: int = 100_000, fast_chain_stops: bool = False,
+                 log_limit: int = 100_000, goal_limit: int = 1_000_000,
+                 fast_chain_stops: bool = False,
                  switch_interval: float | None = 1e-4) -> None:
         id_list = [int(i) for i in ids]
         if not id_list:
@@ -240,7 +245,8 @@ class SimBus:
         self.clock = clock
         self._servos = [Servo(i, models[i], firmware=int(firmwares.get(i, 46)),
                               baud_index=baud_index, clock=clock) for i in id_list]
-        self._goals: dict[int, list[int]] = {id(s): [] for s in self._servos}
+        self._goals: dict[int, deque[int]] = {id(s): deque(maxlen=int(goal_limit))
+                                              for s in self._servos}
         self._registered: dict[int, tuple[int, int]] = {}
         self.faults = FaultInjector(seed=fault_seed)
         self.faults._tripper = self._trip
@@ -356,7 +362,7 @@ class SimBus:
 
     def goal_history(self, servo_id: int) -> list[int]:
         """Every accepted Goal Position of that servo, in order (WRITE, REG_WRITE+ACTION,
-        SYNC_WRITE, BULK_WRITE, also through indirect addresses)."""
+        SYNC_WRITE, BULK_WRITE, also through indirect addresses); the newest ``goal_limit``."""
         with self.lock:
             return list(self._goals[id(self.servo(servo_id))])
 

@@ -335,6 +335,14 @@ def test_goal_history_skips_rejected_and_follows_indirect(bus, port):
     assert bus.servo(1).goal_position == 700
 
 
+def test_goal_history_keeps_the_newest_goal_limit():
+    with SimBus(ids=[1], goal_limit=3) as bus, sdk_port(bus) as port:
+        goals = [100, 200, 300, 400, 500]
+        for goal in goals:
+            assert PH.write4ByteTxRx(port, 1, GOAL, goal) == (COMM_SUCCESS, 0)
+        assert bus.goal_history(1) == goals[-3:]
+
+
 # ---- broadcast and Status Return Level rules --------------------------------------------
 def test_broadcast_write_is_silent_and_broadcast_read_not_executed(bus, port):
     assert PH.write1ByteTxOnly(port, BROADCAST_ID, RETURN_DELAY, 3) == COMM_SUCCESS
