@@ -259,6 +259,9 @@ def _add_execution_options(p: argparse.ArgumentParser) -> None:
                    help="stop when a joint lags its goal by more than DEG degrees (default 15)")
     g.add_argument("--release", action="store_true",
                    help="torque off at the end (default: the servos hold the last pose)")
+    g.add_argument("--realtime", action="store_true",
+                   help="stream from a real-time (SCHED_FIFO) thread; Linux, needs "
+                        "CAP_SYS_NICE or root (warns and carries on otherwise)")
     g.add_argument("--json", action="store_true", help="print the report as JSON")
 
 
@@ -391,7 +394,7 @@ def _execute(args: argparse.Namespace, arm, bus) -> tuple[Any, Any, _LiveProgres
         try:
             report = execute(traj, bus, feedback_every=args.feedback_every,
                              tracking_limit=math.radians(args.tracking_limit), stop=stop,
-                             progress=live, release=args.release)
+                             progress=live, release=args.release, realtime=args.realtime)
         finally:
             live.finish()
     return traj, report, live

@@ -55,8 +55,9 @@ def test_sim_runs_a_move_and_plots(tmp_path):
     assert f"plot: {plot}" in out.stdout
 
 
-def test_sim_json_report_sends_every_sample():
-    out = robodcn("sim", "--arm", ARM3R, *MOVE, "--timing", "fast", "--json")
+@pytest.mark.parametrize("extra", [(), ("--realtime",)], ids=["normal", "realtime"])
+def test_sim_json_report_sends_every_sample(extra):
+    out = robodcn("sim", "--arm", ARM3R, *MOVE, "--timing", "fast", "--json", *extra)
     assert out.returncode == 0, out.stderr
     report = json.loads(out.stdout)
     assert report["stop_reason"] == "completed"
