@@ -57,6 +57,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from robodcn import _checks, kinematics, servo_units, timing
 from robodcn.config import RATE_RANGE, Arm, arm_from_dict
+from robodcn.dcn import TURNS
 from robodcn.errors import (
     AccelerationLimitError,
     InputError,
@@ -69,7 +70,6 @@ from robodcn.errors import (
 )
 from robodcn.interpolate import METHODS, interpolate, turn_angle
 
-TURNS = ("shortest", "ccw", "cw")
 PROFILES = timing.PROFILES
 #: Largest plan (samples) the planner produces.
 MAX_SAMPLES = 1_000_000
