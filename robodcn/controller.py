@@ -14,10 +14,12 @@ another is queued or running. The most recent ``history`` moves are kept for
 from __future__ import annotations
 
 import collections
+import contextlib
 import itertools
 import logging
 import threading
 import time
+from collections.abc import Iterator
 from concurrent.futures import ThreadPoolExecutor
 from concurrent.futures import TimeoutError as FutureTimeout
 from dataclasses import dataclass, field
@@ -112,6 +114,8 @@ class ArmController:
         self._lock = threading.Lock()
         self._moves: collections.OrderedDict[str, MoveRecord] = collections.OrderedDict()
         self._current: MoveRecord | None = None
+        #: Thread holding :meth:`admitting` (reading the pose and planning a move), or None.
+        self._admitting: int | None = None
         self._ids = itertools.count(1)
         self._closed = False
         self._rad_per_tick = np.array([2.0 * np.pi / s.ticks_per_turn for s in arm.servos])
@@ -127,6 +131,31 @@ class ArmController:
         with self._lock:
             return self._current is not None
 
+    def _check_free(self) -> None:
+        """BusyError while a move is queued or running, or another thread is admitting one;
+        InputError once closed. Call with ``self._lock`` held."""
+        if self._closed:
+            raise InputError("the controller is closed", field="controller", value=None)
+        if self._current is not None:
+            raise self._busy(self._current)
+        if self._admitting not in (None, threading.get_ident()):
+            raise BusyError("another move request is being planned: wait for it (GET "
+                            "/v1/moves) or stop it (POST /v1/stop)", field="move", value=None)
+
+    @contextlib.contextmanager
+    def admitting(self) -> Iterator[None]:
+        """Hold the arm for one move request, from reading its present pose to
+        :meth:`start_move`: a second request meanwhile gets BusyError (409) at once, instead
+        of waiting behind the first move and then starting from wherever that one ended."""
+        with self._lock:
+            self._check_free()
+            self._admitting = threading.get_ident()
+        try:
+            yield
+        finally:
+            with self._lock:
+                self._admitting = None
+
     def start_move(self, trajectory: Trajectory) -> MoveRecord:
         """Queue ``trajectory`` for execution on the worker thread; returns its record.
 
@@ -141,10 +170,7 @@ class ArmController:
                              f"arm {self.arm.name!r} has {list(self.arm.servo_ids)}",
                              field="servo_ids", value=list(trajectory.servo_ids))
         with self._lock:
-            if self._closed:
-                raise InputError("the controller is closed", field="controller", value=None)
-            if self._current is not None:
-                raise self._busy(self._current)
+            self._check_free()
             record = MoveRecord(id=str(next(self._ids)), trajectory=trajectory)
             self._current = record
             self._moves[record.id] = record
@@ -314,10 +340,7 @@ class ArmController:
         start from), BusError when the servos do not answer.
         """
         with self._lock:
-            if self._closed:
-                raise InputError("the controller is closed", field="controller", value=None)
-            if self._current is not None:
-                raise self._busy(self._current)
+            self._check_free()
         future = self._worker.submit(self._read_ticks)
         try:
             ticks = future.result(STATE_TIMEOUT)

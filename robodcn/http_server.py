@@ -512,11 +512,12 @@ class Handler(BaseHTTPRequestHandler):
         req = parse_plan_body(self.server.arm, self._read_json(), MOVE_FIELDS)
         # Plan from where the arm is (409 at once if it is moving), so an infeasible approach
         # is a 422 now rather than a failed move later, and the record shows what will run.
-        present = controller.present_joints()
-        req = dataclasses.replace(req, start_joints=tuple(float(q) for q in present))
-        with self.server.plan_lock:
-            trajectory = plan_request(req)
-        record = controller.start_move(trajectory)
+        with controller.admitting():
+            present = controller.present_joints()
+            req = dataclasses.replace(req, start_joints=tuple(float(q) for q in present))
+            with self.server.plan_lock:
+                trajectory = plan_request(req)
+            record = controller.start_move(trajectory)
         return 202, controller.move_info(record.id)
 
     def _op_get_move(self, params: dict[str, str]) -> tuple[int, Any]:

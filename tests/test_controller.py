@@ -92,6 +92,34 @@ def test_second_move_is_busy_while_one_runs(rig: Any) -> None:
     assert controller.wait(second.id, timeout=10).status == "done"
 
 
+def test_admitting_a_move_makes_other_requests_busy(rig: Any) -> None:
+    """While one request reads the pose and plans, a second one is refused at once (409)
+    rather than queued behind the first move."""
+    _, ctl = rig
+    admitted, release = threading.Event(), threading.Event()
+    outcome: list[Any] = []
+
+    def first_request() -> None:
+        with ctl.admitting():
+            ctl.present_joints()
+            admitted.set()
+            release.wait(5)
+            outcome.append(ctl.start_move(short_move()))
+
+    thread = threading.Thread(target=first_request)
+    thread.start()
+    assert admitted.wait(5)
+    for attempt in (ctl.present_joints, lambda: ctl.start_move(short_move()),
+                    lambda: ctl.admitting().__enter__()):
+        with pytest.raises(BusyError):
+            attempt()
+    release.set()
+    thread.join(5)
+    assert outcome and ctl.wait(outcome[0].id, 10).status == "done"
+    with ctl.admitting():  # free again once the move is over
+        ctl.present_joints()
+
+
 def test_stop_holds_the_arm(rig: Any) -> None:
     sa, controller = rig
     traj = short_move(duration=2.0)

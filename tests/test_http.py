@@ -540,7 +540,7 @@ def test_two_concurrent_moves_one_is_409(arm_server: Any) -> None:
         t.start()
     for t in threads:
         t.join(10)
-    assert sorted(s for s, _ in results) == [202, 409]
+    assert sorted(s for s, _ in results) == [202, 409], results
     accepted = next(d for s, d in results if s == 202)
     refused = next(d for s, d in results if s == 409)
     assert error_of(refused)["code"] == "busy" and accepted["id"] in refused["error"]["message"]
