@@ -20,6 +20,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from robodcn import _checks
+from robodcn._series import sin_ratio, sinc
 from robodcn.errors import DegenerateError, InputError
 
 DCNArray = NDArray[np.float64]
@@ -27,9 +28,6 @@ DCNArray = NDArray[np.float64]
 
 TURNS = ("shortest", "ccw", "cw")
 
-# Below this half-angle, sin(tφ)/sin(φ) and friends switch to their Taylor series: the
-# truncation error (φ⁴ terms) is then under 1e-16 while the direct quotient would lose digits.
-_SERIES_ANGLE = 1e-4
 # |Re d0| below this counts as an exact 180° turn, whose direction "shortest" fixes to ccw.
 _HALF_TURN_TOLERANCE = 1e-12
 
@@ -196,14 +194,6 @@ def rotation_about(center: ArrayLike, theta: ArrayLike) -> DCNArray:
     return mul(mul(shift, join(np.exp(0.5j * theta), 0.0 * theta)), back)
 
 
-def _sinc(x: NDArray[np.float64]) -> NDArray[np.float64]:
-    """sin(x)/x with its series 1 − x²/6 + x⁴/120 below _SERIES_ANGLE."""
-    small = np.abs(x) < _SERIES_ANGLE
-    safe = np.where(small, 1.0, x)
-    x2 = x * x
-    return np.where(small, 1.0 - x2 / 6.0 + x2 * x2 / 120.0, np.sin(safe) / safe)
-
-
 def exp(x: ArrayLike) -> DCNArray:
     """Exponential of a DCN x = a + θi + x1ε: e^a·(e^{iθ} + (sin θ/θ)·x1ε) (dcn-paper, Prop. 4.2).
 
@@ -213,7 +203,7 @@ def exp(x: ArrayLike) -> DCNArray:
     x = _checks.last_axis("x", x, 4)
     theta = x[..., 1]
     scale = np.exp(x[..., 0])
-    k = _sinc(theta)
+    k = sinc(theta)
     x1 = x[..., 2] + 1j * x[..., 3]
     return join(scale * np.exp(1j * theta), scale * k * x1)
 
@@ -236,16 +226,8 @@ def log(p: ArrayLike) -> DCNArray:
     if bad.any():
         raise DegenerateError("log is undefined for p0 = -1 with a translation; use -p, the "
                               "same motion", field="p", value=np.asarray(p)[bad][0])
-    k = np.where(half_turn, 0.0, 1.0 / _sinc(theta))
+    k = np.where(half_turn, 0.0, 1.0 / sinc(theta))
     return join(1j * theta, k * p1)
-
-
-def _sin_ratio(t: NDArray[np.float64], phi: NDArray[np.float64]) -> NDArray[np.float64]:
-    """sin(tφ)/sin(φ), by its series t·(1 + (1 − t²)φ²/6) for |φ| < 1e-4."""
-    small = np.abs(phi) < _SERIES_ANGLE
-    safe = np.where(small, 1.0, phi)
-    return np.where(small, t * (1.0 + (1.0 - t * t) * phi * phi / 6.0),
-                    np.sin(t * safe) / np.sin(safe))
 
 
 def _flip(re: NDArray[np.float64], im: NDArray[np.float64], turn: str) -> NDArray[np.bool_]:
@@ -293,7 +275,7 @@ def slerp(p: ArrayLike, q: ArrayLike, t: ArrayLike, *, turn: str = "shortest") -
     d = align(mul(q, inv(p)), turn)
     d0, d1 = split(d)
     phi = np.angle(d0)
-    dt = join(np.exp(1j * t * phi), _sin_ratio(t, phi) * d1)
+    dt = join(np.exp(1j * t * phi), sin_ratio(t, phi) * d1)
     return mul(dt, p)
 
 

@@ -18,13 +18,13 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from robodcn import _checks
+from robodcn._series import sin_ratio, sinc
 from robodcn.dcn import TURNS
 from robodcn.errors import DegenerateError, InputError
 
 DQArray = NDArray[np.float64]
 """Float array of shape (..., 8): (w, x, y, z | w, x, y, z), real part then dual part."""
 
-_SERIES_ANGLE = 1e-4
 _TIE = 1e-12
 
 
@@ -65,21 +65,6 @@ def _polar(a: NDArray[np.float64]) -> tuple[NDArray[np.float64], ...]:
     r = np.linalg.norm(a1, axis=-1)
     u = a1 / np.where(r > 0.0, r, 1.0)[..., None]
     return np.hypot(a0, r), np.arctan2(r, a0), u
-
-
-def _sinc(x: NDArray[np.float64]) -> NDArray[np.float64]:
-    small = np.abs(x) < _SERIES_ANGLE
-    safe = np.where(small, 1.0, x)
-    x2 = x * x
-    return np.where(small, 1.0 - x2 / 6.0 + x2 * x2 / 120.0, np.sin(safe) / safe)
-
-
-def _sin_ratio(alpha: NDArray[np.float64], t: NDArray[np.float64]) -> NDArray[np.float64]:
-    """sin(αt)/sin(t), with the series α·(1 + (1 − α²)t²/6) for |t| < 1e-4."""
-    small = np.abs(t) < _SERIES_ANGLE
-    safe = np.where(small, 1.0, t)
-    return np.where(small, alpha * (1.0 + (1.0 - alpha * alpha) * t * t / 6.0),
-                    np.sin(alpha * safe) / np.sin(safe))
 
 
 def _complex_to_quat(re: NDArray[np.float64], im: NDArray[np.float64],
@@ -246,7 +231,7 @@ def exp(x: ArrayLike) -> DQArray:
     a, b = _parts(x)
     _, _, _, big_b1, b2 = _split_dual(a, b)
     r = np.linalg.norm(a[..., 1:], axis=-1)
-    k = _sinc(r)
+    k = sinc(r)
     scale = np.exp(a[..., 0])[..., None]
     ea = np.concatenate([np.cos(r)[..., None], k[..., None] * a[..., 1:]], axis=-1)
     real = scale * ea
@@ -310,7 +295,7 @@ def power(z: ArrayLike, alpha: ArrayLike) -> DQArray:
     a_alpha = qpow(a, alpha)
     # Im(A^α)/Im(A) = ρ^(α−1)·sin(αt)/sin(t): both sines from the same t, so that near a
     # full turn their rounding cancels as it does in the planar DCN closed form.
-    ratio = rho ** (alpha - 1.0) * _sin_ratio(alpha, t)
+    ratio = rho ** (alpha - 1.0) * sin_ratio(alpha, t)
     dual = alpha[..., None] * qmul(qpow(a, alpha - 1.0), big_b1) + ratio[..., None] * _vec(b2)
     return _join(a_alpha, dual)
 

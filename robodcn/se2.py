@@ -10,8 +10,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from robodcn import _checks
-
-_SERIES_ANGLE = 1e-4
+from robodcn._series import SERIES_ANGLE
 
 
 def from_pose(pose: ArrayLike) -> NDArray[np.float64]:
@@ -33,7 +32,7 @@ def to_pose(m: ArrayLike) -> NDArray[np.float64]:
 
 def _v_coefficients(theta: NDArray[np.float64]) -> tuple[NDArray[np.float64], ...]:
     """(sin θ/θ, (1 − cos θ)/θ) with series near 0: the entries of SE(2)'s V(θ)."""
-    small = np.abs(theta) < _SERIES_ANGLE
+    small = np.abs(theta) < SERIES_ANGLE
     safe = np.where(small, 1.0, theta)
     a = np.where(small, 1.0 - theta * theta / 6.0, np.sin(safe) / safe)
     b = np.where(small, 0.5 * theta - theta ** 3 / 24.0, (1.0 - np.cos(safe)) / safe)
