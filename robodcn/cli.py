@@ -251,11 +251,32 @@ def _cmd_plan(args: argparse.Namespace) -> int:
 
 # -- move and sim -------------------------------------------------------------------------------
 
+def _non_negative_int(text: str) -> int:
+    try:
+        value = int(text)
+    except ValueError:
+        value = -1
+    if value < 0:
+        raise argparse.ArgumentTypeError(f"must be an integer ≥ 0, got {text!r}")
+    return value
+
+
+def _positive_float(text: str) -> float:
+    try:
+        value = float(text)
+    except ValueError:
+        value = math.nan
+    if not (math.isfinite(value) and value > 0):
+        raise argparse.ArgumentTypeError(f"must be a positive number, got {text!r}")
+    return value
+
+
 def _add_execution_options(p: argparse.ArgumentParser) -> None:
     g = p.add_argument_group("execution")
-    g.add_argument("--feedback-every", type=int, default=1, metavar="K",
-                   help="read present positions every K samples (default 1)")
-    g.add_argument("--tracking-limit", type=float, default=15.0, metavar="DEG",
+    g.add_argument("--feedback-every", type=_non_negative_int, default=1, metavar="K",
+                   help="read present positions every K samples (0: only at the end; "
+                        "default 1)")
+    g.add_argument("--tracking-limit", type=_positive_float, default=15.0, metavar="DEG",
                    help="stop when a joint lags its goal by more than DEG degrees (default 15)")
     g.add_argument("--release", action="store_true",
                    help="torque off at the end (default: the servos hold the last pose)")
@@ -382,12 +403,6 @@ def _execute(args: argparse.Namespace, arm, bus) -> tuple[Any, Any, _LiveProgres
     else:
         start = tuple(kinematics.fk(arm.links, present[None, :])[0])
     traj = _plan(args, arm, start, start_joints=present)
-    if args.feedback_every < 0:
-        raise InputError(f"--feedback-every must be ≥ 0, got {args.feedback_every}",
-                         field="feedback-every", value=args.feedback_every)
-    if not args.tracking_limit > 0:
-        raise InputError(f"--tracking-limit must be positive, got {args.tracking_limit}",
-                         field="tracking-limit", value=args.tracking_limit)
     stop = StopSignal()
     live = _LiveProgress(traj, arm)
     with _ctrl_c_stops(stop):

@@ -74,6 +74,8 @@ def test_negative_coordinates_are_values_not_options():
     (("plan", "--to", "0.12,0.24,60", "--duration", "soon"), 2, "--duration"),
     (("plan", "--to", "0.12,0.24,60", "--rate", "5000"), 2, "rate_hz"),
     (("plan",), 2, "--to"),                                              # argparse usage
+    (("sim", "--to", "0.12,0.24,60", "--tracking-limit", "-1"), 2, "--tracking-limit"),
+    (("sim", "--to", "0.12,0.24,60", "--feedback-every", "x"), 2, "--feedback-every"),
     (("plan", "--to", "0.12,0.24,60", "--arm", "nowhere.toml"), 2, "nowhere.toml"),
 ])
 def test_exit_codes_and_messages(args, code, needle):
