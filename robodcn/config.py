@@ -55,7 +55,8 @@ class ServoSpec:
 
 @dataclass(frozen=True)
 class JointSpec:
-    """A revolute joint: position limits (rad), velocity (rad/s), acceleration (rad/s²)."""
+    """A revolute joint: position limits (rad), velocity (rad/s), acceleration (rad/s²) and
+    an optional jerk limit (rad/s³; None: no jerk limit)."""
 
     name: str
     min_angle: float
@@ -63,6 +64,7 @@ class JointSpec:
     max_velocity: float
     max_acceleration: float
     servo: ServoSpec
+    max_jerk: float | None = None
 
 
 @dataclass(frozen=True)

@@ -425,8 +425,8 @@ def test_csv_matches_the_arrays() -> None:
 
 @pytest.mark.parametrize(("kwargs", "field"), [
     ({"waypoints": [[0.25, 0.1, 0.0]]}, "waypoints"),
-    ({"waypoints": [[0.25, 0.1], [0.2, 0.1]]}, "waypoints"),
-    ({"waypoints": [[0.25, 0.1, 0.0], [0.2, math.nan, 0.0]]}, "waypoints"),
+    ({"waypoints": [[0.25, 0.1], [0.2, 0.1]]}, "waypoints[0]"),
+    ({"waypoints": [[0.25, 0.1, 0.0], [0.2, math.nan, 0.0]]}, "waypoints[1][1]"),
     ({"method": "cubic"}, "method"),
     ({"method": ["sclerp"]}, "method"),
     ({"turn": ["shortest", "left"]}, "turn[1]"),
