@@ -42,6 +42,7 @@ import numpy as np
 
 from robodcn.config import ELBOWS, RATE_RANGE, Arm
 from robodcn.dcn import TURNS
+from robodcn.errors import BetaIgnoredWarning as BetaIgnoredWarning  # re-exported
 from robodcn.errors import InputError, TooLargeError
 from robodcn.interpolate import METHODS
 from robodcn.timing import PROFILES
@@ -63,20 +64,6 @@ BETA_METHODS = ("kenlerp",)
 MAX_COORDINATE = 1e3
 #: Largest |θ| or |joint angle| (rad) accepted on input.
 MAX_ANGLE = 1e3
-
-
-class BetaIgnoredWarning(UserWarning):
-    """``beta`` was given with a method that does not use it (only KenLERP does).
-
-    Raised through :mod:`warnings` by :class:`~robodcn.planner.PlanRequest`; ``field`` and
-    ``method`` say which, so the CLI and HTTP surfaces can print or return it.
-    """
-
-    def __init__(self, message: str, *, field: str = "beta", method: Any = None) -> None:
-        super().__init__(message)
-        self.message = message
-        self.field = field
-        self.method = method
 
 
 @dataclass(frozen=True)
@@ -179,6 +166,7 @@ FIELDS: tuple[Field, ...] = (
           default=None, cli_option="--elbow"),
 )
 _BY_NAME = {f.name: f for f in FIELDS}
+
 #: The fields a move body may not give (a move starts from the arm's present joints).
 MOVE_OMIT = ("start_joints",)
 

@@ -252,3 +252,35 @@ class StoppedError(RobodcnError):
     code = "stopped"
     exit_code = 130
     http_status = 409
+
+
+class RobodcnWarning(UserWarning):
+    """Base of robodcn's warnings: data (``field``) the surfaces can print or return."""
+
+    def __init__(self, message: str, *, field: str | None = None) -> None:
+        super().__init__(message)
+        self.message = message
+        self.field = field
+
+
+class BetaIgnoredWarning(RobodcnWarning):
+    """``beta`` was given with a method that does not use it (only KenLERP does).
+
+    Given through :mod:`warnings` by :class:`~robodcn.planner.PlanRequest`; ``field`` is
+    "beta" and ``method`` the request's method(s).
+    """
+
+    def __init__(self, message: str, *, field: str = "beta", method: Any = None) -> None:
+        super().__init__(message, field=field)
+        self.method = method
+
+
+class BranchSwitchWarning(RobodcnWarning):
+    """The plan's IK elbow branch changes along it (through a stretched-out or folded pose).
+
+    ``samples`` are the sample indices (also ``Trajectory.branch_switches``).
+    """
+
+    def __init__(self, message: str, *, samples: tuple[int, ...] = ()) -> None:
+        super().__init__(message, field="waypoints")
+        self.samples = samples

@@ -218,6 +218,11 @@ def _sq_dist(a: list[NDArray], b: list[NDArray]) -> NDArray[np.float64]:
     return total
 
 
+#: Joint distance (rad) under which the two IK branches count as one (a stretched-out or
+#: folded arm, q2 = 0 or ±π): there "nearest" cannot tell them apart and the branch is kept.
+SINGULAR_TOLERANCE = 1e-6
+
+
 def _choose(up: list[NDArray], down: list[NDArray], first_down: bool) -> NDArray[np.bool_]:
     n = up[0].shape[0]
     stay_up = np.ones(n, dtype=bool)
@@ -229,6 +234,11 @@ def _choose(up: list[NDArray], down: list[NDArray], first_down: bool) -> NDArray
         down_before = [c[:-1] for c in down]
         stay_up[1:] = _sq_dist(up_now, up_before) <= _sq_dist(down_now, up_before)
         stay_down[1:] = _sq_dist(down_now, down_before) <= _sq_dist(up_now, down_before)
+        # Leaving a singular sample both branches are equally near: keep the branch (the
+        # preferred one at a singular start) instead of letting rounding pick.
+        singular = _sq_dist(up_before, down_before) <= SINGULAR_TOLERANCE ** 2
+        stay_up[1:] |= singular
+        stay_down[1:] |= singular
     reset = stay_up != stay_down
     reset[0] = True
     reset_value = ~stay_up  # after a reset: down unless "up" was the branch to stay on
@@ -298,7 +308,10 @@ def ik_path(links: Sequence[float], poses: ArrayLike, *, reference: ArrayLike | 
         first_up = [np.array([c[0]]) for c in up]
         first_dn = [np.array([c[0]]) for c in down]
         ref = [np.array([v]) for v in reference]
-        first_down = bool(_sq_dist(first_dn, ref)[0] < _sq_dist(first_up, ref)[0])
+        d_dn, d_up = _sq_dist(first_dn, ref)[0], _sq_dist(first_up, ref)[0]
+        # A tie (singular first pose or a reference midway) goes to the preferred branch.
+        first_down = bool(d_dn < d_up) if abs(d_dn - d_up) > SINGULAR_TOLERANCE ** 2 \
+            else elbow == "down"
     on_down = _choose(up, down, first_down)
     if reference is not None:
         target = reference

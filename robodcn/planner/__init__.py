@@ -48,7 +48,8 @@ Modules: :mod:`~robodcn.planner.request` (PlanRequest), :mod:`~robodcn.planner.t
 return :class:`~robodcn.errors.Violation` data), :mod:`~robodcn.planner.build` (assembly).
 """
 
-from robodcn.contract import MAX_SAMPLES, BetaIgnoredWarning
+from robodcn.contract import MAX_SAMPLES
+from robodcn.errors import BetaIgnoredWarning, BranchSwitchWarning
 from robodcn.dcn import TURNS
 from robodcn.planner.build import plan, plan_request
 from robodcn.planner.request import PlanRequest
@@ -57,4 +58,4 @@ from robodcn.planner.validate import ANGLE_SLACK, LIMIT_SLACK
 from robodcn.timing import PROFILES
 
 __all__ = ["ANGLE_SLACK", "LIMIT_SLACK", "MAX_SAMPLES", "PROFILES", "TURNS",
-           "BetaIgnoredWarning", "PlanRequest", "Trajectory", "plan", "plan_request"]
+           "BetaIgnoredWarning", "BranchSwitchWarning", "PlanRequest", "Trajectory", "plan", "plan_request"]

@@ -12,7 +12,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from robodcn import kinematics, timing
 from robodcn.contract import MAX_SAMPLES, intervals
-from robodcn.errors import TooLargeError, UnreachableError, Violation
+from robodcn.errors import BranchSwitchWarning, TooLargeError, UnreachableError, Violation
 from robodcn.planner import search, validate
 from robodcn.planner.path import (
     COARSE,
@@ -104,6 +104,14 @@ def plan_request(req: PlanRequest) -> Trajectory:
             violation = dataclasses.replace(violation, other_branch_ok=_other_branch_ok(req))
         validate.raise_for(violation)
     assert traj is not None
+    if traj.branch_switches:
+        # Never silent: the switch is data on the trajectory and a warning of our own.
+        samples = traj.branch_switches
+        warnings.warn(BranchSwitchWarning(
+            f"the elbow branch changes at sample {samples[0]} (t={samples[0] / req.rate_hz:.3f}"
+            f" s) passing a stretched-out or folded pose"
+            + (f", and {len(samples) - 1} more time(s)" if len(samples) > 1 else ""),
+            samples=samples), stacklevel=2)
     return traj
 
 
@@ -171,9 +179,10 @@ def _assemble(req: PlanRequest, pieces: list[Piece], counts: list[int],
     if violation is not None:
         return None, violation
     t = np.arange(total) / rate
+    elbow, switches = validate.elbow_branches(joints)
     return Trajectory(t, poses, joints, ticks, arm.joint_names, arm.servo_ids, rate,
                       req.method if isinstance(req.method, str) else list(req.method),
-                      req), None
+                      req, elbow, switches), None
 
 
 def _unreachable(req: PlanRequest, piece: Piece, n: int, ref: NDArray | None, offset: int,

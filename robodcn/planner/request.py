@@ -11,7 +11,8 @@ from numpy.typing import NDArray
 
 from robodcn import contract
 from robodcn.config import Arm, arm_from_dict
-from robodcn.contract import BetaIgnoredWarning, fail
+from robodcn.contract import fail
+from robodcn.errors import BetaIgnoredWarning
 
 
 @dataclass(frozen=True)

@@ -24,21 +24,43 @@ class Trajectory:
 
     Attributes
     ----------
-    t : (n,) seconds; poses : (n, 3) (x, y, θ) with θ continuous (for a 2-joint arm θ is the
-    requested one on the path, FK's q1 + q2 on an approach); joints : (n, k) radians,
-    unwrapped; ticks : (n, k) int64 goal positions; joint_names, servo_ids : k each;
-    rate_hz; method (the request's, a string or a list per segment); request.
+    t : (n,) seconds; poses : (n, 3) (x, y, θ) with θ continuous (for a 2-joint arm θ plays
+    no part in the plan and is FK's q1 + q2); joints : (n, k) radians, unwrapped;
+    ticks : (n, k) int64 goal positions; joint_names, servo_ids : k each; rate_hz; method
+    (the request's, a string or a list per segment); request; elbow : the IK branch at the
+    first sample ("up" q2 < 0, "down" q2 > 0, None when stretched out or folded there);
+    branch_switches : sample indices where the elbow branch differs from the one before
+    (through a singular pose; empty for almost every plan).
     """
 
-    t: NDArray[np.float64]
-    poses: NDArray[np.float64]
-    joints: NDArray[np.float64]
-    ticks: NDArray[np.int64]
-    joint_names: tuple[str, ...]
-    servo_ids: tuple[int, ...]
-    rate_hz: float
-    method: str | list[str]
-    request: PlanRequest | None = field(default=None)
+    t: NDArray[np.float64] = field(metadata={
+        "description": "Sample times (s), from 0 in steps of exactly 1/rate_hz.",
+        "schema": {"type": "array", "minItems": 1, "items": {"type": "number"}}})
+    poses: NDArray[np.float64] = field(metadata={
+        "description": "Pose [x, y, θ] per sample (m, m, rad), θ continuous.",
+        "schema": {"type": "array", "items": {"type": "array", "minItems": 3, "maxItems": 3,
+                                              "items": {"type": "number"}}}})
+    joints: NDArray[np.float64] = field(metadata={
+        "description": "Joint angles per sample (rad, unwrapped), one per joint.",
+        "schema": {"type": "array", "items": {"type": "array", "items": {"type": "number"}}}})
+    ticks: NDArray[np.int64] = field(metadata={
+        "description": "Servo goal positions per sample (ticks), one per servo.",
+        "schema": {"type": "array",
+                   "items": {"type": "array", "items": {"type": "integer"}}}})
+    joint_names: tuple[str, ...] = field(metadata={"description": "Joint names, base first."})
+    servo_ids: tuple[int, ...] = field(metadata={"description": "Servo ids in joint order."})
+    rate_hz: float = field(metadata={"description": "Sample rate (Hz)."})
+    method: str | list[str] = field(metadata={
+        "description": "Interpolation method, or one per segment."})
+    request: PlanRequest | None = field(default=None, metadata={
+        "description": "The request that was planned (the arm embedded, SI units).",
+        "schema": {"type": ["object", "null"]}})
+    elbow: str | None = field(default=None, metadata={
+        "description": "IK branch at the first sample: up (q2 < 0), down (q2 > 0), or null "
+                       "when stretched out or folded there.",
+        "schema": {"enum": ["up", "down", None]}})
+    branch_switches: tuple[int, ...] = field(default=(), metadata={
+        "description": "Samples where the elbow branch changes (passing a singular pose)."})
 
     def __post_init__(self) -> None:
         self.t = np.asarray(self.t, dtype=np.float64)
@@ -51,6 +73,7 @@ class Trajectory:
         self.ticks = ticks.astype(np.int64)
         self.joint_names = tuple(self.joint_names)
         self.servo_ids = tuple(int(i) for i in self.servo_ids)
+        self.branch_switches = tuple(int(i) for i in self.branch_switches)
         n = self.t.shape[0] if self.t.ndim == 1 else -1
         k = len(self.joint_names)
         for name, array, shape in (("t", self.t, (n,)), ("poses", self.poses, (n, 3)),
@@ -85,7 +108,8 @@ class Trajectory:
                 "joints": self.joints.tolist(), "ticks": self.ticks.tolist(),
                 "joint_names": list(self.joint_names), "servo_ids": list(self.servo_ids),
                 "rate_hz": self.rate_hz, "method": self.method,
-                "request": None if self.request is None else self.request.to_dict()}
+                "request": None if self.request is None else self.request.to_dict(),
+                "elbow": self.elbow, "branch_switches": list(self.branch_switches)}
 
     def to_json(self) -> str:
         """JSON with keys t, poses, joints, ticks, joint_names, servo_ids, rate_hz, method,
@@ -124,8 +148,17 @@ class Trajectory:
         if not isinstance(names, list) or not all(isinstance(n, str) for n in names):
             raise InputError("joint_names must be a list of strings", field="joint_names",
                              value=names)
+        elbow = data.get("elbow")
+        if elbow not in ("up", "down", None):
+            raise InputError("elbow must be up, down or null", field="elbow", value=elbow)
+        switches = data.get("branch_switches", [])
+        if not isinstance(switches, list) or not all(
+                isinstance(i, int) and not isinstance(i, bool) for i in switches):
+            raise InputError("branch_switches must be a list of sample indices",
+                             field="branch_switches", value=None)
         return cls(arrays["t"], arrays["poses"], arrays["joints"], arrays["ticks"], names,
-                   data["servo_ids"], data["rate_hz"], data["method"], request)
+                   data["servo_ids"], data["rate_hz"], data["method"], request, elbow,
+                   tuple(switches))
 
     def to_csv(self) -> str:
         """CSV: t, x, y, theta, one column per joint (rad), one per servo (ticks)."""

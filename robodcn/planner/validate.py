@@ -147,6 +147,26 @@ def check(req: PlanRequest, poses: NDArray, joints: NDArray, *, dynamics: bool =
                             segment=segment, waypoint=waypoint, field=field)
 
 
+def elbow_branches(joints: NDArray) -> tuple[str | None, tuple[int, ...]]:
+    """The elbow branch at the first sample and the samples where it changes.
+
+    "up" is wrap(q2) < 0, "down" wrap(q2) > 0 (robodcn.kinematics); samples within
+    kinematics.SINGULAR_TOLERANCE of q2 = 0 or ±π (stretched out, folded) belong to neither
+    and carry the branch before them, so a switch is counted where the branch after a
+    singular stretch differs from the one before it.
+    """
+    q2 = kinematics.wrap(joints[:, 1])
+    tol = kinematics.SINGULAR_TOLERANCE
+    singular = (np.abs(q2) < tol) | (math.pi - np.abs(q2) < tol)
+    side = np.where(singular, 0, np.where(q2 < 0.0, -1, 1))
+    known = np.where(side != 0, np.arange(side.shape[0]), -1)
+    np.maximum.accumulate(known, out=known)
+    filled = np.where(known >= 0, side[np.maximum(known, 0)], 0)
+    changed = (filled[1:] != filled[:-1]) & (filled[:-1] != 0)
+    first = {-1: "up", 1: "down", 0: None}[int(side[0])]
+    return first, tuple(int(i) + 1 for i in np.flatnonzero(changed))
+
+
 def raise_for(violation: Violation) -> NoReturn:
     """Raise the PlanError of ``violation`` (message in SI and JSON names)."""
     cls = VIOLATION_ERRORS[violation.quantity]
