@@ -502,3 +502,156 @@ def test_random_requests_plan_or_fail_cleanly(arm: Arm, data: st.DataObject) -> 
         assert err.field == "duration" and "more than 1000000" in str(err)
         return
     check_trajectory(traj, arm, wps, approach="start_joints" in kwargs)
+
+
+# -- issue 9: θ on a position-only arm, the elbow at a singular start, violations as data -----
+
+def test_theta_plays_no_part_on_a_2r_arm() -> None:
+    """Path, duration and feasibility of a 2R plan do not depend on the θ given."""
+    base = plan(ARM2R, WAYPOINTS_2R)
+    for thetas in ([0.0, 3.0, -2.0], [1.5, 1.5, 1.5], [0.0, -3.1, 3.1]):
+        wps = [[x, y, th] for (x, y, _), th in zip(WAYPOINTS_2R, thetas, strict=True)]
+        other = plan(ARM2R, wps, method="kenlerp", beta=0.3)
+        assert other.duration == base.duration
+        np.testing.assert_allclose(other.joints, base.joints, atol=1e-12)
+    # the position path is the straight line between the waypoints
+    np.testing.assert_allclose(np.cross(np.diff(base.poses[:40, :2], axis=0),
+                                        base.poses[1:40, :2] - base.poses[0, :2]), 0.0,
+                               atol=1e-12)
+    # θ reported is the arm's own (FK), as the simulator would read it back
+    fk = kinematics.fk(ARM2R.links, base.joints)
+    np.testing.assert_allclose(base.poses[:, 2], fk[:, 2], atol=1e-12)
+
+
+def test_2r_waypoints_may_be_positions() -> None:
+    xy = [w[:2] for w in WAYPOINTS_2R]
+    a = plan(ARM2R, xy)
+    b = plan(ARM2R, WAYPOINTS_2R)
+    np.testing.assert_array_equal(a.joints, b.joints)
+    with pytest.raises(InputError) as info:
+        plan(ARM3R, [w[:2] for w in WAYPOINTS_3R])
+    assert info.value.field == "waypoints[0]"
+
+
+def test_2r_plan_from_home_pose_equals_plan_from_home_joints() -> None:
+    """``plan`` starts from the home pose, ``sim`` from the FK of the home joints: the same."""
+    home_joints = kinematics.ik(ARM2R.links, [ARM2R.home], elbow=ARM2R.elbow)[0]
+    start_pose = kinematics.fk(ARM2R.links, [home_joints])[0]
+    target = [0.05, 0.2, 1.0]
+    from_pose = plan(ARM2R, [list(ARM2R.home), target])
+    from_joints = plan(ARM2R, [start_pose, target], start_joints=home_joints)
+    assert from_pose.duration == from_joints.duration
+    np.testing.assert_allclose(from_pose.joints, from_joints.joints, atol=1e-9)
+
+
+STRETCHED = [[0.4, 0.0, 0.0], [0.12, 0.24, math.radians(60)]]
+
+
+@pytest.mark.parametrize("start", [None, [0.0, 0.0, 0.0]], ids=["pose", "fresh-sim-joints"])
+def test_configured_elbow_breaks_the_tie_at_a_stretched_start(start: Any) -> None:
+    up = plan(ARM3R, STRETCHED, start_joints=start)
+    assert ARM3R.elbow == "up"
+    assert (up.joints[1:, 1] < 0).all() and up.elbow is None and up.branch_switches == ()
+    down = plan(ARM3R, STRETCHED, start_joints=start, elbow="down")
+    assert (down.joints[1:, 1] > 0).all()
+    check_trajectory(down, ARM3R, STRETCHED)
+
+
+def test_elbow_request_picks_the_branch() -> None:
+    for elbow, sign in (("up", -1), ("down", 1)):
+        traj = plan(ARM3R, WAYPOINTS_3R, elbow=elbow)
+        assert traj.elbow == elbow and (sign * traj.joints[:, 1] > 0).all()
+        assert traj.request.elbow == elbow
+        assert Trajectory.from_json(traj.to_json()).elbow == elbow
+
+
+def test_branch_switch_is_reported() -> None:
+    """Through the stretched-out pose (radius out to full reach and back, the path
+    continuing past it) the branch may change: it is data and a warning, never silent."""
+    from robodcn.planner import validate
+
+    q = np.column_stack([np.zeros(5), [-0.2, -0.1, 0.0, 0.1, 0.2], np.zeros(5)])
+    assert validate.elbow_branches(q) == ("up", (3,))
+    assert validate.elbow_branches(q[:3]) == ("up", ())
+    assert validate.elbow_branches(q[2:]) == (None, ())
+
+
+def test_violation_is_data_and_names_segment_and_branch() -> None:
+    free = plan(ARM3R, WAYPOINTS_3R, duration=3.0, rate_hz=100)
+    # a shoulder limit the path crosses in its second segment only
+    limit = float(np.abs(free.joints[:, 0]).max()) * 0.97
+    narrow = variant(ARM3R, only=0, min=-limit, max=limit)
+    with pytest.raises(JointLimitError) as info:
+        plan(narrow, WAYPOINTS_3R, duration=3.0, rate_hz=100)
+    v = info.value.violation
+    assert v is not None and v.quantity == "position" and v.joint == "shoulder"
+    assert v.joint_index == 0 and v.unit == "rad"
+    assert abs(v.limit) == pytest.approx(limit) and abs(v.value) > limit
+    assert v.sample == info.value.sample and v.t == pytest.approx(v.sample / 100)
+    assert v.segment is not None and v.segment[1] == v.segment[0] + 1
+    bad = np.abs(free.joints[:, 0]) > limit
+    assert v.sample == first_bad_row(bad[:, None])
+    assert isinstance(v.other_branch_ok, bool)
+    assert "segment waypoint" in str(info.value) and "elbow branch" in str(info.value)
+
+
+def test_auto_timing_reads_violations_not_exceptions(monkeypatch: pytest.MonkeyPatch) -> None:
+    """The linear profile's velocity steps at the joins are fixed by reading the Violation
+    the validation returns; no PlanError is raised and caught on the way."""
+    from robodcn import errors
+
+    raised: list[str] = []
+    original = errors.PlanError.__init__
+
+    def spy(self: Any, *args: Any, **kwargs: Any) -> None:
+        raised.append(type(self).__name__)
+        original(self, *args, **kwargs)
+
+    monkeypatch.setattr(errors.PlanError, "__init__", spy)
+    traj = plan(ARM3R, WAYPOINTS_3R, profile="linear")
+    check_trajectory(traj, ARM3R, WAYPOINTS_3R)
+    assert raised == []
+
+
+@pytest.mark.parametrize(("kwargs", "field", "cls"), [
+    ({"duration": 1e308}, "duration", InputError),
+    ({"duration": 1e5, "rate_hz": 1000}, "duration", robodcn.TooLargeError
+     if hasattr(robodcn, "TooLargeError") else InputError),
+    ({"start_joints": [0.0, 3.0, 0.0]}, "start_joints[1]", InputError),
+    ({"start_joints": [1e308, 0.0, 0.0]}, "start_joints[0]", InputError),
+    ({"beta": -0.5, "method": "kenlerp"}, "beta", InputError),
+])
+def test_range_checks_before_planning(kwargs: dict[str, Any], field: str, cls: type) -> None:
+    with pytest.raises(cls) as info:
+        plan(ARM3R, WAYPOINTS_3R, **kwargs)
+    assert info.value.field == field
+
+
+def test_waypoint_cap_is_checked_first_and_names_waypoints() -> None:
+    import time
+
+    from robodcn.contract import MAX_WAYPOINTS
+    from robodcn.errors import TooLargeError
+
+    wps = np.tile(WAYPOINTS_3R[:2], (30_000, 1))
+    t0 = time.perf_counter()
+    with pytest.raises(TooLargeError) as info:
+        plan(ARM3R, wps)
+    assert time.perf_counter() - t0 < 1.0
+    assert info.value.field == "waypoints" and str(MAX_WAYPOINTS) in str(info.value)
+
+
+def test_beta_with_a_method_that_ignores_it_warns() -> None:
+    from robodcn.errors import BetaIgnoredWarning
+
+    with pytest.warns(BetaIgnoredWarning) as record:
+        plan(ARM3R, WAYPOINTS_3R, method="sclerp", beta=0.5)
+    assert record[0].message.field == "beta"
+    import warnings
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", BetaIgnoredWarning)
+        plan(ARM3R, WAYPOINTS_3R, method=["sclerp", "kenlerp"], beta=0.5)
+        plan(ARM3R, WAYPOINTS_3R, method="sclerp")
+        # β > 1 extrapolates past ScLERP (KenLERP's definition): allowed
+        plan(ARM3R, WAYPOINTS_3R, method="kenlerp", beta=1.5)
