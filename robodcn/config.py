@@ -29,6 +29,7 @@ from typing import Any
 
 from robodcn.errors import ConfigError
 
+
 @dataclass(frozen=True)
 class ServoModel:
     """What one Dynamixel model can do (ROBOTIS e-manual; shared/dynamixel-notes.md §2).

@@ -663,3 +663,29 @@ def test_beta_with_a_method_that_ignores_it_warns() -> None:
         plan(ARM3R, WAYPOINTS_3R, method="sclerp")
         # β > 1 extrapolates past ScLERP (KenLERP's definition): allowed
         plan(ARM3R, WAYPOINTS_3R, method="kenlerp", beta=1.5)
+
+
+def jerk_arm(jerk: float) -> Arm:
+    data = ARM3R.to_dict()
+    for joint in data["joints"]:
+        joint["max_jerk"] = jerk
+    return arm_from_dict(data, source=ARM3R.source)
+
+
+def test_jerk_limit_is_respected_by_auto_timing_and_checked() -> None:
+    free = plan(ARM3R, WAYPOINTS_3R[:2])
+    jerk3 = np.abs(np.diff(np.concatenate([free.joints[:1]] * 2 + [free.joints]
+                                          + [free.joints[-1:]] * 2), 3, axis=0)).max()
+    limit = 0.5 * jerk3 * free.rate_hz**3
+    arm = jerk_arm(limit)
+    slow = plan(arm, WAYPOINTS_3R[:2])
+    assert slow.duration > free.duration
+    q = np.concatenate([slow.joints[:1]] * 3 + [slow.joints] + [slow.joints[-1:]] * 2)
+    assert (np.abs(np.diff(q, 3, axis=0)) * slow.rate_hz**3 <= limit * (1 + 1e-9)).all()
+    from robodcn.errors import JerkLimitError
+
+    with pytest.raises(JerkLimitError) as info:
+        plan(arm, WAYPOINTS_3R[:2], duration=free.duration)
+    v = info.value.violation
+    assert v.quantity == "jerk" and v.unit == "rad/s^3" and v.value > v.limit == limit
+    assert info.value.field == "duration"

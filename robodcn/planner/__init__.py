@@ -49,8 +49,8 @@ return :class:`~robodcn.errors.Violation` data), :mod:`~robodcn.planner.build` (
 """
 
 from robodcn.contract import MAX_SAMPLES
-from robodcn.errors import BetaIgnoredWarning, BranchSwitchWarning
 from robodcn.dcn import TURNS
+from robodcn.errors import BetaIgnoredWarning, BranchSwitchWarning
 from robodcn.planner.build import plan, plan_request
 from robodcn.planner.request import PlanRequest
 from robodcn.planner.trajectory import Trajectory
@@ -58,4 +58,5 @@ from robodcn.planner.validate import ANGLE_SLACK, LIMIT_SLACK
 from robodcn.timing import PROFILES
 
 __all__ = ["ANGLE_SLACK", "LIMIT_SLACK", "MAX_SAMPLES", "PROFILES", "TURNS",
-           "BetaIgnoredWarning", "BranchSwitchWarning", "PlanRequest", "Trajectory", "plan", "plan_request"]
+           "BetaIgnoredWarning", "BranchSwitchWarning", "PlanRequest", "Trajectory", "plan",
+           "plan_request"]

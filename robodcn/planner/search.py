@@ -23,8 +23,12 @@ MAX_SEARCH_STEPS = 40
 
 
 def fd_need(q: NDArray[np.float64], arm: Arm) -> float:
+    """Shortest duration (s) of the sampled joints q under the arm's limits (jerk included
+    where a joint sets one)."""
     v, a = rate_limits(arm)
-    return timing.fd_min_duration(q, v, a)
+    jerk = [math.inf if j.max_jerk is None else j.max_jerk for j in arm.joints]
+    return timing.fd_min_duration(q, v, a, j_max=None if all(x == math.inf for x in jerk)
+                                  else np.array(jerk))
 
 
 def estimate(piece: Piece, arm: Arm, reference: NDArray | None
