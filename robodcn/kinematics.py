@@ -278,9 +278,10 @@ def ik_path(links: Sequence[float], poses: ArrayLike, *, reference: ArrayLike | 
     """Branch-continuous, unwrapped IK along a sampled path.
 
     The first sample takes the branch nearest ``reference`` (the arm's present joints; the
-    ``elbow`` preference when None), every later sample the branch nearest the previous one
-    (:func:`choose_branches`); the angles are unwrapped along the path and each joint shifted
-    by a multiple of 2π so the first sample is nearest ``reference`` — or, without a
+    ``elbow`` preference when None or at a tie, e.g. a stretched-out reference), every later
+    sample the branch nearest the previous one (:func:`choose_branches`; leaving a singular
+    sample the branch is kept); the angles are unwrapped along the path and each joint
+    shifted by a multiple of 2π so the first sample is nearest ``reference`` — or, without a
     reference, nearest the middle of ``limits`` ((k, 2) rows (min, max); 0 when None).
 
     Raises
@@ -288,6 +289,17 @@ def ik_path(links: Sequence[float], poses: ArrayLike, *, reference: ArrayLike | 
     UnreachableError
         At the first pose out of reach (sample index and pose named).
     """
+    q, bad = try_ik_path(links, poses, reference=reference, elbow=elbow, limits=limits)
+    if q is None:
+        _raise_unreachable(links, _poses(poses), np.arange(len(poses)) != bad)
+    return q
+
+
+def try_ik_path(links: Sequence[float], poses: ArrayLike, *,
+                reference: ArrayLike | None = None, elbow: str = "up",
+                limits: ArrayLike | None = None) -> tuple[NDArray[np.float64] | None, int | None]:
+    """:func:`ik_path` as data: (joints, None), or (None, index of the first pose out of
+    reach) — for searches that try many paths and must not steer by exceptions."""
     links = _links(links)
     poses = _poses(poses)
     _checks.one_of("elbow", elbow, ELBOWS)
@@ -298,10 +310,11 @@ def ik_path(links: Sequence[float], poses: ArrayLike, *, reference: ArrayLike | 
             raise InputError(f"reference joints must have shape ({k},), got {reference.shape}",
                              field="start_joints", value=reference)
     up, down, ok = _columns(links, poses)
-    _raise_unreachable(links, poses, ok)
+    if not ok.all():
+        return None, int(np.argmin(ok))
     n = poses.shape[0]
     if n == 0:
-        return np.empty((0, k))
+        return np.empty((0, k)), None
     if reference is None:
         first_down = elbow == "down"
     else:
@@ -324,7 +337,7 @@ def ik_path(links: Sequence[float], poses: ArrayLike, *, reference: ArrayLike | 
         column = _unwrap(np.where(on_down, down[j], up[j]))
         column += _TWO_PI * np.round((target[j] - column[0]) / _TWO_PI)
         q[:, j] = column
-    return q
+    return q, None
 
 
 def jacobian(links: Sequence[float], q: ArrayLike) -> NDArray[np.float64]:

@@ -12,7 +12,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from robodcn import kinematics, timing
 from robodcn.contract import MAX_SAMPLES, intervals
-from robodcn.errors import BranchSwitchWarning, TooLargeError, UnreachableError, Violation
+from robodcn.errors import BranchSwitchWarning, TooLargeError, Violation
 from robodcn.planner import search, validate
 from robodcn.planner.path import (
     COARSE,
@@ -66,10 +66,8 @@ def _counts(req: PlanRequest, pieces: list[Piece], start: NDArray | None) -> lis
             estimates.append(need)
             counts.append(0)
         if last is None:
-            try:
-                last = piece.sample(counts[-1] or COARSE, arm, ref)[1][-1]
-            except UnreachableError:
-                last = ref
+            q = piece.sample(counts[-1] or COARSE, arm, ref)[1]
+            last = ref if q is None else q[-1]
         ref = last
     if req.duration != "auto":
         shares = iter(search.split(intervals(req.duration, rate), estimates))
@@ -126,10 +124,7 @@ def _other_branch_ok(req: PlanRequest) -> bool:
         return False
     pieces, start = _pieces(alt)
     counts = _counts(alt, pieces, start)
-    try:
-        _, violation = _assemble(alt, pieces, counts, start, dynamics=False)
-    except UnreachableError:
-        return False
+    _, violation = _assemble(alt, pieces, counts, start, dynamics=False)
     return violation is None
 
 
@@ -138,8 +133,8 @@ def _assemble(req: PlanRequest, pieces: list[Piece], counts: list[int],
               ) -> tuple[Trajectory | None, Violation | None]:
     """Sample every piece and check the whole plan: (trajectory, None) or (None, violation).
 
-    A sample out of reach raises UnreachableError (unless an earlier sample already fails
-    another check: then that violation is returned).
+    A sample out of reach is a "reach" violation (unless an earlier sample already fails
+    another check: then that one is returned).
     """
     arm = req.arm
     rate = req.rate_hz
@@ -164,11 +159,10 @@ def _assemble(req: PlanRequest, pieces: list[Piece], counts: list[int],
             segment_of[offset:offset + n + 1] = segment + np.minimum(
                 inner, len(piece.path.segments) - 1)
             segment = last
-        try:
-            p, q = piece.sample(n, arm, ref)
-        except UnreachableError as exc:
+        p, q, bad = piece.sample(n, arm, ref)
+        if q is None:
             return None, _unreachable(req, piece, n, ref, offset, poses, joints, segment_of,
-                                      exc)
+                                      p, bad)
         lo = 0 if offset == 0 else 1
         poses[offset + lo: offset + n + 1] = p[lo:]
         joints[offset + lo: offset + n + 1] = q[lo:]
@@ -187,16 +181,19 @@ def _assemble(req: PlanRequest, pieces: list[Piece], counts: list[int],
 
 def _unreachable(req: PlanRequest, piece: Piece, n: int, ref: NDArray | None, offset: int,
                  poses: NDArray, joints: NDArray, segment_of: NDArray,
-                 exc: UnreachableError) -> Violation:
-    """The violation at a sample out of reach, or an earlier sample's other violation."""
+                 piece_poses: NDArray, local: int) -> Violation:
+    """The violation at the piece's sample ``local`` (out of reach), or an earlier
+    sample's other violation."""
     # The piece's sample 0 is the plan's sample ``offset`` (shared with the piece before).
-    local = exc.sample
     i = offset + local
     if local > 0:
-        tau = np.arange(local) / n
-        p = piece.path(timing.profile(piece.profile, tau, piece.accel_fraction))
+        p = piece_poses[:local]
+        q, _ = joints_of(req.arm, p, ref, piece.elbow)
+        if req.position_only:
+            p = p.copy()
+            p[:, 2] = q[:, 0] + q[:, 1]
         poses[offset:i] = p
-        joints[offset:i] = joints_of(req.arm, p, ref, piece.elbow)
+        joints[offset:i] = q
     if i > 0:
         # With "auto" the search could not time a path that leaves the workspace, so speeds
         # before the gap say nothing: report the gap itself.
@@ -206,7 +203,7 @@ def _unreachable(req: PlanRequest, piece: Piece, n: int, ref: NDArray | None, of
             return earlier
     arm = req.arm
     inner, outer = kinematics.workspace(arm.links)
-    pose = [float(v) for v in exc.pose]
+    pose = [float(v) for v in piece_poses[local]]
     r = float(kinematics.wrist_radius(arm.links, [pose])[0])
     segment = (int(segment_of[i]), int(segment_of[i]) + 1) if segment_of[i] >= 0 else None
     return Violation(sample=i, t=i / req.rate_hz, pose=tuple(pose), quantity="reach",

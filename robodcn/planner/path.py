@@ -10,7 +10,6 @@ from numpy.typing import NDArray
 
 from robodcn import kinematics, timing
 from robodcn.config import Arm
-from robodcn.errors import UnreachableError
 from robodcn.interpolate import interpolate, turn_angle
 from robodcn.planner.request import PlanRequest
 
@@ -66,26 +65,28 @@ class Piece:
         self.q_to = q_to
 
     def sample(self, n: int, arm: Arm, reference: NDArray | None
-               ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
-        """Poses and joints (n + 1 rows) at τ_i = i/n; raises UnreachableError (local index)."""
+               ) -> tuple[NDArray[np.float64], NDArray[np.float64] | None, int | None]:
+        """Poses and joints (n + 1 rows) at τ_i = i/n, and None; or poses, None and the
+        local index of the first pose out of reach."""
         tau = np.arange(n + 1) / n
         if self.path is None:
             q = self.q_from + np.outer(timing.quintic(tau), self.q_to - self.q_from)
-            return kinematics.fk(arm.links, q), q
+            return kinematics.fk(arm.links, q), q, None
         poses = self.path(timing.profile(self.profile, tau, self.accel_fraction))
-        q = joints_of(arm, poses, reference, self.elbow)
-        if arm.dof == 2:
+        q, bad = joints_of(arm, poses, reference, self.elbow)
+        if q is not None and arm.dof == 2:
             poses[:, 2] = q[:, 0] + q[:, 1]  # θ plays no part: report the arm's own (FK)
-        return poses, q
+        return poses, q, bad
 
 
 def joints_of(arm: Arm, poses: NDArray[np.float64], reference: NDArray | None, elbow: str
-           ) -> NDArray[np.float64]:
-    """Branch-continuous IK of ``poses``: the first sample on ``elbow`` (or nearest
-    ``reference``), each later one on the branch nearest the previous sample."""
+              ) -> tuple[NDArray[np.float64] | None, int | None]:
+    """Branch-continuous IK of ``poses`` (kinematics.try_ik_path): the first sample on
+    ``elbow`` (or nearest ``reference``), each later one on the branch nearest the previous
+    sample; or (None, first pose out of reach)."""
     limits = [(j.min_angle, j.max_angle) for j in arm.joints]
-    return kinematics.ik_path(arm.links, poses, reference=reference, elbow=elbow,
-                              limits=limits)
+    return kinematics.try_ik_path(arm.links, poses, reference=reference, elbow=elbow,
+                                  limits=limits)
 
 
 def rate_limits(arm: Arm) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
@@ -104,10 +105,9 @@ def shape_trapezoid(piece: Piece, arm: Arm, reference: NDArray | None) -> None:
     if piece.profile != "trapezoid" or piece.path is None:
         return
     s = np.linspace(0.0, 1.0, COARSE + 1)
-    try:
-        q = kinematics.ik_path(arm.links, piece.path(s), reference=reference,
-                               elbow=piece.elbow)
-    except UnreachableError:
+    q, _ = kinematics.try_ik_path(arm.links, piece.path(s), reference=reference,
+                                  elbow=piece.elbow)
+    if q is None:
         return  # validation reports it with the real sample index
     slope = np.abs(np.diff(q, axis=0)).max(axis=0) * COARSE
     if not np.any(slope > 0.0):
@@ -150,11 +150,11 @@ def blended_path(req: PlanRequest, segments: list, reference: NDArray | None) ->
         single = Path([seg], req.beta, np.array([0.0, 1.0]), None)
         s = np.linspace(0.0, 1.0, 33)
         poses = single(s)
-        try:
-            q = kinematics.ik_path(arm.links, poses, reference=ref, elbow=req.branch)
+        q, _ = kinematics.try_ik_path(arm.links, poses, reference=ref, elbow=req.branch)
+        if q is not None:
             weights.append(float(np.max(np.abs(np.diff(q, axis=0)).sum(axis=0) / v)))
             ref = q[-1]
-        except UnreachableError:
+        else:
             weights.append(float(np.linalg.norm(np.diff(poses[:, :2], axis=0), axis=1).sum()))
     w = np.asarray(weights)
     w = np.maximum(w, 1e-3 * w.max() if w.max() > 0 else 1.0)

@@ -16,7 +16,7 @@ from numpy.typing import NDArray
 from robodcn import timing
 from robodcn.config import Arm
 from robodcn.contract import MAX_SAMPLES, intervals
-from robodcn.errors import TooLargeError, UnreachableError
+from robodcn.errors import TooLargeError
 from robodcn.planner.path import COARSE, Piece, rate_limits
 
 MAX_SEARCH_STEPS = 40
@@ -36,9 +36,8 @@ def estimate(piece: Piece, arm: Arm, reference: NDArray | None
     """Shortest duration on a uniform grid of COARSE periods (≈ the closed form), seconds,
     and the piece's last joints; (1 s, None) if the path leaves the workspace (validation
     then names the sample)."""
-    try:
-        _, q = piece.sample(COARSE, arm, reference)
-    except UnreachableError:
+    _, q, _ = piece.sample(COARSE, arm, reference)
+    if q is None:
         return 1.0, None
     return fd_need(q, arm), q[-1]
 
@@ -53,10 +52,9 @@ def search(piece: Piece, arm: Arm, reference: NDArray | None, rate: float) -> in
     """
 
     def need(n: int) -> float | None:
-        try:
-            return fd_need(piece.sample(n, arm, reference)[1], arm)
-        except UnreachableError:
-            return None  # validation reports it with the real sample index
+        q = piece.sample(n, arm, reference)[1]
+        # None: out of reach; validation reports it with the real sample index
+        return None if q is None else fd_need(q, arm)
 
     n = intervals(max(estimate(piece, arm, reference)[0], 1e-12), rate)
     fail, ok = 0, None  # largest N known to fail (0: none), smallest known to pass
