@@ -689,3 +689,16 @@ def test_jerk_limit_is_respected_by_auto_timing_and_checked() -> None:
     v = info.value.violation
     assert v.quantity == "jerk" and v.unit == "rad/s^3" and v.value > v.limit == limit
     assert info.value.field == "duration"
+
+
+def test_joint_limit_error_says_the_other_branch_would_pass() -> None:
+    # the elbow may only bend "down" (q2 ≥ −0.05): the configured "up" branch fails
+    arm = variant(ARM3R, only=1, min=-0.05, max=2.8)
+    with pytest.raises(JointLimitError) as info:
+        plan(arm, WAYPOINTS_3R)
+    v = info.value.violation
+    assert v.joint == "elbow" and v.other_branch_ok is True and v.sample == 0
+    assert v.waypoint == 0 and info.value.field == "waypoints[0]"
+    assert "other elbow branch would pass" in str(info.value)
+    traj = plan(arm, WAYPOINTS_3R, elbow="down")
+    check_trajectory(traj, arm, WAYPOINTS_3R)
