@@ -344,12 +344,16 @@ def test_approach_segment_from_present_joints() -> None:
     hit = np.flatnonzero(np.linalg.norm(traj.poses - WAYPOINTS_3R[0], axis=1) < 1e-12)
     assert hit.size and hit[0] > 0
     np.testing.assert_allclose(traj.joints[hit[0]:], direct.joints, atol=1e-9)
+    # the approach is data: its length, in samples and seconds, survives JSON
+    assert traj.approach_samples == hit[0] and direct.approach_samples == 0
+    assert traj.approach_duration == pytest.approx(hit[0] / 200)
+    assert Trajectory.from_json(traj.to_json()).approach_samples == hit[0]
 
 
 def test_no_approach_when_already_there_and_replan() -> None:
     direct = plan(ARM3R, WAYPOINTS_3R, rate_hz=100)
     same = plan(ARM3R, WAYPOINTS_3R, rate_hz=100, start_joints=direct.joints[0] + 1e-5)
-    assert same.t.shape == direct.t.shape
+    assert same.t.shape == direct.t.shape and same.approach_samples == 0
     # the streamer's re-plan: same request, new present joints
     again = plan_request(dataclasses.replace(direct.request,
                                              start_joints=tuple(direct.joints[0] - 0.2)))

@@ -177,9 +177,10 @@ def _assemble(req: PlanRequest, pieces: list[Piece], counts: list[int],
         return None, violation
     t = np.arange(total) / rate
     elbow, switches = validate.elbow_branches(joints)
+    approach = counts[0] if pieces[0].path is None else 0
     return Trajectory(t, poses, joints, ticks, arm.joint_names, arm.servo_ids, rate,
                       req.method if isinstance(req.method, str) else list(req.method),
-                      req, elbow, switches), None
+                      req, elbow, switches, approach), None
 
 
 def _unreachable(req: PlanRequest, piece: Piece, n: int, ref: NDArray | None, offset: int,
