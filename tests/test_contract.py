@@ -183,3 +183,14 @@ def test_trajectory_schema_from_its_definition() -> None:
     assert schema["properties"]["ticks"]["items"]["items"] == {"type": "integer"}
     assert schema["properties"]["method"]["anyOf"][0] == {"type": "string"}
     assert all("description" in p for p in schema["properties"].values())
+
+
+def test_deep_or_huge_values_give_short_messages() -> None:
+    deep: Any = 0.0
+    for _ in range(400):
+        deep = [deep]
+    for bad in ({"waypoints": [HOME, deep]}, {"waypoints": [HOME, [0.1, 0.2, {"a": 1}]]},
+                {"beta": [1.0] * 10_000}, {"start_joints": deep}):
+        with pytest.raises(InputError) as info:
+            contract.parse_request({**body(), **bad}, ARM)
+        assert len(info.value.message) < 200
