@@ -706,3 +706,16 @@ def test_joint_limit_error_says_the_other_branch_would_pass() -> None:
     assert "other elbow branch would pass" in str(info.value)
     traj = plan(arm, WAYPOINTS_3R, elbow="down")
     check_trajectory(traj, arm, WAYPOINTS_3R)
+
+
+def test_issue_command_ends_elbow_up() -> None:
+    """``robodcn plan --from 0.4,0,0 --to 0.12,0.24,60`` on arm3r (elbow = "up")."""
+    import subprocess
+    import sys
+
+    out = subprocess.run([sys.executable, "-m", "robodcn", "plan", "--arm",
+                          str(CONFIGS / "arm3r.toml"), "--from", "0.4,0,0", "--to",
+                          "0.12,0.24,60", "--format", "json"], capture_output=True, text=True,
+                         check=True, timeout=60)
+    joints = np.array(json.loads(out.stdout)["joints"])
+    assert (joints[1:, 1] < 0).all()
