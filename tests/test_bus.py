@@ -38,10 +38,8 @@ def specs(ids=(1, 2, 3), model="xm430-w350", **kw) -> list[ServoSpec]:
 
 
 @pytest.fixture
-def sim():
-    with SimBus((1, 2, 3), timing="fast") as bus:
-        yield bus
-    assert not bus.errors, bus.errors
+def sim(sim3):
+    return sim3
 
 
 @pytest.fixture

@@ -265,6 +265,10 @@ class ServoBus:
     # -- low level: one servo ----------------------------------------------------------------
 
     def _port(self) -> PortHandler:
+        if self.lost:
+            # Talking to a device that failed would only time out: say so at once.
+            raise CommError(f"serial device {self.port} was lost; reopen the bus "
+                            "(reopen()) when it is back", field="port", value=self.port)
         if self._handler is None:
             raise BusError(f"the bus on {self.port} is not open; call open() first",
                            field="bus", value=self.port)
@@ -660,7 +664,7 @@ class ServoBus:
         """One Sync Write of Goal Position from :meth:`encode_goals` output (one sample)."""
         with self.claim():
             group = self._write_group
-            if group is None:
+            if group is None or self.lost:
                 self._port()
             assert group is not None
             for servo_id, data in zip(self.ids, row, strict=True):
