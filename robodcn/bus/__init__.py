@@ -2,12 +2,15 @@
 
 One concept a module: ``control_table`` (addresses, models, baud, error bits), ``records``
 (ServoInfo, StreamProfile), ``port`` (opening a PortHandler; serial failures as CommError),
-``latency`` (USB latency timer), ``wire`` (wire time of a cycle), ``servo_bus``
-(:class:`ServoBus`: transactions, retries, group reads/writes) and ``scan``. Every public
+``groups`` (Fast Sync Read decoding, goal rows), ``latency`` (USB latency timer), ``wire``
+(wire time of a cycle), ``servo_bus`` (:class:`ServoBus`: transactions, retries, group
+reads/writes) and ``scan``. Every public
 name is importable from ``robodcn.bus``.
 """
 
 from __future__ import annotations
+
+import logging
 
 from robodcn.bus.control_table import (
     ADDR_BAUD_RATE,
@@ -47,6 +50,10 @@ from robodcn.bus.records import ServoInfo, StreamProfile
 from robodcn.bus.scan import scan
 from robodcn.bus.servo_bus import STRAGGLER_S, ServoBus
 from robodcn.bus.wire import cycle_wire_time, mean_cycle_wire_time
+
+# A library logs, the application decides where it goes: without a configured handler
+# (the CLI's -v/--log-level, the service's logging), nothing is printed.
+logging.getLogger("robodcn.bus").addHandler(logging.NullHandler())
 
 __all__ = [
     "ADDR_BAUD_RATE", "ADDR_BUS_WATCHDOG", "ADDR_FIRMWARE_VERSION", "ADDR_GOAL_POSITION",

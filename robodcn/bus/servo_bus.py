@@ -77,6 +77,7 @@ from robodcn.bus.control_table import (
     WATCHDOG_MAX,
     WATCHDOG_UNIT_MS,
 )
+from robodcn.bus.groups import check_ticks, encode_rows, fast_sync_read_blocks
 from robodcn.bus.port import SERIAL_ERRORS, close_handler, open_handler
 from robodcn.bus.records import ServoInfo, StreamProfile
 from robodcn.config import ServoSpec
@@ -86,7 +87,6 @@ from robodcn.errors import (
     CommError,
     InputError,
     ServoMismatchError,
-    TickLimitError,
 )
 
 log = logging.getLogger("robodcn.bus")
@@ -567,25 +567,16 @@ class ServoBus:
         alerts = []
         out: list[bytes] = []
         if fast:
-            # One status packet: per servo ERR, ID, data, CRC (dynamixel-notes §1.7). The SDK's
-            # own parser drops the ERR bytes; decode them here.
-            stride = length + 4
-            raw, result, _ = self._packet.fastSyncReadRx(port, 0xFE, stride * len(self.ids))
+            raw, result, _ = self._packet.fastSyncReadRx(port, 0xFE,
+                                                         (length + 4) * len(self.ids))
             if result != COMM_SUCCESS:
                 raise CommError(f"fast sync read: {self._packet.getTxRxResult(result)}",
                                 field="bus", value=result)
-            if len(raw) != stride * len(self.ids):
-                raise CommError(f"fast sync read returned {len(raw)} bytes, expected "
-                                f"{stride * len(self.ids)}", field="bus", value=len(raw))
-            for index, servo_id in enumerate(self.ids):
-                block = raw[index * stride:(index + 1) * stride]
-                if block[1] != servo_id:
-                    raise CommError(f"fast sync read: block {index} is from id {block[1]}, "
-                                    f"expected {servo_id}", field=f"servo[{servo_id}]",
-                                    value=block[1])
-                if self._status(servo_id, "fast sync read", COMM_SUCCESS, block[0]):
+            blocks = fast_sync_read_blocks(raw, self.ids, length)
+            for servo_id, (error, data) in zip(self.ids, blocks, strict=True):
+                if self._status(servo_id, "fast sync read", COMM_SUCCESS, error):
                     alerts.append(servo_id)
-                out.append(bytes(block[2:2 + length]))
+                out.append(data)
         else:
             for servo_id in self.ids:
                 data, result, error = self._packet.readRx(port, servo_id, length)
@@ -632,24 +623,7 @@ class ServoBus:
 
         Raises TickLimitError naming the first sample and servo outside its limits.
         """
-        array = np.asarray(ticks)
-        if array.ndim not in (1, 2) or array.shape[-1] != len(self.ids):
-            raise InputError(f"ticks must have shape (n, {len(self.ids)}) or "
-                             f"({len(self.ids)},), got shape {array.shape}", field="ticks",
-                             value=array)
-        if not np.issubdtype(array.dtype, np.integer):
-            raise InputError(f"ticks must be integers, got dtype {array.dtype}", field="ticks",
-                             value=array)
-        rows = array.reshape(-1, len(self.ids)).astype(np.int64)
-        bad = (rows < self.limits[:, 0]) | (rows > self.limits[:, 1])
-        if bad.any():
-            sample, column = (int(i) for i in np.argwhere(bad)[0])
-            low, high = (int(v) for v in self.limits[column])
-            raise TickLimitError(
-                f"sample {sample}: servo {self.ids[column]} goal {int(rows[sample, column])} "
-                f"is outside its limits [{low}, {high}] ticks", field="ticks",
-                value=int(rows[sample, column]), sample=sample)
-        return rows.reshape(array.shape)
+        return check_ticks(ticks, self.limits, self.ids)
 
     def encode_goals(self, ticks: ArrayLike) -> list[list[list[int]]]:
         """Goal ticks (n, k) → per sample, per servo, the 4 little-endian bytes to send.
@@ -657,8 +631,7 @@ class ServoBus:
         Vectorised once per trajectory so the streaming loop only hands lists to the SDK.
         Checks the limits first (:meth:`check_ticks`).
         """
-        rows = self.check_ticks(np.atleast_2d(np.asarray(ticks)))
-        return rows.astype("<i4").view(np.uint8).reshape(len(rows), len(self.ids), 4).tolist()
+        return encode_rows(self.check_ticks(np.atleast_2d(np.asarray(ticks))))
 
     def write_encoded(self, row: Sequence[Sequence[int]]) -> None:
         """One Sync Write of Goal Position from :meth:`encode_goals` output (one sample)."""

@@ -10,6 +10,8 @@ warning) and ``realtime`` (timer slack, SCHED_FIFO). Moving from the present pos
 
 from __future__ import annotations
 
+import logging
+
 from robodcn.stream.options import ExecutionOptions
 from robodcn.stream.rate import RateCheck, RateWarning, check_rate
 from robodcn.stream.realtime import (
@@ -30,6 +32,10 @@ from robodcn.stream.report import (
 from robodcn.stream.signal import StopSignal
 from robodcn.stream.source import PlannedSamples
 from robodcn.stream.streamer import PROGRESS_INTERVAL_S, execute
+
+# A library logs, the application decides where it goes: without a configured handler
+# (the CLI's -v/--log-level, the service's logging), nothing is printed.
+logging.getLogger("robodcn.stream").addHandler(logging.NullHandler())
 
 __all__ = [
     "OUTCOMES", "PROGRESS_INTERVAL_S", "REALTIME_PRIORITY", "SPIN_REALTIME_S", "SPIN_S",
