@@ -164,7 +164,8 @@ def test_release_turns_torque_off_at_the_end(sim):
     with open_bus(sim) as bus:
         place(bus, TRAJ.ticks[0])
         report = execute(TRAJ, bus, release=True)
-    assert report.completed and report.released
+    # Not about skips (a loaded machine may skip a sample: outcome "degraded").
+    assert report.stop_reason == "completed" and report.released, report.message
     assert not any(sim.servo(i).torque_enabled for i in IDS)
 
 

@@ -35,7 +35,6 @@ from robodcn.bus.control_table import (
     MODEL_NUMBERS,
     OPERATING_MODE_POSITION,
     WATCHDOG_MAX,
-    WATCHDOG_TRIPPED,
     WATCHDOG_UNIT_MS,
     describe_hardware_error,
 )
@@ -63,7 +62,7 @@ __all__ = [
     "ADDR_TORQUE_ENABLE", "ALERT_BIT", "BAUD_INDEX", "FAST_SYNC_READ_MIN_FIRMWARE",
     "HARDWARE_ERROR_BITS", "MODEL_NAMES", "MODEL_NUMBERS", "OPERATING_MODE_POSITION",
     "READ_POLL_S", "SERIAL_ERRORS", "STRAGGLER_S", "SYSFS_USB_SERIAL", "WATCHDOG_MAX",
-    "WATCHDOG_TRIPPED", "WATCHDOG_UNIT_MS", "LatencyTimerWarning", "ServoBus", "ServoInfo",
+    "WATCHDOG_UNIT_MS", "LatencyTimerWarning", "ServoBus", "ServoInfo",
     "StreamProfile", "check_latency_timer", "cycle_wire_time", "describe_hardware_error",
     "latency_timer_ms", "mean_cycle_wire_time", "scan",
 ]

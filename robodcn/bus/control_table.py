@@ -25,7 +25,6 @@ OPERATING_MODE_POSITION = 3
 ALERT_BIT = 0x80
 WATCHDOG_UNIT_MS = 20
 WATCHDOG_MAX = 127
-WATCHDOG_TRIPPED = 0xFF        # Bus Watchdog reads -1 after it expired
 #: Fast Sync Read needs X430/X540 firmware 45 or newer (e-manual, protocol2 "Fast Sync Read").
 FAST_SYNC_READ_MIN_FIRMWARE = 45
 
