@@ -6,8 +6,8 @@ by ``robodcn move``/``sim`` (CLI), ``POST /v1/moves`` (HTTP) and the streamer's
 
 * :func:`present_joints` reads Present Position and converts ticks to joint angles
   (θ = direction·(tick − zero_offset)·2π/ticks_per_turn, robodcn.servo_units), after
-  checking that the bus drives the arm's servos (same ids, same order; models and limits
-  with ``verify=True``).
+  checking that the bus drives the arm's servos (same ids, same order; with ``verify``, the
+  default, also that each answers with its configured model).
 * :func:`plan_from_present` plans a :class:`~robodcn.planner.PlanRequest` or a list of
   waypoints with ``start_joints`` = the present joints; a waypoint list whose first entry is
   None starts at the present pose (FK of the present joints). The planner prepends a
@@ -57,14 +57,15 @@ def check_servos(arm: Arm, bus: ServoBus) -> None:
             value=list(bus.ids))
 
 
-def present_joints(arm: Arm, bus: ServoBus, *, verify: bool = False) -> NDArray[np.float64]:
+def present_joints(arm: Arm, bus: ServoBus, *, verify: bool = True) -> NDArray[np.float64]:
     """The arm's present joint angles (k,) in radians, read from the servos.
 
     Parameters
     ----------
     arm : the arm whose servos ``bus`` drives
     bus : an open ServoBus
-    verify : also check every servo's model and read its limits (:meth:`ServoBus.verify`)
+    verify : also check that every servo answers with its configured model (and read its
+        limits, :meth:`ServoBus.verify`); False when the caller has just verified the bus
 
     Raises
     ------
@@ -80,7 +81,7 @@ def present_joints(arm: Arm, bus: ServoBus, *, verify: bool = False) -> NDArray[
 
 def plan_from_present(arm: Arm, bus: ServoBus | None,
                       target: PlanRequest | Sequence[ArrayLike | None], *,
-                      joints: ArrayLike | None = None, verify: bool = False,
+                      joints: ArrayLike | None = None, verify: bool = True,
                       **plan_options: Any) -> Trajectory:
     """Plan ``target`` starting from the arm's present joints.
 

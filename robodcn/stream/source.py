@@ -1,9 +1,11 @@
 """Where the streaming loop takes its samples from.
 
-The loop asks its source for sample i (goal ticks and the encoded Sync Write row) and the
-number of samples; it reads ``streamer.source`` afresh at every sample, so a source can be
-replaced at a sample boundary (online retargeting, a smooth stop, speed scaling) without
-touching the loop.
+The loop asks its source for sample i (goal ticks and the encoded Sync Write row); it reads
+``streamer.source`` afresh at every sample, so a source with the same sample count and
+period can be replaced at a sample boundary (online retargeting, a smooth stop, speed
+scaling) without touching the rest of the loop. The count and period are read once when
+the stream starts (the per-sample timing records are preallocated from them): a source of
+another length needs the loop's bounds updated with it.
 """
 
 from __future__ import annotations
