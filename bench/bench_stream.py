@@ -22,6 +22,8 @@ import subprocess
 import sys
 from pathlib import Path
 
+from robodcn.bus import cycle_wire_time
+
 ROOT = Path(__file__).resolve().parent.parent
 N = 3
 BAUD = 1_000_000
@@ -33,9 +35,11 @@ def _wire_us(nbytes: int) -> float:
     return nbytes * 10.0 * 1e6 / BAUD
 
 
-WIRE_WRITE = _wire_us(14 + 5 * N)
-WIRE_FAST = _wire_us(14 + N + 8 + 8 * N)
-WIRE_SYNC = _wire_us(14 + N + 15 * N)
+# Wire times from the one model (robodcn.bus.wire, dynamixel-notes §5), in µs.
+WIRE_WRITE = 1e6 * cycle_wire_time(N, BAUD, feedback="none")
+WIRE_FAST = 1e6 * cycle_wire_time(N, BAUD, feedback="fast") - WIRE_WRITE
+WIRE_SYNC = 1e6 * cycle_wire_time(N, BAUD, feedback="sync") - WIRE_WRITE
+# A 1-byte health read (Fast Sync Read of one byte): outside the 4-byte-item model.
 WIRE_HEALTH = _wire_us(14 + N + 8 + 5 * N)
 
 
@@ -110,7 +114,7 @@ def _run(rate: float, feedback_every: int, fast_read: bool, realtime: bool = Fal
     import numpy as np
 
     from robodcn.bus import ServoBus
-    from robodcn.stream import execute
+    from robodcn.stream import ExecutionOptions, execute
 
     arm, traj = _trajectory(rate)
     with _Sim(realtime=realtime) as sim, \
@@ -123,7 +127,8 @@ def _run(rate: float, feedback_every: int, fast_read: bool, realtime: bool = Fal
         for _ in range(500):
             if np.abs(bus.read_positions() - traj.ticks[0]).max() <= 1:
                 break
-        report = execute(traj, bus, feedback_every=feedback_every, realtime=realtime)
+        report = execute(traj, bus, ExecutionOptions(feedback_every=feedback_every,
+                                                     realtime=realtime))
     return report
 
 
@@ -134,7 +139,7 @@ def _back_to_back(fast_read: bool, realtime: bool, cycles: int = 2000) -> tuple[
     import numpy as np
 
     from robodcn.bus import ServoBus
-    from robodcn.stream import _realtime_priority
+    from robodcn.stream import realtime_priority
 
     arm, traj = _trajectory(100.0)
     with _Sim(realtime=realtime) as sim, \
@@ -144,7 +149,7 @@ def _back_to_back(fast_read: bool, realtime: bool, cycles: int = 2000) -> tuple[
         bus.configure()
         rows = bus.encode_goals(np.repeat(traj.ticks[:1], cycles, axis=0))
         times = np.empty(cycles)
-        with _realtime_priority(realtime):
+        with realtime_priority(realtime):
             for i, row in enumerate(rows):
                 start = time.perf_counter()
                 bus.write_encoded(row)
@@ -166,7 +171,7 @@ def _slow_cycles(cycles: int = 3000, slow_us: float = 1500.0) -> str:
     import numpy as np
 
     from robodcn.bus import ServoBus
-    from robodcn.stream import _realtime_priority, _timer_slack
+    from robodcn.stream import realtime_priority, timer_slack
 
     realtime = _realtime_allowed()
     arm, traj = _trajectory(500.0)
@@ -178,7 +183,7 @@ def _slow_cycles(cycles: int = 3000, slow_us: float = 1500.0) -> str:
             bus.verify()
             bus.configure()
             rows = bus.encode_goals(np.repeat(traj.ticks[:1], cycles, axis=0))
-            with _timer_slack(), _realtime_priority(realtime):
+            with timer_slack(), realtime_priority(realtime):
                 t0 = time.perf_counter()
                 for i, row in enumerate(rows):
                     due = t0 + i * 0.002

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import logging
 import os
 import threading
 import time
@@ -38,10 +39,8 @@ def specs(ids=(1, 2, 3), model="xm430-w350", **kw) -> list[ServoSpec]:
 
 
 @pytest.fixture
-def sim():
-    with SimBus((1, 2, 3), timing="fast") as bus:
-        yield bus
-    assert not bus.errors, bus.errors
+def sim(sim3):
+    return sim3
 
 
 @pytest.fixture
@@ -346,3 +345,43 @@ def test_cli_scan_errors_are_one_line_with_exit_codes(capsys, tmp_path):
     assert "cannot open" in capsys.readouterr().err
     with pytest.raises(SystemExit):
         cli.main(["scan", "--port", "x", "--ids", "300"])
+
+
+def test_each_failed_try_is_logged_with_servo_and_instruction(sim, bus, caplog):
+    bus.verify()
+    caplog.set_level(logging.DEBUG, logger="robodcn.bus")
+    sim.faults.corrupt_crc(times=1)
+    bus.read(2, ADDR_PRESENT_POSITION, 4)
+    tries = [r for r in caplog.records if r.name == "robodcn.bus" and "failed" in r.message]
+    assert len(tries) == 1 and tries[0].levelno == logging.DEBUG
+    assert "servo 2" in tries[0].message and f"read 4 byte(s) at {ADDR_PRESENT_POSITION}" \
+        in tries[0].message and "try 1 of" in tries[0].message
+    caplog.clear()
+    sim.faults.drop(3, times=None)
+    with pytest.raises(CommError):
+        bus.write(3, 65, [1])
+    tries = [r for r in caplog.records if r.name == "robodcn.bus" and "failed" in r.message]
+    assert len(tries) == bus.retries + 1
+    assert all("servo 3: write 1 byte(s) at 65" in r.message for r in tries)
+    assert tries[-1].levelno == logging.WARNING
+    sim.faults.clear()
+
+
+def test_a_silent_servo_pings_none_after_its_retries(sim, bus):
+    before = bus.retries_used
+    assert bus.ping(9) is None
+    assert bus.retries_used == before + bus.retries
+
+
+def test_open_again_after_a_lost_device(tmp_path):
+    link = str(tmp_path / "ttyDXL")
+    with SimBus((1, 2, 3), timing="fast", link=link):
+        bus = ServoBus(link, servos=specs(), retries=1, rx_timeout_ms=150).open()
+        bus.verify()
+    with pytest.raises(CommError) as err:        # the device is gone
+        bus.read_positions()
+    assert err.value.field == "port" and bus.lost
+    with SimBus((1, 2, 3), timing="fast", link=link):
+        bus.open()                               # open() on a lost bus reopens it
+        assert not bus.lost and len(bus.read_positions()) == 3
+        bus.close()

@@ -62,7 +62,7 @@ def test_move_runs_to_completion_and_state_reads_back(rig: Any) -> None:
     assert record.status in ("queued", "running")
     done = controller.wait(record.id, timeout=10)
     assert done.status == "done", done.error
-    assert done.report is not None and done.report.completed
+    assert done.report is not None and done.report.stop_reason == "completed"
     assert done.progress == 1.0 and done.finished >= done.started >= done.created
     data = done.to_dict()
     assert data["report"]["stop_reason"] == "completed"

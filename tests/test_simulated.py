@@ -4,19 +4,16 @@ from __future__ import annotations
 
 import os
 import threading
-from pathlib import Path
 
 import numpy as np
 import pytest
+from conftest import ARM2R, ARM3R
 
 from robodcn import kinematics, servo_units
-from robodcn.config import load_arm
 from robodcn.errors import InputError
 from robodcn.simulated import simulated_arm
 
-ROOT = Path(__file__).resolve().parent.parent
-ARM3 = load_arm(ROOT / "configs" / "arm3r.toml")
-ARM2 = load_arm(ROOT / "configs" / "arm2r.toml")
+ARM3, ARM2 = ARM3R, ARM2R
 
 
 def _fds() -> set[str]:

@@ -1,10 +1,9 @@
 """The servo bus: Dynamixel X-series servos over Protocol 2.0, through dynamixel-sdk only.
 
-This is the only robodcn module that imports ``dynamixel_sdk``; every byte to and from a
-servo goes through its ``PortHandler``, ``Protocol2PacketHandler``, ``GroupSyncWrite`` and
-``GroupSyncRead`` (Fast Sync Read 0x8A when every servo's firmware has it, plain Sync Read
-0x82 otherwise). Control-table addresses and units follow the ROBOTIS e-manual for the
-XM430-W350 / XL430-W250 (see ``/work/shared/dynamixel-notes.md`` §2).
+This package is the only part of robodcn that imports ``dynamixel_sdk``; every byte to and
+from a servo goes through its ``PortHandler``, ``Protocol2PacketHandler``, ``GroupSyncWrite``
+and ``GroupSyncRead`` (Fast Sync Read 0x8A when every servo's firmware has it, plain Sync
+Read 0x82 otherwise).
 
 Defensive decoding (dynamixel-notes §4, §1.7): the SDK hands back the CRC bytes as "data"
 when a servo answers a READ with an error status and no parameters, and its fast-sync-read
@@ -12,15 +11,22 @@ parser ignores the per-servo ERR byte, hiding the Alert bit. Every read here the
 checks the SDK result, the ERR byte (error number and Alert bit) and the data length
 before decoding, and decodes fast-sync-read blocks itself.
 
+Retries: every transaction that fails (timeout, corrupt packet, error status) is tried
+again up to ``retries`` times by one helper (:meth:`ServoBus._retry`), which waits for a
+straggling reply, flushes it and logs the failed try (logger ``robodcn.bus``) with the
+servo and the instruction.
+
+A lost device: any OS-level error of the serial port (SerialException, EIO, termios) is a
+:class:`~robodcn.errors.CommError` naming the port; the bus then counts as ``lost``
+(no retries are spent on it), :meth:`ServoBus.close` still succeeds, and
+:meth:`ServoBus.reopen` (or ``open()``) opens it again once the device is back.
+
 Threading: a :class:`ServoBus` is used from one thread at a time. Each public method takes
 the bus's ownership lock without blocking and raises :class:`~robodcn.errors.BusyError` if
 another thread holds it; :func:`robodcn.stream.execute` holds it (:meth:`ServoBus.claim`)
 for the whole execution, so the streaming thread owns the port while an arm moves and
 other threads (an HTTP status handler, say) get a clean ``BusyError`` instead of corrupting
 a half-duplex transaction (the SDK's own ``is_using`` flag is not thread-safe).
-
-On Linux, opening a USB serial adapter (``/dev/ttyUSB*``) whose FTDI ``latency_timer`` is
-above 1 ms warns with the one-line fix: a 16 ms timer caps a read-back loop near 30–60 Hz.
 
 Waiting for a status packet sleeps in ``select`` (a 1 ms pyserial read timeout) instead of
 the SDK's busy poll, which burns a core and starves other Python threads of the GIL.
@@ -33,15 +39,11 @@ servos stop by themselves if the host dies mid-stream but an idle, holding arm n
 from __future__ import annotations
 
 import contextlib
-import os
-import sys
+import logging
 import threading
 import time
-import warnings
-from collections.abc import Iterable, Iterator, Sequence
-from dataclasses import dataclass
-from pathlib import Path
-from typing import Any
+from collections.abc import Callable, Iterable, Iterator, Sequence
+from typing import TypeVar
 
 import numpy as np
 from dynamixel_sdk import (
@@ -53,6 +55,31 @@ from dynamixel_sdk import (
 )
 from numpy.typing import ArrayLike, NDArray
 
+from robodcn.bus.control_table import (
+    ADDR_BUS_WATCHDOG,
+    ADDR_FIRMWARE_VERSION,
+    ADDR_GOAL_POSITION,
+    ADDR_HARDWARE_ERROR,
+    ADDR_MAX_POSITION_LIMIT,
+    ADDR_MIN_POSITION_LIMIT,
+    ADDR_OPERATING_MODE,
+    ADDR_PRESENT_POSITION,
+    ADDR_PROFILE_ACCELERATION,
+    ADDR_PROFILE_VELOCITY,
+    ADDR_RETURN_DELAY_TIME,
+    ADDR_TORQUE_ENABLE,
+    ALERT_BIT,
+    BAUD_INDEX,
+    FAST_SYNC_READ_MIN_FIRMWARE,
+    MODEL_NAMES,
+    MODEL_NUMBERS,
+    OPERATING_MODE_POSITION,
+    WATCHDOG_MAX,
+    WATCHDOG_UNIT_MS,
+)
+from robodcn.bus.groups import check_ticks, encode_rows, fast_sync_read_blocks
+from robodcn.bus.port import SERIAL_ERRORS, close_handler, open_handler
+from robodcn.bus.records import ServoInfo, StreamProfile
 from robodcn.config import ServoSpec
 from robodcn.errors import (
     BusError,
@@ -60,168 +87,18 @@ from robodcn.errors import (
     CommError,
     InputError,
     ServoMismatchError,
-    TickLimitError,
 )
 
-# -- control table (X-series, Protocol 2.0) --------------------------------------------------
+log = logging.getLogger("robodcn.bus")
+T = TypeVar("T")
 
-ADDR_MODEL_NUMBER = 0          # 2 bytes, R
-ADDR_FIRMWARE_VERSION = 6      # 1 byte, R
-ADDR_BAUD_RATE = 8             # 1 byte, EEPROM
-ADDR_RETURN_DELAY_TIME = 9     # 1 byte, EEPROM, 2 µs a unit
-ADDR_OPERATING_MODE = 11       # 1 byte, EEPROM
-ADDR_MAX_POSITION_LIMIT = 48   # 4 bytes, EEPROM
-ADDR_MIN_POSITION_LIMIT = 52   # 4 bytes, EEPROM
-ADDR_TORQUE_ENABLE = 64        # 1 byte, RAM; 1 locks the EEPROM area
-ADDR_HARDWARE_ERROR = 70       # 1 byte, R
-ADDR_BUS_WATCHDOG = 98         # 1 byte, RAM, 20 ms a unit, -1 (0xFF) once tripped
-ADDR_PROFILE_ACCELERATION = 108
-ADDR_PROFILE_VELOCITY = 112
-ADDR_GOAL_POSITION = 116       # 4 bytes, RAM
-ADDR_PRESENT_POSITION = 132    # 4 bytes, R, signed
+#: Pause before a retry, for a late reply to the failed attempt to arrive and be flushed (s).
+STRAGGLER_S = 0.002
 
-OPERATING_MODE_POSITION = 3
-ALERT_BIT = 0x80
-WATCHDOG_UNIT_MS = 20
-WATCHDOG_MAX = 127
-WATCHDOG_TRIPPED = 0xFF        # Bus Watchdog reads -1 after it expired
-#: Fast Sync Read needs X430/X540 firmware 45 or newer (e-manual, protocol2 "Fast Sync Read").
-FAST_SYNC_READ_MIN_FIRMWARE = 45
-
-#: Model numbers (e-manual); the first two are the models robodcn configs may name.
-MODEL_NUMBERS: dict[str, int] = {
-    "xm430-w350": 1020, "xl430-w250": 1060, "xm430-w210": 1030,
-    "xl330-m077": 1190, "xl330-m288": 1200, "xc330-t288": 1220,
-}
-MODEL_NAMES: dict[int, str] = {number: name for name, number in MODEL_NUMBERS.items()}
-
-#: Baud Rate item value → bits/s (address 8).
-BAUD_INDEX: dict[int, int] = {0: 9_600, 1: 57_600, 2: 115_200, 3: 1_000_000, 4: 2_000_000,
-                              5: 3_000_000, 6: 4_000_000, 7: 4_500_000}
-
-#: Hardware Error Status bits (address 70), for messages.
-HARDWARE_ERROR_BITS: dict[int, str] = {
-    0x01: "input voltage", 0x04: "overheating", 0x08: "motor encoder",
-    0x10: "electrical shock", 0x20: "overload",
-}
-
-SYSFS_USB_SERIAL = "/sys/bus/usb-serial/devices"
-
-
-def describe_hardware_error(bits: int) -> str:
-    """Names of the Hardware Error Status bits set in ``bits`` ("overload, overheating")."""
-    names = [name for bit, name in HARDWARE_ERROR_BITS.items() if bits & bit]
-    return ", ".join(names) if names else f"0x{bits:02x}"
-
-
-# -- results ---------------------------------------------------------------------------------
-
-@dataclass(frozen=True)
-class ServoInfo:
-    """What a servo reported: its id, model number (and name when known), firmware, baud."""
-
-    id: int
-    model_number: int
-    model: str | None
-    firmware: int | None
-    baud: int
-
-    def to_dict(self) -> dict[str, Any]:
-        return {"id": self.id, "model_number": self.model_number, "model": self.model,
-                "firmware": self.firmware, "baud": self.baud}
-
-
-@dataclass(frozen=True)
-class StreamProfile:
-    """Settings :meth:`ServoBus.configure` writes before streaming.
-
-    ``velocity``/``acceleration`` are the raw Profile Velocity (0.229 rpm a unit) and
-    Profile Acceleration (214.577 rev/min² a unit); 0/0 (the default) disables the servo's
-    own profile so the position loop follows each streamed goal directly, which is what a
-    pre-planned, rate-limited stream wants. ``return_delay_us`` is the Return Delay Time
-    (2 µs a unit; the factory 500 µs costs more than the wire time of a whole cycle).
-    """
-
-    velocity: int = 0
-    acceleration: int = 0
-    return_delay_us: int = 0
-
-    def __post_init__(self) -> None:
-        for name, value, high in (("velocity", self.velocity, 32767),
-                                  ("acceleration", self.acceleration, 32767),
-                                  ("return_delay_us", self.return_delay_us, 508)):
-            if isinstance(value, bool) or not isinstance(value, int) or not 0 <= value <= high:
-                raise InputError(f"profile.{name} must be an integer in [0, {high}], "
-                                 f"got {value!r}", field=f"profile.{name}", value=value)
-
-
-class LatencyTimerWarning(UserWarning):
-    """A USB serial adapter's latency timer is above 1 ms."""
-
-
-# -- latency timer ---------------------------------------------------------------------------
-
-def latency_timer_ms(port: str, *, sysfs: str | os.PathLike[str] = SYSFS_USB_SERIAL) -> int | None:
-    """The FTDI latency timer (ms) of a ``/dev/ttyUSB*`` port, or None when not applicable.
-
-    Follows symlinks (``/dev/serial/by-id/...``) to the tty name and reads
-    ``<sysfs>/<ttyUSBn>/latency_timer``; None off Linux, for other devices or when unreadable.
-    """
-    if not sys.platform.startswith("linux"):
-        return None
-    name = os.path.basename(os.path.realpath(port))
-    if not name.startswith("ttyUSB"):
-        return None
-    try:
-        return int(Path(sysfs, name, "latency_timer").read_text().strip())
-    except (OSError, ValueError):
-        return None
-
-
-def check_latency_timer(port: str, *,
-                        sysfs: str | os.PathLike[str] = SYSFS_USB_SERIAL) -> int | None:
-    """Warn (:class:`LatencyTimerWarning`) when ``port``'s latency timer is above 1 ms.
-
-    Returns the timer value (None when unknown). Each status packet waits up to one timer
-    period in the adapter, so the Linux default of 16 ms dominates every read-back.
-    """
-    value = latency_timer_ms(port, sysfs=sysfs)
-    if value is not None and value > 1:
-        name = os.path.basename(os.path.realpath(port))
-        path = Path(sysfs, name, "latency_timer")
-        warnings.warn(
-            f"{port}: USB latency_timer is {value} ms, which caps read-back loops near "
-            f"{1000 // (2 * value)} Hz; fix: echo 1 | sudo tee {path}",
-            LatencyTimerWarning, stacklevel=3)
-    return value
-
-
-# -- the bus ---------------------------------------------------------------------------------
 
 def _le(value: int, size: int) -> list[int]:
     """Little-endian bytes of ``value`` (two's complement for negative values)."""
     return list(int(value).to_bytes(size, "little", signed=value < 0))
-
-
-#: Pause before a retry, for a late reply to the failed attempt to arrive and be flushed (s).
-STRAGGLER_S = 0.002
-#: pyserial read timeout while a status packet is awaited (s); see _sleep_while_waiting.
-READ_POLL_S = 0.001
-
-
-def _sleep_while_waiting(handler: PortHandler) -> None:
-    """Let the SDK's receive loop sleep in ``select`` instead of spinning.
-
-    PortHandler opens pyserial with ``timeout=0`` and the SDK polls ``readPort`` in a tight
-    loop until its packet deadline (dynamixel-notes §4): 100 % CPU, and between polls the
-    thread re-takes the GIL at once, so a simulator or any other Python thread in the same
-    process may wait a whole switch interval (5 ms) per system call, long enough to miss
-    reply deadlines. With a short read timeout, pyserial blocks in ``select`` and returns
-    as soon as the requested bytes are there (no added latency); the SDK's deadline checks
-    stay the same, at most ``READ_POLL_S`` coarser.
-    """
-    if handler.ser is not None:
-        handler.ser.timeout = READ_POLL_S
 
 
 def _check_ids(servos: Sequence[ServoSpec]) -> tuple[int, ...]:
@@ -289,6 +166,8 @@ class ServoBus:
         self.watchdog_ms = 0
         #: Position limits (ticks) read from each servo by :meth:`verify`, else the spec's.
         self.limits = np.array([[s.min_tick, s.max_tick] for s in self.servos], dtype=np.int64)
+        #: True after an OS-level failure of the serial device (see :meth:`reopen`).
+        self.lost = False
         self._lock = threading.RLock()
         self._handler: PortHandler | None = None
         self._packet = PacketHandler(2.0)
@@ -302,48 +181,58 @@ class ServoBus:
         return self._handler is not None and bool(self._handler.is_open)
 
     def open(self) -> ServoBus:
-        """Open the port at ``baud``; raises CommError when the device cannot be opened."""
+        """Open the port at ``baud``; raises CommError when the device cannot be opened.
+
+        A bus that lost its device is closed first, so ``open()`` after a loss reopens it.
+        """
         with self.claim():
+            if self.lost:
+                self._drop_handler()
             if self.is_open:
                 return self
             if self.baud == 4_500_000:
                 raise InputError("baud 4500000 cannot be set through dynamixel-sdk's Python "
                                  "PortHandler; use 4000000 or lower", field="baud",
                                  value=self.baud)
-            check_latency_timer(self.port)
-            handler = PortHandler(self.port)
-            try:
-                # setBaudRate opens the port (openPort would first open it at 1 Mbps).
-                opened = handler.setBaudRate(self.baud)
-            except Exception as exc:  # pyserial raises SerialException / OSError
-                raise CommError(f"cannot open {self.port}: {exc}", field="port",
-                                value=self.port) from exc
-            if not opened:
-                with contextlib.suppress(Exception):
-                    handler.closePort()
-                raise CommError(f"cannot open {self.port} at {self.baud} baud", field="port",
-                                value=self.port)
-            _sleep_while_waiting(handler)
+            handler = open_handler(self.port, self.baud)
             self._handler = handler
+            self.lost = False
             self._write_group = GroupSyncWrite(handler, self._packet, ADDR_GOAL_POSITION, 4)
             for servo_id in self.ids:
                 self._write_group.addParam(servo_id, [0, 0, 0, 0])
             self._read_groups = {}
+            log.debug("opened %s at %d baud", self.port, self.baud)
             return self
 
     def close(self) -> None:
-        """Close the port (idempotent). Torque is left as it is: holding is the safe state."""
+        """Close the port (idempotent; never raises, also after the device was lost).
+
+        Torque is left as it is: holding is the safe state.
+        """
         with self.claim():
-            if self._handler is not None:
-                with contextlib.suppress(Exception):
-                    self._handler.closePort()
-                if self._handler.ser is not None:
-                    # pyserial keeps the fd in ``ser``; make sure nothing leaks if close raised.
-                    with contextlib.suppress(Exception):
-                        self._handler.ser.close()
-            self._handler = None
-            self._write_group = None
-            self._read_groups = {}
+            self._drop_handler()
+
+    def reopen(self, port: str | None = None) -> ServoBus:
+        """Close and open again (optionally on another ``port`` path), e.g. after the device
+        was lost and came back. The servos may have power-cycled: :attr:`configured` is
+        cleared, so the next stream configures them again; call :meth:`verify` first."""
+        with self.claim():
+            self._drop_handler()
+            if port is not None:
+                if not isinstance(port, str) or not port:
+                    raise InputError(f"port must be a device path, got {port!r}",
+                                     field="port", value=port)
+                self.port = port
+            self.configured = False
+            self.watchdog_ms = 0
+            return self.open()
+
+    def _drop_handler(self) -> None:
+        if self._handler is not None:
+            close_handler(self._handler)
+        self._handler = None
+        self._write_group = None
+        self._read_groups = {}
 
     def __enter__(self) -> ServoBus:
         return self.open()
@@ -363,12 +252,23 @@ class ServoBus:
                             "(a move is running)", field="bus", value=self.port)
         try:
             yield self
+        except SERIAL_ERRORS as exc:
+            # The device failed or is gone (unplugged adapter, closed pty): a bus fault.
+            self.lost = True
+            log.warning("serial device %s lost: %s", self.port, exc)
+            raise CommError(f"serial device {self.port} lost: {exc}; the bus can be "
+                            "reopened when the device is back", field="port",
+                            value=self.port) from exc
         finally:
             self._lock.release()
 
     # -- low level: one servo ----------------------------------------------------------------
 
     def _port(self) -> PortHandler:
+        if self.lost:
+            # Talking to a device that failed would only time out: say so at once.
+            raise CommError(f"serial device {self.port} was lost; reopen the bus "
+                            "(reopen()) when it is back", field="port", value=self.port)
         if self._handler is None:
             raise BusError(f"the bus on {self.port} is not open; call open() first",
                            field="bus", value=self.port)
@@ -386,19 +286,32 @@ class ServoBus:
                             value=error)
         return bool(error & ALERT_BIT)
 
-    def _attempts(self) -> range:
-        return range(self.retries + 1)
+    def _retry(self, what: str, servo_id: int | None, fn: Callable[[], T]) -> T:
+        """``fn()``, tried up to 1 + ``retries`` times while it raises CommError.
 
-    def _before_retry(self, port: PortHandler) -> None:
-        """Count a retry and drop a straggling reply to the failed attempt first.
-
-        Status packets carry no sequence number: a late reply arriving after the retry's
-        instruction went out would pass for its answer (same id; the length check catches
-        only a different size). Waiting ``STRAGGLER_S`` and flushing keeps most out.
+        Before each retry: count it, wait ``STRAGGLER_S`` and flush the port. Status packets
+        carry no sequence number, so a late reply to the failed try arriving after the
+        retry's instruction went out would pass for its answer (same id; the length check
+        catches only a different size); the wait and the flush keep most out. Each failed
+        try is logged (``robodcn.bus``, DEBUG; the last one WARNING) with servo and
+        instruction. A lost device is not retried: its error is raised at once.
         """
-        self.retries_used += 1
-        time.sleep(STRAGGLER_S)
-        port.clearPort()
+        port = self._port()
+        tries = self.retries + 1
+        for attempt in range(1, tries + 1):
+            try:
+                return fn()
+            except CommError as exc:
+                who = "bus" if servo_id is None else f"servo {servo_id}"
+                level = logging.WARNING if attempt == tries else logging.DEBUG
+                log.log(level, "%s: %s failed (try %d of %d): %s", who, what, attempt, tries,
+                        exc.message)
+                if attempt == tries or self.lost:
+                    raise
+            self.retries_used += 1
+            time.sleep(STRAGGLER_S)
+            port.clearPort()
+        raise AssertionError("unreachable")  # the loop returns or raises
 
     def _read_txrx(self, port: PortHandler, servo_id: int, address: int,
                    length: int) -> tuple[list[int], int, int]:
@@ -428,45 +341,31 @@ class ServoBus:
 
         Checks the SDK result, the status ERR byte and the data length before returning.
         """
+        what = f"read {length} byte(s) at {address}"
+
+        def once() -> bytes:
+            data, result, error = self._read_txrx(self._port(), servo_id, address, length)
+            self._status(servo_id, what, result, error)
+            if len(data) != length:
+                raise CommError(f"servo {servo_id}: read at {address} returned "
+                                f"{len(data)} byte(s), expected {length}",
+                                field=f"servo[{servo_id}]", value=len(data))
+            return bytes(data)
+
         with self.claim():
-            port = self._port()
-            last: CommError | None = None
-            for attempt in self._attempts():
-                if attempt:
-                    self._before_retry(port)
-                data, result, error = self._read_txrx(port, servo_id, address, length)
-                try:
-                    self._status(servo_id, f"read {length} byte(s) at {address}", result, error)
-                except CommError as exc:
-                    last = exc
-                    continue
-                if len(data) != length:
-                    last = CommError(f"servo {servo_id}: read at {address} returned "
-                                     f"{len(data)} byte(s), expected {length}",
-                                     field=f"servo[{servo_id}]", value=len(data))
-                    continue
-                return bytes(data)
-            assert last is not None
-            raise last
+            return self._retry(what, servo_id, once)
 
     def write(self, servo_id: int, address: int, data: Sequence[int] | bytes) -> None:
         """WRITE ``data`` at ``address`` to one servo and check its status (with retries)."""
+        payload = list(data)
+        what = f"write {len(payload)} byte(s) at {address}"
+
+        def once() -> None:
+            result, error = self._write_txrx(self._port(), servo_id, address, payload)
+            self._status(servo_id, what, result, error)
+
         with self.claim():
-            port = self._port()
-            payload = list(data)
-            last: CommError | None = None
-            for attempt in self._attempts():
-                if attempt:
-                    self._before_retry(port)
-                result, error = self._write_txrx(port, servo_id, address, payload)
-                try:
-                    self._status(servo_id, f"write {len(payload)} byte(s) at {address}",
-                                 result, error)
-                    return
-                except CommError as exc:
-                    last = exc
-            assert last is not None
-            raise last
+            self._retry(what, servo_id, once)
 
     def _read_int(self, servo_id: int, address: int, length: int, *, signed: bool = False) -> int:
         return int.from_bytes(self.read(servo_id, address, length), "little", signed=signed)
@@ -490,17 +389,21 @@ class ServoBus:
 
     def ping(self, servo_id: int) -> ServoInfo | None:
         """PING one id (with retries); its model, firmware and the bus baud, or None if silent."""
+        def once() -> int:
+            model_number, result, error = self._packet.ping(self._port(), servo_id)
+            self._status(servo_id, "ping", result, error)
+            return model_number
+
         with self.claim():
-            port = self._port()
-            for attempt in self._attempts():
-                if attempt:
-                    self.retries_used += 1
-                model_number, result, error = self._packet.ping(port, servo_id)
-                if result == COMM_SUCCESS and not error & ~ALERT_BIT & 0xFF:
-                    firmware = self._read_int(servo_id, ADDR_FIRMWARE_VERSION, 1)
-                    return ServoInfo(servo_id, model_number, MODEL_NAMES.get(model_number),
-                                     firmware, self.baud)
-            return None
+            try:
+                model_number = self._retry("ping", servo_id, once)
+            except CommError:
+                if self.lost:
+                    raise
+                return None
+            firmware = self._read_int(servo_id, ADDR_FIRMWARE_VERSION, 1)
+            return ServoInfo(servo_id, model_number, MODEL_NAMES.get(model_number),
+                             firmware, self.baud)
 
     def ping_all(self) -> dict[int, ServoInfo]:
         """Ping every configured id; the servos that answered, by id."""
@@ -664,25 +567,16 @@ class ServoBus:
         alerts = []
         out: list[bytes] = []
         if fast:
-            # One status packet: per servo ERR, ID, data, CRC (dynamixel-notes §1.7). The SDK's
-            # own parser drops the ERR bytes; decode them here.
-            stride = length + 4
-            raw, result, _ = self._packet.fastSyncReadRx(port, 0xFE, stride * len(self.ids))
+            raw, result, _ = self._packet.fastSyncReadRx(port, 0xFE,
+                                                         (length + 4) * len(self.ids))
             if result != COMM_SUCCESS:
                 raise CommError(f"fast sync read: {self._packet.getTxRxResult(result)}",
                                 field="bus", value=result)
-            if len(raw) != stride * len(self.ids):
-                raise CommError(f"fast sync read returned {len(raw)} bytes, expected "
-                                f"{stride * len(self.ids)}", field="bus", value=len(raw))
-            for index, servo_id in enumerate(self.ids):
-                block = raw[index * stride:(index + 1) * stride]
-                if block[1] != servo_id:
-                    raise CommError(f"fast sync read: block {index} is from id {block[1]}, "
-                                    f"expected {servo_id}", field=f"servo[{servo_id}]",
-                                    value=block[1])
-                if self._status(servo_id, "fast sync read", COMM_SUCCESS, block[0]):
+            blocks = fast_sync_read_blocks(raw, self.ids, length)
+            for servo_id, (error, data) in zip(self.ids, blocks, strict=True):
+                if self._status(servo_id, "fast sync read", COMM_SUCCESS, error):
                     alerts.append(servo_id)
-                out.append(bytes(block[2:2 + length]))
+                out.append(data)
         else:
             for servo_id in self.ids:
                 data, result, error = self._packet.readRx(port, servo_id, length)
@@ -704,16 +598,9 @@ class ServoBus:
         """
         with self.claim():
             group = self._group(address, length)
-            last: CommError | None = None
-            for attempt in self._attempts():
-                if attempt:
-                    self._before_retry(self._port())
-                try:
-                    return self._sync_read_once(group, length)
-                except CommError as exc:
-                    last = exc
-            assert last is not None
-            raise last
+            what = ("fast sync read" if self.fast_read else "sync read") + \
+                f" {length} byte(s) at {address}"
+            return self._retry(what, None, lambda: self._sync_read_once(group, length))
 
     def read_positions(self) -> NDArray[np.int64]:
         """Present Position of every servo (ticks, signed), shape (k,) in bus order."""
@@ -736,24 +623,7 @@ class ServoBus:
 
         Raises TickLimitError naming the first sample and servo outside its limits.
         """
-        array = np.asarray(ticks)
-        if array.ndim not in (1, 2) or array.shape[-1] != len(self.ids):
-            raise InputError(f"ticks must have shape (n, {len(self.ids)}) or "
-                             f"({len(self.ids)},), got shape {array.shape}", field="ticks",
-                             value=array)
-        if not np.issubdtype(array.dtype, np.integer):
-            raise InputError(f"ticks must be integers, got dtype {array.dtype}", field="ticks",
-                             value=array)
-        rows = array.reshape(-1, len(self.ids)).astype(np.int64)
-        bad = (rows < self.limits[:, 0]) | (rows > self.limits[:, 1])
-        if bad.any():
-            sample, column = (int(i) for i in np.argwhere(bad)[0])
-            low, high = (int(v) for v in self.limits[column])
-            raise TickLimitError(
-                f"sample {sample}: servo {self.ids[column]} goal {int(rows[sample, column])} "
-                f"is outside its limits [{low}, {high}] ticks", field="ticks",
-                value=int(rows[sample, column]), sample=sample)
-        return rows.reshape(array.shape)
+        return check_ticks(ticks, self.limits, self.ids)
 
     def encode_goals(self, ticks: ArrayLike) -> list[list[list[int]]]:
         """Goal ticks (n, k) → per sample, per servo, the 4 little-endian bytes to send.
@@ -761,14 +631,13 @@ class ServoBus:
         Vectorised once per trajectory so the streaming loop only hands lists to the SDK.
         Checks the limits first (:meth:`check_ticks`).
         """
-        rows = self.check_ticks(np.atleast_2d(np.asarray(ticks)))
-        return rows.astype("<i4").view(np.uint8).reshape(len(rows), len(self.ids), 4).tolist()
+        return encode_rows(self.check_ticks(np.atleast_2d(np.asarray(ticks))))
 
     def write_encoded(self, row: Sequence[Sequence[int]]) -> None:
         """One Sync Write of Goal Position from :meth:`encode_goals` output (one sample)."""
         with self.claim():
             group = self._write_group
-            if group is None:
+            if group is None or self.lost:
                 self._port()
             assert group is not None
             for servo_id, data in zip(self.ids, row, strict=True):
@@ -783,70 +652,3 @@ class ServoBus:
         self.write_encoded(self.encode_goals(np.asarray(ticks).reshape(1, -1))[0])
 
 
-# -- scanning --------------------------------------------------------------------------------
-
-def scan(port: str, bauds: Iterable[int] = (1_000_000,), *,
-         ids: Iterable[int] | None = None) -> list[ServoInfo]:
-    """List the servos on ``port``: id, model, firmware and baud, for each baud tried.
-
-    With ``ids`` None a broadcast PING is sent at each baud (the SDK waits its full
-    ≈0.8 s window at 1 Mbps); with ``ids`` each id is pinged in turn (a silent id costs the
-    SDK's 34 ms timeout, twice: one retry). Results are sorted by baud, then id.
-    """
-    found: list[ServoInfo] = []
-    bauds = list(bauds)
-    for baud in bauds:
-        if baud not in BAUD_INDEX.values() or baud == 4_500_000:
-            raise InputError(f"baud must be one of {sorted(set(BAUD_INDEX.values()) - {4_500_000})}"
-                             f", got {baud!r}", field="baud", value=baud)
-    id_list = None if ids is None else list(ids)
-    if id_list is not None:
-        bad = [i for i in id_list if isinstance(i, bool) or not isinstance(i, int)
-               or not 0 <= i <= 252]
-        if bad:
-            raise InputError(f"ids must be integers in [0, 252], got {bad}", field="ids",
-                             value=bad)
-    for baud in bauds:
-        if id_list is None:
-            with _raw_port(port, baud) as (handler, packet):
-                replies, _ = packet.broadcastPing(handler)
-            for servo_id, (model_number, firmware) in sorted(replies.items()):
-                found.append(ServoInfo(servo_id, model_number, MODEL_NAMES.get(model_number),
-                                       firmware, baud))
-        else:
-            # One retry: a servo that misses one ping is not reported missing.
-            probe = ServoBus(port, baud, servos=[ServoSpec(i, "xm430-w350") for i in id_list],
-                             retries=1)
-            with probe:
-                for servo_id in id_list:
-                    info = probe.ping(servo_id)
-                    if info is not None:
-                        found.append(info)
-    return found
-
-
-@contextlib.contextmanager
-def _raw_port(port: str, baud: int) -> Iterator[tuple[PortHandler, Any]]:
-    check_latency_timer(port)
-    handler = PortHandler(port)
-    try:
-        if not handler.setBaudRate(baud):
-            raise CommError(f"cannot open {port} at {baud} baud", field="port", value=port)
-        _sleep_while_waiting(handler)
-    except CommError:
-        raise
-    except Exception as exc:
-        raise CommError(f"cannot open {port}: {exc}", field="port", value=port) from exc
-    try:
-        yield handler, PacketHandler(2.0)
-    finally:
-        with contextlib.suppress(Exception):
-            handler.closePort()
-
-
-__all__ = [
-    "ADDR_GOAL_POSITION", "ADDR_HARDWARE_ERROR", "ADDR_PRESENT_POSITION", "MODEL_NAMES",
-    "MODEL_NUMBERS", "LatencyTimerWarning", "ServoBus", "ServoInfo",
-    "StreamProfile", "check_latency_timer", "describe_hardware_error", "latency_timer_ms",
-    "scan",
-]

@@ -1,0 +1,68 @@
+"""The servo bus: Dynamixel X-series servos over Protocol 2.0, through dynamixel-sdk only.
+
+One concept a module: ``control_table`` (addresses, models, baud, error bits), ``records``
+(ServoInfo, StreamProfile), ``port`` (opening a PortHandler; serial failures as CommError),
+``groups`` (Fast Sync Read decoding, goal rows), ``latency`` (USB latency timer), ``wire``
+(wire time of a cycle), ``servo_bus`` (:class:`ServoBus`: transactions, retries, group
+reads/writes) and ``scan``. Every public
+name is importable from ``robodcn.bus``.
+"""
+
+from __future__ import annotations
+
+import logging
+
+from robodcn.bus.control_table import (
+    ADDR_BAUD_RATE,
+    ADDR_BUS_WATCHDOG,
+    ADDR_FIRMWARE_VERSION,
+    ADDR_GOAL_POSITION,
+    ADDR_HARDWARE_ERROR,
+    ADDR_MAX_POSITION_LIMIT,
+    ADDR_MIN_POSITION_LIMIT,
+    ADDR_MODEL_NUMBER,
+    ADDR_OPERATING_MODE,
+    ADDR_PRESENT_POSITION,
+    ADDR_PROFILE_ACCELERATION,
+    ADDR_PROFILE_VELOCITY,
+    ADDR_RETURN_DELAY_TIME,
+    ADDR_TORQUE_ENABLE,
+    ALERT_BIT,
+    BAUD_INDEX,
+    FAST_SYNC_READ_MIN_FIRMWARE,
+    HARDWARE_ERROR_BITS,
+    MODEL_NAMES,
+    MODEL_NUMBERS,
+    OPERATING_MODE_POSITION,
+    WATCHDOG_MAX,
+    WATCHDOG_UNIT_MS,
+    describe_hardware_error,
+)
+from robodcn.bus.latency import (
+    SYSFS_USB_SERIAL,
+    LatencyTimerWarning,
+    check_latency_timer,
+    latency_timer_ms,
+)
+from robodcn.bus.port import READ_POLL_S, SERIAL_ERRORS
+from robodcn.bus.records import ServoInfo, StreamProfile
+from robodcn.bus.scan import scan
+from robodcn.bus.servo_bus import STRAGGLER_S, ServoBus
+from robodcn.bus.wire import cycle_wire_time, mean_cycle_wire_time
+
+# A library logs, the application decides where it goes: without a configured handler
+# (the CLI's -v/--log-level, the service's logging), nothing is printed.
+logging.getLogger("robodcn.bus").addHandler(logging.NullHandler())
+
+__all__ = [
+    "ADDR_BAUD_RATE", "ADDR_BUS_WATCHDOG", "ADDR_FIRMWARE_VERSION", "ADDR_GOAL_POSITION",
+    "ADDR_HARDWARE_ERROR", "ADDR_MAX_POSITION_LIMIT", "ADDR_MIN_POSITION_LIMIT",
+    "ADDR_MODEL_NUMBER", "ADDR_OPERATING_MODE", "ADDR_PRESENT_POSITION",
+    "ADDR_PROFILE_ACCELERATION", "ADDR_PROFILE_VELOCITY", "ADDR_RETURN_DELAY_TIME",
+    "ADDR_TORQUE_ENABLE", "ALERT_BIT", "BAUD_INDEX", "FAST_SYNC_READ_MIN_FIRMWARE",
+    "HARDWARE_ERROR_BITS", "MODEL_NAMES", "MODEL_NUMBERS", "OPERATING_MODE_POSITION",
+    "READ_POLL_S", "SERIAL_ERRORS", "STRAGGLER_S", "SYSFS_USB_SERIAL", "WATCHDOG_MAX",
+    "WATCHDOG_UNIT_MS", "LatencyTimerWarning", "ServoBus", "ServoInfo",
+    "StreamProfile", "check_latency_timer", "cycle_wire_time", "describe_hardware_error",
+    "latency_timer_ms", "mean_cycle_wire_time", "scan",
+]

@@ -1,0 +1,52 @@
+"""X-series control table (Protocol 2.0): addresses, model numbers, baud and error codes.
+
+Addresses and units follow the ROBOTIS e-manual for the XM430-W350 / XL430-W250
+(``/work/shared/dynamixel-notes.md`` §2).
+"""
+
+from __future__ import annotations
+
+ADDR_MODEL_NUMBER = 0          # 2 bytes, R
+ADDR_FIRMWARE_VERSION = 6      # 1 byte, R
+ADDR_BAUD_RATE = 8             # 1 byte, EEPROM
+ADDR_RETURN_DELAY_TIME = 9     # 1 byte, EEPROM, 2 µs a unit
+ADDR_OPERATING_MODE = 11       # 1 byte, EEPROM
+ADDR_MAX_POSITION_LIMIT = 48   # 4 bytes, EEPROM
+ADDR_MIN_POSITION_LIMIT = 52   # 4 bytes, EEPROM
+ADDR_TORQUE_ENABLE = 64        # 1 byte, RAM; 1 locks the EEPROM area
+ADDR_HARDWARE_ERROR = 70       # 1 byte, R
+ADDR_BUS_WATCHDOG = 98         # 1 byte, RAM, 20 ms a unit, -1 (0xFF) once tripped
+ADDR_PROFILE_ACCELERATION = 108
+ADDR_PROFILE_VELOCITY = 112
+ADDR_GOAL_POSITION = 116       # 4 bytes, RAM
+ADDR_PRESENT_POSITION = 132    # 4 bytes, R, signed
+
+OPERATING_MODE_POSITION = 3
+ALERT_BIT = 0x80
+WATCHDOG_UNIT_MS = 20
+WATCHDOG_MAX = 127
+#: Fast Sync Read needs X430/X540 firmware 45 or newer (e-manual, protocol2 "Fast Sync Read").
+FAST_SYNC_READ_MIN_FIRMWARE = 45
+
+#: Model numbers (e-manual); the first two are the models robodcn configs may name.
+MODEL_NUMBERS: dict[str, int] = {
+    "xm430-w350": 1020, "xl430-w250": 1060, "xm430-w210": 1030,
+    "xl330-m077": 1190, "xl330-m288": 1200, "xc330-t288": 1220,
+}
+MODEL_NAMES: dict[int, str] = {number: name for name, number in MODEL_NUMBERS.items()}
+
+#: Baud Rate item value → bits/s (address 8).
+BAUD_INDEX: dict[int, int] = {0: 9_600, 1: 57_600, 2: 115_200, 3: 1_000_000, 4: 2_000_000,
+                              5: 3_000_000, 6: 4_000_000, 7: 4_500_000}
+
+#: Hardware Error Status bits (address 70), for messages.
+HARDWARE_ERROR_BITS: dict[int, str] = {
+    0x01: "input voltage", 0x04: "overheating", 0x08: "motor encoder",
+    0x10: "electrical shock", 0x20: "overload",
+}
+
+
+def describe_hardware_error(bits: int) -> str:
+    """Names of the Hardware Error Status bits set in ``bits`` ("overload, overheating")."""
+    names = [name for bit, name in HARDWARE_ERROR_BITS.items() if bits & bit]
+    return ", ".join(names) if names else f"0x{bits:02x}"

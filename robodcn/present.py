@@ -1,0 +1,154 @@
+"""Moving from the present pose: read where the arm is, plan from there.
+
+The one place robodcn turns the servos' present positions into a start for a plan, shared
+by ``robodcn move``/``sim`` (CLI), ``POST /v1/moves`` (HTTP) and the streamer's
+``approach`` option:
+
+* :func:`present_joints` reads Present Position and converts ticks to joint angles
+  (θ = direction·(tick − zero_offset)·2π/ticks_per_turn, robodcn.servo_units), after
+  checking that the bus drives the arm's servos (same ids, same order; with ``verify``, the
+  default, also that each answers with its configured model).
+* :func:`plan_from_present` plans a :class:`~robodcn.planner.PlanRequest` or a list of
+  waypoints with ``start_joints`` = the present joints; a waypoint list whose first entry is
+  None starts at the present pose (FK of the present joints). The planner prepends a
+  joint-space quintic approach when the arm is not at the IK of the first waypoint.
+* :func:`approach_of` finds that approach in a trajectory (samples and duration), for
+  reports.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from collections.abc import Sequence
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from robodcn import kinematics, servo_units, timing
+from robodcn.bus import ServoBus
+from robodcn.config import Arm
+from robodcn.errors import InputError, ServoMismatchError
+from robodcn.planner import PlanRequest, Trajectory, plan, plan_request
+
+#: Joint-space tolerance (rad) when matching a trajectory's first samples to a quintic.
+_APPROACH_ATOL = 1e-9
+
+
+@dataclass(frozen=True)
+class Approach:
+    """A joint-space approach at the start of a trajectory: ``samples`` periods long (sample 0
+    to sample ``samples``, where the planned path begins), ``duration_s`` seconds."""
+
+    samples: int
+    duration_s: float
+
+    def to_dict(self) -> dict[str, Any]:
+        return {"samples": self.samples, "duration_s": self.duration_s}
+
+
+def check_servos(arm: Arm, bus: ServoBus) -> None:
+    """ServoMismatchError unless ``bus`` drives ``arm``'s servo ids in joint order."""
+    if tuple(bus.ids) != tuple(arm.servo_ids):
+        raise ServoMismatchError(
+            f"arm {arm.name!r} drives servo ids {list(arm.servo_ids)}, the bus has "
+            f"{list(bus.ids)} (same ids in the same order needed)", field="servo_ids",
+            value=list(bus.ids))
+
+
+def present_joints(arm: Arm, bus: ServoBus, *, verify: bool = True) -> NDArray[np.float64]:
+    """The arm's present joint angles (k,) in radians, read from the servos.
+
+    Parameters
+    ----------
+    arm : the arm whose servos ``bus`` drives
+    bus : an open ServoBus
+    verify : also check that every servo answers with its configured model (and read its
+        limits, :meth:`ServoBus.verify`); False when the caller has just verified the bus
+
+    Raises
+    ------
+    ServoMismatchError when the bus's ids are not the arm's (or, with ``verify``, a servo
+    is missing or of another model); CommError when the servos do not answer.
+    """
+    check_servos(arm, bus)
+    if verify:
+        bus.verify(arm.servos)
+    ticks = bus.read_positions()
+    return servo_units.ticks_to_radians(ticks, arm.servos)
+
+
+def plan_from_present(arm: Arm, bus: ServoBus | None,
+                      target: PlanRequest | Sequence[ArrayLike | None], *,
+                      joints: ArrayLike | None = None, verify: bool = True,
+                      **plan_options: Any) -> Trajectory:
+    """Plan ``target`` starting from the arm's present joints.
+
+    Parameters
+    ----------
+    arm : Arm
+    bus : the open bus to read the present joints from (None when ``joints`` is given)
+    target : a PlanRequest (its start_joints are replaced) or waypoints (x, y, θ); a first
+        waypoint None means "the present pose" (FK of the present joints)
+    joints : present joints (k,) rad already read (e.g. on a controller's worker thread);
+        None reads them with :func:`present_joints`
+    verify : passed to :func:`present_joints`
+    plan_options : keyword options of :func:`robodcn.plan` (waypoint targets only)
+
+    Raises whatever :func:`present_joints` and the planner raise (nothing moves).
+    """
+    if joints is None:
+        if bus is None:
+            raise InputError("plan_from_present needs a bus or the present joints",
+                             field="bus", value=None)
+        q = present_joints(arm, bus, verify=verify)
+    else:
+        q = np.asarray(joints, dtype=np.float64)
+    start = tuple(float(v) for v in q)
+    if isinstance(target, PlanRequest):
+        if plan_options:
+            name = next(iter(plan_options))
+            raise InputError(f"{name} cannot be given with a PlanRequest (set it in the "
+                             "request)", field=name, value=plan_options[name])
+        return plan_request(dataclasses.replace(target, start_joints=start))
+    waypoints = list(target)
+    if waypoints and waypoints[0] is None:
+        waypoints[0] = tuple(kinematics.fk(arm.links, q[None, :])[0])
+    return plan(arm, waypoints, start_joints=start, **plan_options)
+
+
+def approach_of(trajectory: Trajectory) -> Approach | None:
+    """The joint-space approach the planner put at the start of ``trajectory``, or None.
+
+    An approach runs q_i = q_0 + s(i/n)·(q_n − q_0), i = 0..n, with s the quintic
+    10τ³ − 15τ⁴ + 6τ⁵ (robodcn.timing) from the request's start_joints, and ends at rest
+    where the path begins. The first n ≥ 2 whose samples 0..n all match that formula (to
+    1e-9 rad) is the approach; a plan without one starts on the path itself.
+    """
+    request = trajectory.request
+    if request is None or request.start_joints is None:
+        return None
+    q = trajectory.joints
+    start = np.asarray(request.start_joints, dtype=np.float64)
+    if len(q) < 2 or not np.allclose(q[0], start, atol=_APPROACH_ATOL, rtol=0.0):
+        return None
+    # Samples 1 and 2 fix n: q_1 − q_0 = s(1/n)·(q_n − q_0), q_2 − q_0 = s(2/n)·(q_n − q_0).
+    # Screen every n ≥ 2 on those two samples at once, then check the candidates in full.
+    n_all = np.arange(2, len(q))
+    if not n_all.size:
+        return None
+    span = q[n_all] - start
+    fits = np.ones(n_all.size, dtype=bool)
+    for i in (1, 2):
+        predicted = timing.quintic(np.minimum(i / n_all, 1.0))[:, None] * span
+        fits &= np.abs(predicted - (q[i] - start)).max(axis=1) <= _APPROACH_ATOL
+    for n in n_all[fits]:
+        tau = np.arange(n + 1) / n
+        line = start + np.outer(timing.quintic(tau), q[n] - start)
+        if np.allclose(q[:n + 1], line, atol=_APPROACH_ATOL, rtol=0.0):
+            return Approach(samples=int(n), duration_s=float(n) / trajectory.rate_hz)
+    return None
+
+
+__all__ = ["Approach", "approach_of", "check_servos", "plan_from_present", "present_joints"]

@@ -1,0 +1,45 @@
+"""Execute a :class:`~robodcn.planner.Trajectory` on a :class:`~robodcn.bus.ServoBus` in real time.
+
+One concept a module: ``options`` (:class:`ExecutionOptions`), ``signal``
+(:class:`StopSignal`), ``source`` (the loop's sample source), ``streamer`` (the loop and
+:func:`execute`; its docstring has the rules), ``report`` (:class:`Progress`,
+:class:`ExecutionReport`, the one tracking-error definition), ``rate`` (the bus-capacity
+warning) and ``realtime`` (timer slack, SCHED_FIFO). Moving from the present pose lives in
+:mod:`robodcn.present`. Every public name is importable from ``robodcn.stream``.
+"""
+
+from __future__ import annotations
+
+import logging
+
+from robodcn.stream.options import ExecutionOptions
+from robodcn.stream.rate import RateCheck, RateWarning, check_rate
+from robodcn.stream.realtime import (
+    REALTIME_PRIORITY,
+    SPIN_REALTIME_S,
+    SPIN_S,
+    realtime_priority,
+    timer_slack,
+)
+from robodcn.stream.report import (
+    OUTCOMES,
+    STOP_REASONS,
+    ExecutionReport,
+    Progress,
+    outcome_of,
+    tracking_error,
+)
+from robodcn.stream.signal import StopSignal
+from robodcn.stream.source import PlannedSamples
+from robodcn.stream.streamer import PROGRESS_INTERVAL_S, execute
+
+# A library logs, the application decides where it goes: without a configured handler
+# (the CLI's -v/--log-level, the service's logging), nothing is printed.
+logging.getLogger("robodcn.stream").addHandler(logging.NullHandler())
+
+__all__ = [
+    "OUTCOMES", "PROGRESS_INTERVAL_S", "REALTIME_PRIORITY", "SPIN_REALTIME_S", "SPIN_S",
+    "STOP_REASONS", "ExecutionOptions", "ExecutionReport", "PlannedSamples", "Progress",
+    "RateCheck", "RateWarning", "StopSignal", "check_rate", "execute", "outcome_of",
+    "realtime_priority", "timer_slack", "tracking_error",
+]

@@ -1,0 +1,155 @@
+"""What an execution reports: live :class:`Progress` and the final :class:`ExecutionReport`.
+
+Both use one definition of tracking error (:func:`tracking_error`), and the report's
+``outcome`` and ``headline`` are derived from its counts, so a report never says more than
+happened.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from robodcn.present import Approach
+
+STOP_REASONS = ("completed", "stopped", "comm_failure", "hardware_alert", "tracking_error")
+#: ``ExecutionReport.outcome``: every sample sent / completed with samples left out / stopped
+#: on request / stopped by a bus, servo or tracking fault.
+OUTCOMES = ("done", "degraded", "stopped", "fault")
+
+
+def tracking_error(present: NDArray[np.int64], previous_goal: NDArray[np.int64] | None,
+                   goal: NDArray[np.int64]) -> NDArray[np.int64]:
+    """Tracking error (ticks, signed, per joint): how far ``present`` lies outside the last
+    commanded step [previous goal, goal].
+
+    e = p − clip(p, min(g₋, g), max(g₋, g)): a servo that follows within one sample
+    (instantly, or a period behind) has error 0; one that lags or overshoots by more has
+    the excess. Without a previous goal the step is the goal alone (e = p − g).
+    """
+    previous = goal if previous_goal is None else previous_goal
+    return present - np.clip(present, np.minimum(previous, goal), np.maximum(previous, goal))
+
+
+@dataclass(frozen=True)
+class Progress:
+    """What a progress callback receives: sample index (of n), seconds since the first write,
+    last goals sent and last present positions read (ticks, bus order; None before any),
+    and the tracking error of that read (rad per joint, :func:`tracking_error`; None before
+    any read) — the same definition the final report uses."""
+
+    sample: int
+    samples_total: int
+    elapsed_s: float
+    goals: tuple[int, ...]
+    present: tuple[int, ...] | None
+    tracking_error_rad: tuple[float, ...] | None = None
+
+
+def outcome_of(stop_reason: str, skipped: int) -> str:
+    """``"done"``, ``"degraded"``, ``"stopped"`` or ``"fault"`` (see :data:`OUTCOMES`)."""
+    if stop_reason == "completed":
+        return "done" if skipped == 0 else "degraded"
+    return "stopped" if stop_reason == "stopped" else "fault"
+
+
+@dataclass
+class ExecutionReport:
+    """The outcome of :func:`execute`; ``to_dict()`` is JSON-ready.
+
+    ``outcome`` (:data:`OUTCOMES`) and ``headline`` say what happened in one word and one
+    line; ``completed`` is true only when every sample was sent. ``skipped`` counts the
+    samples not sent before the loop ended: left out because their slot had passed
+    (``skipped_late``) or because their write failed. ``samples_skipped`` is the same
+    count under its older name. ``approach`` is the joint-space approach the streamer
+    inserted (None when it streamed the trajectory as given). ``warnings`` are the
+    warnings issued before streaming (``{"code", "message"}``, e.g. a rate above what the
+    bus carries).
+
+    Times are seconds. Jitter is the period jitter |(w_i − w_{i−1}) − (d_i − d_{i−1})| of
+    consecutive writes (w: write start, d: due time). ``work_*`` is the time from a write's
+    start to the end of that cycle's reads. Tracking errors are per joint, over the feedback
+    samples; ``final_error_*`` compares the last present positions read with the last goal.
+    ``stop_latency_s``: from :meth:`StopSignal.request` to the loop's exit (no write after).
+    """
+
+    stop_reason: str
+    message: str
+    samples_total: int
+    samples_sent: int
+    skipped: int
+    skipped_late: int
+    rate_hz: float
+    achieved_rate_hz: float
+    duration_s: float
+    jitter_p50_s: float
+    jitter_p99_s: float
+    jitter_max_s: float
+    lateness_max_s: float
+    work_p50_s: float
+    work_p99_s: float
+    overruns: int
+    retries: int
+    comm_failures: int
+    feedback_reads: int
+    health_polls: int
+    joint_names: tuple[str, ...]
+    servo_ids: tuple[int, ...]
+    tracking_error_max_rad: tuple[float, ...]
+    tracking_error_rms_rad: tuple[float, ...]
+    tracking_error_max_ticks: tuple[int, ...]
+    tracking_error_rms_ticks: tuple[float, ...]
+    final_positions: tuple[int, ...] | None
+    final_error_ticks: tuple[int, ...] | None
+    hold_goals: tuple[int, ...] | None
+    hardware_errors: dict[int, int] = field(default_factory=dict)
+    approach: Approach | None = None
+    released: bool = False
+    fast_read: bool = False
+    realtime: bool = False
+    stop_latency_s: float | None = None
+    warnings: tuple[dict[str, str], ...] = ()
+
+    @property
+    def outcome(self) -> str:
+        return outcome_of(self.stop_reason, self.skipped)
+
+    @property
+    def completed(self) -> bool:
+        """True only when the run ended normally with every sample sent."""
+        return self.outcome == "done"
+
+    @property
+    def samples_skipped(self) -> int:
+        return self.skipped
+
+    @property
+    def headline(self) -> str:
+        """One line from the counts: "completed: all 2001 samples sent", "completed with 105
+        of 2001 samples skipped", "stopped after 812 of 2001 samples: stop requested"."""
+        total = self.samples_total
+        if self.outcome == "done":
+            return f"completed: all {total} samples sent"
+        if self.outcome == "degraded":
+            return f"completed with {self.skipped} of {total} samples skipped"
+        return f"{self.outcome} after {self.samples_sent} of {total} samples: {self.message}"
+
+    def to_dict(self) -> dict[str, Any]:
+        data = dataclasses.asdict(self)
+        data["hardware_errors"] = {str(k): v for k, v in self.hardware_errors.items()}
+        data["approach"] = None if self.approach is None else self.approach.to_dict()
+        data["warnings"] = [dict(w) for w in self.warnings]
+        for key, value in data.items():
+            if isinstance(value, tuple):
+                data[key] = list(value)
+        data.update(outcome=self.outcome, completed=self.completed, headline=self.headline,
+                    samples_skipped=self.skipped)
+        return data
+
+
+__all__ = ["OUTCOMES", "STOP_REASONS", "ExecutionReport", "Progress", "outcome_of",
+           "tracking_error"]

@@ -1,0 +1,42 @@
+"""Where the streaming loop takes its samples from.
+
+The loop asks its source for sample i (goal ticks and the encoded Sync Write row); it reads
+``streamer.source`` afresh at every sample, so a source with the same sample count and
+period can be replaced at a sample boundary (online retargeting, a smooth stop, speed
+scaling) without touching the rest of the loop. The count and period are read once when
+the stream starts (the per-sample timing records are preallocated from them): a source of
+another length needs the loop's bounds updated with it.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+
+import numpy as np
+from numpy.typing import NDArray
+
+from robodcn.bus import ServoBus
+from robodcn.planner import Trajectory
+
+
+class PlannedSamples:
+    """A planned trajectory as a sample source: goals encoded once, vectorised, up front."""
+
+    def __init__(self, trajectory: Trajectory, bus: ServoBus) -> None:
+        self.trajectory = trajectory
+        self.ticks: NDArray[np.int64] = trajectory.ticks
+        self.rate_hz = trajectory.rate_hz
+        self.period = 1.0 / trajectory.rate_hz
+        self.joint_names = tuple(trajectory.joint_names)
+        self._encoded = bus.encode_goals(trajectory.ticks)
+
+    def __len__(self) -> int:
+        return len(self.ticks)
+
+    def goal(self, i: int) -> NDArray[np.int64]:
+        """Goal ticks (k,) of sample i."""
+        return self.ticks[i]
+
+    def encoded(self, i: int) -> Sequence[Sequence[int]]:
+        """Sample i as :meth:`ServoBus.write_encoded` takes it."""
+        return self._encoded[i]
