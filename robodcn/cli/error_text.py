@@ -7,9 +7,16 @@ from the error's data (``field``), never by reading its text.
 
 from __future__ import annotations
 
+import math
 import re
+from typing import Any
 
-from robodcn.errors import RobodcnError
+from robodcn.errors import (
+    AccelerationLimitError,
+    JointLimitError,
+    RobodcnError,
+    VelocityLimitError,
+)
 
 #: Request field → the option that sets it.
 OPTION_BY_FIELD = {"rate_hz": "--rate", "duration": "--duration", "beta": "--beta",
@@ -36,8 +43,9 @@ def option_for(field: str | None, vias: int) -> str | None:
     return OPTION_BY_FIELD.get(field.split("[", 1)[0])
 
 
-def describe(exc: RobodcnError) -> str:
-    """The error in CLI units: robodcn.messages.describe when present, else its message."""
+def describe(exc: RobodcnError, arm: Any = None) -> str:
+    """The error in CLI units: robodcn.messages.describe when present, else (for a limit
+    error whose data and ``arm`` are known) the same facts in degrees, else its message."""
     try:
         from robodcn import messages
     except ImportError:
@@ -48,13 +56,36 @@ def describe(exc: RobodcnError) -> str:
             text = messages.describe(exc, units="cli")
         except Exception:  # a formatter bug must not hide the error itself
             text = None
-    return text or exc.message or type(exc).__name__
+    return text or (_limit_text(exc, arm) if arm is not None else None) or exc.message \
+        or type(exc).__name__
 
 
-def error_text(exc: RobodcnError, *, vias: int | None = None) -> str:
+def _limit_text(exc: RobodcnError, arm: Any) -> str | None:
+    """A joint, velocity or acceleration limit error from its data, in degrees."""
+    joint = getattr(exc, "joint", None)
+    if not isinstance(exc, JointLimitError | VelocityLimitError | AccelerationLimitError) \
+            or joint not in arm.joint_names or not isinstance(exc.value, int | float) \
+            or exc.t is None or exc.pose is None:
+        return None
+    spec = arm.joints[arm.joint_names.index(joint)]
+    x, y, theta = exc.pose
+    where = (f"sample {exc.sample} (t={exc.t:.3f} s, x={x:.4f} m, y={y:.4f} m, "
+             f"θ={math.degrees(theta):.1f}°): joint {joint} ")
+    if isinstance(exc, JointLimitError):
+        return (where + f"would be at {math.degrees(exc.value):.1f}°, outside its limits "
+                f"{math.degrees(spec.min_angle):.1f}..{math.degrees(spec.max_angle):.1f}°")
+    if isinstance(exc, VelocityLimitError):
+        need, limit, unit = exc.value, spec.max_velocity, "deg/s"
+    else:
+        need, limit, unit = exc.value, spec.max_acceleration, "deg/s²"
+    return (where + f"needs {math.degrees(need):.1f} {unit}, limit "
+            f"{math.degrees(limit):.1f} {unit}: lengthen --duration (or leave it auto)")
+
+
+def error_text(exc: RobodcnError, *, vias: int | None = None, arm: Any = None) -> str:
     """``describe(exc)`` naming the option it is about (when ``vias``, the number of --via
     options, is given), cut to :data:`MAX_CHARS`."""
-    text = describe(exc)
+    text = describe(exc, arm)
     option = option_for(exc.field, vias) if vias is not None else None
     if option and option not in text:
         text = (f"{text} ({exc.field} is {option})" if exc.field.startswith("waypoints")

@@ -23,8 +23,8 @@ from robodcn.errors import InputError
 DEFAULT_ARM = Path("configs") / "arm3r.toml"
 LOG_LEVELS = ("DEBUG", "INFO", "WARNING", "ERROR", "CRITICAL")
 #: Poses such as -0.1,0.2,0 are values, not options.
-NEGATIVE_POSE = re.compile(r"^-\.?\d[\d.,eE+\-]*$")
-_NUMBER = re.compile(r"^[+-]?(\d+\.?\d*|\.\d+)([eE][+-]?\d+)?$")
+NEGATIVE_POSE = re.compile(r"^-\.?[0-9][0-9.,eE+\-]*$")
+_NUMBER = re.compile(r"^[+-]?([0-9]+\.?[0-9]*|\.[0-9]+)([eE][+-]?[0-9]+)?$")
 
 
 class Parser(argparse.ArgumentParser):
@@ -60,7 +60,7 @@ class _Bad(argparse.ArgumentTypeError):
 
 
 def non_negative_int(text: str) -> int:
-    if not re.fullmatch(r"\+?\d{1,9}", text.strip()):
+    if not re.fullmatch(r"\+?[0-9]{1,9}", text.strip()):
         raise _Bad(f"must be an integer ≥ 0, got {_shown(text)}")
     return int(text)
 
@@ -102,7 +102,7 @@ def baud(text: str) -> int:
     from robodcn.bus import BAUD_INDEX
 
     rates = sorted(set(BAUD_INDEX.values()))
-    if not re.fullmatch(r"\d{1,8}", text.strip()) or int(text) not in rates:
+    if not re.fullmatch(r"[0-9]{1,8}", text.strip()) or int(text) not in rates:
         raise _Bad(f"must be one of {', '.join(map(str, rates))}, got {_shown(text)}")
     return int(text)
 
@@ -112,7 +112,8 @@ def id_list(text: str) -> list[int]:
     ids: list[int] = []
     for part in filter(None, (p.strip() for p in text.split(","))):
         low, dash, high = part.partition("-")
-        if not re.fullmatch(r"\d{1,3}", low) or (dash and not re.fullmatch(r"\d{1,3}", high)):
+        if not re.fullmatch(r"[0-9]{1,3}", low) or (dash and not re.fullmatch(r"[0-9]{1,3}",
+                                                                               high)):
             raise _Bad(f"ids must look like 1,2,5-8, got {_shown(text)}")
         ids.extend(range(int(low), int(high) + 1) if dash else [int(low)])
     if not ids or any(not 0 <= i <= 252 for i in ids):
@@ -121,7 +122,7 @@ def id_list(text: str) -> list[int]:
 
 
 def tcp_port(text: str) -> int:
-    if not re.fullmatch(r"\d{1,5}", text.strip()) or int(text) > 65535:
+    if not re.fullmatch(r"[0-9]{1,5}", text.strip()) or int(text) > 65535:
         raise _Bad(f"must be a TCP port 0..65535 (0: any free port), got {_shown(text)}")
     return int(text)
 

@@ -120,7 +120,7 @@ def plan_motion(request: MotionRequest, arm, start_pose, start_joints=None):
         return plan(arm, [tuple(start_pose), *request.vias, request.end],
                     start_joints=start_joints, **request.keywords)
     except RobodcnError as exc:
-        exc.cli_text = error_text(exc, vias=len(request.vias))  # what main() prints
+        exc.cli_text = error_text(exc, vias=len(request.vias), arm=arm)  # what main() prints
         raise
 
 
