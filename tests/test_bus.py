@@ -336,7 +336,7 @@ def test_cli_scan_prints_the_servos(capsys):
         table = capsys.readouterr().out.splitlines()
         assert table[0].split()[:2] == ["ID", "model"] and table[1].split()[:2] == ["2",
                                                                                   "xm430-w350"]
-        assert cli.main(["scan", "--port", sim.port_path, "--ids", "7"]) == 1
+        assert cli.main(["scan", "--port", sim.port_path, "--ids", "7"]) == 4  # no servo: a fault
 
 
 def test_cli_scan_errors_are_one_line_with_exit_codes(capsys, tmp_path):

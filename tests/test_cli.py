@@ -267,7 +267,7 @@ def test_planner_errors_are_described_by_robodcn_messages(capsys, monkeypatch):
 def test_plan_prints_a_summary_first_unless_quiet(capsys):
     arm = robodcn.load_arm(ARM3R)
     code, out, err = main(capsys, *PLAN)
-    assert code == 0
+    assert code == 0 and out.startswith("# ")  # the table, on stdout
     lines = err.strip().splitlines()
     traj = robodcn.plan(arm, [arm.home, [0.12, 0.24, math.radians(60)]],
                         rate_hz=arm.bus.rate_hz)

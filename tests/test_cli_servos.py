@@ -60,33 +60,34 @@ def test_sim_json_report_sends_every_sample(extra):
     out = robodcn("sim", "--arm", ARM3R, *MOVE, "--timing", "fast", "--json", *extra)
     assert out.returncode == 0, out.stderr
     report = json.loads(out.stdout)
-    assert report["stop_reason"] == "completed"
+    assert report["stop_reason"] == "completed" and report["outcome"] == "done"
     assert report["samples_sent"] + report["samples_skipped"] == report["samples_total"] > 10
     assert report["final_error_ticks"] == [0, 0, 0]
 
 
 def test_move_and_scan_against_firmware_sim(firmware):
-    scan = robodcn("scan", "--port", firmware, "--ids", "1-4", "--json")
+    scan = robodcn("scan", "--device", firmware, "--ids", "1-4", "--json")
     assert scan.returncode == 0, scan.stderr
     assert [s["id"] for s in json.loads(scan.stdout)["servos"]] == [1, 2, 3]
-    first = robodcn("move", "--arm", ARM3R, "--port", firmware, *MOVE, "--json")
+    first = robodcn("move", "--arm", ARM3R, "--device", firmware, *MOVE, "--json")
     assert first.returncode == 0, first.stderr
     assert json.loads(first.stdout)["final_error_ticks"] == [0, 0, 0]
     # The second move starts where the first ended (its present pose) and comes back.
-    back = robodcn("move", "--arm", ARM3R, "--port", firmware, "--to", "0.25,0.10,0", "--json")
+    back = robodcn("move", "--arm", ARM3R, "--device", firmware, "--to", "0.25,0.10,0",
+                   "--json")
     assert back.returncode == 0, back.stderr
     assert json.loads(back.stdout)["stop_reason"] == "completed"
 
 
 @pytest.mark.parametrize("firmware", ["1,2"], indirect=True)
 def test_move_with_a_missing_servo_is_a_bus_fault(firmware):
-    out = robodcn("move", "--arm", ARM3R, "--port", firmware, *MOVE)
+    out = robodcn("move", "--arm", ARM3R, "--device", firmware, *MOVE)
     assert out.returncode == 4, out.stderr
     assert "3" in out.stderr and "Traceback" not in out.stderr
 
 
 def test_infeasible_move_exits_3_before_moving(firmware):
-    out = robodcn("move", "--arm", ARM3R, "--port", firmware, "--to", "0.6,0.0,0")
+    out = robodcn("move", "--arm", ARM3R, "--device", firmware, "--to", "0.6,0.0,0")
     assert out.returncode == 3, out.stderr
     assert "out of reach" in out.stderr
 
@@ -153,3 +154,117 @@ def test_serve_sim_answers_and_exits_on_sigterm():
     finally:
         proc.send_signal(signal.SIGTERM)
         assert proc.wait(timeout=15) == 0
+
+
+def test_old_port_spelling_still_works_with_a_note(firmware):
+    scan = robodcn("scan", "--port", firmware, "--ids", "1-3", "--json")
+    assert scan.returncode == 0, scan.stderr
+    assert "--port is deprecated, use --device" in scan.stderr
+    move = robodcn("move", "--arm", ARM3R, "--port", firmware, *MOVE, "--json")
+    assert move.returncode == 0, move.stderr
+    assert "--port is deprecated, use --device" in move.stderr
+    assert json.loads(move.stdout)["outcome"] == "done"
+
+
+def test_scan_finding_no_servo_is_a_bus_fault(firmware):
+    out = robodcn("scan", "--device", firmware, "--ids", "7-9")
+    assert out.returncode == 4, out.stderr
+    assert out.stderr.strip() == f"robodcn: no servo answered on {firmware} at 1000000 baud " \
+                                 "(ids 7,8,9)"
+
+
+def test_move_into_a_closed_pipe_exits_quietly(firmware):
+    proc = subprocess.Popen([sys.executable, "-m", "robodcn", "move", "--arm", ARM3R,
+                             "--device", firmware, *MOVE], stdout=subprocess.PIPE,
+                            stderr=subprocess.PIPE, text=True, cwd=ROOT)
+    proc.stdout.close()  # like `| head -0`: the reader is gone before the report
+    err = proc.stderr.read()
+    assert proc.wait(timeout=60) == 0, err
+    assert "Traceback" not in err and "BrokenPipe" not in err
+    # The move itself ran to the end: the arm is at the goal.
+    again = robodcn("move", "--arm", ARM3R, "--device", firmware, *MOVE, "--json")
+    assert again.returncode == 0, again.stderr
+    assert json.loads(again.stdout)["approach_s"] == 0
+
+
+@pytest.mark.parametrize("name, needle", [("missing/move.png", "no such directory"),
+                                          (".", "is a directory"),
+                                          ("move.xyz", "cannot draw .xyz")])
+def test_bad_plot_path_is_refused_before_moving(tmp_path, name, needle):
+    out = robodcn("sim", "--arm", ARM3R, *MOVE, "--timing", "fast", "--plot",
+                  str(tmp_path / name))
+    assert out.returncode == 2, out.stderr
+    assert needle in out.stderr and "--plot" in out.stderr
+    assert len(out.stderr.strip().splitlines()) == 1
+    assert out.stdout == ""  # no report: nothing was streamed
+
+
+def test_approach_is_reported_with_its_duration():
+    out = robodcn("sim", "--arm", ARM3R, "--from", "0.20,0.15,30", *MOVE, "--timing", "fast")
+    assert out.returncode == 0, out.stderr
+    line = next(ln for ln in out.stdout.splitlines() if "approach" in ln)
+    seconds = float(re.search(r"approach (\d+\.\d+) s", line).group(1))
+    total = float(re.search(r"in (\d+\.\d+) s", out.stdout).group(1))
+    assert 0 < seconds < total
+
+
+# -- in-process: the report and exit code of what the streamer returns ----------------------------
+
+def _main(capsys, *args: str) -> tuple[int, str, str]:
+    from robodcn import cli
+
+    code = cli.main(list(args))
+    out = capsys.readouterr()
+    return code, out.out, out.err
+
+
+@pytest.fixture
+def skipping_stream(monkeypatch):
+    """robodcn.stream.execute as it is, but its report says 7 samples were skipped, and it
+    warns (as the streamer does when the rate is more than the baud carries)."""
+    import dataclasses
+    import warnings
+
+    import robodcn.stream as stream
+
+    real = stream.execute
+
+    def execute(trajectory, bus, **kwargs):
+        warnings.warn("1000 Hz is more than 1000000 baud carries for 3 servos", UserWarning,
+                      stacklevel=2)
+        report = real(trajectory, bus, **kwargs)
+        return dataclasses.replace(report, samples_skipped=7,
+                                   samples_sent=report.samples_sent - 7)
+
+    monkeypatch.setattr(stream, "execute", execute)
+
+
+def test_a_run_that_skipped_samples_says_so_and_exits_5(capsys, skipping_stream):
+    code, out, err = _main(capsys, "sim", "--arm", ARM3R, *MOVE, "--timing", "fast")
+    assert code == 5, err
+    assert "all samples sent" not in out
+    total = int(re.search(r"samples sent \d+/(\d+)", out).group(1))
+    assert out.startswith(f"completed with 7 of {total} samples skipped")
+    assert "robodcn: warning: 1000 Hz is more than 1000000 baud carries" in err
+    code, out, _ = _main(capsys, "sim", "--arm", ARM3R, *MOVE, "--timing", "fast", "--json")
+    assert code == 5 and json.loads(out)["outcome"] == "degraded"
+
+
+def test_serial_device_failing_is_a_bus_fault(capsys, monkeypatch):
+    import robodcn.bus as bus
+
+    class Gone:
+        def __init__(self, *args, **kwargs):
+            pass
+
+        def __enter__(self):
+            raise OSError(5, "Input/output error")
+
+        def __exit__(self, *exc):
+            return False
+
+    monkeypatch.setattr(bus, "ServoBus", Gone)
+    code, out, err = _main(capsys, "move", "--arm", ARM3R, "--device", "/dev/ttyGONE", *MOVE)
+    assert code == 4 and out == ""
+    assert err.strip() == ("robodcn: /dev/ttyGONE: the serial device failed (Input/output "
+                           "error); check the cable and the adapter, then run the move again")
