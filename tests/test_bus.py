@@ -341,7 +341,7 @@ def test_cli_scan_prints_the_servos(capsys):
 
 def test_cli_scan_errors_are_one_line_with_exit_codes(capsys, tmp_path):
     assert cli.main(["scan"]) == 2
-    assert capsys.readouterr().err.startswith("robodcn: scan needs --port")
+    assert capsys.readouterr().err.startswith("robodcn: scan needs --device")
     assert cli.main(["scan", "--port", str(tmp_path / "none"), "--ids", "1"]) == 4
     assert "cannot open" in capsys.readouterr().err
     with pytest.raises(SystemExit):
