@@ -82,6 +82,12 @@ def _limit_text(exc: RobodcnError, arm: Any) -> str | None:
             f"{math.degrees(limit):.1f} {unit}: lengthen --duration (or leave it auto)")
 
 
+def one_line(text: str) -> str:
+    """``text`` on one line: line breaks and other non-printable characters escaped."""
+    return "".join(c if c.isprintable() else c.encode("unicode_escape").decode("ascii")
+                   for c in text)
+
+
 def error_text(exc: RobodcnError, *, vias: int | None = None, arm: Any = None) -> str:
     """``describe(exc)`` naming the option it is about (when ``vias``, the number of --via
     options, is given), cut to :data:`MAX_CHARS`."""
@@ -90,10 +96,11 @@ def error_text(exc: RobodcnError, *, vias: int | None = None, arm: Any = None) -
     if option and option not in text:
         text = (f"{text} ({exc.field} is {option})" if exc.field.startswith("waypoints")
                 else f"{option}: {text}")
+    text = one_line(text)
     if len(text) > MAX_CHARS:
         text = text[:MAX_CHARS - 1] + "…"
     return text
 
 
-__all__ = ["MAX_CHARS", "OPTION_BY_FIELD", "describe", "error_text", "option_for",
+__all__ = ["MAX_CHARS", "OPTION_BY_FIELD", "describe", "error_text", "one_line", "option_for",
            "waypoint_options"]

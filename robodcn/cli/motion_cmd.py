@@ -156,7 +156,7 @@ def run_move(args: argparse.Namespace) -> int:
 
     arm = options.load_arm(args)
     request = planning.motion_request(args, arm)
-    device = args.device or arm.bus.port
+    device = args.device if args.device is not None else arm.bus.port
     try:
         with ServoBus(device, args.baud or arm.bus.baud,
                       servos=[j.servo for j in arm.joints]) as bus:
@@ -177,7 +177,7 @@ def _os_reason(exc: BaseException) -> str:
 def run_sim(args: argparse.Namespace) -> int:
     from robodcn.simulated import simulated_arm
 
-    if args.plot:
+    if args.plot is not None:
         _require_matplotlib()
         options.check_plot_path(args.plot)
     arm = options.load_arm(args)
@@ -185,7 +185,7 @@ def run_sim(args: argparse.Namespace) -> int:
     with simulated_arm(arm, timing=args.timing) as sim:
         traj, report, live = _execute(args, request, arm, sim.bus)
     code = _finish(args, traj, report)
-    if args.plot:
+    if args.plot is not None:
         _plot(args.plot, arm, traj, live.samples)
         emit(f"plot: {args.plot}\n")
     return code

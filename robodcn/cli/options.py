@@ -31,7 +31,15 @@ class Parser(argparse.ArgumentParser):
     """argparse, with usage errors as one line naming the option (exit code 2)."""
 
     def error(self, message: str):  # type: ignore[override]
-        self.exit(2, f"{self.prog}: {message} (see '{self.prog} --help')\n")
+        from robodcn.cli.error_text import one_line
+
+        self.exit(2, one_line(f"{self.prog}: {message} (see '{self.prog} --help')") + "\n")
+
+    def _get_values(self, action, arg_strings):
+        # argparse drops a "--" value (``--beta=--``) and hands the option an empty list.
+        if action.option_strings and action.nargs is None and arg_strings == ["--"]:
+            raise argparse.ArgumentError(action, "expected one argument, got '--'")
+        return super()._get_values(action, arg_strings)
 
 
 # -- values ------------------------------------------------------------------------------------
@@ -61,7 +69,7 @@ class _Bad(argparse.ArgumentTypeError):
 
 def non_negative_int(text: str) -> int:
     if not re.fullmatch(r"\+?[0-9]{1,9}", text.strip()):
-        raise _Bad(f"must be an integer ≥ 0, got {_shown(text)}")
+        raise _Bad(f"must be an integer in 0..999999999, got {_shown(text)}")
     return int(text)
 
 
@@ -127,6 +135,12 @@ def tcp_port(text: str) -> int:
     return int(text)
 
 
+def device(text: str) -> str:
+    if not text.strip():
+        raise _Bad("needs a serial device path, e.g. /dev/ttyUSB0")
+    return text
+
+
 def log_level(text: str) -> str:
     level = text.strip().upper()
     if level not in LOG_LEVELS:
@@ -166,10 +180,10 @@ def parse_pose(text: str, option: str, *, radians: bool = False,
 def check_output_path(path: str, option: str) -> Path:
     """A file ``option`` may write: its directory exists and is writable, it is not a
     directory, and an existing file is writable. Checked before any planning or motion."""
-    out = Path(path)
-    parent = out.parent if str(out.parent) else Path(".")
     if not str(path).strip():
         raise InputError(f"{option} needs a file name", field=option, value=path)
+    out = Path(path)
+    parent = out.parent
     if out.is_dir():
         raise InputError(f"{option} {path}: is a directory, give a file name", field=option,
                          value=path)
@@ -238,8 +252,9 @@ def add_device_options(p: argparse.ArgumentParser, *, default_help: str,
                        repeat_baud: bool = False) -> None:
     """--device DEV (and its deprecated spelling --port) and --baud (repeatable for scan)."""
     g = p.add_argument_group("bus")
-    g.add_argument("--device", metavar="DEV", help=f"serial device ({default_help})")
-    g.add_argument("--port", dest="device", metavar="DEV", action=_DeprecatedPort,
+    g.add_argument("--device", type=device, metavar="DEV",
+                   help=f"serial device ({default_help})")
+    g.add_argument("--port", type=device, dest="device", metavar="DEV", action=_DeprecatedPort,
                    help="deprecated spelling of --device")
     if repeat_baud:
         g.add_argument("--baud", type=baud, action="append",
@@ -277,7 +292,7 @@ class _StderrHandler(logging.StreamHandler):
 def load_arm(args: argparse.Namespace):
     from robodcn.config import load_arm as load
 
-    path = args.arm or os.environ.get("ROBODCN_ARM") or DEFAULT_ARM
+    path = args.arm if args.arm is not None else os.environ.get("ROBODCN_ARM") or DEFAULT_ARM
     if not Path(path).is_file():
         raise InputError(f"--arm: no such file {_shown(path, 200)} (give --arm FILE or set "
                          "ROBODCN_ARM)", field="arm", value=str(path))
@@ -291,6 +306,6 @@ def add_arm_option(p: argparse.ArgumentParser) -> None:
 
 __all__ = ["DEFAULT_ARM", "NEGATIVE_POSE", "Parser", "add_arm_option", "add_device_options",
            "add_logging_options", "baud", "check_output_path", "check_plot_path",
-           "configure_logging", "duration", "finite_float", "id_list", "load_arm",
+           "configure_logging", "device", "duration", "finite_float", "id_list", "load_arm",
            "non_negative_int", "number", "parse_pose", "positive_float", "rate", "split_list",
            "tcp_port"]

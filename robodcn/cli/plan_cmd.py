@@ -26,7 +26,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    if args.out:
+    if args.out is not None:
         options.check_output_path(args.out, "--out")
     arm = options.load_arm(args)
     request = planning.motion_request(args, arm)
@@ -35,7 +35,7 @@ def run(args: argparse.Namespace) -> int:
         print(plan_summary(traj, arm), file=sys.stderr, flush=True)
     text = {"table": plan_table, "json": lambda tr: tr.to_json() + "\n",
             "csv": lambda tr: tr.to_csv()}[args.format](traj)
-    if args.out:
+    if args.out is not None:
         try:
             with open(args.out, "w") as out:
                 out.write(text)

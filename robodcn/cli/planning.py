@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import argparse
 import inspect
+import math
 import warnings
 from dataclasses import dataclass
 from typing import Any
@@ -85,7 +86,7 @@ def motion_request(args: argparse.Namespace, arm) -> MotionRequest:
         return options.parse_pose(text, option, radians=args.radians,
                                   position_only=position_only)
 
-    start = pose(args.start, "--from") if args.start else None
+    start = pose(args.start, "--from") if args.start is not None else None
     vias = tuple(pose(v, f"--via {i + 1}") for i, v in enumerate(args.via))
     end = pose(args.end, "--to")
     segments = len(vias) + 1
@@ -95,6 +96,10 @@ def motion_request(args: argparse.Namespace, arm) -> MotionRequest:
     if args.duration != "auto" and args.duration * rate + 1 > MAX_SAMPLES:
         raise InputError(f"--duration {args.duration:g} s at {rate:g} Hz needs more than "
                          f"{MAX_SAMPLES} samples: shorten it or lower --rate",
+                         field="--duration", value=args.duration)
+    if args.duration != "auto" and max(1, math.ceil(args.duration * rate - 1e-9)) < segments:
+        raise InputError(f"--duration {args.duration:g} s at {rate:g} Hz is shorter than one "
+                         f"sample period for each of the {segments} segments",
                          field="--duration", value=args.duration)
     methods = [method] if isinstance(method, str) else method
     if args.beta is not None and "kenlerp" not in methods:

@@ -35,11 +35,11 @@ def run(args: argparse.Namespace) -> int:
     from robodcn.bus import BAUD_INDEX, scan
 
     device, bauds = args.device, args.baud
-    if args.config:
+    if args.config is not None:
         from robodcn.config import load_arm
 
         arm = load_arm(args.config)
-        device = device or arm.bus.port
+        device = device if device is not None else arm.bus.port
         bauds = bauds or [arm.bus.baud]
     if not device:
         raise InputError("scan needs --device DEV (or --config with a [bus] port)",
