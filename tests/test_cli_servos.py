@@ -21,6 +21,9 @@ import pytest
 ROOT = Path(__file__).resolve().parent.parent
 ARM3R = str(ROOT / "configs" / "arm3r.toml")
 MOVE = ("--to", "0.12,0.24,60")
+#: A run's exit code: 0, or 5 when the loaded test machine made the stream skip samples (the
+#: report then says so); tests of other things accept both.
+COMPLETED = (0, 5)
 
 
 def robodcn(*args: str, timeout: float = 60.0, **kwargs) -> subprocess.CompletedProcess:
@@ -49,7 +52,7 @@ def test_sim_runs_a_move_and_plots(tmp_path):
     out = robodcn("sim", "--arm", ARM3R, "--from", "0.25,0.10,0", "--via", "0.12,0.24,60",
                   "--to", "-0.10,0.22,120", "--method", "kenlerp", "--beta", "0.5",
                   "--plot", str(plot))
-    assert out.returncode == 0, out.stderr
+    assert out.returncode in COMPLETED, out.stderr
     assert out.stdout.startswith("completed")
     assert plot.stat().st_size > 10_000 and plot.read_bytes()[:4] == b"\x89PNG"
     assert f"plot: {plot}" in out.stdout
@@ -58,9 +61,11 @@ def test_sim_runs_a_move_and_plots(tmp_path):
 @pytest.mark.parametrize("extra", [(), ("--realtime",)], ids=["normal", "realtime"])
 def test_sim_json_report_sends_every_sample(extra):
     out = robodcn("sim", "--arm", ARM3R, *MOVE, "--timing", "fast", "--json", *extra)
-    assert out.returncode == 0, out.stderr
+    assert out.returncode in COMPLETED, out.stderr
     report = json.loads(out.stdout)
-    assert report["stop_reason"] == "completed" and report["outcome"] == "done"
+    assert report["stop_reason"] == "completed"
+    assert report["outcome"] == ("done" if out.returncode == 0 else "degraded")
+    assert (report["samples_skipped"] > 0) == (out.returncode == 5)
     assert report["samples_sent"] + report["samples_skipped"] == report["samples_total"] > 10
     assert report["final_error_ticks"] == [0, 0, 0]
 
@@ -70,12 +75,12 @@ def test_move_and_scan_against_firmware_sim(firmware):
     assert scan.returncode == 0, scan.stderr
     assert [s["id"] for s in json.loads(scan.stdout)["servos"]] == [1, 2, 3]
     first = robodcn("move", "--arm", ARM3R, "--device", firmware, *MOVE, "--json")
-    assert first.returncode == 0, first.stderr
+    assert first.returncode in COMPLETED, first.stderr
     assert json.loads(first.stdout)["final_error_ticks"] == [0, 0, 0]
     # The second move starts where the first ended (its present pose) and comes back.
     back = robodcn("move", "--arm", ARM3R, "--device", firmware, "--to", "0.25,0.10,0",
                    "--json")
-    assert back.returncode == 0, back.stderr
+    assert back.returncode in COMPLETED, back.stderr
     assert json.loads(back.stdout)["stop_reason"] == "completed"
 
 
@@ -132,10 +137,10 @@ def _run_on_a_terminal(args: list[str], timeout: float = 60.0) -> tuple[int, str
 def test_progress_is_shown_on_a_terminal_only():
     args = ["sim", "--arm", ARM3R, *MOVE, "--timing", "fast", "--duration", "1.5"]
     code, text = _run_on_a_terminal(args)
-    assert code == 0, text
+    assert code in COMPLETED, text
     assert re.search(r"\r\[#+ *\] +\d+\.\d%", text), text[-500:]
     plain = robodcn(*args)
-    assert plain.returncode == 0
+    assert plain.returncode in COMPLETED
     assert "\r" not in plain.stderr and "%" not in plain.stderr
 
 
@@ -161,9 +166,9 @@ def test_old_port_spelling_still_works_with_a_note(firmware):
     assert scan.returncode == 0, scan.stderr
     assert "--port is deprecated, use --device" in scan.stderr
     move = robodcn("move", "--arm", ARM3R, "--port", firmware, *MOVE, "--json")
-    assert move.returncode == 0, move.stderr
+    assert move.returncode in COMPLETED, move.stderr
     assert "--port is deprecated, use --device" in move.stderr
-    assert json.loads(move.stdout)["outcome"] == "done"
+    assert json.loads(move.stdout)["outcome"] in ("done", "degraded")
 
 
 def test_scan_finding_no_servo_is_a_bus_fault(firmware):
@@ -179,11 +184,11 @@ def test_move_into_a_closed_pipe_exits_quietly(firmware):
                             stderr=subprocess.PIPE, text=True, cwd=ROOT)
     proc.stdout.close()  # like `| head -0`: the reader is gone before the report
     err = proc.stderr.read()
-    assert proc.wait(timeout=60) == 0, err
+    assert proc.wait(timeout=60) in COMPLETED, err
     assert "Traceback" not in err and "BrokenPipe" not in err
     # The move itself ran to the end: the arm is at the goal.
     again = robodcn("move", "--arm", ARM3R, "--device", firmware, *MOVE, "--json")
-    assert again.returncode == 0, again.stderr
+    assert again.returncode in COMPLETED, again.stderr
     assert json.loads(again.stdout)["approach_s"] == 0
 
 
@@ -201,7 +206,7 @@ def test_bad_plot_path_is_refused_before_moving(tmp_path, name, needle):
 
 def test_approach_is_reported_with_its_duration():
     out = robodcn("sim", "--arm", ARM3R, "--from", "0.20,0.15,30", *MOVE, "--timing", "fast")
-    assert out.returncode == 0, out.stderr
+    assert out.returncode in COMPLETED, out.stderr
     line = next(ln for ln in out.stdout.splitlines() if "approach" in ln)
     seconds = float(re.search(r"approach (\d+\.\d+) s", line).group(1))
     total = float(re.search(r"in (\d+\.\d+) s", out.stdout).group(1))

@@ -108,7 +108,8 @@ def plan_summary(traj: Any, arm: Any, approach_s: float = 0.0) -> str:
     if approach_s > 0:
         lines.append(f"  approach {approach_s:.3f} s from the present joints, before the path")
     vel, acc = peaks(traj)
-    lines.append(f"  {'joint':<10} {'peak velocity':>28}   {'peak acceleration':>32}")
+    lines.append(f"  {'joint':<10} {'peak velocity, of the limit':<31}   peak acceleration, of the "
+                 "limit")
     for joint, v, a in zip(arm.joints, vel, acc, strict=True):
         lines.append(
             f"  {joint.name:<10} {math.degrees(v):8.1f} deg/s of "
