@@ -106,7 +106,11 @@ class _LiveProgress:
             return
         fraction = progress.sample / max(1, progress.samples_total - 1)
         error = ""
-        if progress.present is not None:
+        # The streamer's own tracking error (the report's definition) when it passes one.
+        tracking = getattr(progress, "tracking_error_rad", None)
+        if tracking is not None:
+            error = f"  tracking {math.degrees(float(np.max(tracking))):5.2f}°"
+        elif progress.present is not None:
             lag = np.abs(np.subtract(progress.present, progress.goals)) * self.rad_per_tick
             error = f"  tracking {math.degrees(float(lag.max())):5.2f}°"
         bar = "#" * int(20 * fraction)

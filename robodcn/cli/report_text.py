@@ -55,6 +55,8 @@ def report_text(report: Any, approach_s: float = 0.0) -> str:
              f"  samples sent {r['samples_sent']}/{r['samples_total']} in "
              f"{r['duration_s']:.3f} s, rate {r['rate_hz']:g} Hz, achieved "
              f"{r['achieved_rate_hz']:.1f} Hz"]
+    for warning in getattr(report, "warnings", None) or ():
+        lines.append(f"  warning: {warning}")
     if approach_s > 0:
         lines.append(f"  approach {approach_s:.3f} s: a joint-space move from the present pose "
                      "to the start, before the path")
