@@ -284,3 +284,14 @@ def test_plan_prints_a_summary_first_unless_quiet(capsys):
 
 def test_exit_code_table_is_the_documented_one():
     assert {int(c) for c in Exit} == set(EXIT_CODES) == {0, 2, 3, 4, 5, 6, 130}
+
+
+def test_long_messages_are_cut_in_the_middle_keeping_what_is_wrong(capsys, tmp_path):
+    big = "{" + ", ".join(f"k{i} = {i}" for i in range(200)) + "}"
+    arm = tmp_path / "big.toml"
+    arm.write_text(ARM3R.read_text().replace("[arm]\n", f"[arm]\nbogus = {big}\n", 1))
+    code, _, err = main(capsys, "plan", "--arm", str(arm), "--to", "0.12,0.24,60")
+    assert code == 2
+    line, = err.strip().splitlines()
+    assert len(line) <= len("robodcn: ") + 400
+    assert "arm.bogus" in line and line.endswith("unknown key (allowed: elbow, home, links, name)")

@@ -96,11 +96,17 @@ def error_text(exc: RobodcnError, *, vias: int | None = None, arm: Any = None) -
     if option and option not in text:
         text = (f"{text} ({exc.field} is {option})" if exc.field.startswith("waypoints")
                 else f"{option}: {text}")
-    text = one_line(text)
-    if len(text) > MAX_CHARS:
-        text = text[:MAX_CHARS - 1] + "…"
-    return text
+    return shorten(one_line(text))
+
+
+def shorten(text: str, limit: int = MAX_CHARS) -> str:
+    """``text`` cut to ``limit`` characters in the middle: the start says where, the end
+    what is wrong (``key 'arm.bogus' = {…}: unknown key (allowed: ...)``)."""
+    if len(text) <= limit:
+        return text
+    head = (limit - 3) * 3 // 5
+    return f"{text[:head]} … {text[len(text) - (limit - 3 - head):]}"
 
 
 __all__ = ["MAX_CHARS", "OPTION_BY_FIELD", "describe", "error_text", "one_line", "option_for",
-           "waypoint_options"]
+           "shorten", "waypoint_options"]
