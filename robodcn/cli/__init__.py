@@ -65,7 +65,11 @@ def _version() -> str:
 
 
 def _show_warning(message, category, filename, lineno, file=None, line=None) -> None:
-    print(f"robodcn: warning: {message}", file=sys.stderr)
+    """A warning as one ``robodcn: warning: ...`` line, in CLI terms (messages.describe)."""
+    from robodcn.cli.error_text import describe, one_line, shorten
+
+    text = describe(message) if isinstance(message, Warning) else str(message)
+    print(f"robodcn: warning: {shorten(one_line(text))}", file=sys.stderr)
 
 
 def main(argv: Sequence[str] | None = None) -> int:

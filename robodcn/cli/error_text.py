@@ -43,7 +43,8 @@ def option_for(field: str | None, vias: int) -> str | None:
     return OPTION_BY_FIELD.get(field.split("[", 1)[0])
 
 
-def describe(exc: RobodcnError, arm: Any = None) -> str:
+def describe(exc: RobodcnError | Warning, arm: Any = None,
+             waypoint_names: list[str] | None = None) -> str:
     """The error in CLI units: robodcn.messages.describe when present, else (for a limit
     error whose data and ``arm`` are known) the same facts in degrees, else its message."""
     try:
@@ -52,12 +53,17 @@ def describe(exc: RobodcnError, arm: Any = None) -> str:
         messages = None
     text = None
     if messages is not None and hasattr(messages, "describe"):
-        try:
-            text = messages.describe(exc, units="cli")
-        except Exception:  # a formatter bug must not hide the error itself
-            text = None
-    return text or (_limit_text(exc, arm) if arm is not None else None) or exc.message \
-        or type(exc).__name__
+        attempts = [{"waypoint_names": waypoint_names}] if waypoint_names is not None else []
+        for extra in [*attempts, {}]:
+            try:
+                text = messages.describe(exc, units="cli", **extra)
+                break
+            except TypeError:  # an older describe without waypoint_names
+                continue
+            except Exception:  # a formatter bug must not hide the error itself
+                break
+    return text or (_limit_text(exc, arm) if arm is not None else None) \
+        or getattr(exc, "message", None) or str(exc) or type(exc).__name__
 
 
 def _limit_text(exc: RobodcnError, arm: Any) -> str | None:
@@ -91,7 +97,8 @@ def one_line(text: str) -> str:
 def error_text(exc: RobodcnError, *, vias: int | None = None, arm: Any = None) -> str:
     """``describe(exc)`` naming the option it is about (when ``vias``, the number of --via
     options, is given), cut to :data:`MAX_CHARS`."""
-    text = describe(exc, arm)
+    names = waypoint_options(vias) if vias is not None else None
+    text = describe(exc, arm, names)
     option = option_for(exc.field, vias) if vias is not None else None
     if option and option not in text:
         text = (f"{text} ({exc.field} is {option})" if exc.field.startswith("waypoints")

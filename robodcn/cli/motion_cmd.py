@@ -127,13 +127,9 @@ class _LiveProgress:
 def _execute(args: argparse.Namespace, request: planning.MotionRequest, arm, bus
              ) -> tuple[Any, Any, _LiveProgress]:
     """Read the present pose, plan from it, stream; returns (trajectory, report, progress)."""
-    from robodcn import kinematics, servo_units
     from robodcn.stream import StopSignal, execute
 
-    present = servo_units.ticks_to_radians(bus.read_positions()[None, :],
-                                           [j.servo for j in arm.joints])[0]
-    start = request.start or tuple(kinematics.fk(arm.links, present[None, :])[0])
-    traj = planning.plan_motion(request, arm, start, start_joints=present)
+    traj = planning.plan_from_present(request, arm, bus)
     stop = StopSignal()
     live = _LiveProgress(traj, arm)
     with _ctrl_c_stops(stop):

@@ -12,6 +12,8 @@ import argparse
 import inspect
 import math
 import warnings
+from collections.abc import Iterator
+from contextlib import contextmanager
 from dataclasses import dataclass
 from typing import Any
 
@@ -121,15 +123,41 @@ def plan_motion(request: MotionRequest, arm, start_pose, start_joints=None):
     with the option it is about (``--to``, ``--via 2``, ``--rate``...)."""
     from robodcn.planner import plan
 
-    try:
+    with _cli_terms(request, arm):
         return plan(arm, [tuple(start_pose), *request.vias, request.end],
                     start_joints=start_joints, **request.keywords)
+
+
+def plan_from_present(request: MotionRequest, arm, bus):
+    """Plan from the arm's present joints (read from ``bus``) to --to: from the present pose,
+    or with a joint-space approach to --from first."""
+    try:
+        from robodcn.present import plan_from_present as from_present
+    except ImportError:  # before robodcn.present: read the joints and plan here
+        from_present = None
+    if from_present is None:
+        from robodcn import kinematics, servo_units
+
+        present = servo_units.ticks_to_radians(bus.read_positions()[None, :],
+                                               [j.servo for j in arm.joints])[0]
+        start = request.start or tuple(kinematics.fk(arm.links, present[None, :])[0])
+        return plan_motion(request, arm, start, start_joints=present)
+    with _cli_terms(request, arm):
+        return from_present(arm, bus, [request.start, *request.vias, request.end],
+                            **request.keywords)
+
+
+@contextmanager
+def _cli_terms(request: MotionRequest, arm) -> Iterator[None]:
+    """A planner error leaves with ``cli_text``: what main() prints, naming the option."""
+    try:
+        yield
     except RobodcnError as exc:
-        exc.cli_text = error_text(exc, vias=len(request.vias), arm=arm)  # what main() prints
+        exc.cli_text = error_text(exc, vias=len(request.vias), arm=arm)
         raise
 
 
 
 
 __all__ = ["ELBOWS", "MotionRequest", "add_motion_options", "motion_request",
-           "plan_motion"]
+           "plan_from_present", "plan_motion"]

@@ -24,8 +24,18 @@ def approach_seconds(report: Any, traj: Any = None) -> float:
     a trajectory planned with ``start_joints`` first reaches its first waypoint.
     """
     approach = getattr(report, "approach", None) if report is not None else None
-    if isinstance(approach, int | float) and not isinstance(approach, bool) and approach > 0:
-        return float(approach)
+    seconds = getattr(approach, "duration_s", approach)  # an Approach, or a number
+    if isinstance(seconds, int | float) and not isinstance(seconds, bool) and seconds > 0:
+        return float(seconds)
+    if traj is None:
+        return 0.0
+    try:
+        from robodcn.present import approach_of
+    except ImportError:
+        approach_of = None
+    if approach_of is not None:
+        found = approach_of(traj)
+        return 0.0 if found is None else float(found.duration_s)
     request = getattr(traj, "request", None)
     if request is None or request.start_joints is None:
         return 0.0
@@ -56,7 +66,8 @@ def report_text(report: Any, approach_s: float = 0.0) -> str:
              f"{r['duration_s']:.3f} s, rate {r['rate_hz']:g} Hz, achieved "
              f"{r['achieved_rate_hz']:.1f} Hz"]
     for warning in getattr(report, "warnings", None) or ():
-        lines.append(f"  warning: {warning}")
+        text = warning.get("message", "") if isinstance(warning, dict) else str(warning)
+        lines.append(f"  warning: {text}")
     if approach_s > 0:
         lines.append(f"  approach {approach_s:.3f} s: a joint-space move from the present pose "
                      "to the start, before the path")
