@@ -174,8 +174,10 @@ def test_old_port_spelling_still_works_with_a_note(firmware):
 def test_scan_finding_no_servo_is_a_bus_fault(firmware):
     out = robodcn("scan", "--device", firmware, "--ids", "7-9")
     assert out.returncode == 4, out.stderr
-    assert out.stderr.strip() == f"robodcn: no servo answered on {firmware} at 1000000 baud " \
-                                 "(ids 7,8,9)"
+    # The last line is the verdict (the bus may log its unanswered pings above it).
+    assert out.stderr.strip().splitlines()[-1] == (
+        f"robodcn: no servo answered on {firmware} at 1000000 baud (ids 7,8,9)")
+    assert "Traceback" not in out.stderr
 
 
 def test_move_into_a_closed_pipe_exits_quietly(firmware):
