@@ -104,7 +104,11 @@ def motion_request(args: argparse.Namespace, arm) -> MotionRequest:
                          f"sample period for each of the {segments} segments",
                          field="--duration", value=args.duration)
     methods = [method] if isinstance(method, str) else method
-    if args.beta is not None and "kenlerp" not in methods:
+    from robodcn import errors
+
+    # A planner with BetaIgnoredWarning says so itself (then in CLI terms, via main).
+    if args.beta is not None and "kenlerp" not in methods \
+            and not hasattr(errors, "BetaIgnoredWarning"):
         warnings.warn(f"--beta {args.beta:g} has no effect with --method {args.method} (only "
                       "kenlerp uses it)", UserWarning, stacklevel=2)
     keywords: dict[str, Any] = dict(
