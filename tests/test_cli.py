@@ -297,3 +297,33 @@ def test_long_messages_are_cut_in_the_middle_keeping_what_is_wrong(capsys, tmp_p
     line, = err.strip().splitlines()
     assert len(line) <= len("robodcn: ") + 400
     assert "arm.bogus" in line and line.endswith("unknown key (allowed: elbow, home, links, name)")
+
+
+def test_errors_map_onto_the_table_never_1():
+    from robodcn import errors
+    from robodcn.cli.exit_codes import exit_for_error
+
+    class ListenError(errors.RobodcnError):  # like the HTTP server's cannot-listen error
+        exit_code = 6
+
+    assert exit_for_error(ListenError("busy")) == Exit.CANNOT_SERVE == 6
+    assert exit_for_error(errors.RobodcnError("unclassified")) == Exit.FAULT
+    assert exit_for_error(errors.StoppedError("x")) == 130
+    assert exit_for_error(errors.ConfigError("x", file="a.toml")) == 2
+
+
+def test_serve_logs_at_info_by_default(capsys, monkeypatch):
+    import importlib
+
+    def serve(arm, **kwargs):
+        logging.getLogger("robodcn.http").info("GET /healthz 200")
+        logging.getLogger("robodcn.http").debug("detail")
+
+    for name in ("robodcn.http_server", "robodcn.http"):  # wherever serve_cmd takes serve from
+        try:
+            monkeypatch.setattr(importlib.import_module(name), "serve", serve)
+        except ImportError:
+            pass
+    assert main(capsys, "serve", "--arm", str(ARM3R), "--sim", "--port", "0")[2] == \
+        "robodcn: INFO: robodcn.http: GET /healthz 200\n"
+    assert main(capsys, "serve", "--arm", str(ARM3R), "--sim", "--log-level", "warning")[2] == ""

@@ -56,11 +56,14 @@ EXIT_BY_OUTCOME: dict[str, Exit] = {"done": Exit.DONE, "degraded": Exit.DEGRADED
 
 
 def exit_for_error(exc: RobodcnError) -> Exit:
-    """The exit code of an error: by class; an unclassified RobodcnError is a fault."""
+    """The exit code of an error: by class (:data:`EXIT_BY_ERROR`), else the error's own
+    ``exit_code`` when it is one of the table's (e.g. 6 for the HTTP server's cannot-listen
+    error), else 4: never 1."""
     for cls, code in EXIT_BY_ERROR:
         if isinstance(exc, cls):
             return code
-    return Exit.FAULT
+    own = getattr(exc, "exit_code", None)
+    return Exit(own) if own in EXIT_CODES and own != Exit.DONE else Exit.FAULT
 
 
 def report_outcome(report: Any) -> str:

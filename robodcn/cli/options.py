@@ -265,16 +265,23 @@ def add_device_options(p: argparse.ArgumentParser, *, default_help: str,
 
 
 def configure_logging(args: argparse.Namespace) -> None:
-    """-v/-vv/--log-level → the level of the ``robodcn`` logger, one handler on stderr."""
+    """-v/-vv/--log-level → the level of the ``robodcn`` loggers; one handler on stderr.
+
+    The default is WARNING, or the command's ``log_default`` (``serve``: INFO, its request
+    log). The handler sits on the root logger (so records still propagate to any other
+    handler, pytest's included, and a command that checks for configured logging finds it).
+    """
+    verbose = getattr(args, "verbose", 0) or 0
+    default = getattr(args, "log_default", "WARNING")
     level = getattr(args, "log_level", None) or (
-        "WARNING", "INFO", "DEBUG")[min(2, getattr(args, "verbose", 0) or 0)]
-    logger = logging.getLogger("robodcn")
-    for handler in [h for h in logger.handlers if isinstance(h, _StderrHandler)]:
-        logger.removeHandler(handler)
+        default if not verbose else ("INFO", "DEBUG")[min(1, verbose - 1)])
+    root = logging.getLogger()
+    for handler in [h for h in root.handlers if isinstance(h, _StderrHandler)]:
+        root.removeHandler(handler)
     handler = _StderrHandler()
     handler.setFormatter(logging.Formatter("robodcn: %(levelname)s: %(name)s: %(message)s"))
-    logger.addHandler(handler)
-    logger.setLevel(level)
+    root.addHandler(handler)
+    logging.getLogger("robodcn").setLevel(level)
 
 
 class _StderrHandler(logging.StreamHandler):

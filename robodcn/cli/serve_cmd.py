@@ -29,7 +29,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     target.add_argument("--device", metavar="DEV",
                         help="servo serial device (default: the arm's [bus] port)")
     p.add_argument("--baud", type=options.baud, help="baud rate (default: the arm's [bus] baud)")
-    p.set_defaults(func=_cmd_serve)
+    p.set_defaults(func=_cmd_serve, log_default="INFO")  # the request log
 
 
 def _cmd_serve(args: argparse.Namespace) -> int:
