@@ -335,12 +335,12 @@ def test_cli_scan_prints_the_servos(capsys):
         table = capsys.readouterr().out.splitlines()
         assert table[0].split()[:2] == ["ID", "model"] and table[1].split()[:2] == ["2",
                                                                                   "xm430-w350"]
-        assert cli.main(["scan", "--port", sim.port_path, "--ids", "7"]) == 1
+        assert cli.main(["scan", "--port", sim.port_path, "--ids", "7"]) == 4  # no servo: a fault
 
 
 def test_cli_scan_errors_are_one_line_with_exit_codes(capsys, tmp_path):
     assert cli.main(["scan"]) == 2
-    assert capsys.readouterr().err.startswith("robodcn: scan needs --port")
+    assert capsys.readouterr().err.startswith("robodcn: scan needs --device")
     assert cli.main(["scan", "--port", str(tmp_path / "none"), "--ids", "1"]) == 4
     assert "cannot open" in capsys.readouterr().err
     with pytest.raises(SystemExit):

@@ -4,7 +4,10 @@ test_cli_servos.py)."""
 from __future__ import annotations
 
 import json
+import logging
 import math
+import os
+import re
 import subprocess
 import sys
 from pathlib import Path
@@ -13,7 +16,9 @@ import numpy as np
 import pytest
 
 import robodcn
+from robodcn import cli
 from robodcn.cli import parse_pose
+from robodcn.cli.exit_codes import EXIT_CODES, Exit
 from robodcn.errors import InputError
 from robodcn.planner import Trajectory
 
@@ -72,7 +77,7 @@ def test_negative_coordinates_are_values_not_options():
     (("plan", "--to", "0.12,0.24"), 2, "--to"),                         # not a pose
     (("plan", "--to", "0.12,0.24,60", "--method", "spline"), 2, "method"),
     (("plan", "--to", "0.12,0.24,60", "--duration", "soon"), 2, "--duration"),
-    (("plan", "--to", "0.12,0.24,60", "--rate", "5000"), 2, "rate_hz"),
+    (("plan", "--to", "0.12,0.24,60", "--rate", "5000"), 2, "--rate"),
     (("plan",), 2, "--to"),                                              # argparse usage
     (("sim", "--to", "0.12,0.24,60", "--tracking-limit", "-1"), 2, "--tracking-limit"),
     (("sim", "--to", "0.12,0.24,60", "--feedback-every", "x"), 2, "--feedback-every"),
@@ -101,3 +106,224 @@ def test_version_and_help():
     for command in ("plan", "move", "sim", "serve", "scan"):
         helped = run(command, "--help")
         assert helped.returncode == 0 and "usage: robodcn " + command in helped.stdout
+
+
+# -- in-process: main(argv) with captured output -----------------------------------------------
+
+def main(capsys, *args: str) -> tuple[int, str, str]:
+    """``robodcn.cli.main(args)`` → (exit code, stdout, stderr); usage errors included."""
+    try:
+        code = cli.main(list(args))
+    except SystemExit as exc:
+        code = exc.code
+    out = capsys.readouterr()
+    return code, out.out, out.err
+
+
+PLAN = ("plan", "--arm", str(ARM3R), "--to", "0.12,0.24,60")
+
+
+@pytest.mark.parametrize("make_bad, needle", [
+    (lambda tmp: tmp / "missing" / "plan.json", "no such directory"),
+    (lambda tmp: tmp, "is a directory"),
+])
+def test_bad_out_path_is_a_usage_error_before_planning(capsys, tmp_path, make_bad, needle):
+    # --to out of reach: were the plan made first, this would be exit code 3.
+    code, out, err = main(capsys, "plan", "--arm", str(ARM3R), "--to", "0.5,0.5,0", "--out",
+                          str(make_bad(tmp_path)))
+    assert code == 2, err
+    assert needle in err and "--out" in err and len(err.strip().splitlines()) == 1
+    assert out == ""
+
+
+def test_unwritable_out_path_is_a_usage_error(capsys, tmp_path):
+    locked = tmp_path / "locked"
+    locked.mkdir()
+    locked.chmod(0o500)
+    try:
+        # root may write anywhere it has permission bits for; /proc/sys is mounted read-only.
+        target = locked if not os.access(locked, os.W_OK) else Path("/proc/sys")
+        assert not os.access(target, os.W_OK)
+        code, _, err = main(capsys, *PLAN, "--out", str(target / "plan.json"))
+    finally:
+        locked.chmod(0o700)
+    assert code == 2 and "not writable" in err and "--out" in err
+
+
+def test_plan_into_a_closed_pipe_exits_quietly():
+    proc = subprocess.Popen([sys.executable, "-m", "robodcn", *PLAN, "--rate", "1000",
+                             "--duration", "5", "-q"], stdout=subprocess.PIPE,
+                            stderr=subprocess.PIPE, cwd=ROOT)
+    proc.stdout.read(100)  # like `| head -c 100`: read a little, then go away
+    proc.stdout.close()
+    err = proc.stderr.read().decode()
+    assert proc.wait(timeout=60) == 0, err
+    assert "Traceback" not in err and "BrokenPipe" not in err and err == ""
+
+
+@pytest.mark.parametrize("flags, level", [((), logging.WARNING), (("-v",), logging.INFO),
+                                          (("-vv",), logging.DEBUG),
+                                          (("--log-level", "error"), logging.ERROR),
+                                          (("-v", "--log-level", "CRITICAL"), logging.CRITICAL)])
+def test_log_level_options_configure_logging(capsys, flags, level):
+    code, _, _ = main(capsys, *PLAN, "-q", "--format", "json", *flags)
+    assert code == 0
+    logger = logging.getLogger("robodcn")
+    assert logger.level == level
+    logging.getLogger("robodcn.bus").warning("seen at %s", "WARNING")
+    logging.getLogger("robodcn.bus").debug("seen at %s", "DEBUG")
+    err = capsys.readouterr().err
+    assert ("seen at WARNING" in err) == (level <= logging.WARNING)
+    assert ("seen at DEBUG" in err) == (level <= logging.DEBUG)
+
+
+def test_every_command_takes_the_logging_options():
+    parser = cli.build_parser()
+    commands = parser._subparsers._group_actions[0].choices
+    for name, command in commands.items():
+        options = {o for action in command._actions for o in action.option_strings}
+        assert {"-v", "--verbose", "--log-level"} <= options, name
+
+
+@pytest.mark.parametrize("args, needles, absent", [
+    (("--rate", "5000"), ["--rate", "1..1000 Hz"], ["rate_hz"]),
+    (("--method", "sclerp,dlb"), ["--method", "one per segment"], ["["]),
+    (("--method", "spline"), ["--method", "'spline'", "sclerp, kenlerp"], ["[", "('"]),
+    (("--turn", "left"), ["--turn", "shortest, ccw, cw"], ["["]),
+    (("--via", "0.2,0.2", "--via", "0.6,0.0,0"), ["--via 1"], ["waypoints[1] is"]),
+    (("--duration", "nan"), ["--duration"], []),
+    (("--duration", "1e308"), ["--duration", "samples"], ["Overflow"]),
+    (("--beta", "inf"), ["--beta"], []),
+])
+def test_messages_name_the_option_as_typed(capsys, args, needles, absent):
+    code, _, err = main(capsys, *PLAN, *args)
+    assert code == 2, err
+    assert len(err.strip().splitlines()) == 1
+    for needle in needles:
+        assert needle in err
+    for needle in absent:
+        assert needle not in err
+
+
+def test_waypoint_errors_name_the_via_option(capsys):
+    code, _, err = main(capsys, *PLAN, "--via", "0.2,0.2,0", "--via", "0.6,0.0,0")
+    assert code == 3 and "--via 2" in err and "out of reach" in err
+
+
+def test_limit_errors_speak_degrees_per_second(capsys):
+    code, _, err = main(capsys, *PLAN, "--duration", "0.05")
+    assert code == 3, err
+    assert "deg/s" in err and "rad/s" not in err and "--duration" in err
+
+
+def test_beta_with_a_method_that_ignores_it_warns(capsys):
+    code, _, err = main(capsys, *PLAN, "--beta", "0.5", "-q", "--format", "json")
+    assert code == 0
+    line, = err.strip().splitlines()  # one warning, whoever gives it (CLI or planner)
+    assert line.startswith("robodcn: warning: --beta") and "has no effect" in line
+    assert "----" not in line
+    code, _, err = main(capsys, *PLAN, "--beta", "0.5", "--method", "kenlerp", "-q",
+                        "--format", "json")
+    assert code == 0 and "warning" not in err
+
+
+def test_position_only_arm_takes_x_y(capsys):
+    code, out, err = main(capsys, "plan", "--arm", str(ARM2R), "--to", "0.2,0.1", "-q",
+                          "--format", "json")
+    assert code == 0, err
+    assert json.loads(out)["poses"][-1][:2] == pytest.approx([0.2, 0.1])
+    code, _, err = main(capsys, "plan", "--arm", str(ARM3R), "--to", "0.2,0.1", "-q")
+    assert code == 2 and "--to must be a pose x,y,θ" in err
+
+
+def test_elbow_is_passed_to_the_planner_when_given(capsys, monkeypatch):
+    import robodcn.planner as planner
+
+    seen: list[dict] = []
+    real = planner.plan
+
+    def plan(arm, waypoints, *, elbow=None, **kwargs):
+        seen.append({"elbow": elbow, **kwargs})
+        return real(arm, waypoints, **kwargs)
+
+    monkeypatch.setattr(planner, "plan", plan)
+    assert main(capsys, *PLAN, "--elbow", "down", "-q")[0] == 0
+    assert main(capsys, *PLAN, "-q")[0] == 0
+    assert [s["elbow"] for s in seen] == ["down", None]
+    code, _, err = main(capsys, *PLAN, "--elbow", "sideways")
+    assert code == 2 and "--elbow" in err
+
+
+def test_planner_errors_are_described_by_robodcn_messages(capsys, monkeypatch):
+    import types
+
+    messages = types.ModuleType("robodcn.messages")
+    messages.describe = lambda err, units: f"described in {units} units: {type(err).__name__}"
+    monkeypatch.setitem(sys.modules, "robodcn.messages", messages)
+    monkeypatch.setattr(robodcn, "messages", messages, raising=False)
+    code, _, err = main(capsys, "plan", "--arm", str(ARM3R), "--to", "0.5,0.5,0")
+    assert code == 3
+    assert "described in cli units: UnreachableError" in err and "--to" in err
+
+
+def test_plan_prints_a_summary_first_unless_quiet(capsys):
+    arm = robodcn.load_arm(ARM3R)
+    code, out, err = main(capsys, *PLAN)
+    assert code == 0 and out.startswith("# ")  # the table, on stdout
+    lines = err.strip().splitlines()
+    traj = robodcn.plan(arm, [arm.home, [0.12, 0.24, math.radians(60)]],
+                        rate_hz=arm.bus.rate_hz)
+    assert lines[0].startswith(f"plan: {traj.duration:.3f} s, {len(traj.t)} samples")
+    for joint in arm.joints:
+        row = next(line for line in lines if line.split()[0] == joint.name)
+        assert "deg/s of" in row and "deg/s² of" in row and "%" in row
+        assert f"{math.degrees(joint.max_velocity):.1f}" in row
+    # No joint beyond its limit, and the auto timing drives at least one close to it.
+    percents = [int(p) for p in re.findall(r"\(\s*(\d+)%\)", err)]
+    assert percents and max(percents) <= 100 and max(percents) >= 50
+    assert main(capsys, *PLAN, "--quiet")[2] == ""
+
+
+def test_exit_code_table_is_the_documented_one():
+    assert {int(c) for c in Exit} == set(EXIT_CODES) == {0, 2, 3, 4, 5, 6, 130}
+
+
+def test_long_messages_are_cut_in_the_middle_keeping_what_is_wrong(capsys, tmp_path):
+    big = "{" + ", ".join(f"k{i} = {i}" for i in range(200)) + "}"
+    arm = tmp_path / "big.toml"
+    arm.write_text(ARM3R.read_text().replace("[arm]\n", f"[arm]\nbogus = {big}\n", 1))
+    code, _, err = main(capsys, "plan", "--arm", str(arm), "--to", "0.12,0.24,60")
+    assert code == 2
+    line, = err.strip().splitlines()
+    assert len(line) <= len("robodcn: ") + 400
+    assert "arm.bogus" in line and line.endswith("unknown key (allowed: elbow, home, links, name)")
+
+
+def test_errors_map_onto_the_table_never_1():
+    from robodcn import errors
+    from robodcn.cli.exit_codes import exit_for_error
+
+    class ListenError(errors.RobodcnError):  # like the HTTP server's cannot-listen error
+        exit_code = 6
+
+    assert exit_for_error(ListenError("busy")) == Exit.CANNOT_SERVE == 6
+    assert exit_for_error(errors.RobodcnError("unclassified")) == Exit.FAULT
+    assert exit_for_error(errors.StoppedError("x")) == 130
+    assert exit_for_error(errors.ConfigError("x", file="a.toml")) == 2
+
+
+def test_serve_logs_at_info_by_default(capsys, monkeypatch):
+    import importlib
+
+    def serve(arm, **kwargs):
+        logging.getLogger("robodcn.http").info("GET /healthz 200")
+        logging.getLogger("robodcn.http").debug("detail")
+
+    for name in ("robodcn.http_server", "robodcn.http"):  # wherever serve_cmd takes serve from
+        try:
+            monkeypatch.setattr(importlib.import_module(name), "serve", serve)
+        except ImportError:
+            pass
+    assert main(capsys, "serve", "--arm", str(ARM3R), "--sim", "--port", "0")[2] == \
+        "robodcn: INFO: robodcn.http: GET /healthz 200\n"
+    assert main(capsys, "serve", "--arm", str(ARM3R), "--sim", "--log-level", "warning")[2] == ""

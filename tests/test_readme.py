@@ -47,7 +47,8 @@ def test_tour_command_runs(command, tmp_path):
     args = shlex.split(command)[1:]
     out = subprocess.run([sys.executable, "-m", "robodcn", *args], capture_output=True,
                          text=True, cwd=tmp_path, env=env, timeout=120)
-    assert out.returncode == 0, (command, out.stderr)
+    # sim: 5 when the loaded test machine made the stream skip samples (the report says so)
+    assert out.returncode in ((0, 5) if args[0] == "sim" else (0,)), (command, out.stderr)
     for option in ("--out", "--plot"):
         if option in args:
             assert (tmp_path / args[args.index(option) + 1]).stat().st_size > 0
@@ -81,3 +82,52 @@ def test_library_example_runs(monkeypatch):
     monkeypatch.chdir(ROOT)
     for code in blocks:
         exec(compile(code, "README.md", "exec"), {})
+
+
+def _table_after(heading: str) -> list[list[str]]:
+    """Rows (cells stripped, backticks dropped) of the first Markdown table after ``heading``."""
+    text = README[README.index(heading):]
+    rows = re.search(r"((?:^\|.*\|\n)+)", text, flags=re.M).group(1).splitlines()
+    return [[c.strip().replace("`", "") for c in row.strip("|").split("|")] for row in rows[2:]]
+
+
+def test_exit_code_table_is_the_programs():
+    from robodcn.cli.exit_codes import EXIT_CODES
+
+    assert {int(code): meaning for code, meaning in _table_after("**Exit codes**")} == {
+        int(code): meaning for code, meaning in EXIT_CODES.items()}
+
+
+def test_error_table_is_the_programs():
+    import inspect
+
+    from robodcn import errors
+    from robodcn.cli.exit_codes import exit_for_error
+
+    documented: set[str] = set()
+    for names, code, _ in _table_after("**Errors**"):
+        for name in (n.strip() for n in names.split(",")):
+            cls = getattr(errors, name)
+            assert exit_for_error(cls.__new__(cls)) == int(code), name
+            documented.add(name)
+    every = {name for name, cls in vars(errors).items()
+             if inspect.isclass(cls) and issubclass(cls, errors.RobodcnError)
+             and cls is not errors.RobodcnError}
+    assert documented == every
+
+
+ERROR_EXAMPLES = re.findall(r"^\$ (robodcn .*)\n((?:(?!\$ |exit ).*\n)*)exit (\d+)$",
+                            README[README.index("**Errors**"):], flags=re.M)
+
+
+def test_there_are_error_examples():
+    assert {code for _, _, code in ERROR_EXAMPLES} >= {"2", "3"}
+
+
+@pytest.mark.parametrize("command, message, code", ERROR_EXAMPLES)
+def test_error_example_is_what_the_program_prints(command, message, code, tmp_path):
+    env = {**os.environ, "ROBODCN_ARM": str(ROOT / "configs" / "arm3r.toml")}
+    out = subprocess.run([sys.executable, "-m", "robodcn", *shlex.split(command)[1:]],
+                         capture_output=True, text=True, cwd=tmp_path, env=env, timeout=120)
+    assert out.returncode == int(code), out.stderr
+    assert out.stderr == message

@@ -1,0 +1,97 @@
+"""The command line's exit codes: one table, used by ``main``, the docs and the tests.
+
+README.md's exit-code table is checked against :data:`EXIT_CODES` (tests/test_readme.py).
+"""
+
+from __future__ import annotations
+
+from enum import IntEnum
+from typing import Any
+
+from robodcn.errors import (
+    BusError,
+    BusyError,
+    InputError,
+    PlanError,
+    RobodcnError,
+    StoppedError,
+)
+
+
+class Exit(IntEnum):
+    """What a ``robodcn`` command's exit status means."""
+
+    DONE = 0
+    USAGE = 2
+    INFEASIBLE = 3
+    FAULT = 4
+    DEGRADED = 5
+    CANNOT_SERVE = 6
+    STOPPED = 130
+
+
+#: code → meaning, in the words of README.md's table.
+EXIT_CODES: dict[int, str] = {
+    Exit.DONE: "done",
+    Exit.USAGE: "bad usage or input (nothing moved)",
+    Exit.INFEASIBLE: "plan infeasible (nothing moved)",
+    Exit.FAULT: "servo or bus fault (including: scan found no servo)",
+    Exit.DEGRADED: "completed with samples skipped",
+    Exit.CANNOT_SERVE: "cannot serve (TCP address in use or not available)",
+    Exit.STOPPED: "stopped by the user (Ctrl-C)",
+}
+
+#: Error class → exit code, most specific first (README.md's error table).
+EXIT_BY_ERROR: tuple[tuple[type[RobodcnError], Exit], ...] = (
+    (InputError, Exit.USAGE),
+    (PlanError, Exit.INFEASIBLE),
+    (BusError, Exit.FAULT),
+    (BusyError, Exit.FAULT),
+    (StoppedError, Exit.STOPPED),
+)
+
+#: ExecutionReport outcome → exit code.
+EXIT_BY_OUTCOME: dict[str, Exit] = {"done": Exit.DONE, "degraded": Exit.DEGRADED,
+                                    "stopped": Exit.STOPPED, "fault": Exit.FAULT}
+
+
+def exit_for_error(exc: RobodcnError) -> Exit:
+    """The exit code of an error: by class (:data:`EXIT_BY_ERROR`), else the error's own
+    ``exit_code`` when it is one of the table's (e.g. 6 for the HTTP server's cannot-listen
+    error), else 4: never 1."""
+    for cls, code in EXIT_BY_ERROR:
+        if isinstance(exc, cls):
+            return code
+    own = getattr(exc, "exit_code", None)
+    return Exit(own) if own in EXIT_CODES and own != Exit.DONE else Exit.FAULT
+
+
+def report_outcome(report: Any) -> str:
+    """"done" | "degraded" | "stopped" | "fault" of an ExecutionReport.
+
+    Uses ``report.outcome`` when the streamer provides it; otherwise derives it from the stop
+    reason and the skipped-sample count (a completed run that skipped samples is degraded).
+    """
+    outcome = getattr(report, "outcome", None)
+    if outcome in EXIT_BY_OUTCOME:
+        return outcome
+    if report.stop_reason == "completed":
+        return "degraded" if skipped_count(report) else "done"
+    return "stopped" if report.stop_reason == "stopped" else "fault"
+
+
+def skipped_count(report: Any) -> int:
+    """Samples not sent, from ``report.skipped`` (a count or the skipped indices) when present,
+    else ``samples_skipped``."""
+    skipped = getattr(report, "skipped", None)
+    if skipped is None:
+        skipped = getattr(report, "samples_skipped", 0)
+    return skipped if isinstance(skipped, int) else len(skipped)
+
+
+def exit_for_report(report: Any) -> Exit:
+    return EXIT_BY_OUTCOME[report_outcome(report)]
+
+
+__all__ = ["EXIT_BY_ERROR", "EXIT_BY_OUTCOME", "EXIT_CODES", "Exit", "exit_for_error",
+           "exit_for_report", "report_outcome", "skipped_count"]

@@ -1,0 +1,191 @@
+"""``robodcn move`` (the servos) and ``robodcn sim`` (an in-process simulated bus).
+
+Both check every option and output path, read the present pose, plan from it (a
+joint-space approach first when --from is elsewhere), stream, print the report and exit
+with the outcome's code: 0 done, 5 completed with samples skipped, 4 fault, 130 stopped.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import signal
+import sys
+import termios
+import threading
+from collections.abc import Iterator
+from contextlib import contextmanager
+from typing import Any
+
+import numpy as np
+
+from robodcn.cli import options, planning
+from robodcn.cli.exit_codes import exit_for_report
+from robodcn.cli.output import emit
+from robodcn.cli.plot import _plot, _require_matplotlib
+from robodcn.cli.report_text import approach_seconds, report_dict, report_text
+from robodcn.errors import BusError
+
+
+def add_execution_options(p: argparse.ArgumentParser) -> None:
+    g = p.add_argument_group("execution")
+    g.add_argument("--feedback-every", type=options.non_negative_int, default=1, metavar="K",
+                   help="read present positions every K samples (0: only at the end; "
+                        "default 1)")
+    g.add_argument("--tracking-limit", type=options.positive_float, default=15.0,
+                   metavar="DEG",
+                   help="stop when a joint lags its goal by more than DEG degrees (default 15)")
+    g.add_argument("--release", action="store_true",
+                   help="torque off at the end (default: the servos hold the last pose)")
+    g.add_argument("--realtime", action="store_true",
+                   help="stream from a real-time (SCHED_FIFO) thread; Linux, needs "
+                        "CAP_SYS_NICE or root (warns and carries on otherwise)")
+    g.add_argument("--json", action="store_true", help="print the report as JSON")
+
+
+def register(subparsers: argparse._SubParsersAction) -> None:
+    p = subparsers.add_parser(
+        "move", help="plan and execute a move on the servos",
+        description="Plan from the arm's present pose (read from the servos) and stream it. "
+                    "With --from, a joint-space approach from the present pose to --from is "
+                    "planned first. Ctrl-C stops and holds. Exit code 5: completed with "
+                    "samples skipped.")
+    planning.add_motion_options(p, start_help="start pose (default: the present pose); the "
+                                              "arm approaches it first")
+    options.add_device_options(p, default_help="default: the arm's [bus] port")
+    add_execution_options(p)
+    p.set_defaults(func=run_move)
+
+    p = subparsers.add_parser(
+        "sim", help="dry-run a move against a simulated servo bus",
+        description="The same as move, against an in-process firmware_sim bus (realistic "
+                    "wire timing) whose servos start at the arm's home pose. Prints the "
+                    "report; --plot draws planned vs measured motion.")
+    planning.add_motion_options(p, start_help="start pose (default: the home pose); the "
+                                              "simulated arm approaches it first")
+    p.add_argument("--timing", choices=("realistic", "fast"), default="realistic",
+                   help="simulated wire timing (default realistic)")
+    p.add_argument("--plot", metavar="FILE.png",
+                   help="draw planned vs measured path and joint angles (needs matplotlib)")
+    add_execution_options(p)
+    p.set_defaults(func=run_sim)
+
+
+@contextmanager
+def _ctrl_c_stops(stop) -> Iterator[None]:
+    """While executing, SIGINT requests a stop (the streamer then holds) instead of raising."""
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+
+    def handler(signum, frame):
+        stop.request("stopped by Ctrl-C")
+
+    previous = signal.signal(signal.SIGINT, handler)
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGINT, previous)
+
+
+class _LiveProgress:
+    """One self-rewriting status line on a terminal; silent when stderr is not a TTY."""
+
+    def __init__(self, traj, arm, stream=None) -> None:
+        self.stream = stream or sys.stderr
+        self.enabled = self.stream.isatty()
+        self.total = traj.duration
+        self.rad_per_tick = np.array([2 * math.pi / j.servo.ticks_per_turn for j in arm.joints])
+        self.samples: list[tuple[float, tuple[int, ...]]] = []  # (elapsed, present ticks)
+
+    def __call__(self, progress) -> None:
+        if progress.present is not None:
+            self.samples.append((progress.elapsed_s, tuple(progress.present)))
+        if not self.enabled:
+            return
+        fraction = progress.sample / max(1, progress.samples_total - 1)
+        error = ""
+        # The streamer's own tracking error (the report's definition) when it passes one.
+        tracking = getattr(progress, "tracking_error_rad", None)
+        if tracking is not None:
+            error = f"  tracking {math.degrees(float(np.max(tracking))):5.2f}°"
+        elif progress.present is not None:
+            lag = np.abs(np.subtract(progress.present, progress.goals)) * self.rad_per_tick
+            error = f"  tracking {math.degrees(float(lag.max())):5.2f}°"
+        bar = "#" * int(20 * fraction)
+        self.stream.write(f"\r[{bar:<20}] {100 * fraction:5.1f}%  {progress.elapsed_s:6.2f}/"
+                          f"{self.total:.2f} s{error}")
+        self.stream.flush()
+
+    def finish(self) -> None:
+        if self.enabled:
+            self.stream.write("\n")
+            self.stream.flush()
+
+
+def _execute(args: argparse.Namespace, request: planning.MotionRequest, arm, bus
+             ) -> tuple[Any, Any, _LiveProgress]:
+    """Read the present pose, plan from it, stream; returns (trajectory, report, progress)."""
+    from robodcn.stream import StopSignal, execute
+
+    traj = planning.plan_from_present(request, arm, bus)
+    stop = StopSignal()
+    live = _LiveProgress(traj, arm)
+    with _ctrl_c_stops(stop):
+        try:
+            report = execute(traj, bus, feedback_every=args.feedback_every,
+                             tracking_limit=math.radians(args.tracking_limit), stop=stop,
+                             progress=live, release=args.release, realtime=args.realtime)
+        finally:
+            live.finish()
+    return traj, report, live
+
+
+def _finish(args: argparse.Namespace, traj, report) -> int:
+    approach = approach_seconds(report, traj)
+    if args.json:
+        emit(json.dumps(report_dict(report, approach), indent=2) + "\n")
+    else:
+        emit(report_text(report, approach) + "\n")
+    return exit_for_report(report)
+
+
+def run_move(args: argparse.Namespace) -> int:
+    from robodcn.bus import ServoBus
+
+    arm = options.load_arm(args)
+    request = planning.motion_request(args, arm)
+    device = args.device if args.device is not None else arm.bus.port
+    try:
+        with ServoBus(device, args.baud or arm.bus.baud,
+                      servos=[j.servo for j in arm.joints]) as bus:
+            bus.verify()
+            traj, report, _ = _execute(args, request, arm, bus)
+    except (OSError, termios.error) as exc:
+        # The device went away under the SDK (unplugged, simulator killed): a bus fault.
+        raise BusError(f"{device}: the serial device failed ({_os_reason(exc)}); check the "
+                       "cable and the adapter, then run the move again", field="device",
+                       value=device) from exc
+    return _finish(args, traj, report)
+
+
+def _os_reason(exc: BaseException) -> str:
+    return getattr(exc, "strerror", None) or str(exc) or type(exc).__name__
+
+
+def run_sim(args: argparse.Namespace) -> int:
+    from robodcn.simulated import simulated_arm
+
+    if args.plot is not None:
+        _require_matplotlib()
+        options.check_plot_path(args.plot)
+    arm = options.load_arm(args)
+    request = planning.motion_request(args, arm)
+    with simulated_arm(arm, timing=args.timing) as sim:
+        traj, report, live = _execute(args, request, arm, sim.bus)
+    code = _finish(args, traj, report)
+    if args.plot is not None:
+        _plot(args.plot, arm, traj, live.samples)
+        emit(f"plot: {args.plot}\n")
+    return code

@@ -1,0 +1,318 @@
+"""Argument types and option groups shared by the subcommands.
+
+Every value is checked here, in the user's terms (the option as typed, degrees, deg/s, Hz),
+before anything is planned or moved: a bad one is one ``robodcn <command>: ...`` line and
+exit code 2.
+"""
+
+from __future__ import annotations
+
+import argparse
+import logging
+import math
+import os
+import re
+import sys
+from collections.abc import Sequence
+from pathlib import Path
+from typing import Any
+
+from robodcn.errors import InputError
+
+#: Default arm when neither --arm nor $ROBODCN_ARM is given.
+DEFAULT_ARM = Path("configs") / "arm3r.toml"
+LOG_LEVELS = ("DEBUG", "INFO", "WARNING", "ERROR", "CRITICAL")
+#: Poses such as -0.1,0.2,0 are values, not options.
+NEGATIVE_POSE = re.compile(r"^-\.?[0-9][0-9.,eE+\-]*$")
+_NUMBER = re.compile(r"^[+-]?([0-9]+\.?[0-9]*|\.[0-9]+)([eE][+-]?[0-9]+)?$")
+
+
+class Parser(argparse.ArgumentParser):
+    """argparse, with usage errors as one line naming the option (exit code 2)."""
+
+    def error(self, message: str):  # type: ignore[override]
+        from robodcn.cli.error_text import one_line
+
+        self.exit(2, one_line(f"{self.prog}: {message} (see '{self.prog} --help')") + "\n")
+
+    def _get_values(self, action, arg_strings):
+        # argparse drops a "--" value (``--beta=--``) and hands the option an empty list.
+        if action.option_strings and action.nargs is None and arg_strings == ["--"]:
+            raise argparse.ArgumentError(action, "expected one argument, got '--'")
+        return super()._get_values(action, arg_strings)
+
+
+# -- values ------------------------------------------------------------------------------------
+
+def number(text: str, option: str) -> float:
+    """A finite decimal number written in ASCII (``1e3``, ``-0.5``); InputError otherwise.
+
+    Python's float() also takes ``nan``, ``inf``, ``1_000`` and non-ASCII digits; a
+    command line takes none of them.
+    """
+    value = float(text) if _NUMBER.match(str(text).strip()) else math.nan
+    if not math.isfinite(value):
+        raise InputError(f"{option} must be a finite number, got {_shown(text)}",
+                         field=option, value=text)
+    return value
+
+
+def _shown(text: Any, limit: int = 40) -> str:
+    """The user's text, quoted, shortened past ``limit`` characters."""
+    text = str(text)
+    return repr(text if len(text) <= limit else text[:limit] + "…")
+
+
+class _Bad(argparse.ArgumentTypeError):
+    """A value argparse rejects; argparse prefixes the option: ``argument --rate: ...``."""
+
+
+def non_negative_int(text: str) -> int:
+    if not re.fullmatch(r"\+?[0-9]{1,9}", text.strip()):
+        raise _Bad(f"must be an integer in 0..999999999, got {_shown(text)}")
+    return int(text)
+
+
+def positive_float(text: str) -> float:
+    value = _number_or_nan(text)
+    if not value > 0:
+        raise _Bad(f"must be a positive number, got {_shown(text)}")
+    return value
+
+
+def finite_float(text: str) -> float:
+    value = _number_or_nan(text)
+    if math.isnan(value):
+        raise _Bad(f"must be a finite number, got {_shown(text)}")
+    return value
+
+
+def rate(text: str) -> float:
+    from robodcn.config import RATE_RANGE
+
+    value = _number_or_nan(text)
+    if not RATE_RANGE[0] <= value <= RATE_RANGE[1]:
+        raise _Bad(f"must be within {RATE_RANGE[0]:g}..{RATE_RANGE[1]:g} Hz, got "
+                   f"{_shown(text)}")
+    return value
+
+
+def duration(text: str) -> float | str:
+    if text.strip() == "auto":
+        return "auto"
+    value = _number_or_nan(text)
+    if not value > 0:
+        raise _Bad(f"must be a positive number of seconds or 'auto', got {_shown(text)}")
+    return value
+
+
+def baud(text: str) -> int:
+    from robodcn.bus import BAUD_INDEX
+
+    rates = sorted(set(BAUD_INDEX.values()))
+    if not re.fullmatch(r"[0-9]{1,8}", text.strip()) or int(text) not in rates:
+        raise _Bad(f"must be one of {', '.join(map(str, rates))}, got {_shown(text)}")
+    return int(text)
+
+
+def id_list(text: str) -> list[int]:
+    """``"1,2,5-8"`` → [1, 2, 5, 6, 7, 8]."""
+    ids: list[int] = []
+    for part in filter(None, (p.strip() for p in text.split(","))):
+        low, dash, high = part.partition("-")
+        if not re.fullmatch(r"[0-9]{1,3}", low) or (dash and not re.fullmatch(r"[0-9]{1,3}",
+                                                                               high)):
+            raise _Bad(f"ids must look like 1,2,5-8, got {_shown(text)}")
+        ids.extend(range(int(low), int(high) + 1) if dash else [int(low)])
+    if not ids or any(not 0 <= i <= 252 for i in ids):
+        raise _Bad(f"ids must be in 0..252, like 1,2,5-8, got {_shown(text)}")
+    return ids
+
+
+def tcp_port(text: str) -> int:
+    if not re.fullmatch(r"[0-9]{1,5}", text.strip()) or int(text) > 65535:
+        raise _Bad(f"must be a TCP port 0..65535 (0: any free port), got {_shown(text)}")
+    return int(text)
+
+
+def device(text: str) -> str:
+    if not text.strip():
+        raise _Bad("needs a serial device path, e.g. /dev/ttyUSB0")
+    return text
+
+
+def log_level(text: str) -> str:
+    level = text.strip().upper()
+    if level not in LOG_LEVELS:
+        raise _Bad(f"must be one of {', '.join(LOG_LEVELS)}, got {_shown(text)}")
+    return level
+
+
+def _number_or_nan(text: str) -> float:
+    try:
+        return number(text, "")
+    except InputError:
+        return math.nan
+
+
+def parse_pose(text: str, option: str, *, radians: bool = False,
+               position_only: bool = False) -> tuple[float, float, float]:
+    """``"x,y,θ"`` → (x, y, θ in radians); InputError naming ``option`` otherwise.
+
+    With ``position_only`` (a 2R arm, θ free) ``"x,y"`` is accepted too, with θ = 0.
+    """
+    parts = [p.strip() for p in str(text).split(",")]
+    try:
+        values = [number(p, option) for p in parts]
+    except InputError:
+        values = []
+    counts = (2, 3) if position_only else (3,)
+    if len(values) not in counts:
+        unit = "radians" if radians else "degrees"
+        form = (f"a position x,y (metres) or a pose x,y,θ (θ in {unit}, ignored by this arm)"
+                if position_only else f"a pose x,y,θ (metres, {unit})")
+        raise InputError(f"{option} must be {form}, got {_shown(text)}",
+                         field=option.lstrip("-"), value=text)
+    x, y, theta = (*values, 0.0) if len(values) == 2 else values
+    return x, y, theta if radians else math.radians(theta)
+
+
+def check_output_path(path: str, option: str) -> Path:
+    """A file ``option`` may write: its directory exists and is writable, it is not a
+    directory, and an existing file is writable. Checked before any planning or motion."""
+    if not str(path).strip():
+        raise InputError(f"{option} needs a file name", field=option, value=path)
+    out = Path(path)
+    parent = out.parent
+    if out.is_dir():
+        raise InputError(f"{option} {path}: is a directory, give a file name", field=option,
+                         value=path)
+    if not parent.is_dir():
+        raise InputError(f"{option} {path}: no such directory {str(parent)!r}", field=option,
+                         value=path)
+    writable = os.access(parent, os.W_OK | os.X_OK) and (not out.exists()
+                                                         or os.access(out, os.W_OK))
+    if not writable:
+        raise InputError(f"{option} {path}: not writable", field=option, value=path)
+    return out
+
+
+def check_plot_path(path: str, option: str = "--plot") -> Path:
+    """:func:`check_output_path`, with an image format matplotlib can write (by suffix)."""
+    out = check_output_path(path, option)
+    suffix = out.suffix.lower().lstrip(".")
+    if suffix:
+        from matplotlib.backends.backend_agg import FigureCanvasAgg
+
+        formats = FigureCanvasAgg.get_supported_filetypes()
+        if suffix not in formats:
+            raise InputError(f"{option} {path}: cannot draw .{suffix} files; use "
+                             f"{', '.join('.' + f for f in sorted(formats))}", field=option,
+                             value=path)
+    return out
+
+
+def split_list(text: str, option: str, allowed: Sequence[str], segments: int
+               ) -> str | list[str]:
+    """``"a"`` or ``"a,b"`` (one per segment), each one of ``allowed``."""
+    items = [t.strip() for t in str(text).split(",")]
+    for item in items:
+        if item not in allowed:
+            raise InputError(f"{option}: {_shown(item)} is not one of {', '.join(allowed)}",
+                             field=option, value=text)
+    if len(items) == 1:
+        return items[0]
+    if len(items) != segments:
+        raise InputError(f"{option} takes one value or one per segment ({segments} here: "
+                         f"--from → {'--via … → ' if segments > 1 else ''}--to), got "
+                         f"{len(items)}", field=option, value=text)
+    return items
+
+
+# -- option groups -----------------------------------------------------------------------------
+
+def add_logging_options(p: argparse.ArgumentParser) -> None:
+    g = p.add_argument_group("logging")
+    g.add_argument("-v", "--verbose", action="count", default=0,
+                   help="log more: -v info, -vv debug (to stderr)")
+    g.add_argument("--log-level", type=log_level, metavar="LEVEL",
+                   help=f"log level: {', '.join(LOG_LEVELS)} (default WARNING; overrides -v)")
+
+
+class _DeprecatedPort(argparse.Action):
+    """``--port DEV`` on move/scan: the old spelling of ``--device`` (a note on stderr)."""
+
+    def __call__(self, parser, namespace, values, option_string=None):
+        print(f"robodcn: note: {parser.prog} {option_string} is deprecated, use --device "
+              "(--port is the TCP port of 'robodcn serve')", file=sys.stderr)
+        setattr(namespace, self.dest, values)
+
+
+def add_device_options(p: argparse.ArgumentParser, *, default_help: str,
+                       repeat_baud: bool = False) -> None:
+    """--device DEV (and its deprecated spelling --port) and --baud (repeatable for scan)."""
+    g = p.add_argument_group("bus")
+    g.add_argument("--device", type=device, metavar="DEV",
+                   help=f"serial device ({default_help})")
+    g.add_argument("--port", type=device, dest="device", metavar="DEV", action=_DeprecatedPort,
+                   help="deprecated spelling of --device")
+    if repeat_baud:
+        g.add_argument("--baud", type=baud, action="append",
+                       help="baud rate to try (repeatable); default: the config's, else "
+                            "1000000")
+    else:
+        g.add_argument("--baud", type=baud, help="baud rate (default: the arm's [bus] baud)")
+
+
+def configure_logging(args: argparse.Namespace) -> None:
+    """-v/-vv/--log-level → the level of the ``robodcn`` loggers; one handler on stderr.
+
+    The default is WARNING, or the command's ``log_default`` (``serve``: INFO, its request
+    log). The handler sits on the root logger (so records still propagate to any other
+    handler, pytest's included, and a command that checks for configured logging finds it).
+    """
+    verbose = getattr(args, "verbose", 0) or 0
+    default = getattr(args, "log_default", "WARNING")
+    level = getattr(args, "log_level", None) or (
+        default if not verbose else ("INFO", "DEBUG")[min(1, verbose - 1)])
+    root = logging.getLogger()
+    for handler in [h for h in root.handlers if isinstance(h, _StderrHandler)]:
+        root.removeHandler(handler)
+    handler = _StderrHandler()
+    handler.setFormatter(logging.Formatter("robodcn: %(levelname)s: %(name)s: %(message)s"))
+    root.addHandler(handler)
+    logging.getLogger("robodcn").setLevel(level)
+
+
+class _StderrHandler(logging.StreamHandler):
+    """Writes to whatever ``sys.stderr`` is at the time (so captured stderr works)."""
+
+    @property
+    def stream(self):  # type: ignore[override]
+        return sys.stderr
+
+    @stream.setter
+    def stream(self, value) -> None:
+        pass
+
+
+def load_arm(args: argparse.Namespace):
+    from robodcn.config import load_arm as load
+
+    path = args.arm if args.arm is not None else os.environ.get("ROBODCN_ARM") or DEFAULT_ARM
+    if not Path(path).is_file():
+        raise InputError(f"--arm: no such file {_shown(path, 200)} (give --arm FILE or set "
+                         "ROBODCN_ARM)", field="arm", value=str(path))
+    return load(path)
+
+
+def add_arm_option(p: argparse.ArgumentParser) -> None:
+    p.add_argument("--arm", metavar="FILE",
+                   help=f"arm TOML (default: $ROBODCN_ARM, else {DEFAULT_ARM})")
+
+
+__all__ = ["DEFAULT_ARM", "NEGATIVE_POSE", "Parser", "add_arm_option", "add_device_options",
+           "add_logging_options", "baud", "check_output_path", "check_plot_path",
+           "configure_logging", "device", "duration", "finite_float", "id_list", "load_arm",
+           "non_negative_int", "number", "parse_pose", "positive_float", "rate", "split_list",
+           "tcp_port"]

@@ -1,0 +1,167 @@
+"""The motion options every planning command shares (--to, --via, --method, ...) and the
+one place that turns them into a :func:`robodcn.planner.plan` call.
+
+:func:`motion_request` checks every option before anything is planned or moved, so a bad
+value is a usage error (exit 2) naming the option as typed, and the planner's own errors
+come back naming ``--from``, ``--via N`` or ``--to`` (:mod:`robodcn.cli.error_text`).
+"""
+
+from __future__ import annotations
+
+import argparse
+import inspect
+import math
+import warnings
+from collections.abc import Iterator
+from contextlib import contextmanager
+from dataclasses import dataclass
+from typing import Any
+
+from robodcn.cli import options
+from robodcn.cli.error_text import error_text
+from robodcn.errors import InputError, RobodcnError
+
+ELBOWS = ("up", "down")
+
+
+def add_motion_options(p: argparse.ArgumentParser, *, start_help: str) -> None:
+    g = p.add_argument_group("motion")
+    options.add_arm_option(g)
+    g.add_argument("--from", dest="start", metavar="X,Y,THETA", help=start_help)
+    g.add_argument("--to", dest="end", metavar="X,Y,THETA", required=True,
+                   help="goal pose (metres, degrees); x,y on a position-only (2R) arm")
+    g.add_argument("--via", action="append", default=[], metavar="X,Y,THETA",
+                   help="via pose, repeatable, in order (--via 1, --via 2, ... in messages)")
+    g.add_argument("--method", default="sclerp", metavar="M[,M...]",
+                   help="sclerp | kenlerp | seplerp | dlb, or one per segment (default sclerp)")
+    g.add_argument("--beta", type=options.finite_float, metavar="B",
+                   help="KenLERP bias: 0 decoupled, 1 = ScLERP, > 1 amplifies (default 1; "
+                        "only kenlerp uses it)")
+    g.add_argument("--turn", default="shortest", metavar="T[,T...]",
+                   help="shortest | ccw | cw, or one per segment (default shortest)")
+    g.add_argument("--duration", type=options.duration, default="auto",
+                   metavar="SECONDS|auto",
+                   help="total duration, or auto: the shortest within the joint limits")
+    g.add_argument("--profile", default="quintic", choices=("quintic", "trapezoid", "linear"),
+                   help="time law s(t) (default quintic)")
+    g.add_argument("--rate", type=options.rate, metavar="HZ",
+                   help="sample rate, 1..1000 Hz (default: the arm's [bus] rate_hz)")
+    g.add_argument("--blend", action="store_true",
+                   help="pass through via poses with continuous velocity instead of stopping")
+    g.add_argument("--elbow", choices=ELBOWS,
+                   help="IK branch: up or down (default: the arm's [arm] elbow)")
+    g.add_argument("--radians", action="store_true", help="θ in radians, not degrees")
+
+
+@dataclass(frozen=True)
+class MotionRequest:
+    """The checked motion options: everything :func:`plan` needs except the start."""
+
+    vias: tuple[tuple[float, float, float], ...]
+    end: tuple[float, float, float]
+    start: tuple[float, float, float] | None
+    keywords: dict[str, Any]
+
+    @property
+    def segments(self) -> int:
+        return len(self.vias) + 1
+
+
+def _elbow_supported() -> bool:
+    from robodcn.planner import plan
+
+    return "elbow" in inspect.signature(plan).parameters
+
+
+def motion_request(args: argparse.Namespace, arm) -> MotionRequest:
+    """Parse and check the motion options against ``arm`` (InputError naming the option).
+
+    Warns (a ``robodcn: warning:`` line) when --beta is given for methods that ignore it.
+    """
+    from robodcn.dcn import TURNS
+    from robodcn.interpolate import METHODS
+    from robodcn.planner import MAX_SAMPLES
+
+    position_only = arm.dof == 2
+
+    def pose(text: str, option: str) -> tuple[float, float, float]:
+        return options.parse_pose(text, option, radians=args.radians,
+                                  position_only=position_only)
+
+    start = pose(args.start, "--from") if args.start is not None else None
+    vias = tuple(pose(v, f"--via {i + 1}") for i, v in enumerate(args.via))
+    end = pose(args.end, "--to")
+    segments = len(vias) + 1
+    method = options.split_list(args.method, "--method", METHODS, segments)
+    turn = options.split_list(args.turn, "--turn", TURNS, segments)
+    rate = args.rate if args.rate is not None else arm.bus.rate_hz
+    if args.duration != "auto" and args.duration * rate + 1 > MAX_SAMPLES:
+        raise InputError(f"--duration {args.duration:g} s at {rate:g} Hz needs more than "
+                         f"{MAX_SAMPLES} samples: shorten it or lower --rate",
+                         field="--duration", value=args.duration)
+    if args.duration != "auto" and max(1, math.ceil(args.duration * rate - 1e-9)) < segments:
+        raise InputError(f"--duration {args.duration:g} s at {rate:g} Hz is shorter than one "
+                         f"sample period for each of the {segments} segments",
+                         field="--duration", value=args.duration)
+    methods = [method] if isinstance(method, str) else method
+    from robodcn import errors
+
+    # A planner with BetaIgnoredWarning says so itself (then in CLI terms, via main).
+    if args.beta is not None and "kenlerp" not in methods \
+            and not hasattr(errors, "BetaIgnoredWarning"):
+        warnings.warn(f"--beta {args.beta:g} has no effect with --method {args.method} (only "
+                      "kenlerp uses it)", UserWarning, stacklevel=2)
+    keywords: dict[str, Any] = dict(
+        method=method, beta=1.0 if args.beta is None else args.beta, turn=turn,
+        duration=args.duration, profile=args.profile, rate_hz=rate, blend=args.blend)
+    if getattr(args, "elbow", None) is not None:
+        if not _elbow_supported():
+            raise InputError("--elbow is not supported by this version's planner",
+                             field="--elbow", value=args.elbow)
+        keywords["elbow"] = args.elbow
+    return MotionRequest(vias=vias, end=end, start=start, keywords=keywords)
+
+
+def plan_motion(request: MotionRequest, arm, start_pose, start_joints=None):
+    """Plan from ``start_pose`` through the --via poses to --to; a planner error comes back
+    with the option it is about (``--to``, ``--via 2``, ``--rate``...)."""
+    from robodcn.planner import plan
+
+    with _cli_terms(request, arm):
+        return plan(arm, [tuple(start_pose), *request.vias, request.end],
+                    start_joints=start_joints, **request.keywords)
+
+
+def plan_from_present(request: MotionRequest, arm, bus):
+    """Plan from the arm's present joints (read from ``bus``) to --to: from the present pose,
+    or with a joint-space approach to --from first."""
+    try:
+        from robodcn.present import plan_from_present as from_present
+    except ImportError:  # before robodcn.present: read the joints and plan here
+        from_present = None
+    if from_present is None:
+        from robodcn import kinematics, servo_units
+
+        present = servo_units.ticks_to_radians(bus.read_positions()[None, :],
+                                               [j.servo for j in arm.joints])[0]
+        start = request.start or tuple(kinematics.fk(arm.links, present[None, :])[0])
+        return plan_motion(request, arm, start, start_joints=present)
+    with _cli_terms(request, arm):
+        return from_present(arm, bus, [request.start, *request.vias, request.end],
+                            **request.keywords)
+
+
+@contextmanager
+def _cli_terms(request: MotionRequest, arm) -> Iterator[None]:
+    """A planner error leaves with ``cli_text``: what main() prints, naming the option."""
+    try:
+        yield
+    except RobodcnError as exc:
+        exc.cli_text = error_text(exc, vias=len(request.vias), arm=arm)
+        raise
+
+
+
+
+__all__ = ["ELBOWS", "MotionRequest", "add_motion_options", "motion_request",
+           "plan_from_present", "plan_motion"]
