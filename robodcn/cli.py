@@ -531,6 +531,8 @@ def build_parser() -> argparse.ArgumentParser:
     subparsers = parser.add_subparsers(dest="command", metavar="COMMAND", required=True)
     for add in (_add_plan, _add_move, _add_sim, _add_serve, _add_scan):
         add(subparsers)
+    from robodcn.workflow.commands import register as register_workflow
+    register_workflow(subparsers)
     # Poses such as -0.1,0.2,0 are values, not options.
     for action in subparsers.choices.values():
         action._negative_number_matcher = _NEGATIVE_POSE
