@@ -12,8 +12,8 @@ The procedure (issue 12 §1), driven by a ``prompt`` callback so that a terminal
 4. optionally, per joint, the user moves it through its whole range while Present Position
    is sampled: ``min_tick``/``max_tick`` become the extremes seen, moved inward by a margin,
    and the joint limits become the angles of those ticks (so they lie inside the tick range).
-   A range whose ticks leave 0..ticks_per_turn−1 (or jump by more than half a turn between
-   samples) crosses the encoder's wrap: it needs Extended Position Mode (Operating Mode 4),
+   A range whose ticks leave 0..ticks_per_turn−1 (or jump by more than three quarters of a
+   turn between two samples, 20 ms apart: no hand turns a joint that fast) crosses the encoder's wrap: it needs Extended Position Mode (Operating Mode 4),
    which robodcn configs do not describe, so that joint's range is left as it was and noted.
 
 :func:`updated_toml` writes the result into the input's TOML text with tomlkit, keeping its
@@ -121,7 +121,7 @@ def _range(arm: Arm, j: int, zero: int, direction: int, seen: NDArray[np.int64],
     ticks = spec.servo.ticks_per_turn
     name = spec.name
     jumps = np.abs(np.diff(seen)) if seen.size > 1 else np.zeros(0)
-    if seen.min() < 0 or seen.max() > ticks - 1 or (jumps.size and jumps.max() > ticks // 2):
+    if seen.min() < 0 or seen.max() > ticks - 1 or (jumps.size and jumps.max() > 3 * ticks // 4):
         note = (f"joint {name!r}: its range crosses the encoder wrap (ticks "
                 f"{int(seen.min())}..{int(seen.max())}): that needs Extended Position Mode "
                 "(Operating Mode 4); min_tick/max_tick and the joint limits were left as they "
