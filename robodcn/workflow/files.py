@@ -403,7 +403,8 @@ def joint_trajectory(data: Any, arm: Arm, rate_hz: float, *, source: str = "<jso
         v = estimate_velocities(t, p)
     joints = hermite(t, p, v, a if all(has["accelerations"]) else None, ts)
     joints[-1] = p[-1]
-    heading = np.clip(np.searchsorted(t, ts, side="left"), 0, len(t) - 1)
+    # The point each sample is heading to (sample 0 heads to point 1).
+    heading = np.clip(np.searchsorted(t, ts, side="left"), 1, len(t) - 1)
     ticks = check_joint_samples(arm, joints, rate_hz, source=source, point_of_sample=heading)
     return _trajectory(arm, joints, rate_hz, ticks, "joint_trajectory")
 
