@@ -9,13 +9,14 @@ import tomllib
 from pathlib import Path
 
 import numpy as np
-from workflow_helpers import ARM3R, NO_DEVICE, backdrive, run_cli, settle, sim  # noqa: F401
+from workflow_helpers import ARM3R, NO_DEVICE, run_cli, settle
 
 from robodcn.config import load_arm
 from robodcn.workflow.calibrate import Calibration, JointCalibration, updated_toml
 
 #: Where the "real" arm's joint angles are 0, and which way each joint turns.
 TRUE_ZERO = {1: 2100, 2: 1900, 3: 2300}
+pytest_plugins = ["workflow_helpers"]      # fixtures: sim, backdrive
 MARGIN = math.ceil(2.0 / 360.0 * 4096)     # the default --margin of 2°
 
 
@@ -34,7 +35,7 @@ def _steps(sim, backdrive, *, shoulder_range=(500, 3600), wrist_range=(800, 3900
                     *np.linspace(hi, back, 6)[1:]]
             for tick in path:
                 backdrive(sim, {servo_id: round(tick)})
-                settle(0.15 if tick in (lo, hi) else 0.04)
+                settle(sim, 3 if tick in (lo, hi) else 1)
             return ""
         return step
 

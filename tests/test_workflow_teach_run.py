@@ -10,12 +10,13 @@ import tomllib
 
 import numpy as np
 import pytest
-from workflow_helpers import ARM3R, NO_DEVICE, backdrive, run_cli, sim  # noqa: F401
+from workflow_helpers import ARM3R, NO_DEVICE, run_cli
 
 from robodcn import kinematics, servo_units
 from robodcn.config import load_arm
 from robodcn.workflow import files
 
+pytest_plugins = ["workflow_helpers"]      # fixtures: sim, backdrive
 ARM = load_arm(ARM3R)
 #: Joint angles (degrees) of the poses taught by hand.
 TAUGHT = [(10.0, -60.0, 40.0), (40.0, -80.0, 30.0), (70.0, -50.0, 0.0), (90.0, -30.0, 10.0)]
@@ -26,8 +27,8 @@ def ticks_of(q_deg) -> dict[int, int]:
     return dict(zip(ARM.servo_ids, (int(t) for t in ticks), strict=True))
 
 
-def present(sim) -> list[int]:
-    return [sim.servo(i).present_position for i in ARM.servo_ids]
+def present(bus) -> list[int]:
+    return [bus.servo(i).present_position for i in ARM.servo_ids]
 
 
 def test_teach_records_poses_with_undo_then_run_replays_them(sim, backdrive, monkeypatch,

@@ -87,7 +87,13 @@ def run_cli(monkeypatch, argv: Sequence[str], steps: Sequence[Step] = ()) -> int
     return cli.main(list(argv))
 
 
-def settle(seconds: float = 0.15) -> str:
-    """Give the calibration sampler time to read the new position; returns ''."""
-    time.sleep(seconds)
+def settle(sim: SimBus, packets: int = 3, timeout: float = 5.0) -> str:
+    """Wait until the bus has received ``packets`` more instructions (the calibration
+    sampler has read the new position), however loaded the machine; returns ''."""
+    start = sim.rx_packets
+    deadline = time.monotonic() + timeout
+    while sim.rx_packets < start + packets:
+        if time.monotonic() > deadline:
+            raise AssertionError(f"the bus saw no {packets} instructions within {timeout} s")
+        time.sleep(0.005)
     return ""

@@ -13,7 +13,8 @@ The procedure (issue 12 §1), driven by a ``prompt`` callback so that a terminal
    is sampled: ``min_tick``/``max_tick`` become the extremes seen, moved inward by a margin,
    and the joint limits become the angles of those ticks (so they lie inside the tick range).
    A range whose ticks leave 0..ticks_per_turn−1 (or jump by more than three quarters of a
-   turn between two samples, 20 ms apart: no hand turns a joint that fast) crosses the encoder's wrap: it needs Extended Position Mode (Operating Mode 4),
+   turn between two samples, 20 ms apart: no hand turns a joint that fast) crosses the
+   encoder's wrap: it needs Extended Position Mode (Operating Mode 4),
    which robodcn configs do not describe, so that joint's range is left as it was and noted.
 
 :func:`updated_toml` writes the result into the input's TOML text with tomlkit, keeping its
