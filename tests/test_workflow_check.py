@@ -101,3 +101,20 @@ def test_workspace_samples_stay_inside_the_annulus_and_limits():
     inner, outer = kinematics.workspace(arm.links)
     r = kinematics.wrist_radius(arm.links, poses)
     assert np.all((r >= inner - 1e-9) & (r <= outer + 1e-9))
+
+
+def test_readme_workflow_commands_that_need_no_servos_run(tmp_path):
+    readme = (ROOT / "README.md").read_text()
+    block = readme.split("## Everyday workflow", 1)[1].split("```sh\n", 1)[1].split("```")[0]
+    commands = [line.split("  #")[0].strip() for line in block.splitlines()]
+    offline = [c for c in commands if c.startswith(("robodcn config", "robodcn check-config"))]
+    assert len(offline) == 2
+    for command in offline:
+        args, _, redirect = command.removeprefix("robodcn ").partition(" > ")
+        out = subprocess.run([sys.executable, "-m", "robodcn", *args.split()],
+                             capture_output=True, text=True, cwd=tmp_path, timeout=120)
+        assert out.returncode == 0, (command, out.stderr)
+        if redirect:
+            (tmp_path / redirect).write_text(out.stdout)
+    assert (tmp_path / "ws.png").stat().st_size > 0
+    assert load_arm(tmp_path / "my.toml").name == "arm2r"
