@@ -470,7 +470,8 @@ def with_approach(traj: Trajectory, arm: Arm, present: NDArray[np.float64]) -> T
     while True:
         tau = np.arange(intervals + 1) / intervals
         s = 10 * tau ** 3 - 15 * tau ** 4 + 6 * tau ** 5
-        joints = np.concatenate([present + np.outer(s, delta), traj.joints[1:]])
+        # The approach ends exactly on the first sample (s = 1 up to rounding).
+        joints = np.concatenate([present + np.outer(s[:-1], delta), traj.joints])
         marks = np.concatenate([np.zeros(intervals + 1, dtype=np.int64),
                                 np.arange(1, len(traj.t))])
         try:
@@ -485,3 +486,16 @@ def with_approach(traj: Trajectory, arm: Arm, present: NDArray[np.float64]) -> T
                       else "joint_trajectory")
     out.request = traj.request
     return out
+
+
+def trajectory_from_data(data: Any, arm: Arm, rate_hz: float, *, source: str = "trajectory"
+                         ) -> Trajectory:
+    """A parsed JSON value that is a Trajectory (``plan --format json``) or a JointTrajectory,
+    checked for ``arm`` — e.g. the ``trajectory`` field of an HTTP move request. ``rate_hz``
+    resamples a JointTrajectory; a Trajectory keeps its own rate."""
+    if isinstance(data, dict) and "points" in data and "joint_names" in data:
+        return joint_trajectory(data, arm, rate_hz, source=source)
+    if isinstance(data, dict) and "ticks" in data and "t" in data:
+        return load_trajectory(source, arm, text=json.dumps(data))
+    raise InputError(f"{source}: must be a Trajectory (t, poses, joints, ticks, ...) or a "
+                     "JointTrajectory (joint_names, points)", field=source, value=None)
