@@ -16,7 +16,7 @@ from robodcn import kinematics, servo_units
 from robodcn.config import load_arm
 from robodcn.workflow.admin import lower_latency_timer
 
-pytest_plugins = ["workflow_helpers"]      # fixtures: sim, backdrive
+pytest_plugins = ["workflow_fixtures"]     # fixtures: sim, backdrive
 ARM = load_arm(ARM3R)
 
 

@@ -16,7 +16,7 @@ from robodcn.workflow.calibrate import Calibration, JointCalibration, updated_to
 
 #: Where the "real" arm's joint angles are 0, and which way each joint turns.
 TRUE_ZERO = {1: 2100, 2: 1900, 3: 2300}
-pytest_plugins = ["workflow_helpers"]      # fixtures: sim, backdrive
+pytest_plugins = ["workflow_fixtures"]     # fixtures: sim, backdrive
 MARGIN = math.ceil(2.0 / 360.0 * 4096)     # the default --margin of 2°
 
 

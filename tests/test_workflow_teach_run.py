@@ -16,7 +16,7 @@ from robodcn import kinematics, servo_units
 from robodcn.config import load_arm
 from robodcn.workflow import files
 
-pytest_plugins = ["workflow_helpers"]      # fixtures: sim, backdrive
+pytest_plugins = ["workflow_fixtures"]     # fixtures: sim, backdrive
 ARM = load_arm(ARM3R)
 #: Joint angles (degrees) of the poses taught by hand.
 TAUGHT = [(10.0, -60.0, 40.0), (40.0, -80.0, 30.0), (70.0, -50.0, 0.0), (90.0, -30.0, 10.0)]

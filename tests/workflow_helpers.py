@@ -1,18 +1,14 @@
-"""Shared pieces of the workflow tests: an in-process SimBus for the arm3r servos, the
-simulator's backdrive (a hand moving a torque-off joint) and scripted stdin for prompts."""
+"""Shared pieces of the workflow tests: paths, scripted stdin for prompts, the CLI in-process.
+The fixtures (an in-process SimBus, backdrive) are in workflow_fixtures.py."""
 
 from __future__ import annotations
 
 import sys
 import time
-from collections.abc import Callable, Iterator, Sequence
+from collections.abc import Callable, Sequence
 from pathlib import Path
 
-import pytest
-
 from firmware_sim.bus import SimBus
-from firmware_sim.profile import hold
-from firmware_sim.servo import Servo
 from robodcn import cli
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -21,43 +17,6 @@ ARM2R = str(ROOT / "configs" / "arm2r.toml")
 #: A device that does not exist: a command that fails with exit code 2 on it has refused
 #: before opening the bus.
 NO_DEVICE = "/dev/robodcn-test-no-such-device"
-
-
-def _backdrive_shim(self: Servo, ticks: int) -> None:  # shim until fw lands
-    """Present Position reads ``ticks``, as if a hand turned the torque-off servo there."""
-    with self._lock:
-        self.update()
-        if self.torque_enabled:
-            raise RuntimeError(f"servo {self.id}: torque is on, it cannot be backdriven")
-        now = self.clock.now()
-        self._profile = hold(now, float(ticks))
-        self._refresh(now)
-
-
-@pytest.fixture
-def backdrive(monkeypatch) -> Callable[[SimBus, dict[int, int]], None]:
-    """``backdrive(sim, {id: ticks})`` moves torque-off servos by hand."""
-    if not hasattr(Servo, "backdrive"):  # shim until fw lands
-        monkeypatch.setattr(Servo, "backdrive", _backdrive_shim, raising=False)
-
-    def move(sim: SimBus, ticks: dict[int, int]) -> None:
-        with sim.lock:
-            for servo_id, tick in ticks.items():
-                sim.servo(servo_id).backdrive(int(tick))
-
-    return move
-
-
-@pytest.fixture
-def sim() -> Iterator[SimBus]:
-    """Three XM430-W350 (ids 1..3, arm3r's) at 1 Mbps, at tick 2048, torque off."""
-    bus = SimBus([1, 2, 3], "xm430-w350", baud=1_000_000, timing="fast", log=False)
-    bus.start()
-    try:
-        yield bus
-    finally:
-        bus.close()
-        assert bus.errors == []
 
 
 Step = str | Callable[[], str]
