@@ -232,3 +232,43 @@ def test_hermite_reproduces_polynomials_it_can_represent():
     c[:] = cubic                       # a quintic: the quintic Hermite is exact
     assert np.allclose(files.hermite(t, poly(t), poly(t, 1), poly(t, 2), ts), poly(ts),
                        atol=1e-9)
+
+
+def test_run_sim_ctrl_c_stops_holds_and_plots_the_stop(monkeypatch, tmp_path, capsys):
+    import os
+    import signal
+
+    from robodcn import cli
+
+    q = np.radians([[0.0, -60.0, 20.0], [60.0, -30.0, 0.0]])
+    path = tmp_path / "slow.json"
+    path.write_text(json.dumps(_joint_trajectory([_point(q[0], 0), _point(q[1], 6.0)])))
+    png = tmp_path / "stop.png"
+    progress = cli._LiveProgress.__call__
+    sent = []
+
+    def ctrl_c_midway(self, p):          # the user presses Ctrl-C 50 samples in
+        if p.sample >= 50 and not sent:
+            sent.append(p.sample)
+            os.kill(os.getpid(), signal.SIGINT)
+        progress(self, p)
+
+    monkeypatch.setattr(cli._LiveProgress, "__call__", ctrl_c_midway)
+    code = run_cli(monkeypatch, ["run", str(path), "--arm", ARM3R, "--sim", "--json",
+                                 "--plot", str(png)])
+    captured = capsys.readouterr()
+    assert code == 130, captured.err
+    report = json.loads(captured.out)
+    assert report["stop_reason"] == "stopped"
+    assert 0 < report["samples_sent"] < report["samples_total"]
+    assert png.read_bytes()[:4] == b"\x89PNG"
+
+
+def test_unreachable_waypoint_in_a_file_is_named_before_the_bus(monkeypatch, tmp_path, capsys):
+    poses = tmp_path / "poses.toml"
+    poses.write_text("[[waypoints]]\nx = 0.25\ny = 0.1\ntheta_deg = 0\n\n"
+                     "[[waypoints]]\nx = 0.6\ny = 0.5\ntheta_deg = 0\n")
+    code = run_cli(monkeypatch, ["run", str(poses), "--arm", ARM3R, "--device", NO_DEVICE])
+    err = capsys.readouterr().err
+    assert code == 3 and err.startswith(f"robodcn: {poses}: ") and "waypoints[1]" in err
+    assert "out of reach" in err

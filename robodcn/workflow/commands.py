@@ -12,15 +12,17 @@ from stdin, one line each, so every dialogue can be scripted.
 from __future__ import annotations
 
 import argparse
+import contextlib
 import json
 import math
 import sys
 import time
+from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
 
 from robodcn.config import BAUD_RATES, Arm, load_arm
-from robodcn.errors import InputError, StoppedError
+from robodcn.errors import InputError, RobodcnError, StoppedError
 from robodcn.workflow.examples import EXAMPLES, example_text, resolve_arm_path
 
 EXIT_BY_STOP_REASON = {"completed": 0, "stopped": 130, "comm_failure": 4,
@@ -325,11 +327,22 @@ def _duration(text: str | None) -> float | str | None:
     return value
 
 
+@contextlib.contextmanager
+def _naming_file(path: str) -> Iterator[None]:
+    """Prefix a planner error (which names waypoints[i]) with the waypoints file."""
+    try:
+        yield
+    except RobodcnError as exc:
+        if not exc.message.startswith(path):
+            exc.message = f"{path}: {exc.message}"
+        raise
+
+
 def load_run_file(args: argparse.Namespace, arm: Arm) -> tuple[str, Any]:
     """("waypoints", PlanRequest fields) or (kind, Trajectory), checked before any bus I/O."""
     from robodcn.dcn import TURNS
     from robodcn.interpolate import METHODS
-    from robodcn.planner import PlanRequest
+    from robodcn.planner import PlanRequest, plan_request
     from robodcn.workflow import files
 
     kind, text = files.file_kind(args.file)
@@ -343,7 +356,10 @@ def load_run_file(args: argparse.Namespace, arm: Arm) -> tuple[str, Any]:
         for key in ("method", "turn"):
             if isinstance(fields.get(key), list):
                 fields[key] = tuple(fields[key])
-        PlanRequest(arm=arm, **fields)     # every field checked before the bus opens
+        # Every field, and the path through the waypoints, checked before the bus opens (the
+        # real plan starts from the present joints, with an approach).
+        with _naming_file(args.file):
+            plan_request(PlanRequest(arm=arm, **fields))
         return kind, fields
     plan_options = {"--method": args.method, "--beta": args.beta, "--turn": args.turn,
                     "--duration": args.duration, "--profile": args.profile,
@@ -373,7 +389,8 @@ def _execute(args: argparse.Namespace, arm: Arm, bus, kind: str, loaded: Any):
     approach = False
     if kind == "waypoints":
         fields = dict(loaded)
-        traj = plan(arm, fields.pop("waypoints"), start_joints=present, **fields)
+        with _naming_file(args.file):
+            traj = plan(arm, fields.pop("waypoints"), start_joints=present, **fields)
     elif loaded.request is not None:
         traj, approach = loaded, True      # the streamer re-plans the request from present
     else:
