@@ -88,3 +88,19 @@ def test_recording_as_json_and_csv():
     assert rows[0][:2] == ["t", "q_shoulder"] and len(rows) == 3
     assert [int(v) for v in rows[2][4:7]] == [2100, 2000, 2048]
     assert recording(ARM, [])["ticks"] == []
+
+
+def test_trajectory_summary_fractions_match_the_limits():
+    from robodcn.workflow.summary import trajectory_summary, trajectory_summary_text
+
+    traj = plan(ARM, [ARM.home, (0.12, 0.24, 1.0)])            # auto: the shortest feasible
+    s = trajectory_summary(traj, ARM)
+    assert s["samples"] == len(traj.t) and s["duration_s"] == traj.duration
+    fractions = [max(j["velocity_fraction"], j["acceleration_fraction"]) for j in s["joints"]]
+    assert max(fractions) <= 1.0 + 1e-9 and max(fractions) > 0.8   # some joint is near a limit
+    slow = trajectory_summary(plan(ARM, [ARM.home, (0.12, 0.24, 1.0)],
+                                   duration=2 * traj.duration), ARM)
+    assert all(a["velocity_fraction"] < b["velocity_fraction"]
+               for a, b in zip(slow["joints"], s["joints"], strict=True))
+    text = trajectory_summary_text(traj, ARM)
+    assert "shoulder" in text and "% of limit" in text and len(text.splitlines()) == 4

@@ -131,7 +131,7 @@ def _confirm(args: argparse.Namespace, question: str) -> bool:
         return False
 
 
-def _check_out(path: str, option: str, force: bool) -> Path:
+def check_output_path(path: str, option: str, force: bool) -> Path:
     """An output path that may be written: its directory exists, and it does not exist
     unless ``force``."""
     out = Path(path)
@@ -153,7 +153,7 @@ def _check_plot(path: str | None) -> None:
     from robodcn.plots import require_matplotlib
 
     require_matplotlib()
-    _check_out(path, "--plot", force=True)
+    check_output_path(path, "--plot", force=True)
 
 
 def open_bus(args: argparse.Namespace, arm: Arm):
@@ -200,7 +200,7 @@ def cmd_calibrate(args: argparse.Namespace) -> int:
 
     source = resolve_arm_path(args.arm)
     arm = load_arm(source)
-    out = _check_out(args.out, "--out", args.force)
+    out = check_output_path(args.out, "--out", args.force)
     text = source.read_text(encoding="utf-8")
     with open_bus(args, arm) as bus:
         result = calibrate(bus, arm, stdin_prompt, ranges=args.ranges, margin_deg=args.margin)
@@ -253,7 +253,7 @@ def cmd_teach(args: argparse.Namespace) -> int:
     from robodcn.workflow.teach import teach, waypoints_toml
 
     arm = _arm(args)
-    out = _check_out(args.out, "--out", args.force)
+    out = check_output_path(args.out, "--out", args.force)
     method = _split(args.method, "--method", METHODS)
     turn = _split(args.turn, "--turn", TURNS)
     if args.beta is not None and not math.isfinite(args.beta):
@@ -671,4 +671,4 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         add(subparsers)
 
 
-__all__ = ["load_run_file", "open_bus", "register", "stdin_prompt"]
+__all__ = ["check_output_path", "load_run_file", "open_bus", "register", "stdin_prompt"]
