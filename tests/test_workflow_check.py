@@ -118,3 +118,25 @@ def test_readme_workflow_commands_that_need_no_servos_run(tmp_path):
             (tmp_path / redirect).write_text(out.stdout)
     assert (tmp_path / "ws.png").stat().st_size > 0
     assert load_arm(tmp_path / "my.toml").name == "arm2r"
+
+
+def test_every_workflow_command_has_help_and_a_description():
+    import argparse
+
+    from robodcn.cli import build_parser
+
+    parser = build_parser()
+    sub = next(a for a in parser._actions if isinstance(a, argparse._SubParsersAction))
+    helps = {c.dest: c.help for c in sub._choices_actions}
+    names = ["calibrate", "teach", "run", "pose", "torque", "reboot", "servo", "check-config",
+             "config"]
+    for name in names:
+        assert len(helps[name]) > 15, name
+        command = sub.choices[name]
+        assert len(command.description or "") > 20, name
+        text = command.format_help()
+        for action in command._actions:
+            if action.option_strings and action.dest != "help":
+                assert action.help, (name, action.option_strings)
+        if name not in ("check-config", "config", "servo"):
+            assert "--device" in text and "--baud" in text and "--arm" in text, name
