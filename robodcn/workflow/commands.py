@@ -386,14 +386,12 @@ def _execute(args: argparse.Namespace, arm: Arm, bus, kind: str, loaded: Any):
     from robodcn.workflow.files import with_approach
 
     present = servo_units.ticks_to_radians(bus.read_positions(), arm.servos)
-    approach = False
     if kind == "waypoints":
         fields = dict(loaded)
         with _naming_file(args.file):
             traj = plan(arm, fields.pop("waypoints"), start_joints=present, **fields)
-    elif loaded.request is not None:
-        traj, approach = loaded, True      # the streamer re-plans the request from present
     else:
+        # A saved trajectory plays as saved, after a joint-space approach to its first sample.
         traj = with_approach(loaded, arm, present)
     stop = StopSignal()
     live = cli._LiveProgress(traj, arm)
@@ -401,8 +399,7 @@ def _execute(args: argparse.Namespace, arm: Arm, bus, kind: str, loaded: Any):
         try:
             report = execute(traj, bus, feedback_every=args.feedback_every,
                              tracking_limit=math.radians(args.tracking_limit), stop=stop,
-                             progress=live, release=args.release, realtime=args.realtime,
-                             approach=approach)
+                             progress=live, release=args.release, realtime=args.realtime)
         finally:
             live.finish()
     return traj, report, live
