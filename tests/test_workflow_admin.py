@@ -163,3 +163,34 @@ def test_latency_timer_is_lowered_when_writable(tmp_path, monkeypatch):
     assert (result.before, result.changed) == (16, False)
     assert f"echo 1 | sudo tee {timer}" in result.message("/dev/ttyUSB7")
     assert lower_latency_timer("/dev/pts/3", sysfs=tmp_path).before is None
+
+
+def test_commands_as_processes_against_python_m_firmware_sim():
+    import signal
+    import subprocess
+    import sys
+
+    from workflow_helpers import ROOT
+
+    proc = subprocess.Popen([sys.executable, "-m", "firmware_sim", "--ids", "1,2,3", "--timing",
+                             "fast"], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+                            cwd=ROOT)
+    try:
+        device = proc.stdout.readline().strip()
+        assert device.startswith("/dev/"), proc.stderr.read()
+
+        def robodcn(*args):
+            return subprocess.run([sys.executable, "-m", "robodcn", *args, "--device", device],
+                                  capture_output=True, text=True, timeout=60, cwd=ROOT)
+
+        out = robodcn("torque", "on", "--arm", "arm3r")
+        assert out.returncode == 0, out.stderr
+        out = robodcn("servo", "info", "--arm", "arm3r", "--json")
+        assert out.returncode == 0, out.stderr
+        assert [s["torque"] for s in json.loads(out.stdout)["servos"]] == [True] * 3
+        out = robodcn("pose", "--arm", "arm3r", "--json")
+        assert out.returncode == 0, out.stderr
+        assert json.loads(out.stdout)["ticks"] == [2048, 2048, 2048]
+    finally:
+        proc.send_signal(signal.SIGTERM)
+        assert proc.wait(timeout=10) == 0
