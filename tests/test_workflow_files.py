@@ -104,3 +104,14 @@ def test_trajectory_summary_fractions_match_the_limits():
                for a, b in zip(slow["joints"], s["joints"], strict=True))
     text = trajectory_summary_text(traj, ARM)
     assert "shoulder" in text and "% of limit" in text and len(text.splitlines()) == 4
+
+
+def test_waypoint_beta_other_than_the_plans_is_refused(tmp_path):
+    path = tmp_path / "p.toml"
+    text = ("[plan]\nbeta = 0.5\n\n[[waypoints]]\nx = 0.25\ny = 0.1\n\n[[waypoints]]\n"
+            "x = 0.12\ny = 0.24\nbeta = {}\n")
+    path.write_text(text.format(0.5))
+    assert files.load_waypoints(path).options["beta"] == 0.5
+    path.write_text(text.format(2.0))
+    with pytest.raises(InputError, match=r"waypoints\[1\]\.beta: the planner takes one"):
+        files.load_waypoints(path)

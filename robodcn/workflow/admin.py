@@ -23,6 +23,7 @@ from numpy.typing import NDArray
 from robodcn import kinematics, servo_units
 from robodcn.bus import (
     ADDR_BAUD_RATE,
+    ADDR_GOAL_POSITION,
     ADDR_HARDWARE_ERROR,
     ADDR_OPERATING_MODE,
     ADDR_TORQUE_ENABLE,
@@ -81,8 +82,17 @@ def joint_ids(arm: Arm, joint: str | None) -> tuple[int, ...]:
 
 
 def set_torque(bus: ServoBus, arm: Arm, on: bool, joint: str | None = None) -> tuple[int, ...]:
-    """Torque Enable on or off for ``joint`` (default every joint); returns the ids written."""
+    """Torque Enable on or off for ``joint`` (default every joint); returns the ids written.
+
+    Torque on holds the arm where it is: Goal Position is set to Present Position first, so
+    a stale goal from before a torque-off cannot make the joint jump.
+    """
     ids = joint_ids(arm, joint)
+    if on:
+        present = dict(zip(bus.ids, bus.read_positions().tolist(), strict=True))
+        for servo_id in ids:
+            bus.write(servo_id, ADDR_GOAL_POSITION,
+                      int(present[servo_id]).to_bytes(4, "little", signed=True))
     if ids == bus.ids:
         bus.torque(on)
     else:

@@ -488,18 +488,11 @@ def _add_torque(sub) -> None:
 
 
 def cmd_torque(args: argparse.Namespace) -> int:
-    from robodcn.bus import ADDR_GOAL_POSITION
     from robodcn.workflow.admin import joint_ids, set_torque
 
     arm = _arm(args)
     ids = joint_ids(arm, args.joint)
     with open_bus(args, arm) as bus:
-        if args.state == "on":
-            # Hold where it is: the goal becomes the present position before torque comes on.
-            present = dict(zip(bus.ids, bus.read_positions().tolist(), strict=True))
-            for servo_id in ids:
-                bus.write(servo_id, ADDR_GOAL_POSITION,
-                          int(present[servo_id]).to_bytes(4, "little", signed=True))
         set_torque(bus, arm, args.state == "on", args.joint)
     print(f"torque {args.state}: servo(s) {', '.join(map(str, ids))}")
     return 0

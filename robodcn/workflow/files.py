@@ -2,7 +2,8 @@
 
 - **Waypoints TOML** (``robodcn teach`` writes one): ``[[waypoints]]`` tables with ``x``,
   ``y`` (metres) and ``theta_deg`` (or ``theta``, radians), optionally ``method`` / ``turn``
-  for the segment that leads to that waypoint; a ``[plan]`` table with ``method``, ``beta``,
+  for the segment that leads to that waypoint (a ``beta`` there must equal the plan's: the
+  planner takes one KenLERP β per plan); a ``[plan]`` table with ``method``, ``beta``,
   ``turn``, ``duration`` (seconds or "auto"), ``profile``, ``rate_hz``, ``blend``; an
   optional ``arm`` name (informational). :func:`load_waypoints` → :class:`WaypointsPlan`,
   whose :meth:`~WaypointsPlan.plan_fields` are :class:`robodcn.planner.PlanRequest` fields.
@@ -148,7 +149,10 @@ def load_waypoints(path: str | Path) -> WaypointsPlan:
         where = f"waypoints[{i}]"
         if not isinstance(row, dict):
             raise _fail(source, where, "must be a table", row)
-        extra = set(row) - {"x", "y", "theta", "theta_deg", "method", "turn"}
+        if "beta" in row and row["beta"] != options.get("beta", 1.0):
+            raise _fail(source, f"{where}.beta", "the planner takes one KenLERP beta per plan: "
+                        "give it as beta in [plan]", row["beta"])
+        extra = set(row) - {"x", "y", "theta", "theta_deg", "method", "turn", "beta"}
         if extra:
             key = sorted(extra)[0]
             raise _fail(source, f"{where}.{key}", "unknown key (allowed: x, y, theta_deg or "
