@@ -1,0 +1,260 @@
+"""Servo admin and state: present pose, torque, reboot, servo info, set id / baud, latency.
+
+Everything goes through :class:`robodcn.bus.ServoBus`'s public methods (``read``, ``write``,
+``ping``, ``torque``, ``reboot``, ``read_positions``); control-table addresses are the
+X-series ones (shared/dynamixel-notes.md §2). ID and Baud Rate are EEPROM items: a servo
+refuses them while its torque is on, so :func:`set_id` and :func:`set_baud` switch torque off
+first. Each function checks its arguments before the first write.
+"""
+
+from __future__ import annotations
+
+import logging
+import os
+import sys
+from collections.abc import Sequence
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from robodcn import kinematics, servo_units
+from robodcn.bus import (
+    ADDR_BAUD_RATE,
+    ADDR_GOAL_POSITION,
+    ADDR_HARDWARE_ERROR,
+    ADDR_OPERATING_MODE,
+    ADDR_TORQUE_ENABLE,
+    BAUD_INDEX,
+    SYSFS_USB_SERIAL,
+    ServoBus,
+    describe_hardware_error,
+    latency_timer_ms,
+)
+from robodcn.config import MAX_SERVO_ID, Arm, ServoSpec
+from robodcn.errors import CommError, InputError
+
+log = logging.getLogger(__name__)
+
+ADDR_ID = 7                     # 1 byte, EEPROM
+ADDR_PRESENT_INPUT_VOLTAGE = 144  # 2 bytes, 0.1 V
+ADDR_PRESENT_TEMPERATURE = 146    # 1 byte, °C
+#: Operating Mode item values (address 11) → names.
+OPERATING_MODES: dict[int, str] = {0: "current", 1: "velocity", 3: "position",
+                                   4: "extended position", 5: "current-based position",
+                                   16: "PWM"}
+
+
+# -- present state -----------------------------------------------------------------------------
+
+@dataclass(frozen=True)
+class ArmState:
+    """Present ticks (k,), joints (k,) rad and tool pose (x, y, θ) of an arm."""
+
+    ticks: NDArray[np.int64]
+    joints: NDArray[np.float64]
+    pose: NDArray[np.float64]
+
+    def to_dict(self, arm: Arm) -> dict[str, Any]:
+        """SI JSON body (the HTTP service's units)."""
+        return {"joint_names": list(arm.joint_names), "ticks": self.ticks.tolist(),
+                "joints": self.joints.tolist(), "pose": self.pose.tolist()}
+
+
+def present_state(bus: ServoBus, arm: Arm) -> ArmState:
+    """Read Present Position of every servo; joints by the arm's calibration, pose by FK."""
+    ticks = bus.read_positions()
+    joints = servo_units.ticks_to_radians(ticks, arm.servos)
+    pose = kinematics.fk(arm.links, joints[None, :])[0]
+    return ArmState(ticks, joints, pose)
+
+
+def joint_ids(arm: Arm, joint: str | None) -> tuple[int, ...]:
+    """Servo ids of ``joint`` (a joint name), or of every joint when None."""
+    if joint is None:
+        return arm.servo_ids
+    if joint not in arm.joint_names:
+        raise InputError(f"--joint {joint!r} is not a joint of arm {arm.name!r} (joints: "
+                         f"{', '.join(arm.joint_names)})", field="joint", value=joint)
+    return (arm.joints[arm.joint_names.index(joint)].servo.id,)
+
+
+def set_torque(bus: ServoBus, arm: Arm, on: bool, joint: str | None = None) -> tuple[int, ...]:
+    """Torque Enable on or off for ``joint`` (default every joint); returns the ids written.
+
+    Torque on holds the arm where it is: Goal Position is set to Present Position first, so
+    a stale goal from before a torque-off cannot make the joint jump.
+    """
+    ids = joint_ids(arm, joint)
+    if on:
+        present = dict(zip(bus.ids, bus.read_positions().tolist(), strict=True))
+        for servo_id in ids:
+            bus.write(servo_id, ADDR_GOAL_POSITION,
+                      int(present[servo_id]).to_bytes(4, "little", signed=True))
+    if ids == bus.ids:
+        bus.torque(on)
+    else:
+        for servo_id in ids:
+            bus.write(servo_id, ADDR_TORQUE_ENABLE, [1 if on else 0])
+    log.info("torque %s on servo(s) %s", "on" if on else "off", list(ids))
+    return ids
+
+
+def reboot(bus: ServoBus, arm: Arm, joint: str | None = None) -> tuple[int, ...]:
+    """REBOOT ``joint``'s servo (default all) and wait for it; clears hardware errors."""
+    ids = joint_ids(arm, joint)
+    bus.reboot(ids)
+    return ids
+
+
+# -- servo info ---------------------------------------------------------------------------------
+
+def servo_info(bus: ServoBus) -> list[dict[str, Any]]:
+    """Per servo on ``bus``: id, answered, model, firmware, baud, operating mode, torque,
+    hardware error (bits and names), input voltage (V) and temperature (°C)."""
+    out: list[dict[str, Any]] = []
+    for servo_id in bus.ids:
+        info = bus.ping(servo_id)
+        if info is None:
+            out.append({"id": servo_id, "answered": False})
+            continue
+        mode = bus.read(servo_id, ADDR_OPERATING_MODE, 1)[0]
+        errors = bus.read(servo_id, ADDR_HARDWARE_ERROR, 1)[0]
+        volts = int.from_bytes(bus.read(servo_id, ADDR_PRESENT_INPUT_VOLTAGE, 2), "little")
+        out.append({
+            "id": servo_id, "answered": True, "model": info.model,
+            "model_number": info.model_number, "firmware": info.firmware,
+            "baud": bus.baud, "operating_mode": mode,
+            "operating_mode_name": OPERATING_MODES.get(mode, f"mode {mode}"),
+            "torque": bool(bus.read(servo_id, ADDR_TORQUE_ENABLE, 1)[0]),
+            "hardware_error": errors,
+            "hardware_error_names": describe_hardware_error(errors) if errors else "",
+            "voltage_v": volts / 10.0,
+            "temperature_c": bus.read(servo_id, ADDR_PRESENT_TEMPERATURE, 1)[0],
+        })
+    return out
+
+
+# -- id and baud ---------------------------------------------------------------------------------
+
+def _probe(port: str, baud: int, ids: Sequence[int]) -> ServoBus:
+    return ServoBus(port, baud, servos=[ServoSpec(i, "xm430-w350") for i in ids], retries=2)
+
+
+def check_id(value: int, option: str) -> int:
+    """``value`` as a servo id 0..252, InputError naming ``option`` otherwise."""
+    if isinstance(value, bool) or not isinstance(value, int) or not 0 <= value <= MAX_SERVO_ID:
+        raise InputError(f"{option} must be a servo id 0..{MAX_SERVO_ID}, got {value!r}",
+                         field=option.strip("-").lower(), value=value)
+    return value
+
+
+def set_id(port: str, baud: int, old: int, new: int) -> None:
+    """Give the servo at id ``old`` the id ``new``.
+
+    Refuses (InputError, nothing written) when ``old`` == ``new``, when no servo answers at
+    ``old``, or when ``new`` is taken: two servos with one id garble every reply. Torque is
+    switched off first (ID is an EEPROM item); afterwards the servo must answer at ``new``.
+    """
+    check_id(old, "OLD")
+    check_id(new, "NEW")
+    if old == new:
+        raise InputError(f"NEW must differ from OLD, both are {old}", field="new", value=new)
+    with _probe(port, baud, [old, new]) as bus:
+        if bus.ping(old) is None:
+            raise InputError(f"OLD: no servo answers at id {old} on {port} at {baud} baud "
+                             "(robodcn scan lists the bus)", field="old", value=old)
+        if bus.ping(new) is not None:
+            raise InputError(f"NEW: id {new} is already taken on {port}: pick a free id",
+                             field="new", value=new)
+        bus.write(old, ADDR_TORQUE_ENABLE, [0])
+        bus.write(old, ADDR_ID, [new])
+        if bus.ping(new) is None:
+            raise CommError(f"servo {old} took id {new} but does not answer at it",
+                            field="new", value=new)
+    log.info("servo id %d → %d on %s", old, new, port)
+
+
+def baud_index(baud: int, option: str = "BAUD") -> int:
+    """Baud Rate item value for ``baud`` bits/s; InputError naming ``option`` otherwise."""
+    by_rate = {rate: index for index, rate in BAUD_INDEX.items() if rate != 4_500_000}
+    if baud not in by_rate:
+        raise InputError(f"{option} must be one of {', '.join(map(str, sorted(by_rate)))}, got "
+                         f"{baud!r}", field=option.strip("-").lower(), value=baud)
+    return by_rate[baud]
+
+
+def set_baud(port: str, baud: int, new_baud: int, ids: Sequence[int]) -> None:
+    """Switch the servos ``ids`` (answering at ``baud``) to ``new_baud``.
+
+    Refuses (nothing written) when ``new_baud`` is the present rate, when a servo in ``ids``
+    does not answer, or when a servo already answers at ``new_baud`` with one of those ids
+    (the two would share an id there). Afterwards every servo must answer at ``new_baud``.
+    """
+    index = baud_index(new_baud)
+    baud_index(baud, "--baud")
+    if new_baud == baud:
+        raise InputError(f"BAUD {new_baud} is the present baud rate already", field="baud",
+                         value=new_baud)
+    with _probe(port, new_baud, ids) as probe:
+        taken = [i for i in ids if probe.ping(i) is not None]
+    if taken:
+        raise InputError(f"BAUD: id(s) {taken} already answer on {port} at {new_baud} baud; "
+                         "changing would put two servos on one id", field="baud", value=new_baud)
+    with _probe(port, baud, ids) as bus:
+        missing = [i for i in ids if bus.ping(i) is None]
+        if missing:
+            raise InputError(f"servo id(s) {missing} do not answer on {port} at {baud} baud",
+                             field="ids", value=missing)
+        for servo_id in ids:
+            bus.write(servo_id, ADDR_TORQUE_ENABLE, [0])
+            bus.write(servo_id, ADDR_BAUD_RATE, [index])
+    with _probe(port, new_baud, ids) as probe:
+        silent = [i for i in ids if probe.ping(i) is None]
+    if silent:
+        raise CommError(f"servo id(s) {silent} do not answer at {new_baud} baud after the "
+                        "change", field="baud", value=new_baud)
+    log.info("servos %s: %d → %d baud on %s", list(ids), baud, new_baud, port)
+
+
+# -- USB latency timer ---------------------------------------------------------------------------
+
+@dataclass(frozen=True)
+class LatencyResult:
+    """What :func:`lower_latency_timer` found and did: ``before`` / ``after`` in ms (None
+    when the port has no FTDI timer), ``changed`` and ``path`` of the sysfs file."""
+
+    before: int | None
+    after: int | None
+    changed: bool
+    path: str | None
+
+    def message(self, port: str) -> str | None:
+        """One line for the user, or None when there is nothing to say."""
+        if self.changed:
+            return f"{port}: set the USB latency timer to {self.after} ms (was {self.before} ms)"
+        if self.before is not None and self.before > 1:
+            return (f"{port}: USB latency_timer is {self.before} ms and {self.path} is not "
+                    f"writable; fix: echo 1 | sudo tee {self.path}")
+        return None
+
+
+def lower_latency_timer(port: str, *, sysfs: str | os.PathLike[str] = SYSFS_USB_SERIAL,
+                        target_ms: int = 1) -> LatencyResult:
+    """Set a ``/dev/ttyUSB*`` adapter's FTDI latency timer to ``target_ms`` when its sysfs
+    file is writable (robodcn.bus only warns). Other ports: nothing to do."""
+    before = latency_timer_ms(port, sysfs=sysfs)
+    if before is None:
+        return LatencyResult(None, None, False, None)
+    path = Path(sysfs, os.path.basename(os.path.realpath(port)), "latency_timer")
+    if before <= target_ms or not sys.platform.startswith("linux"):
+        return LatencyResult(before, before, False, str(path))
+    try:
+        path.write_text(f"{target_ms}\n")
+    except OSError as exc:
+        log.info("cannot write %s: %s", path, exc)
+        return LatencyResult(before, before, False, str(path))
+    after = latency_timer_ms(port, sysfs=sysfs)
+    return LatencyResult(before, after, after == target_ms, str(path))

@@ -1,0 +1,252 @@
+"""Calibrate an arm by hand: zero offsets, directions and tick ranges from present positions.
+
+The procedure (issue 12 §1), driven by a ``prompt`` callback so that a terminal, a script
+(stdin) and a test drive it alike:
+
+1. torque off on every servo (the arm can be moved by hand);
+2. the user puts the arm in the reference pose — every joint angle 0 as the config defines
+   it — and confirms: each servo's Present Position becomes its ``zero_offset``;
+3. per joint, the user turns it a little in its positive direction and confirms: the sign
+   of the tick change is its ``direction`` (angle = direction·(tick − zero_offset)·2π/4096,
+   robodcn.servo_units);
+4. optionally, per joint, the user moves it through its whole range while Present Position
+   is sampled: ``min_tick``/``max_tick`` become the extremes seen, moved inward by a margin,
+   and the joint limits become the angles of those ticks (so they lie inside the tick range).
+   A range whose ticks leave 0..ticks_per_turn−1 (or jump by more than three quarters of a
+   turn between two samples, 20 ms apart: no hand turns a joint that fast) crosses the
+   encoder's wrap: it needs Extended Position Mode (Operating Mode 4),
+   which robodcn configs do not describe, so that joint's range is left as it was and noted.
+
+:func:`updated_toml` writes the result into the input's TOML text with tomlkit, keeping its
+comments and layout; the new text is validated by :func:`robodcn.config.arm_from_dict`.
+"""
+
+from __future__ import annotations
+
+import difflib
+import logging
+import math
+import threading
+import tomllib
+from collections.abc import Callable
+from dataclasses import dataclass, field
+
+import numpy as np
+from numpy.typing import NDArray
+
+from robodcn.bus import ServoBus
+from robodcn.config import Arm, arm_from_dict
+from robodcn.errors import InputError
+
+log = logging.getLogger(__name__)
+
+#: Shows a message and returns the user's answer (one line, without the newline); raises
+#: EOFError when the input has ended.
+Prompt = Callable[[str], str]
+
+SKIP_ANSWERS = ("s", "skip")
+
+
+@dataclass(frozen=True)
+class JointCalibration:
+    """What calibration found for one joint (ticks; angles in radians)."""
+
+    name: str
+    zero_offset: int
+    direction: int
+    min_tick: int | None = None
+    max_tick: int | None = None
+    min_angle: float | None = None
+    max_angle: float | None = None
+    extended_position: bool = False
+    note: str = ""
+
+
+@dataclass(frozen=True)
+class Calibration:
+    """One :class:`JointCalibration` per joint, in joint order, plus notes for the user."""
+
+    joints: tuple[JointCalibration, ...]
+    notes: tuple[str, ...] = field(default=())
+
+
+def _ask(prompt: Prompt, message: str) -> str:
+    try:
+        return prompt(message).strip().lower()
+    except EOFError:
+        raise InputError(f"input ended before calibration finished (at: {message!r}); "
+                         "nothing was written", field="stdin", value=None) from None
+
+
+class _Sampler:
+    """Reads Present Position in a background thread while the main thread waits for input.
+
+    The bus belongs to one thread at a time (ServoBus.claim); the main thread does not touch
+    it until :meth:`stop` has joined the sampler.
+    """
+
+    def __init__(self, bus: ServoBus, period_s: float) -> None:
+        self.bus = bus
+        self.period_s = period_s
+        self.rows: list[NDArray[np.int64]] = []
+        self.error: BaseException | None = None
+        self._done = threading.Event()
+        self._thread = threading.Thread(target=self._run, name="calibrate sampler", daemon=True)
+
+    def _run(self) -> None:
+        try:
+            while not self._done.is_set():
+                self.rows.append(self.bus.read_positions())
+                self._done.wait(self.period_s)
+        except BaseException as exc:  # re-raised in the main thread by stop()
+            self.error = exc
+
+    def __enter__(self) -> _Sampler:
+        self._thread.start()
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self._done.set()
+        self._thread.join()
+
+    def result(self) -> NDArray[np.int64]:
+        if self.error is not None:
+            raise self.error
+        return np.array(self.rows, dtype=np.int64)
+
+
+def _range(arm: Arm, j: int, zero: int, direction: int, seen: NDArray[np.int64],
+           margin_ticks: int) -> JointCalibration:
+    """Tick range and joint limits of joint ``j`` from the ticks ``seen`` while it moved."""
+    spec = arm.joints[j]
+    ticks = spec.servo.ticks_per_turn
+    name = spec.name
+    jumps = np.abs(np.diff(seen)) if seen.size > 1 else np.zeros(0)
+    if seen.min() < 0 or seen.max() > ticks - 1 or (jumps.size and jumps.max() > 3 * ticks // 4):
+        note = (f"joint {name!r}: its range crosses the encoder wrap (ticks "
+                f"{int(seen.min())}..{int(seen.max())}): that needs Extended Position Mode "
+                "(Operating Mode 4); min_tick/max_tick and the joint limits were left as they "
+                "were")
+        return JointCalibration(name, zero, direction, extended_position=True, note=note)
+    lo, hi = int(seen.min()) + margin_ticks, int(seen.max()) - margin_ticks
+    if not lo < zero < hi:
+        raise InputError(f"joint {name!r}: the reference pose (tick {zero}) is not inside the "
+                         f"range moved through ({int(seen.min())}..{int(seen.max())} ticks, "
+                         f"{margin_ticks} ticks margin): move it through its whole range",
+                         field=f"joints[{j}]", value=[int(seen.min()), int(seen.max())])
+    per_tick = 2.0 * math.pi / ticks
+    a, b = sorted(direction * (t - zero) * per_tick for t in (lo, hi))
+    # Limits in whole tenths of a degree, rounded inward so they stay inside the ticks.
+    a = math.radians(math.ceil(math.degrees(a) * 10.0 - 1e-9) / 10.0)
+    b = math.radians(math.floor(math.degrees(b) * 10.0 + 1e-9) / 10.0)
+    return JointCalibration(name, zero, direction, lo, hi, a, b)
+
+
+def calibrate(bus: ServoBus, arm: Arm, prompt: Prompt, *, ranges: bool = True,
+              margin_deg: float = 2.0, min_motion_deg: float = 5.0,
+              sample_period_s: float = 0.02) -> Calibration:
+    """Run the calibration procedure (module docstring) on an open ``bus`` for ``arm``.
+
+    Parameters
+    ----------
+    bus : open ServoBus whose servos are the arm's (in joint order)
+    prompt : asks the user; an answer of ``s`` skips a joint's range step
+    ranges : ask for each joint's whole range (step 4)
+    margin_deg : the tick range is the range seen, this much inside at each end
+    min_motion_deg : least motion that counts as "moved in the positive direction"
+    sample_period_s : Present Position sampling period during a range step
+
+    Raises
+    ------
+    InputError
+        A joint moved less than ``min_motion_deg``, input ended early, the reference pose
+        lies outside the range moved through, a servo reads outside 0..ticks_per_turn−1 at
+        the reference pose. Nothing is written to any servo but Torque Enable = 0.
+    """
+    for name, value in (("margin_deg", margin_deg), ("min_motion_deg", min_motion_deg),
+                        ("sample_period_s", sample_period_s)):
+        if not (isinstance(value, int | float) and math.isfinite(value) and value > 0):
+            raise InputError(f"{name} must be a positive number, got {value!r}", field=name,
+                             value=value)
+    bus.torque(False)
+    _ask(prompt, "Torque is off. Put the arm in its reference pose (every joint angle 0) "
+                 "and press Enter")
+    zero = bus.read_positions()
+    for j, spec in enumerate(arm.joints):
+        if not 0 <= zero[j] <= spec.servo.ticks_per_turn - 1:
+            raise InputError(f"joint {spec.name!r}: servo {spec.servo.id} reads tick "
+                             f"{int(zero[j])} at the reference pose, outside 0.."
+                             f"{spec.servo.ticks_per_turn - 1}: reboot it (robodcn reboot) so "
+                             "it reports a single turn, then calibrate again",
+                             field=f"joints[{j}].servo.zero_offset", value=int(zero[j]))
+    results: list[JointCalibration] = []
+    notes: list[str] = []
+    for j, spec in enumerate(arm.joints):
+        ticks = spec.servo.ticks_per_turn
+        _ask(prompt, f"Turn joint {spec.name!r} (servo {spec.servo.id}) a little in its "
+                     "positive direction and press Enter")
+        moved = int(bus.read_positions()[j]) - int(zero[j])
+        least = min_motion_deg / 360.0 * ticks
+        if abs(moved) < least:
+            raise InputError(f"joint {spec.name!r} moved {moved} ticks "
+                             f"({moved * 360.0 / ticks:.1f}°): turn it at least "
+                             f"{min_motion_deg:g}° in its positive direction",
+                             field=f"joints[{j}].servo.direction", value=moved)
+        direction = 1 if moved > 0 else -1
+        result = JointCalibration(spec.name, int(zero[j]), direction)
+        if ranges:
+            with _Sampler(bus, sample_period_s) as sampler:
+                answer = _ask(prompt, f"Move joint {spec.name!r} slowly through its whole "
+                                      "range and press Enter (s: skip)")
+            seen = sampler.result()
+            if answer not in SKIP_ANSWERS:
+                end = bus.read_positions()
+                column = np.concatenate([seen[:, j] if seen.size else [], [end[j]]])
+                margin = math.ceil(margin_deg / 360.0 * ticks)
+                result = _range(arm, j, int(zero[j]), direction, column.astype(np.int64),
+                                margin)
+                if result.note:
+                    notes.append(result.note)
+        results.append(result)
+        log.info("calibrated %s: %s", spec.name, result)
+    return Calibration(tuple(results), tuple(notes))
+
+
+def _set_angle(table, key: str, value: float) -> None:
+    """Write an angle under ``key_deg`` (degrees, one decimal) or ``key`` (radians)."""
+    if f"{key}_deg" in table or key not in table:
+        table[f"{key}_deg"] = round(math.degrees(value), 1)
+    else:
+        table[key] = round(value, 6)
+
+
+def updated_toml(text: str, calibration: Calibration, *, source: str = "<calibrated>") -> str:
+    """``text`` (an arm TOML) with the calibration written in, comments and layout kept.
+
+    Validates the result as an arm config (ConfigError naming ``source`` otherwise).
+    """
+    import tomlkit
+
+    doc = tomlkit.parse(text)
+    joints = doc["joints"]
+    for i, cal in enumerate(calibration.joints):
+        table = joints[i]
+        servo = table["servo"]
+        servo["zero_offset"] = cal.zero_offset
+        servo["direction"] = cal.direction
+        if cal.min_tick is not None and cal.max_tick is not None:
+            servo["min_tick"] = cal.min_tick
+            servo["max_tick"] = cal.max_tick
+        if cal.min_angle is not None and cal.max_angle is not None:
+            _set_angle(table, "min", cal.min_angle)
+            _set_angle(table, "max", cal.max_angle)
+    new = tomlkit.dumps(doc)
+    arm_from_dict(tomllib.loads(new), source=source)
+    return new
+
+
+def diff(old: str, new: str, old_name: str, new_name: str) -> str:
+    """A unified diff of the two texts ('' when equal)."""
+    return "".join(difflib.unified_diff(old.splitlines(keepends=True),
+                                        new.splitlines(keepends=True),
+                                        fromfile=old_name, tofile=new_name))

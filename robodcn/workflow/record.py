@@ -1,0 +1,41 @@
+"""What a move measured, as data: time, present ticks and joint angles per feedback read.
+
+The CLI's progress callback and the HTTP service collect ``(elapsed s, present ticks)``
+pairs while streaming; :func:`recording` turns them into a JSON-ready dict (SI) and
+:func:`recording_csv` into CSV, for ``GET /v1/moves/{id}/record`` and for plots.
+"""
+
+from __future__ import annotations
+
+import csv
+import io
+from collections.abc import Sequence
+from typing import Any
+
+import numpy as np
+
+from robodcn import kinematics, servo_units
+from robodcn.config import Arm
+
+
+def recording(arm: Arm, samples: Sequence[tuple[float, Sequence[int]]]) -> dict[str, Any]:
+    """{"joint_names", "servo_ids", "t" (s), "ticks", "joints" (rad), "poses" (x, y, θ)}."""
+    t = np.array([s[0] for s in samples], dtype=np.float64)
+    ticks = np.array([list(s[1]) for s in samples], dtype=np.int64).reshape(-1, arm.dof)
+    joints = servo_units.ticks_to_radians(ticks, arm.servos) if len(ticks) else ticks * 0.0
+    poses = kinematics.fk(arm.links, joints) if len(ticks) else np.zeros((0, 3))
+    return {"joint_names": list(arm.joint_names), "servo_ids": list(arm.servo_ids),
+            "t": t.tolist(), "ticks": ticks.tolist(), "joints": joints.tolist(),
+            "poses": poses.tolist()}
+
+
+def recording_csv(arm: Arm, samples: Sequence[tuple[float, Sequence[int]]]) -> str:
+    """CSV: t, one column per joint (rad), one per servo (ticks), x, y, theta."""
+    data = recording(arm, samples)
+    out = io.StringIO()
+    writer = csv.writer(out, lineterminator="\n")
+    writer.writerow(["t", *(f"q_{n}" for n in arm.joint_names),
+                     *(f"tick_{i}" for i in arm.servo_ids), "x", "y", "theta"])
+    for t, q, k, p in zip(data["t"], data["joints"], data["ticks"], data["poses"], strict=True):
+        writer.writerow([repr(t), *map(repr, q), *k, *map(repr, p)])
+    return out.getvalue()

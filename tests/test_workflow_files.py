@@ -1,0 +1,117 @@
+"""robodcn.workflow.files and record as library functions (what HTTP handlers will call)."""
+
+from __future__ import annotations
+
+import csv
+import io
+import json
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from robodcn import kinematics, servo_units
+from robodcn.config import load_arm
+from robodcn.errors import InputError, PlanError
+from robodcn.planner import Trajectory, plan
+from robodcn.workflow import files
+from robodcn.workflow.record import recording, recording_csv
+from robodcn.workflow.teach import waypoints_toml
+
+ROOT = Path(__file__).resolve().parent.parent
+ARM = load_arm(ROOT / "configs" / "arm3r.toml")
+
+
+def _jt(q, t):
+    return {"joint_names": list(ARM.joint_names),
+            "points": [{"positions": list(map(float, qi)),
+                        "time_from_start": {"sec": int(ti), "nanosec": round(ti % 1 * 1e9)}}
+                       for qi, ti in zip(q, t, strict=True)]}
+
+
+def test_joint_trajectory_passes_its_points_and_is_validated():
+    q = np.radians([[0, -30, 10], [20, -50, 15], [35, -40, 0], [50, -20, -10]])
+    t = [0.5, 1.5, 2.7, 4.0]
+    traj = files.trajectory_from_data(_jt(q, t), ARM, 100.0)
+    assert isinstance(traj, Trajectory) and traj.rate_hz == 100.0
+    assert np.isclose(traj.duration, 3.5) and len(traj.t) == 351
+    for qi, ti in zip(q, t, strict=True):        # time shifted: the first point is at 0
+        i = round((ti - t[0]) * 100)
+        assert np.allclose(traj.joints[i], qi, atol=1e-12)
+    assert np.allclose(traj.poses, kinematics.fk(ARM.links, traj.joints))
+    assert np.array_equal(traj.ticks, servo_units.radians_to_ticks(traj.joints, ARM.servos))
+    with pytest.raises(PlanError, match=r"^body: points\[\d\] \(sample \d+, t=.*'shoulder'"):
+        files.trajectory_from_data(_jt(q, [0.0, 1.0, 1.05, 3.0]), ARM, 100.0, source="body")
+
+
+def test_saved_trajectory_round_trips_and_other_json_is_refused():
+    traj = plan(ARM, [ARM.home, (0.12, 0.24, 1.0)])
+    again = files.trajectory_from_data(json.loads(traj.to_json()), ARM, 50.0)
+    assert np.array_equal(again.ticks, traj.ticks) and again.rate_hz == traj.rate_hz
+    with pytest.raises(InputError, match="trajectory: must be"):
+        files.trajectory_from_data({"waypoints": []}, ARM, 100.0)
+
+
+def test_with_approach_starts_at_present_and_respects_limits():
+    traj = files.trajectory_from_data(_jt(np.radians([[30, -60, 20], [40, -50, 20]]),
+                                          [0, 1]), ARM, 100.0)
+    present = np.radians([-20.0, 10.0, 0.0])
+    out = files.with_approach(traj, ARM, present)
+    assert np.allclose(out.joints[0], present)
+    assert np.array_equal(out.joints[-len(traj.t):], traj.joints)
+    files.check_joint_samples(ARM, out.joints, out.rate_hz, source="x",
+                              point_of_sample=np.zeros(len(out.t), dtype=np.int64))
+    assert files.with_approach(traj, ARM, traj.joints[0]) is traj
+
+
+def test_waypoints_file_round_trip(tmp_path):
+    poses = np.array([[0.25, 0.10, 0.0], [0.12, 0.24, 1.0], [-0.1, 0.22, 2.0]])
+    path = tmp_path / "p.toml"
+    path.write_text(waypoints_toml(poses, arm_name="arm3r", method=["kenlerp", "dlb"],
+                                   turn="ccw", beta=0.25))
+    wp = files.load_waypoints(path)
+    assert np.allclose(wp.waypoints, poses, atol=1e-6)
+    fields = wp.plan_fields(duration=3.0)
+    assert fields["method"] == ("kenlerp", "dlb") and fields["turn"] == "ccw"
+    assert fields["beta"] == 0.25 and fields["duration"] == 3.0
+    traj = plan(ARM, **fields)
+    assert traj.method == ["kenlerp", "dlb"]
+
+
+def test_recording_as_json_and_csv():
+    ticks = [(0.0, (2048, 2048, 2048)), (0.01, (2100, 2000, 2048))]
+    data = recording(ARM, ticks)
+    assert data["t"] == [0.0, 0.01] and data["ticks"][1] == [2100, 2000, 2048]
+    assert np.allclose(data["joints"], servo_units.ticks_to_radians(
+        np.array([t[1] for t in ticks]), ARM.servos))
+    rows = list(csv.reader(io.StringIO(recording_csv(ARM, ticks))))
+    assert rows[0][:2] == ["t", "q_shoulder"] and len(rows) == 3
+    assert [int(v) for v in rows[2][4:7]] == [2100, 2000, 2048]
+    assert recording(ARM, [])["ticks"] == []
+
+
+def test_trajectory_summary_fractions_match_the_limits():
+    from robodcn.workflow.summary import trajectory_summary, trajectory_summary_text
+
+    traj = plan(ARM, [ARM.home, (0.12, 0.24, 1.0)])            # auto: the shortest feasible
+    s = trajectory_summary(traj, ARM)
+    assert s["samples"] == len(traj.t) and s["duration_s"] == traj.duration
+    fractions = [max(j["velocity_fraction"], j["acceleration_fraction"]) for j in s["joints"]]
+    assert max(fractions) <= 1.0 + 1e-9 and max(fractions) > 0.8   # some joint is near a limit
+    slow = trajectory_summary(plan(ARM, [ARM.home, (0.12, 0.24, 1.0)],
+                                   duration=2 * traj.duration), ARM)
+    assert all(a["velocity_fraction"] < b["velocity_fraction"]
+               for a, b in zip(slow["joints"], s["joints"], strict=True))
+    text = trajectory_summary_text(traj, ARM)
+    assert "shoulder" in text and "% of limit" in text and len(text.splitlines()) == 4
+
+
+def test_waypoint_beta_other_than_the_plans_is_refused(tmp_path):
+    path = tmp_path / "p.toml"
+    text = ("[plan]\nbeta = 0.5\n\n[[waypoints]]\nx = 0.25\ny = 0.1\n\n[[waypoints]]\n"
+            "x = 0.12\ny = 0.24\nbeta = {}\n")
+    path.write_text(text.format(0.5))
+    assert files.load_waypoints(path).options["beta"] == 0.5
+    path.write_text(text.format(2.0))
+    with pytest.raises(InputError, match=r"waypoints\[1\]\.beta: the planner takes one"):
+        files.load_waypoints(path)
