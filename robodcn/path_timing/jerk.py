@@ -1,0 +1,120 @@
+"""The jerk pass of :func:`robodcn.path_timing.time_optimal` (module doc of ``optimal``)."""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable
+
+import numpy as np
+from numpy.typing import NDArray
+
+from robodcn.errors import InputError
+from robodcn.path_timing.law import PathTiming
+
+# share of the jerk limit the term |q'''| ṡ³ may take; the rest is left to q' s⃛ + 3 q'' ṡ s̈
+_CURVATURE_SHARE = 0.5
+_WINDOWS = (1.0, 0.75, 0.55, 0.4, 0.3)
+_MOVING_ATTEMPTS = 4
+
+
+def joint_ratios(law: PathTiming, s: NDArray, derivs: list[NDArray], v: NDArray, a: NDArray,
+                 j: NDArray, rate_hz: float) -> tuple[float, float, float]:
+    """max over the stream samples of |q̇|/v, |q̈|/a and |q⃛|/j (largest over joints).
+
+    q̇ = q' ṡ, q̈ = q'' ṡ² + q' s̈, q⃛ = q''' ṡ³ + 3 q'' ṡ s̈ + q' s⃛ with q', q'', q''' from
+    the sample derivatives, linearly interpolated at s(t).
+    """
+    m = law.sample(rate_hz)
+    sd, sdd, sddd = m.sd[:, None], m.sdd[:, None], m.sddd[:, None]
+    d1, d2, d3 = (np.stack([np.interp(m.s, s, d[:, i]) for i in range(d.shape[1])], axis=1)
+                  for d in derivs)
+    vel = d1 * sd
+    acc = d2 * sd ** 2 + d1 * sdd
+    jrk = d3 * sd ** 3 + 3.0 * d2 * sd * sdd + d1 * sddd
+    return (float((np.abs(vel) / v).max()), float((np.abs(acc) / a).max()),
+            float((np.abs(jrk) / j).max()))
+
+
+def _filtered(sg: NDArray, x: NDArray, u: NDArray, dt: NDArray, stop_breaks: NDArray,
+              w: float, history: tuple[float, float, float], s_start: float) -> PathTiming:
+    s_b, v_b = sg, np.sqrt(np.maximum(x, 0.0))
+    # a dwell of w at every stop: the window then covers exactly the dwell when the filtered
+    # law passes the stop, so it is at rest there
+    s_b = np.insert(s_b, stop_breaks, s_b[stop_breaks])
+    v_b = np.insert(v_b, stop_breaks, 0.0)
+    u = np.insert(u, stop_breaks, 0.0)
+    dt = np.insert(dt, stop_breaks, w)
+    s_h, v_h, u_h = history
+    s_b = np.concatenate([[s_h], s_b])
+    v_b = np.concatenate([[v_h], v_b])
+    u = np.concatenate([[u_h], u])
+    tb = -w + np.concatenate([[0.0], np.cumsum(np.concatenate([[w], dt]))])
+    return PathTiming(tb, s_b, v_b, u, window=w, s_start=s_start)
+
+
+def jerk_limited(s: NDArray, derivs: list[NDArray], grid: NDArray, cap: NDArray, v: NDArray,
+                 a: NDArray, j: NDArray, *, sd_start: float, sdd_start: float,
+                 stop_idx: NDArray, rate_hz: float, accel_share: float,
+                 solve: Callable, stage_times: Callable) -> PathTiming:
+    """Filtered time-optimal law within v, a, j (module doc of ``optimal``)."""
+    from robodcn.path_timing.optimal import JERK_MARGIN
+
+    inner = 1.0 - JERK_MARGIN
+    lim_v, lim_a, lim_j = v * inner, a * inner, j * inner
+    finite = np.isfinite(j)
+    # the ramp from +a to -a of one joint at its jerk limit takes 2a/j
+    w0 = float((2.0 * accel_share * a[finite] / j[finite]).max())
+    sg = s[grid]
+    dq, ddq, dddq = (d[grid] for d in derivs)
+    with np.errstate(divide="ignore"):
+        jcap = ((_CURVATURE_SHARE * lim_j / np.abs(dddq)) ** (2.0 / 3.0)).min(axis=1)
+    cap = np.minimum(cap, jcap)
+    stop_breaks = np.searchsorted(grid, stop_idx)
+    moving = sd_start > 0.0 or sdd_start != 0.0
+    if not moving:
+        x, u = solve(sg, dq, ddq, lim_v, lim_a * accel_share, cap, 0.0, 0.0)
+        dt = stage_times(sg, x)
+        best = None
+        for f in _WINDOWS:
+            w = f * w0
+            law = _filtered(sg, x, u, dt, stop_breaks, w, (sg[0], 0.0, 0.0), sg[0])
+            rv, ra, rj = joint_ratios(law, s, derivs, lim_v, lim_a, lim_j, rate_hz)
+            lam = max(1.0, rv, math.sqrt(ra), rj ** (1.0 / 3.0)) * (1.0 + 1e-9)
+            if best is None or lam * law.duration < best.duration:
+                best = law.stretch(lam * law.duration) if lam > 1.0 else law
+        return best
+
+    # A moving start cannot be stretched (ṡ(0) would change): shrink the limits instead.
+    share_v, share_a = 1.0, accel_share
+    w = w0
+    for _ in range(_MOVING_ATTEMPTS):
+        sd0 = sd_start + sdd_start * w / 2.0  # the optimal law's speed at t = 0
+        if sd0 < 0.0:
+            raise InputError(f"sdd_start {sdd_start:.6g} /s² brakes too hard for sd_start "
+                             f"{sd_start:.6g} /s under the jerk limits", field="sdd_start",
+                             value=sdd_start)
+        s00 = sg[0] + sd0 * w / 2.0 - sdd_start * w * w / 6.0
+        keep = sg > s00
+        if s00 >= sg[-1] or (stop_idx.size and s00 >= s[stop_idx[0]]):
+            raise InputError(f"from sd_start {sd_start:.6g} /s the path ends (or stops) before "
+                             "the jerk limits allow a stop", field="sd_start", value=sd_start)
+        sg2 = np.concatenate([[s00], sg[keep]])
+        at = [np.stack([np.interp(s00, s, d[:, i]) for i in range(d.shape[1])])
+              for d in derivs[:2]]
+        dq2 = np.vstack([at[0], dq[keep]])
+        ddq2 = np.vstack([at[1], ddq[keep]])
+        cap2 = np.concatenate([[np.inf], cap[keep]])
+        x, u = solve(sg2, dq2, ddq2, lim_v * share_v, lim_a * share_a, cap2, sd0 ** 2, 0.0)
+        dt = stage_times(sg2, x)
+        breaks = np.searchsorted(sg2, s[stop_idx])
+        history = (s00 - sd0 * w + sdd_start * w * w / 2.0, sd0 - sdd_start * w, sdd_start)
+        law = _filtered(sg2, x, u, dt, breaks, w, history, sg[0])
+        rv, ra, rj = joint_ratios(law, s, derivs, v, a, j, rate_hz)
+        if max(rv, ra, rj) <= 1.0:
+            return law
+        share_v /= max(1.0, rv)
+        share_a /= max(1.0, ra)
+        w *= max(1.0, ra / rj if rj < ra else rj) ** 0.5
+    raise InputError(f"from sd_start {sd_start:.6g} /s, sdd_start {sdd_start:.6g} /s² no law "
+                     f"found within the limits (velocity ×{rv:.3g}, acceleration ×{ra:.3g}, "
+                     f"jerk ×{rj:.3g} of the limit)", field="sd_start", value=sd_start)
