@@ -112,9 +112,11 @@ def jerk_limited(s: NDArray, derivs: list[NDArray], grid: NDArray, cap: NDArray,
         rv, ra, rj = joint_ratios(law, s, derivs, v, a, j, rate_hz)
         if max(rv, ra, rj) <= 1.0:
             return law
+        share_a /= max(1.0, rj) ** (1.0 / 3.0) if rj > 1.0 else 1.0
         share_v /= max(1.0, rv)
         share_a /= max(1.0, ra)
-        w *= max(1.0, ra / rj if rj < ra else rj) ** 0.5
+        # the filter's share of the jerk goes as 1/w
+        w *= max(1.0, rj) * 1.02
     raise InputError(f"from sd_start {sd_start:.6g} /s, sdd_start {sdd_start:.6g} /s² no law "
                      f"found within the limits (velocity ×{rv:.3g}, acceleration ×{ra:.3g}, "
                      f"jerk ×{rj:.3g} of the limit)", field="sd_start", value=sd_start)
