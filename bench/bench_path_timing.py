@@ -9,6 +9,7 @@ acceleration limit per second (the configs have none yet).
 
 from __future__ import annotations
 
+import itertools
 import math
 import statistics
 import time
@@ -111,7 +112,7 @@ def toppra_duration(case: Case) -> float:
     v, a, _ = case.limits
     cuts = [0, *(int(np.argmin(np.abs(case.s - x))) for x in case.stops), case.s.shape[0] - 1]
     total = 0.0
-    for lo, hi in zip(cuts[:-1], cuts[1:], strict=True):
+    for lo, hi in itertools.pairwise(cuts):
         path = ta.SplineInterpolator(case.s[lo:hi + 1], case.q[lo:hi + 1])
         instance = algo.TOPPRA([constraint.JointVelocityConstraint(v),
                                 constraint.JointAccelerationConstraint(a)], path,

@@ -14,7 +14,7 @@ from robodcn.path_timing.law import PathTiming
 # share of the jerk limit the term |q'''| ṡ³ may take; the rest is left to q' s⃛ + 3 q'' ṡ s̈
 _CURVATURE_SHARE = 0.5
 _WINDOWS = (1.0, 0.75, 0.55, 0.4, 0.3)
-_MOVING_ATTEMPTS = 4
+_MOVING_ATTEMPTS = 6
 
 
 def joint_ratios(law: PathTiming, s: NDArray, derivs: list[NDArray], v: NDArray, a: NDArray,
@@ -113,8 +113,8 @@ def jerk_limited(s: NDArray, derivs: list[NDArray], grid: NDArray, cap: NDArray,
         if max(rv, ra, rj) <= 1.0:
             return law
         share_a /= max(1.0, rj) ** (1.0 / 3.0) if rj > 1.0 else 1.0
-        share_v /= max(1.0, rv)
-        share_a /= max(1.0, ra)
+        share_v /= max(1.0, rv * 1.002)
+        share_a /= max(1.0, ra * 1.002)
         # the filter's share of the jerk goes as 1/w
         w *= max(1.0, rj) * 1.02
     raise InputError(f"from sd_start {sd_start:.6g} /s, sdd_start {sdd_start:.6g} /s² no law "

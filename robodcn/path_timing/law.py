@@ -101,6 +101,8 @@ class PathTiming:
             tl = tl + float(self._tb[0])
             s, sd, sdd, _ = self._law0(tl)
             sddd = np.zeros_like(s)
+        # the filter's sums round: never past the end of the path
+        s = np.minimum(s, self.s_end)
         return Samples(t, s, sd / lam, sdd / lam ** 2, sddd / lam ** 3)
 
     def sample(self, rate_hz: float) -> Samples:
