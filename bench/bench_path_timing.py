@@ -177,7 +177,8 @@ def accuracy_rows(all_cases: list[Case]) -> tuple[list[str], dict[str, float]]:
         rows.append(f"| {case.name} | {law.duration:.4f} | {ref:.4f} | {ratio:.4f} "
                     f"{_ok(ratio <= TOPPRA_RATIO_TARGET)} | {jl.duration:.4f} | "
                     f"{jl.duration / law.duration:.3f} {_ok(jl.duration <= quintic)} | "
-                    f"{jq.duration:.4f} {_ok(jq.duration <= quintic)} | {quintic:.3f} | {t_ours * 1e3:.2f} | {t_ref * 1e3:.2f} |")
+                    f"{jq.duration:.4f} {_ok(jq.duration <= quintic)} | {quintic:.3f} | "
+                    f"{t_ours * 1e3:.2f} | {t_ref * 1e3:.2f} |")
     worst["blend_over_stops"] = max(p["blend"] / p["stops"] for p in blend_vs_stop.values())
     worst["free_blend_over_stops"] = max(p["blend"] / p["stops"] for p in free_blend.values())
     return rows, worst
@@ -280,7 +281,8 @@ def run() -> str:
         f"| jerk-limited / jerk-free optimum | {worst['jerk_ratio_min']:.3f}–"
         f"{worst['jerk_ratio_max']:.3f} | — |",
         f"| worst blend / stop-at-every-via, no jerk limit | "
-        f"{worst['free_blend_over_stops']:.3f} | ≤ 1 {_ok(worst['free_blend_over_stops'] <= 1.0)} |",
+        f"{worst['free_blend_over_stops']:.3f} | ≤ 1 "
+        f"{_ok(worst['free_blend_over_stops'] <= 1.0)} |",
         f"| worst blend / stop-at-every-via, j = 10 a | {worst['blend_over_stops']:.3f} | "
         f"≤ 1 {_ok(worst['blend_over_stops'] <= 1.0)} |",
         *speed_rows(),
