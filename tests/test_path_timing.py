@@ -12,7 +12,7 @@ from scipy.interpolate import CubicSpline
 
 from bench.bench_path_timing import cases, ours, toppra_duration
 from robodcn.errors import InputError
-from robodcn.path_timing import time_optimal
+from robodcn.path_timing import max_start_speed, time_optimal
 
 RATE = 1000.0
 # finite differences at the stream rate: a sampled law is checked within these shares
@@ -142,6 +142,17 @@ def test_bad_input_names_the_argument(kwargs, field):
     assert err.value.field == field
 
 
+def test_max_start_speed_is_the_controllable_limit(paths):
+    case = paths[0]
+    v, a, _ = case.limits
+    top = max_start_speed(case.q, case.s, v, a)
+    assert top > 0
+    assert ours(case, sd_start=0.999 * top).sample(RATE).sd[0] == pytest.approx(0.999 * top)
+    with pytest.raises(InputError) as err:
+        ours(case, sd_start=1.01 * top)
+    assert err.value.field == "sd_start"
+
+
 def test_bad_grid_is_refused():
     with pytest.raises(InputError) as err:
         time_optimal(np.zeros((3, 2)), np.array([0.0, 0.5, 0.5]), [1, 1], [1, 1])
@@ -167,8 +178,7 @@ def test_properties(coef, v, a, jerk, start_share, with_stop):
     stops = [0.5] if with_stop else []
     free = time_optimal(q, s, vmax, amax, stops=stops)
     # a moving start at a share of the fastest speed the path allows at s = 0
-    sd_cap = float(np.min(v / np.abs(np.gradient(q, s, axis=0)[0])))
-    sd0 = start_share * sd_cap * 0.5
+    sd0 = start_share * max_start_speed(q, s, vmax, amax, stops=stops)
     law = time_optimal(q, s, vmax, amax, jmax if jerk else None, sd_start=sd0, stops=stops,
                        rate_hz=RATE)
     m = law.sample(RATE)

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import itertools
 import math
 from collections.abc import Callable
 
@@ -9,7 +10,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from robodcn.errors import InputError
-from robodcn.path_timing.law import PathTiming
+from robodcn.path_timing.law import ChainTiming, PathTiming
 
 # share of the jerk limit the term |q'''| ṡ³ may take; the rest is left to q' s⃛ + 3 q'' ṡ s̈
 _CURVATURE_SHARE = 0.5
@@ -33,6 +34,28 @@ def joint_ratios(law: PathTiming, s: NDArray, derivs: list[NDArray], v: NDArray,
     jrk = d3 * sd ** 3 + 3.0 * d2 * sd * sdd + d1 * sddd
     return (float((np.abs(vel) / v).max()), float((np.abs(acc) / a).max()),
             float((np.abs(jrk) / j).max()))
+
+
+def _rest_piece(s: NDArray, derivs: list[NDArray], sg: NDArray, dq: NDArray, ddq: NDArray,
+                cap: NDArray, v: NDArray, a: NDArray, j: NDArray, accel_share: float,
+                finite: NDArray, rate_hz: float, solve: Callable, stage_times: Callable
+                ) -> PathTiming:
+    """Rest to rest without stops: the shortest over acceleration shares and windows of the
+    filtered optimum, each stretched just enough to keep every limit."""
+    best = None
+    for share in (accel_share, 0.8 * accel_share, 0.6 * accel_share):
+        x, u = solve(sg, dq, ddq, v, a * share, cap, 0.0, 0.0)
+        dt = stage_times(sg, x)
+        # the ramp from +a to -a of one joint at its jerk limit takes 2a/j
+        w0 = float((2.0 * share * a[finite] / j[finite]).max())
+        for f in _WINDOWS:
+            law = _filtered(sg, x, u, dt, np.empty(0, np.int64), f * w0, (sg[0], 0.0, 0.0),
+                            sg[0])
+            rv, ra, rj = joint_ratios(law, s, derivs, v, a, j, rate_hz)
+            lam = max(1.0, rv, math.sqrt(ra), rj ** (1.0 / 3.0)) * (1.0 + 1e-9)
+            if best is None or lam * law.duration < best.duration:
+                best = law.stretch(lam * law.duration) if lam > 1.0 else law
+    return best
 
 
 def _filtered(sg: NDArray, x: NDArray, u: NDArray, dt: NDArray, stop_breaks: NDArray,
@@ -72,17 +95,17 @@ def jerk_limited(s: NDArray, derivs: list[NDArray], grid: NDArray, cap: NDArray,
     stop_breaks = np.searchsorted(grid, stop_idx)
     moving = sd_start > 0.0 or sdd_start != 0.0
     if not moving:
-        x, u = solve(sg, dq, ddq, lim_v, lim_a * accel_share, cap, 0.0, 0.0)
-        dt = stage_times(sg, x)
-        best = None
-        for f in _WINDOWS:
-            w = f * w0
-            law = _filtered(sg, x, u, dt, stop_breaks, w, (sg[0], 0.0, 0.0), sg[0])
-            rv, ra, rj = joint_ratios(law, s, derivs, lim_v, lim_a, lim_j, rate_hz)
-            lam = max(1.0, rv, math.sqrt(ra), rj ** (1.0 / 3.0)) * (1.0 + 1e-9)
-            if best is None or lam * law.duration < best.duration:
-                best = law.stretch(lam * law.duration) if lam > 1.0 else law
-        return best
+        # at rest at every stop, so each piece between stops is timed on its own: its own
+        # acceleration share and window (a short piece wants a smaller swing)
+        cuts = [0, *stop_breaks.tolist(), sg.shape[0] - 1]
+        pieces = []
+        for g0, g1 in itertools.pairwise(cuts):
+            lo, hi = int(grid[g0]), int(grid[g1])
+            sl = slice(g0, g1 + 1)
+            pieces.append(_rest_piece(s[lo:hi + 1], [d[lo:hi + 1] for d in derivs], sg[sl],
+                                      dq[sl], ddq[sl], cap[sl], lim_v, lim_a, lim_j,
+                                      accel_share, finite, rate_hz, solve, stage_times))
+        return pieces[0] if len(pieces) == 1 else ChainTiming(pieces)
 
     # A moving start cannot be stretched (ṡ(0) would change): shrink the limits instead.
     share_v, share_a = 1.0, accel_share

@@ -146,3 +146,53 @@ class PathTiming:
         return (f"PathTiming(duration={self.duration:.6g} s, window={self.window:.4g} s, "
                 f"stretch_factor={self.stretch_factor:.6g})")
 
+
+
+class ChainTiming(PathTiming):
+    """Time laws of consecutive path pieces, each ending at rest (the stops), run in turn.
+
+    Same interface as :class:`PathTiming`; ``window`` is the widest of the pieces'.
+    """
+
+    def __init__(self, pieces: list[PathTiming]) -> None:
+        self.pieces = list(pieces)
+        self.offsets = np.concatenate([[0.0], np.cumsum([p.duration for p in self.pieces])])
+        self.window = max(p.window for p in self.pieces)
+        self.stretch_factor = min(p.stretch_factor for p in self.pieces)
+        self.s_start = self.pieces[0].s_start
+        self.s_end = self.pieces[-1].s_end
+
+    @property
+    def duration(self) -> float:
+        """Seconds from the start to rest at s_end."""
+        return float(self.offsets[-1])
+
+    def at(self, t: ArrayLike) -> Samples:
+        """s, ṡ, s̈, s⃛ at times t: each piece's law from its start time on."""
+        t = np.asarray(t, dtype=np.float64)
+        which = np.clip(np.searchsorted(self.offsets, t, side="right") - 1, 0,
+                        len(self.pieces) - 1)
+        out = [np.empty_like(t) for _ in range(4)]
+        for k, piece in enumerate(self.pieces):
+            mask = which == k
+            if mask.any():
+                m = piece.at(t[mask] - self.offsets[k])
+                for dst, src in zip(out, m[1:], strict=True):
+                    dst[mask] = src
+        return Samples(t, *out)
+
+    def stretch(self, duration: float) -> ChainTiming:
+        """Every piece slowed by the same factor to a total ``duration`` (PathTiming.stretch)."""
+        if not (isinstance(duration, int | float) and math.isfinite(duration)):
+            raise InputError(f"duration must be a number of seconds, got {duration!r}",
+                             field="duration", value=duration)
+        if duration < self.duration * (1.0 - 1e-12):
+            raise InputError(f"duration {duration:g} s is shorter than the time-optimal "
+                             f"{self.duration:.6g} s under the joint limits: at least one "
+                             "joint limit would be exceeded", field="duration",
+                             value=duration)
+        lam = duration / self.duration
+        return ChainTiming([p.stretch(p.duration * lam) for p in self.pieces])
+
+    def __repr__(self) -> str:
+        return f"ChainTiming(duration={self.duration:.6g} s, pieces={len(self.pieces)})"

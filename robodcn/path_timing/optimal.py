@@ -188,3 +188,26 @@ def time_optimal(q: ArrayLike, s: ArrayLike, v_max: ArrayLike, a_max: ArrayLike,
     return jerk_limited(s, derivs, grid, cap, v, a, j, sd_start=sd_start, sdd_start=sdd_start,
                         stop_idx=stop_idx, rate_hz=rate_hz or CHECK_RATE_HZ,
                         accel_share=accel_share, solve=_solve, stage_times=_stage_times)
+
+
+def max_start_speed(q: ArrayLike, s: ArrayLike, v_max: ArrayLike, a_max: ArrayLike, *,
+                    stops: Sequence[float] = (), scale: float = 1.0,
+                    max_stages: int = MAX_STAGES) -> float:
+    """The fastest ṡ at s[0] from which the path can still be followed within the velocity
+    and acceleration limits and brought to rest by the end (or the first stop): √x_max,0 of
+    the TOPP-RA controllable set. Without a jerk limit any ``sd_start`` up to it is accepted
+    by :func:`time_optimal`; with one, the jerk pass needs room below it."""
+    q = np.asarray(q, dtype=np.float64)
+    s = np.asarray(s, dtype=np.float64)
+    k = q.shape[1]
+    v = _limits("v_max", v_max, k) * scale
+    a = _limits("a_max", a_max, k) * scale ** 2
+    stop_s = np.atleast_1d(np.asarray(stops, dtype=np.float64))
+    stop_idx = np.unique(np.abs(s[None, :] - stop_s[:, None]).argmin(axis=1)
+                         if stop_s.size else np.empty(0, np.int64))
+    dq, ddq = path_derivatives(q, s, stop_idx.tolist(), 2)
+    grid = _grid(q.shape[0], stop_idx, max(1, int(max_stages)))
+    p_lo, _, r, x_cap = reachability.stage_constraints(dq[grid], ddq[grid], v, a)
+    x_cap[np.searchsorted(grid, stop_idx)] = 0.0
+    x_max = reachability.controllable(np.diff(s[grid]), p_lo, r, x_cap, 0.0)
+    return math.sqrt(float(x_max[0]))
