@@ -10,6 +10,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from robodcn.errors import InputError
+from robodcn.path_timing import reachability
 from robodcn.path_timing.law import ChainTiming, PathTiming
 
 # share of the jerk limit the term |q'''| ṡ³ may take; the rest is left to q' s⃛ + 3 q'' ṡ s̈
@@ -18,22 +19,71 @@ _WINDOWS = (1.0, 0.75, 0.55, 0.4, 0.3)
 _MOVING_ATTEMPTS = 6
 
 
+def corner_jumps(ddq: NDArray) -> NDArray:
+    """|Δq''| across three sample intervals around each sample (n, k).
+
+    A step of q'' (a blend's curvature corner: the path is C¹ there) shows in the finite
+    differences smeared over about three intervals; the servos see it whole, within one
+    stream period, as a step of joint acceleration Δq'' ṡ²: a jerk Δq'' ṡ² × rate.
+    """
+    n = ddq.shape[0]
+    i = np.arange(n)
+    return np.abs(ddq[np.minimum(i + 2, n - 1)] - ddq[np.maximum(i - 1, 0)])
+
+
 def joint_ratios(law: PathTiming, s: NDArray, derivs: list[NDArray], v: NDArray, a: NDArray,
-                 j: NDArray, rate_hz: float) -> tuple[float, float, float]:
-    """max over the stream samples of |q̇|/v, |q̈|/a and |q⃛|/j (largest over joints).
+                 j: NDArray, rate_hz: float) -> tuple[float, float, float, float]:
+    """max over the stream samples of |q̇|/v, |q̈|/a, |q⃛|/j and the corner-step jerk / j.
 
     q̇ = q' ṡ, q̈ = q'' ṡ² + q' s̈, q⃛ = q''' ṡ³ + 3 q'' ṡ s̈ + q' s⃛ with q', q'', q''' from
-    the sample derivatives, linearly interpolated at s(t).
+    the sample derivatives (``derivs[:3]``), linearly interpolated at s(t). With
+    ``derivs[3]`` (:func:`corner_jumps`) the last figure is max(Δq'' ṡ² rate + |3 q'' ṡ s̈ +
+    q' s⃛|)/j: a step's jerk falls as 1/λ² under a stretch λ, the smooth jerk as 1/λ³.
     """
     m = law.sample(rate_hz)
     sd, sdd, sddd = m.sd[:, None], m.sdd[:, None], m.sddd[:, None]
     d1, d2, d3 = (np.stack([np.interp(m.s, s, d[:, i]) for i in range(d.shape[1])], axis=1)
-                  for d in derivs)
+                  for d in derivs[:3])
     vel = d1 * sd
     acc = d2 * sd ** 2 + d1 * sdd
-    jrk = d3 * sd ** 3 + 3.0 * d2 * sd * sdd + d1 * sddd
+    rest = 3.0 * d2 * sd * sdd + d1 * sddd
+    jrk = d3 * sd ** 3 + rest
+    r_step = 0.0
+    if len(derivs) > 3:
+        jump = np.stack([np.interp(m.s, s, derivs[3][:, i]) for i in range(d1.shape[1])],
+                        axis=1)
+        step = np.where(jump > 0, jump * sd ** 2 * rate_hz + np.abs(rest), 0.0)
+        r_step = float((step / j).max())
     return (float((np.abs(vel) / v).max()), float((np.abs(acc) / a).max()),
-            float((np.abs(jrk) / j).max()))
+            float((np.abs(jrk) / j).max()), r_step)
+
+
+def _stretch_needed(rv: float, ra: float, rj: float, r_step: float) -> float:
+    return max(1.0, rv, math.sqrt(ra), rj ** (1.0 / 3.0), math.sqrt(r_step)) * (1.0 + 1e-9)
+
+
+def _corner_cap(s: NDArray, jumps: NDArray, dq: NDArray, ddq: NDArray, v: NDArray,
+                a: NDArray, j: NDArray, rate_hz: float, sg: NDArray, cap: NDArray, w: float
+                ) -> tuple[NDArray, NDArray]:
+    """Lower the grid's speed cap around curvature corners: Δq'' ṡ² rate ≤ j/2, held over a
+    window's travel either side so the box filter's average stays under it too.
+
+    Returns the cap and the samples (n,) that are corners (where the step bound binds)."""
+    with np.errstate(divide="ignore"):
+        x_step = (0.5 * j / (jumps * rate_hz)).min(axis=1)
+    x_mvc = reachability.stage_constraints(dq, ddq, v, a)[3]
+    binding = x_step < x_mvc
+    if not binding.any():
+        return cap, binding
+    cap = cap.copy()
+    edges = np.flatnonzero(np.diff(np.concatenate([[0], binding.astype(np.int8), [0]])))
+    for lo, hi in zip(edges[::2], edges[1::2], strict=True):
+        xs = float(x_step[lo:hi].min())
+        reach = math.sqrt(xs) * w
+        g0 = int(np.searchsorted(sg, s[lo] - reach, side="left"))
+        g1 = int(np.searchsorted(sg, s[hi - 1] + reach, side="right"))
+        cap[g0:g1] = np.minimum(cap[g0:g1], xs)
+    return cap, binding
 
 
 def _rest_piece(s: NDArray, derivs: list[NDArray], sg: NDArray, dq: NDArray, ddq: NDArray,
@@ -51,8 +101,7 @@ def _rest_piece(s: NDArray, derivs: list[NDArray], sg: NDArray, dq: NDArray, ddq
         for f in _WINDOWS:
             law = _filtered(sg, x, u, dt, np.empty(0, np.int64), f * w0, (sg[0], 0.0, 0.0),
                             sg[0])
-            rv, ra, rj = joint_ratios(law, s, derivs, v, a, j, rate_hz)
-            lam = max(1.0, rv, math.sqrt(ra), rj ** (1.0 / 3.0)) * (1.0 + 1e-9)
+            lam = _stretch_needed(*joint_ratios(law, s, derivs, v, a, j, rate_hz))
             if best is None or lam * law.duration < best.duration:
                 best = law.stretch(lam * law.duration) if lam > 1.0 else law
     return best
@@ -92,6 +141,13 @@ def jerk_limited(s: NDArray, derivs: list[NDArray], grid: NDArray, cap: NDArray,
     with np.errstate(divide="ignore"):
         jcap = ((_CURVATURE_SHARE * lim_j / np.abs(dddq)) ** (2.0 / 3.0)).min(axis=1)
     cap = np.minimum(cap, jcap)
+    jumps = corner_jumps(derivs[1])
+    for i in stop_idx.tolist():  # at rest there: the derivatives' corner is the stop's own
+        jumps[max(0, i - 2):i + 3] = 0.0
+    cap, corners = _corner_cap(s, jumps, derivs[0], derivs[1], lim_v, lim_a, lim_j, rate_hz,
+                               sg, cap, w0)
+    jumps[~corners] = 0.0  # smooth stretches: the analytic q''' ṡ³ term covers them
+    derivs = [*derivs[:3], jumps]
     stop_breaks = np.searchsorted(grid, stop_idx)
     moving = sd_start > 0.0 or sdd_start != 0.0
     if not moving:
@@ -132,7 +188,8 @@ def jerk_limited(s: NDArray, derivs: list[NDArray], grid: NDArray, cap: NDArray,
         breaks = np.searchsorted(sg2, s[stop_idx])
         history = (s00 - sd0 * w + sdd_start * w * w / 2.0, sd0 - sdd_start * w, sdd_start)
         law = _filtered(sg2, x, u, dt, breaks, w, history, sg[0])
-        rv, ra, rj = joint_ratios(law, s, derivs, v, a, j, rate_hz)
+        rv, ra, rj, r_step = joint_ratios(law, s, derivs, v, a, j, rate_hz)
+        rj = max(rj, r_step)
         if max(rv, ra, rj) <= 1.0:
             return law
         share_a /= max(1.0, rj) ** (1.0 / 3.0) if rj > 1.0 else 1.0
