@@ -173,7 +173,8 @@ def test_properties(coef, v, a, jerk, start_share, with_stop):
     stops = [0.5] if with_stop else []
     free = time_optimal(q, s, vmax, amax, stops=stops)
     # a moving start at a share of the fastest speed the path allows at s = 0
-    sd0 = start_share * max_start_speed(q, s, vmax, amax, stops=stops)
+    # (with a jerk limit the braking ramps need room: a smaller share of it)
+    sd0 = start_share * (0.3 if jerk else 1.0) * max_start_speed(q, s, vmax, amax, stops=stops)
     law = time_optimal(q, s, vmax, amax, jmax if jerk else None, sd_start=sd0, stops=stops,
                        rate_hz=RATE)
     m = law.sample(RATE)

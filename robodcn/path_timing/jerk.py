@@ -16,7 +16,7 @@ from robodcn.path_timing.law import ChainTiming, PathTiming
 # share of the jerk limit the term |q'''| ṡ³ may take; the rest is left to q' s⃛ + 3 q'' ṡ s̈
 _CURVATURE_SHARE = 0.5
 _WINDOWS = (1.0, 0.75, 0.55, 0.4, 0.3)
-_MOVING_ATTEMPTS = 6
+_MOVING_ATTEMPTS = 8
 
 
 def corner_jumps(ddq: NDArray) -> NDArray:
@@ -192,11 +192,13 @@ def jerk_limited(s: NDArray, derivs: list[NDArray], grid: NDArray, cap: NDArray,
         rj = max(rj, r_step)
         if max(rv, ra, rj) <= 1.0:
             return law
-        share_a /= max(1.0, rj) ** (1.0 / 3.0) if rj > 1.0 else 1.0
-        share_v /= max(1.0, rv * 1.002)
-        share_a /= max(1.0, ra * 1.002)
-        # the filter's share of the jerk goes as 1/w
-        w *= max(1.0, rj) * 1.02
+        # a moving start cannot be stretched: slow the law itself where the jerk is over
+        # (velocity ~ share_v, the jerk terms in ṡ² s̈ and ṡ³ ~ share_v³) and widen the window
+        # (the filter's share of the jerk goes as 1/w)
+        share_v /= max(1.0, rv * 1.002, rj ** (1.0 / 3.0) * 1.002)
+        share_a /= max(1.0, ra * 1.002, math.sqrt(rj) * 1.002)
+        if rj > 1.0:
+            w *= rj * 1.05
     raise InputError(f"from sd_start {sd_start:.6g} /s, sdd_start {sdd_start:.6g} /s² no law "
                      f"found within the limits (velocity ×{rv:.3g}, acceleration ×{ra:.3g}, "
                      f"jerk ×{rj:.3g} of the limit)", field="sd_start", value=sd_start)
