@@ -148,7 +148,8 @@ def _ok(flag: bool) -> str:
 
 def accuracy_rows(all_cases: list[Case]) -> tuple[list[str], dict[str, float]]:
     rows = ["| path | ours (s) | toppra (s) | ours / toppra | jerk 10a (s) | "
-            "jerk 10a / optimum | jerk = quintic's (s) | quintic auto (s) | ours ms | toppra ms |",
+            "jerk 10a / optimum (✓ ≤ quintic) | jerk = quintic's (s) | quintic auto (s) | "
+            "ours ms | toppra ms |",
             "|---|---|---|---|---|---|---|---|---|---|"]
     worst = {"ratio": 0.0, "jerk_vs_quintic": 0.0, "jerk_ratio_min": math.inf,
              "jerk_ratio_max": 0.0, "qjerk_vs_quintic": 0.0}

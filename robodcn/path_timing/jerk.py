@@ -17,6 +17,7 @@ from robodcn.path_timing.law import ChainTiming, PathTiming
 _CURVATURE_SHARE = 0.5
 _WINDOWS = (1.0, 0.75, 0.55, 0.4, 0.3)
 _MOVING_ATTEMPTS = 8
+_LOCAL_ROUNDS = 4
 
 
 def corner_jumps(ddq: NDArray) -> NDArray:
@@ -32,13 +33,14 @@ def corner_jumps(ddq: NDArray) -> NDArray:
 
 
 def joint_ratios(law: PathTiming, s: NDArray, derivs: list[NDArray], v: NDArray, a: NDArray,
-                 j: NDArray, rate_hz: float) -> tuple[float, float, float, float]:
+                 j: NDArray, rate_hz: float, per_sample: bool = False) -> tuple:
     """max over the stream samples of |q̇|/v, |q̈|/a, |q⃛|/j and the corner-step jerk / j.
 
     q̇ = q' ṡ, q̈ = q'' ṡ² + q' s̈, q⃛ = q''' ṡ³ + 3 q'' ṡ s̈ + q' s⃛ with q', q'', q''' from
     the sample derivatives (``derivs[:3]``), linearly interpolated at s(t). With
     ``derivs[3]`` (:func:`corner_jumps`) the last figure is max(Δq'' ṡ² rate + |3 q'' ṡ s̈ +
     q' s⃛|)/j: a step's jerk falls as 1/λ² under a stretch λ, the smooth jerk as 1/λ³.
+    With ``per_sample`` also s(t) and each sample's stretch factor (N,) are returned.
     """
     m = law.sample(rate_hz)
     sd, sdd, sddd = m.sd[:, None], m.sdd[:, None], m.sddd[:, None]
@@ -48,14 +50,17 @@ def joint_ratios(law: PathTiming, s: NDArray, derivs: list[NDArray], v: NDArray,
     acc = d2 * sd ** 2 + d1 * sdd
     rest = 3.0 * d2 * sd * sdd + d1 * sddd
     jrk = d3 * sd ** 3 + rest
-    r_step = 0.0
+    step = np.zeros_like(jrk)
     if len(derivs) > 3:
         jump = np.stack([np.interp(m.s, s, derivs[3][:, i]) for i in range(d1.shape[1])],
                         axis=1)
         step = np.where(jump > 0, jump * sd ** 2 * rate_hz + np.abs(rest), 0.0)
-        r_step = float((step / j).max())
-    return (float((np.abs(vel) / v).max()), float((np.abs(acc) / a).max()),
-            float((np.abs(jrk) / j).max()), r_step)
+    rv, ra, rj, rs = np.abs(vel) / v, np.abs(acc) / a, np.abs(jrk) / j, step / j
+    maxima = (float(rv.max()), float(ra.max()), float(rj.max()), float(rs.max()))
+    if not per_sample:
+        return maxima
+    factor = np.maximum(np.maximum(rv, np.sqrt(ra)), np.maximum(np.cbrt(rj), np.sqrt(rs)))
+    return maxima, m.s, factor.max(axis=1)
 
 
 def _stretch_needed(rv: float, ra: float, rj: float, r_step: float) -> float:
@@ -92,7 +97,7 @@ def _rest_piece(s: NDArray, derivs: list[NDArray], sg: NDArray, dq: NDArray, ddq
                 ) -> PathTiming:
     """Rest to rest without stops: the shortest over acceleration shares and windows of the
     filtered optimum, each stretched just enough to keep every limit."""
-    best = None
+    best, choice = None, None
     for share in (accel_share, 0.8 * accel_share, 0.6 * accel_share):
         x, u = solve(sg, dq, ddq, v, a * share, cap, 0.0, 0.0)
         dt = stage_times(sg, x)
@@ -104,7 +109,39 @@ def _rest_piece(s: NDArray, derivs: list[NDArray], sg: NDArray, dq: NDArray, ddq
             lam = _stretch_needed(*joint_ratios(law, s, derivs, v, a, j, rate_hz))
             if best is None or lam * law.duration < best.duration:
                 best = law.stretch(lam * law.duration) if lam > 1.0 else law
+                choice = (share, f * w0, x)
+    # then slow down only where a limit is over (the uniform stretch slows everything):
+    # lower the speed cap there by the sample's own stretch factor and solve again
+    share, w, x = choice
+    local_cap = cap
+    for _ in range(_LOCAL_ROUNDS):
+        x, u = solve(sg, dq, ddq, v, a * share, local_cap, 0.0, 0.0)
+        law = _filtered(sg, x, u, stage_times(sg, x), np.empty(0, np.int64), w,
+                        (sg[0], 0.0, 0.0), sg[0])
+        maxima, s_t, factor = joint_ratios(law, s, derivs, v, a, j, rate_hz, per_sample=True)
+        lam = _stretch_needed(*maxima)
+        if lam * law.duration < best.duration:
+            best = law.stretch(lam * law.duration) if lam > 1.0 else law
+        if lam <= 1.0:
+            break
+        local_cap = _tighten(local_cap, x, sg, s_t, factor, float(np.sqrt(x.max())) * w)
     return best
+
+
+def _tighten(cap: NDArray, x: NDArray, sg: NDArray, s_t: NDArray, factor: NDArray,
+             reach: float) -> NDArray:
+    """Lower the speed cap to x / f² around every run of stream samples over a limit (f the
+    run's largest stretch factor), ``reach`` (in s) either side: the filter mixes the law
+    over its window."""
+    over = factor > 1.0
+    cap = cap.copy()
+    edges = np.flatnonzero(np.diff(np.concatenate([[0], over.astype(np.int8), [0]])))
+    for lo, hi in zip(edges[::2], edges[1::2], strict=True):
+        f = float(factor[lo:hi].max()) * 1.01
+        g0 = int(np.searchsorted(sg, s_t[lo] - reach, side="left"))
+        g1 = int(np.searchsorted(sg, s_t[hi - 1] + reach, side="right"))
+        cap[g0:g1] = np.minimum(cap[g0:g1], x[g0:g1] / (f * f))
+    return cap
 
 
 def _filtered(sg: NDArray, x: NDArray, u: NDArray, dt: NDArray, stop_breaks: NDArray,
