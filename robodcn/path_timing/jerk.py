@@ -17,7 +17,7 @@ from robodcn.path_timing.law import ChainTiming, PathTiming
 _CURVATURE_SHARE = 0.5
 _WINDOWS = (1.0, 0.75, 0.55, 0.4, 0.3)
 _MOVING_ATTEMPTS = 8
-_LOCAL_ROUNDS = 4
+_LOCAL_ROUNDS = 2
 
 
 def corner_jumps(ddq: NDArray) -> NDArray:
