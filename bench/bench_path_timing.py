@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import itertools
 import math
+import os
 import statistics
 import time
 from collections.abc import Callable
@@ -261,6 +262,7 @@ def toppra_compute(q: np.ndarray, s: np.ndarray, v: np.ndarray, a: np.ndarray) -
 
 
 def run() -> str:
+    load = os.getloadavg()[0]
     all_cases = cases()
     rows, worst = accuracy_rows(all_cases)
     out = [
@@ -269,7 +271,8 @@ def run() -> str:
         f"{len(all_cases)} joint paths (configs/arm3r.toml, configs/arm2r.toml; every method; "
         "single moves, stops at every via, blends), timed by `time_optimal` (TOPP-RA with "
         "closed-form stage LPs, ≤ 1000 stages) and by toppra 0.6 in the same run. Jerk limits "
-        f"{JERK_PER_ACCEL:g} × the acceleration limit per second.",
+        f"{JERK_PER_ACCEL:g} × the acceleration limit per second. Load average at the start: "
+        f"{load:.2f} (2 cores shared with other jobs: medians rise with it).",
         "",
         "| measurement | figure | target |",
         "|---|---|---|",

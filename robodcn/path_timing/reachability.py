@@ -71,8 +71,16 @@ def controllable(delta: NDArray[np.float64], p_lo: NDArray, r: NDArray, x_cap: N
     w = np.where(good, 1.0 / np.where(good, slope, 1.0), 0.0)
     z = np.where(good, -2.0 * delta[:, None] * np.where(good, p_lo[:n_stages], 0.0) * w,
                  np.inf)
-    x_max = np.empty(n_stages + 1)
     c = min(float(x_end), float(x_cap[n_stages]))
+    if w.shape[1] <= 3:
+        # pad to three joints with roots that never bind (W = 0, Z = ∞) and unroll
+        pad = 3 - w.shape[1]
+        w = np.hstack([w, np.zeros((n_stages, pad))])
+        z = np.hstack([z, np.full((n_stages, pad), np.inf)])
+        out = _backward3(c, x_cap[n_stages - 1::-1].tolist(), *(col[::-1].tolist() for pair in
+                         zip(w.T, z.T, strict=True) for col in pair))
+        return np.concatenate([out[::-1], [c]])
+    x_max = np.empty(n_stages + 1)
     x_max[n_stages] = c
     caps = x_cap[:n_stages].tolist()
     ws = w.tolist()
@@ -89,6 +97,26 @@ def controllable(delta: NDArray[np.float64], p_lo: NDArray, r: NDArray, x_cap: N
     return x_max
 
 
+def _backward3(c: float, caps: list, w0: list, z0: list, w1: list, z1: list, w2: list,
+               z2: list) -> NDArray[np.float64]:
+    """The backward recursion unrolled for up to three joints (stages in reverse order)."""
+    out = []
+    append = out.append
+    for m, a0, b0, a1, b1, a2, b2 in zip(caps, w0, z0, w1, z1, w2, z2, strict=True):
+        r = c * a0 + b0
+        if r < m:
+            m = r
+        r = c * a1 + b1
+        if r < m:
+            m = r
+        r = c * a2 + b2
+        if r < m:
+            m = r
+        c = m if m > 0.0 else 0.0
+        append(c)
+    return np.asarray(out)
+
+
 def greedy_forward(delta: NDArray[np.float64], p_hi: NDArray, r: NDArray,
                    x_max: NDArray[np.float64], x_start: float
                    ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
@@ -101,6 +129,12 @@ def greedy_forward(delta: NDArray[np.float64], p_hi: NDArray, r: NDArray,
     ph = p_hi[:n_stages].tolist()
     rs = r[:n_stages].tolist()
     xm = x_max.tolist()
+    if p_hi.shape[1] <= 3:
+        pad = 3 - p_hi.shape[1]
+        ph3 = np.hstack([p_hi[:n_stages], np.full((n_stages, pad), np.inf)])
+        r3 = np.hstack([r[:n_stages], np.zeros((n_stages, pad))])
+        return _forward3(float(x_start), two_d, xm[1:], *(col.tolist() for pair in
+                         zip(ph3.T, r3.T, strict=True) for col in pair))
     x = [0.0] * (n_stages + 1)
     u = [0.0] * n_stages
     xi = float(x_start)
@@ -120,3 +154,29 @@ def greedy_forward(delta: NDArray[np.float64], p_hi: NDArray, r: NDArray,
         x[i + 1] = xn
         xi = xn
     return np.asarray(x), np.asarray(u)
+
+
+def _forward3(xi: float, two_d: list, x_next: list, p0: list, r0: list, p1: list, r1: list,
+              p2: list, r2: list) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """The forward recursion unrolled for up to three joints."""
+    xs = [xi]
+    us = []
+    for d2, xm, a0, b0, a1, b1, a2, b2 in zip(two_d, x_next, p0, r0, p1, r1, p2, r2,
+                                               strict=True):
+        ui = (xm - xi) / d2
+        bound = a0 + b0 * xi
+        if bound < ui:
+            ui = bound
+        bound = a1 + b1 * xi
+        if bound < ui:
+            ui = bound
+        bound = a2 + b2 * xi
+        if bound < ui:
+            ui = bound
+        xi = xi + d2 * ui
+        if xi < 0.0:  # rounding at a stop: land exactly at rest
+            ui = -xs[-1] / d2
+            xi = 0.0
+        us.append(ui)
+        xs.append(xi)
+    return np.asarray(xs), np.asarray(us)
