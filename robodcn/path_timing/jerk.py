@@ -18,6 +18,7 @@ _CURVATURE_SHARE = 0.5
 _WINDOWS = (1.0, 0.75, 0.55, 0.4, 0.3)
 _MOVING_ATTEMPTS = 8
 _LOCAL_ROUNDS = 2
+_QUICK_SAMPLES = 2500
 
 
 def corner_jumps(ddq: NDArray) -> NDArray:
@@ -33,7 +34,8 @@ def corner_jumps(ddq: NDArray) -> NDArray:
 
 
 def joint_ratios(law: PathTiming, s: NDArray, derivs: list[NDArray], v: NDArray, a: NDArray,
-                 j: NDArray, rate_hz: float, per_sample: bool = False) -> tuple:
+                 j: NDArray, rate_hz: float, per_sample: bool = False,
+                 sample_hz: float | None = None) -> tuple:
     """max over the stream samples of |q̇|/v, |q̈|/a, |q⃛|/j and the corner-step jerk / j.
 
     q̇ = q' ṡ, q̈ = q'' ṡ² + q' s̈, q⃛ = q''' ṡ³ + 3 q'' ṡ s̈ + q' s⃛ with q', q'', q''' from
@@ -41,8 +43,9 @@ def joint_ratios(law: PathTiming, s: NDArray, derivs: list[NDArray], v: NDArray,
     ``derivs[3]`` (:func:`corner_jumps`) the last figure is max(Δq'' ṡ² rate + |3 q'' ṡ s̈ +
     q' s⃛|)/j: a step's jerk falls as 1/λ² under a stretch λ, the smooth jerk as 1/λ³.
     With ``per_sample`` also s(t) and each sample's stretch factor (N,) are returned.
+    ``sample_hz`` samples the law more coarsely than the stream (a quick look at candidates).
     """
-    m = law.sample(rate_hz)
+    m = law.sample(sample_hz or rate_hz)
     sd, sdd, sddd = m.sd[:, None], m.sdd[:, None], m.sddd[:, None]
     d1, d2, d3 = (np.stack([np.interp(m.s, s, d[:, i]) for i in range(d.shape[1])], axis=1)
                   for d in derivs[:3])
@@ -106,7 +109,8 @@ def _rest_piece(s: NDArray, derivs: list[NDArray], sg: NDArray, dq: NDArray, ddq
         for f in _WINDOWS:
             law = _filtered(sg, x, u, dt, np.empty(0, np.int64), f * w0, (sg[0], 0.0, 0.0),
                             sg[0])
-            lam = _stretch_needed(*joint_ratios(law, s, derivs, v, a, j, rate_hz))
+            lam = _stretch_needed(*joint_ratios(law, s, derivs, v, a, j, rate_hz,
+                                                sample_hz=_quick_rate(law, rate_hz)))
             if best is None or lam * law.duration < best.duration:
                 best = law.stretch(lam * law.duration) if lam > 1.0 else law
                 choice = (share, f * w0, x)
@@ -118,14 +122,22 @@ def _rest_piece(s: NDArray, derivs: list[NDArray], sg: NDArray, dq: NDArray, ddq
         x, u = solve(sg, dq, ddq, v, a * share, local_cap, 0.0, 0.0)
         law = _filtered(sg, x, u, stage_times(sg, x), np.empty(0, np.int64), w,
                         (sg[0], 0.0, 0.0), sg[0])
-        maxima, s_t, factor = joint_ratios(law, s, derivs, v, a, j, rate_hz, per_sample=True)
+        maxima, s_t, factor = joint_ratios(law, s, derivs, v, a, j, rate_hz, per_sample=True,
+                                           sample_hz=_quick_rate(law, rate_hz))
         lam = _stretch_needed(*maxima)
         if lam * law.duration < best.duration:
             best = law.stretch(lam * law.duration) if lam > 1.0 else law
         if lam <= 1.0:
             break
         local_cap = _tighten(local_cap, x, sg, s_t, factor, float(np.sqrt(x.max())) * w)
-    return best
+    # the candidates were looked at coarsely: the chosen one at the stream rate itself
+    lam = _stretch_needed(*joint_ratios(best, s, derivs, v, a, j, rate_hz))
+    return best.stretch(lam * best.duration) if lam > 1.0 else best
+
+
+def _quick_rate(law: PathTiming, rate_hz: float) -> float:
+    """A check rate giving about _QUICK_SAMPLES samples over the law (at most the stream's)."""
+    return min(rate_hz, max(100.0, _QUICK_SAMPLES / max(law.duration, 1e-9)))
 
 
 def _tighten(cap: NDArray, x: NDArray, sg: NDArray, s_t: NDArray, factor: NDArray,
