@@ -10,9 +10,19 @@ s₀ (solved with the acceleration limits scaled by ``accel_share`` and a veloci
 turns each switch into a constant-jerk ramp (:mod:`robodcn.path_timing.law`, the same shape
 as the jerk-limited double-integrator solutions of Kröger's and Berscheid & Kröger's Ruckig
 line of work), a dwell of w at every stop keeps the filtered law at rest there, and the joint
-velocity, acceleration and jerk of the filtered law are evaluated at the stream rate. The
-window is chosen among a few candidates and any residual excess is removed by the uniform
-stretch λ = max(1, r_v, √r_a, ∛r_j) that divides velocity, acceleration and jerk by λ, λ², λ³.
+velocity, acceleration and jerk of the filtered law are evaluated at the stream rate. From
+rest, each piece between stops is timed on its own over a few acceleration shares and windows;
+two rounds lower the speed only where a limit is over, and any residual excess is removed by
+the uniform stretch λ = max(1, r_v, √r_a, ∛r_j) that divides velocity, acceleration and jerk
+by λ, λ², λ³. A curvature corner of the path (a step of q'', as at the planner's C¹ blends) is
+a step of joint acceleration Δq'' ṡ² within one stream period, so it is crossed slowly enough
+that Δq'' ṡ² × rate stays within the jerk limit. From a moving start (ṡ₀, s̈₀) the filter's
+history is chosen so the filtered law starts exactly there, and the limits are shrunk instead
+of stretching (a stretch would change ṡ₀).
+
+Known limits: the box filter's overhead is one window (≈ 2a/j) per piece where the
+jerk-limited optimum needs about a/j, so the jerk-limited law is not time-optimal; see the
+bench (bench/bench_path_timing.py) for the ratios.
 """
 
 from __future__ import annotations
