@@ -219,7 +219,7 @@ def test_limit_errors_speak_degrees_per_second(capsys):
 def test_beta_with_a_method_that_ignores_it_warns(capsys):
     code, _, err = main(capsys, *PLAN, "--beta", "0.5", "-q", "--format", "json")
     assert code == 0
-    line, = err.strip().splitlines()  # one warning, whoever gives it (CLI or planner)
+    line, = err.strip().splitlines()  # the planner's BetaIgnoredWarning, once
     assert line.startswith("robodcn: warning: --beta") and "has no effect" in line
     assert "----" not in line
     code, _, err = main(capsys, *PLAN, "--beta", "0.5", "--method", "kenlerp", "-q",
@@ -255,15 +255,20 @@ def test_elbow_is_passed_to_the_planner_when_given(capsys, monkeypatch):
 
 
 def test_planner_errors_are_described_by_robodcn_messages(capsys, monkeypatch):
-    import types
+    from robodcn import messages
 
-    messages = types.ModuleType("robodcn.messages")
-    messages.describe = lambda err, units: f"described in {units} units: {type(err).__name__}"
-    monkeypatch.setitem(sys.modules, "robodcn.messages", messages)
-    monkeypatch.setattr(robodcn, "messages", messages, raising=False)
-    code, _, err = main(capsys, "plan", "--arm", str(ARM3R), "--to", "0.5,0.5,0")
+    calls = []
+
+    def describe(err, units="si", waypoint_names=None):
+        calls.append(waypoint_names)
+        return f"described in {units} units: {type(err).__name__}"
+
+    monkeypatch.setattr(messages, "describe", describe)
+    code, _, err = main(capsys, "plan", "--arm", str(ARM3R), "--via", "0.2,0.1,0", "--to",
+                        "0.5,0.5,0")
     assert code == 3
     assert "described in cli units: UnreachableError" in err and "--to" in err
+    assert calls == [["--from", "--via 1", "--to"]]   # the options, not waypoints[i]
 
 
 def test_plan_prints_a_summary_first_unless_quiet(capsys):

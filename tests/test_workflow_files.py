@@ -91,7 +91,8 @@ def test_recording_as_json_and_csv():
 
 
 def test_trajectory_summary_fractions_match_the_limits():
-    from robodcn.workflow.summary import trajectory_summary, trajectory_summary_text
+    from robodcn.cli.report_text import plan_summary
+    from robodcn.workflow.summary import trajectory_summary
 
     traj = plan(ARM, [ARM.home, (0.12, 0.24, 1.0)])            # auto: the shortest feasible
     s = trajectory_summary(traj, ARM)
@@ -102,8 +103,8 @@ def test_trajectory_summary_fractions_match_the_limits():
                                    duration=2 * traj.duration), ARM)
     assert all(a["velocity_fraction"] < b["velocity_fraction"]
                for a, b in zip(slow["joints"], s["joints"], strict=True))
-    text = trajectory_summary_text(traj, ARM)
-    assert "shoulder" in text and "% of limit" in text and len(text.splitlines()) == 4
+    text = plan_summary(traj, ARM)
+    assert "shoulder" in text and "of the limit" in text and len(text.splitlines()) == 5
 
 
 def test_waypoint_beta_other_than_the_plans_is_refused(tmp_path):

@@ -68,7 +68,8 @@ def test_teach_records_poses_with_undo_then_run_replays_them(sim, backdrive, mon
     captured = capsys.readouterr()
     assert code == 0, captured.err
     report = json.loads(captured.out)
-    assert report["stop_reason"] == "completed" and report["approach"] is False
+    # The approach was planned into the trajectory: the streamer inserted none.
+    assert report["stop_reason"] == "completed" and report["approach"] is None
     assert report["final_error_ticks"] == [0, 0, 0]
     end = servo_units.ticks_to_radians(present(sim), ARM.servos)
     assert np.allclose(kinematics.fk(ARM.links, end[None])[0], want[-1], atol=2e-3)
@@ -245,13 +246,13 @@ def test_run_sim_ctrl_c_stops_holds_and_plots_the_stop(monkeypatch, tmp_path, ca
     import os
     import signal
 
-    from robodcn import cli
+    from robodcn.cli import motion_cmd
 
     q = np.radians([[0.0, -60.0, 20.0], [60.0, -30.0, 0.0]])
     path = tmp_path / "slow.json"
     path.write_text(json.dumps(_joint_trajectory([_point(q[0], 0), _point(q[1], 6.0)])))
     png = tmp_path / "stop.png"
-    progress = cli._LiveProgress.__call__
+    progress = motion_cmd._LiveProgress.__call__
     sent = []
 
     def ctrl_c_midway(self, p):          # the user presses Ctrl-C 50 samples in
@@ -260,7 +261,7 @@ def test_run_sim_ctrl_c_stops_holds_and_plots_the_stop(monkeypatch, tmp_path, ca
             os.kill(os.getpid(), signal.SIGINT)
         progress(self, p)
 
-    monkeypatch.setattr(cli._LiveProgress, "__call__", ctrl_c_midway)
+    monkeypatch.setattr(motion_cmd._LiveProgress, "__call__", ctrl_c_midway)
     code = run_cli(monkeypatch, ["run", str(path), "--arm", ARM3R, "--sim", "--json",
                                  "--plot", str(png)])
     captured = capsys.readouterr()

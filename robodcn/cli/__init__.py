@@ -65,12 +65,21 @@ def _version() -> str:
     return __version__
 
 
-def _show_warning(message, category, filename, lineno, file=None, line=None) -> None:
-    """A warning as one ``robodcn: warning: ...`` line, in CLI terms (messages.describe)."""
+def _warning_printer():
+    """A ``warnings.showwarning`` that prints each warning once per command, as one
+    ``robodcn: warning: ...`` line in CLI terms (messages.describe: ``--beta``, degrees)."""
     from robodcn.cli.error_text import describe, one_line, shorten
 
-    text = describe(message) if isinstance(message, Warning) else str(message)
-    print(f"robodcn: warning: {shorten(one_line(text))}", file=sys.stderr)
+    shown: set[str] = set()
+
+    def show(message, category, filename, lineno, file=None, line=None) -> None:
+        text = shorten(one_line(describe(message) if isinstance(message, Warning)
+                                else str(message)))
+        if text not in shown:
+            shown.add(text)
+            print(f"robodcn: warning: {text}", file=sys.stderr)
+
+    return show
 
 
 def main(argv: Sequence[str] | None = None) -> int:
@@ -81,7 +90,10 @@ def main(argv: Sequence[str] | None = None) -> int:
     args = parser.parse_args(argv)
     configure_logging(args)
     with warnings.catch_warnings():
-        warnings.showwarning = _show_warning
+        # Every user-facing warning reaches the printer (which says each one once per
+        # command): the default filter would hide one an earlier main() here already showed.
+        warnings.simplefilter("always", UserWarning)
+        warnings.showwarning = _warning_printer()
         try:
             return int(args.func(args))
         except RobodcnError as exc:

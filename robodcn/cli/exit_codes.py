@@ -66,32 +66,10 @@ def exit_for_error(exc: RobodcnError) -> Exit:
     return Exit(own) if own in EXIT_CODES and own != Exit.DONE else Exit.FAULT
 
 
-def report_outcome(report: Any) -> str:
-    """"done" | "degraded" | "stopped" | "fault" of an ExecutionReport.
-
-    Uses ``report.outcome`` when the streamer provides it; otherwise derives it from the stop
-    reason and the skipped-sample count (a completed run that skipped samples is degraded).
-    """
-    outcome = getattr(report, "outcome", None)
-    if outcome in EXIT_BY_OUTCOME:
-        return outcome
-    if report.stop_reason == "completed":
-        return "degraded" if skipped_count(report) else "done"
-    return "stopped" if report.stop_reason == "stopped" else "fault"
-
-
-def skipped_count(report: Any) -> int:
-    """Samples not sent, from ``report.skipped`` (a count or the skipped indices) when present,
-    else ``samples_skipped``."""
-    skipped = getattr(report, "skipped", None)
-    if skipped is None:
-        skipped = getattr(report, "samples_skipped", 0)
-    return skipped if isinstance(skipped, int) else len(skipped)
-
-
 def exit_for_report(report: Any) -> Exit:
-    return EXIT_BY_OUTCOME[report_outcome(report)]
+    """The exit code of an ExecutionReport, by its ``outcome``."""
+    return EXIT_BY_OUTCOME[report.outcome]
 
 
 __all__ = ["EXIT_BY_ERROR", "EXIT_BY_OUTCOME", "EXIT_CODES", "Exit", "exit_for_error",
-           "exit_for_report", "report_outcome", "skipped_count"]
+           "exit_for_report"]

@@ -9,9 +9,7 @@ come back naming ``--from``, ``--via N`` or ``--to`` (:mod:`robodcn.cli.error_te
 from __future__ import annotations
 
 import argparse
-import inspect
 import math
-import warnings
 from collections.abc import Iterator
 from contextlib import contextmanager
 from dataclasses import dataclass
@@ -67,16 +65,11 @@ class MotionRequest:
         return len(self.vias) + 1
 
 
-def _elbow_supported() -> bool:
-    from robodcn.planner import plan
-
-    return "elbow" in inspect.signature(plan).parameters
-
-
 def motion_request(args: argparse.Namespace, arm) -> MotionRequest:
     """Parse and check the motion options against ``arm`` (InputError naming the option).
 
-    Warns (a ``robodcn: warning:`` line) when --beta is given for methods that ignore it.
+    --beta with methods that ignore it is the planner's BetaIgnoredWarning (printed once, as
+    a ``robodcn: warning:`` line, by :func:`robodcn.cli.main`).
     """
     from robodcn.dcn import TURNS
     from robodcn.interpolate import METHODS
@@ -103,21 +96,10 @@ def motion_request(args: argparse.Namespace, arm) -> MotionRequest:
         raise InputError(f"--duration {args.duration:g} s at {rate:g} Hz is shorter than one "
                          f"sample period for each of the {segments} segments",
                          field="--duration", value=args.duration)
-    methods = [method] if isinstance(method, str) else method
-    from robodcn import errors
-
-    # A planner with BetaIgnoredWarning says so itself (then in CLI terms, via main).
-    if args.beta is not None and "kenlerp" not in methods \
-            and not hasattr(errors, "BetaIgnoredWarning"):
-        warnings.warn(f"--beta {args.beta:g} has no effect with --method {args.method} (only "
-                      "kenlerp uses it)", UserWarning, stacklevel=2)
     keywords: dict[str, Any] = dict(
         method=method, beta=1.0 if args.beta is None else args.beta, turn=turn,
         duration=args.duration, profile=args.profile, rate_hz=rate, blend=args.blend)
-    if getattr(args, "elbow", None) is not None:
-        if not _elbow_supported():
-            raise InputError("--elbow is not supported by this version's planner",
-                             field="--elbow", value=args.elbow)
+    if args.elbow is not None:
         keywords["elbow"] = args.elbow
     return MotionRequest(vias=vias, end=end, start=start, keywords=keywords)
 
@@ -127,39 +109,30 @@ def plan_motion(request: MotionRequest, arm, start_pose, start_joints=None):
     with the option it is about (``--to``, ``--via 2``, ``--rate``...)."""
     from robodcn.planner import plan
 
-    with _cli_terms(request, arm):
+    with _cli_terms(request):
         return plan(arm, [tuple(start_pose), *request.vias, request.end],
                     start_joints=start_joints, **request.keywords)
 
 
 def plan_from_present(request: MotionRequest, arm, bus):
-    """Plan from the arm's present joints (read from ``bus``) to --to: from the present pose,
-    or with a joint-space approach to --from first."""
-    try:
-        from robodcn.present import plan_from_present as from_present
-    except ImportError:  # before robodcn.present: read the joints and plan here
-        from_present = None
-    if from_present is None:
-        from robodcn import kinematics, servo_units
+    """Plan from the arm's present joints (read from ``bus``, :func:`robodcn.present.
+    plan_from_present`) to --to: from the present pose, or with a joint-space approach to
+    --from first."""
+    from robodcn.present import plan_from_present as from_present
 
-        present = servo_units.ticks_to_radians(bus.read_positions()[None, :],
-                                               [j.servo for j in arm.joints])[0]
-        start = request.start or tuple(kinematics.fk(arm.links, present[None, :])[0])
-        return plan_motion(request, arm, start, start_joints=present)
-    with _cli_terms(request, arm):
+    with _cli_terms(request):
         return from_present(arm, bus, [request.start, *request.vias, request.end],
                             **request.keywords)
 
 
 @contextmanager
-def _cli_terms(request: MotionRequest, arm) -> Iterator[None]:
+def _cli_terms(request: MotionRequest) -> Iterator[None]:
     """A planner error leaves with ``cli_text``: what main() prints, naming the option."""
     try:
         yield
     except RobodcnError as exc:
-        exc.cli_text = error_text(exc, vias=len(request.vias), arm=arm)
+        exc.cli_text = error_text(exc, vias=len(request.vias))
         raise
-
 
 
 

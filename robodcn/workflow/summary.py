@@ -1,5 +1,6 @@
 """A one-screen summary of a planned trajectory: duration, samples, and per joint the peak
-velocity and acceleration as a fraction of its limit (for ``plan`` before its table).
+velocity and acceleration as a fraction of its limit (as data, SI; ``plan`` prints it with
+:func:`robodcn.cli.report_text.plan_summary`).
 
 Velocity and acceleration are the planner's finite differences at the sample rate with the
 arm at rest before and after ((q_i − q_{i−1})·rate, (q_{i+1} − 2q_i + q_{i−1})·rate²), so a
@@ -8,7 +9,6 @@ fraction of 1.0 is exactly what the planner's validation allows.
 
 from __future__ import annotations
 
-import math
 from typing import Any
 
 import numpy as np
@@ -30,17 +30,3 @@ def trajectory_summary(traj, arm: Arm) -> dict[str, Any]:
               for spec, v, a in zip(arm.joints, vel, acc, strict=True)]
     return {"duration_s": traj.duration, "samples": len(traj.t), "rate_hz": traj.rate_hz,
             "method": traj.method, "joints": joints}
-
-
-def trajectory_summary_text(traj, arm: Arm) -> str:
-    """:func:`trajectory_summary` in degrees for a terminal, a few lines."""
-    s = trajectory_summary(traj, arm)
-    method = s["method"] if isinstance(s["method"], str) else ",".join(s["method"])
-    lines = [f"# {s['duration_s']:.3f} s, {s['samples']} samples at {s['rate_hz']:g} Hz, "
-             f"method {method}"]
-    for j in s["joints"]:
-        lines.append(f"#   {j['name']:<10} peak {math.degrees(j['peak_velocity']):7.1f}°/s "
-                     f"({100 * j['velocity_fraction']:5.1f}% of limit), "
-                     f"{math.degrees(j['peak_acceleration']):8.1f}°/s² "
-                     f"({100 * j['acceleration_fraction']:5.1f}%)")
-    return "\n".join(lines)
