@@ -55,7 +55,7 @@ def test_sim_runs_a_move_and_plots(tmp_path):
     assert out.returncode in COMPLETED, out.stderr
     assert out.stdout.startswith("completed")
     assert plot.stat().st_size > 10_000 and plot.read_bytes()[:4] == b"\x89PNG"
-    assert f"plot: {plot}" in out.stdout
+    assert f"plot: {plot}" in out.stderr     # stdout is the report (JSON with --json)
 
 
 @pytest.mark.parametrize("extra", [(), ("--realtime",)], ids=["normal", "realtime"])

@@ -13,8 +13,8 @@ from workflow_helpers import ARM3R, NO_DEVICE, run_cli
 
 from firmware_sim.bus import SimBus
 from robodcn import kinematics, servo_units
+from robodcn.bus import lower_latency_timer
 from robodcn.config import load_arm
-from robodcn.workflow.admin import lower_latency_timer
 
 pytest_plugins = ["workflow_fixtures"]     # fixtures: sim, backdrive
 ARM = load_arm(ARM3R)

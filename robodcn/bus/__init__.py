@@ -40,9 +40,11 @@ from robodcn.bus.control_table import (
 )
 from robodcn.bus.latency import (
     SYSFS_USB_SERIAL,
+    LatencyResult,
     LatencyTimerWarning,
     check_latency_timer,
     latency_timer_ms,
+    lower_latency_timer,
 )
 from robodcn.bus.port import READ_POLL_S, SERIAL_ERRORS
 from robodcn.bus.records import ServoInfo, StreamProfile
@@ -62,7 +64,7 @@ __all__ = [
     "ADDR_TORQUE_ENABLE", "ALERT_BIT", "BAUD_INDEX", "FAST_SYNC_READ_MIN_FIRMWARE",
     "HARDWARE_ERROR_BITS", "MODEL_NAMES", "MODEL_NUMBERS", "OPERATING_MODE_POSITION",
     "READ_POLL_S", "SERIAL_ERRORS", "STRAGGLER_S", "SYSFS_USB_SERIAL", "WATCHDOG_MAX",
-    "WATCHDOG_UNIT_MS", "LatencyTimerWarning", "ServoBus", "ServoInfo",
+    "WATCHDOG_UNIT_MS", "LatencyResult", "LatencyTimerWarning", "ServoBus", "ServoInfo",
     "StreamProfile", "check_latency_timer", "cycle_wire_time", "describe_hardware_error",
-    "latency_timer_ms", "mean_cycle_wire_time", "scan",
+    "latency_timer_ms", "lower_latency_timer", "mean_cycle_wire_time", "scan",
 ]

@@ -494,9 +494,21 @@ class ServoBus:
         return {servo_id: bool(self._read_int(servo_id, ADDR_TORQUE_ENABLE, 1))
                 for servo_id in self.ids}
 
-    def torque(self, on: bool) -> None:
-        """Torque Enable on every servo (off releases the arm: it may fall)."""
-        self._write_all(ADDR_TORQUE_ENABLE, 1 if on else 0, 1)
+    def torque(self, on: bool, ids: Iterable[int] | None = None) -> None:
+        """Torque Enable on ``ids`` (default: every servo); off releases the arm: it may fall.
+
+        An id not on this bus is an InputError before anything is written.
+        """
+        if ids is None:
+            self._write_all(ADDR_TORQUE_ENABLE, 1 if on else 0, 1)
+        else:
+            chosen = tuple(ids)
+            unknown = [i for i in chosen if i not in self.ids]
+            if unknown:
+                raise InputError(f"servo id(s) {unknown} are not on this bus (ids "
+                                 f"{list(self.ids)})", field="ids", value=unknown)
+            for servo_id in chosen:
+                self._write_int(servo_id, ADDR_TORQUE_ENABLE, 1 if on else 0, 1)
         if not on:
             self.configured = False
 

@@ -3,6 +3,8 @@
 Both check every option and output path, read the present pose, plan from it (a
 joint-space approach first when --from is elsewhere), stream, print the report and exit
 with the outcome's code: 0 done, 5 completed with samples skipped, 4 fault, 130 stopped.
+:func:`stream` and :func:`finish` are the execute / report / plot path every command that
+moves the arm shares (``robodcn run`` too).
 """
 
 from __future__ import annotations
@@ -18,12 +20,9 @@ from collections.abc import Iterator
 from contextlib import contextmanager
 from typing import Any
 
-import numpy as np
-
 from robodcn.cli import options, planning
 from robodcn.cli.exit_codes import exit_for_report
 from robodcn.cli.output import emit
-from robodcn.cli.plot import _plot, _require_matplotlib
 from robodcn.cli.report_text import approach_seconds, report_dict, report_text
 from robodcn.errors import BusError
 
@@ -42,6 +41,36 @@ def add_execution_options(p: argparse.ArgumentParser) -> None:
                    help="stream from a real-time (SCHED_FIFO) thread; Linux, needs "
                         "CAP_SYS_NICE or root (warns and carries on otherwise)")
     g.add_argument("--json", action="store_true", help="print the report as JSON")
+    add_plot_option(g)
+
+
+def add_plot_option(g) -> None:
+    g.add_argument("--plot", metavar="FILE.png",
+                   help="draw the planned motion (arm poses, waypoints, approach), the "
+                        "measured path and joint velocity/acceleration against the limits "
+                        "(needs matplotlib)")
+
+
+def check_plot(path: str | None) -> None:
+    """--plot's file checked (and matplotlib present) before anything is planned or moved."""
+    if path is not None:
+        from robodcn.plots import require_matplotlib
+
+        require_matplotlib()
+        options.check_plot_path(path)
+
+
+def plot(path: str | None, arm, traj, *, samples=(), report=None, waypoints=None) -> None:
+    """--plot: :func:`robodcn.plots.plot_motion` of ``traj`` with the measured ``samples``
+    and, when the run did not complete, where it stopped."""
+    if path is None:
+        return
+    from robodcn.plots import plot_motion
+
+    stop = None if report is None or report.stop_reason == "completed" else {
+        "t": report.duration_s, "reason": report.stop_reason}
+    plot_motion(path, arm, traj, samples=list(samples), stop=stop, waypoints=waypoints)
+    print(f"plot: {path}", file=sys.stderr, flush=True)
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
@@ -66,8 +95,6 @@ def register(subparsers: argparse._SubParsersAction) -> None:
                                               "simulated arm approaches it first")
     p.add_argument("--timing", choices=("realistic", "fast"), default="realistic",
                    help="simulated wire timing (default realistic)")
-    p.add_argument("--plot", metavar="FILE.png",
-                   help="draw planned vs measured path and joint angles (needs matplotlib)")
     add_execution_options(p)
     p.set_defaults(func=run_sim)
 
@@ -96,7 +123,6 @@ class _LiveProgress:
         self.stream = stream or sys.stderr
         self.enabled = self.stream.isatty()
         self.total = traj.duration
-        self.rad_per_tick = np.array([2 * math.pi / j.servo.ticks_per_turn for j in arm.joints])
         self.samples: list[tuple[float, tuple[int, ...]]] = []  # (elapsed, present ticks)
 
     def __call__(self, progress) -> None:
@@ -106,13 +132,8 @@ class _LiveProgress:
             return
         fraction = progress.sample / max(1, progress.samples_total - 1)
         error = ""
-        # The streamer's own tracking error (the report's definition) when it passes one.
-        tracking = getattr(progress, "tracking_error_rad", None)
-        if tracking is not None:
-            error = f"  tracking {math.degrees(float(np.max(tracking))):5.2f}°"
-        elif progress.present is not None:
-            lag = np.abs(np.subtract(progress.present, progress.goals)) * self.rad_per_tick
-            error = f"  tracking {math.degrees(float(lag.max())):5.2f}°"
+        if progress.tracking_error_rad is not None:   # the report's definition
+            error = f"  tracking {math.degrees(max(progress.tracking_error_rad)):5.2f}°"
         bar = "#" * int(20 * fraction)
         self.stream.write(f"\r[{bar:<20}] {100 * fraction:5.1f}%  {progress.elapsed_s:6.2f}/"
                           f"{self.total:.2f} s{error}")
@@ -124,12 +145,11 @@ class _LiveProgress:
             self.stream.flush()
 
 
-def _execute(args: argparse.Namespace, request: planning.MotionRequest, arm, bus
-             ) -> tuple[Any, Any, _LiveProgress]:
-    """Read the present pose, plan from it, stream; returns (trajectory, report, progress)."""
+def stream(args: argparse.Namespace, traj, arm, bus) -> tuple[Any, _LiveProgress]:
+    """Stream ``traj`` with the execution options (Ctrl-C stops and holds); returns (report,
+    the live progress with the measured samples)."""
     from robodcn.stream import StopSignal, execute
 
-    traj = planning.plan_from_present(request, arm, bus)
     stop = StopSignal()
     live = _LiveProgress(traj, arm)
     with _ctrl_c_stops(stop):
@@ -139,35 +159,42 @@ def _execute(args: argparse.Namespace, request: planning.MotionRequest, arm, bus
                              progress=live, release=args.release, realtime=args.realtime)
         finally:
             live.finish()
-    return traj, report, live
+    return report, live
 
 
-def _finish(args: argparse.Namespace, traj, report) -> int:
+def finish(args: argparse.Namespace, arm, traj, report, live: _LiveProgress, *,
+           waypoints=None) -> int:
+    """Print the report (text or --json), draw --plot, return the outcome's exit code."""
     approach = approach_seconds(report, traj)
     if args.json:
         emit(json.dumps(report_dict(report, approach), indent=2) + "\n")
     else:
         emit(report_text(report, approach) + "\n")
+    plot(args.plot, arm, traj, samples=live.samples, report=report, waypoints=waypoints)
     return exit_for_report(report)
 
 
 def run_move(args: argparse.Namespace) -> int:
-    from robodcn.bus import ServoBus
+    from robodcn.bus import ServoBus, lower_latency_timer
 
+    check_plot(args.plot)
     arm = options.load_arm(args)
     request = planning.motion_request(args, arm)
     device = args.device if args.device is not None else arm.bus.port
+    note = lower_latency_timer(device).message(device)
+    if note:
+        print(f"robodcn: {note}", file=sys.stderr, flush=True)
     try:
         with ServoBus(device, args.baud or arm.bus.baud,
                       servos=[j.servo for j in arm.joints]) as bus:
-            bus.verify()
-            traj, report, _ = _execute(args, request, arm, bus)
+            traj = planning.plan_from_present(request, arm, bus)   # verifies the servos
+            report, live = stream(args, traj, arm, bus)
     except (OSError, termios.error) as exc:
         # The device went away under the SDK (unplugged, simulator killed): a bus fault.
         raise BusError(f"{device}: the serial device failed ({_os_reason(exc)}); check the "
                        "cable and the adapter, then run the move again", field="device",
                        value=device) from exc
-    return _finish(args, traj, report)
+    return finish(args, arm, traj, report, live)
 
 
 def _os_reason(exc: BaseException) -> str:
@@ -177,15 +204,10 @@ def _os_reason(exc: BaseException) -> str:
 def run_sim(args: argparse.Namespace) -> int:
     from robodcn.simulated import simulated_arm
 
-    if args.plot is not None:
-        _require_matplotlib()
-        options.check_plot_path(args.plot)
+    check_plot(args.plot)
     arm = options.load_arm(args)
     request = planning.motion_request(args, arm)
     with simulated_arm(arm, timing=args.timing) as sim:
-        traj, report, live = _execute(args, request, arm, sim.bus)
-    code = _finish(args, traj, report)
-    if args.plot is not None:
-        _plot(args.plot, arm, traj, live.samples)
-        emit(f"plot: {args.plot}\n")
-    return code
+        traj = planning.plan_from_present(request, arm, sim.bus)
+        report, live = stream(args, traj, arm, sim.bus)
+    return finish(args, arm, traj, report, live)

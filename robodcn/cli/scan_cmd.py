@@ -1,6 +1,7 @@
 """``robodcn scan``: list the servos on a serial device (id, model, firmware, baud).
 
-Finding no servo is a bus fault (exit 4) with a one-line message: nothing answered.
+Finding no servo is a bus fault (exit 4) with a one-line message: nothing answered. The USB
+latency timer is lowered to 1 ms first when its sysfs file is writable (and said so).
 """
 
 from __future__ import annotations
@@ -32,7 +33,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from robodcn.bus import BAUD_INDEX, scan
+    from robodcn.bus import BAUD_INDEX, lower_latency_timer, scan
 
     device, bauds = args.device, args.baud
     if args.config is not None:
@@ -47,6 +48,9 @@ def run(args: argparse.Namespace) -> int:
     if args.all_bauds:
         bauds = sorted(b for b in BAUD_INDEX.values() if b != 4_500_000)
     bauds = bauds or [1_000_000]
+    note = lower_latency_timer(device).message(device)
+    if note:
+        print(f"robodcn: {note}", file=sys.stderr, flush=True)
     found = scan(device, bauds, ids=args.ids)
     if args.json:
         emit(json.dumps({"port": device, "device": device,

@@ -1,4 +1,4 @@
-"""Servo admin and state: present pose, torque, reboot, servo info, set id / baud, latency.
+"""Servo admin and state: present pose, torque, reboot, servo info, set id / baud.
 
 Everything goes through :class:`robodcn.bus.ServoBus`'s public methods (``read``, ``write``,
 ``ping``, ``torque``, ``reboot``, ``read_positions``); control-table addresses are the
@@ -10,11 +10,8 @@ first. Each function checks its arguments before the first write.
 from __future__ import annotations
 
 import logging
-import os
-import sys
 from collections.abc import Sequence
 from dataclasses import dataclass
-from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -28,10 +25,8 @@ from robodcn.bus import (
     ADDR_OPERATING_MODE,
     ADDR_TORQUE_ENABLE,
     BAUD_INDEX,
-    SYSFS_USB_SERIAL,
     ServoBus,
     describe_hardware_error,
-    latency_timer_ms,
 )
 from robodcn.config import MAX_SERVO_ID, Arm, ServoSpec
 from robodcn.errors import CommError, InputError
@@ -93,11 +88,7 @@ def set_torque(bus: ServoBus, arm: Arm, on: bool, joint: str | None = None) -> t
         for servo_id in ids:
             bus.write(servo_id, ADDR_GOAL_POSITION,
                       int(present[servo_id]).to_bytes(4, "little", signed=True))
-    if ids == bus.ids:
-        bus.torque(on)
-    else:
-        for servo_id in ids:
-            bus.write(servo_id, ADDR_TORQUE_ENABLE, [1 if on else 0])
+    bus.torque(on, None if ids == bus.ids else ids)
     log.info("torque %s on servo(s) %s", "on" if on else "off", list(ids))
     return ids
 
@@ -217,44 +208,3 @@ def set_baud(port: str, baud: int, new_baud: int, ids: Sequence[int]) -> None:
         raise CommError(f"servo id(s) {silent} do not answer at {new_baud} baud after the "
                         "change", field="baud", value=new_baud)
     log.info("servos %s: %d → %d baud on %s", list(ids), baud, new_baud, port)
-
-
-# -- USB latency timer ---------------------------------------------------------------------------
-
-@dataclass(frozen=True)
-class LatencyResult:
-    """What :func:`lower_latency_timer` found and did: ``before`` / ``after`` in ms (None
-    when the port has no FTDI timer), ``changed`` and ``path`` of the sysfs file."""
-
-    before: int | None
-    after: int | None
-    changed: bool
-    path: str | None
-
-    def message(self, port: str) -> str | None:
-        """One line for the user, or None when there is nothing to say."""
-        if self.changed:
-            return f"{port}: set the USB latency timer to {self.after} ms (was {self.before} ms)"
-        if self.before is not None and self.before > 1:
-            return (f"{port}: USB latency_timer is {self.before} ms and {self.path} is not "
-                    f"writable; fix: echo 1 | sudo tee {self.path}")
-        return None
-
-
-def lower_latency_timer(port: str, *, sysfs: str | os.PathLike[str] = SYSFS_USB_SERIAL,
-                        target_ms: int = 1) -> LatencyResult:
-    """Set a ``/dev/ttyUSB*`` adapter's FTDI latency timer to ``target_ms`` when its sysfs
-    file is writable (robodcn.bus only warns). Other ports: nothing to do."""
-    before = latency_timer_ms(port, sysfs=sysfs)
-    if before is None:
-        return LatencyResult(None, None, False, None)
-    path = Path(sysfs, os.path.basename(os.path.realpath(port)), "latency_timer")
-    if before <= target_ms or not sys.platform.startswith("linux"):
-        return LatencyResult(before, before, False, str(path))
-    try:
-        path.write_text(f"{target_ms}\n")
-    except OSError as exc:
-        log.info("cannot write %s: %s", path, exc)
-        return LatencyResult(before, before, False, str(path))
-    after = latency_timer_ms(port, sysfs=sysfs)
-    return LatencyResult(before, after, after == target_ms, str(path))

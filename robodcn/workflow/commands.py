@@ -161,8 +161,7 @@ def open_bus(args: argparse.Namespace, arm: Arm):
 
     Sets the USB latency timer to 1 ms first when its sysfs file is writable, and says so.
     """
-    from robodcn.bus import ServoBus
-    from robodcn.workflow.admin import lower_latency_timer
+    from robodcn.bus import ServoBus, lower_latency_timer
 
     device = args.device or arm.bus.port
     note = lower_latency_timer(device).message(device)
