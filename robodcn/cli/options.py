@@ -296,19 +296,22 @@ class _StderrHandler(logging.StreamHandler):
         pass
 
 
-def load_arm(args: argparse.Namespace):
+def load_arm(args: argparse.Namespace, option: str = "--arm"):
+    """The arm ``--arm`` names: a TOML file, or an example name (``arm3r``, ``arm2r``);
+    absent: ``$ROBODCN_ARM``, else ``configs/arm3r.toml`` here, else the arm3r example
+    (:func:`robodcn.workflow.examples.resolve_arm_path`). Every command loads its arm here."""
     from robodcn.config import load_arm as load
+    from robodcn.workflow.examples import resolve_arm_path
 
-    path = args.arm if args.arm is not None else os.environ.get("ROBODCN_ARM") or DEFAULT_ARM
-    if not Path(path).is_file():
-        raise InputError(f"--arm: no such file {_shown(path, 200)} (give --arm FILE or set "
-                         "ROBODCN_ARM)", field="arm", value=str(path))
-    return load(path)
+    return load(resolve_arm_path(getattr(args, "arm", None), option=option))
 
 
 def add_arm_option(p: argparse.ArgumentParser) -> None:
-    p.add_argument("--arm", metavar="FILE",
-                   help=f"arm TOML (default: $ROBODCN_ARM, else {DEFAULT_ARM})")
+    from robodcn.workflow.examples import EXAMPLES
+
+    p.add_argument("--arm", metavar="FILE|NAME",
+                   help=f"arm TOML file or example name ({', '.join(EXAMPLES)}); default: "
+                        f"$ROBODCN_ARM, else {DEFAULT_ARM} here, else the arm3r example")
 
 
 __all__ = ["DEFAULT_ARM", "NEGATIVE_POSE", "Parser", "add_arm_option", "add_device_options",

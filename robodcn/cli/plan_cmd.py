@@ -5,7 +5,7 @@ from __future__ import annotations
 import argparse
 import sys
 
-from robodcn.cli import options, planning
+from robodcn.cli import motion_cmd, options, planning
 from robodcn.cli.output import emit
 from robodcn.cli.report_text import plan_summary, plan_table
 from robodcn.errors import InputError
@@ -22,12 +22,14 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     p.add_argument("--format", choices=("table", "json", "csv"), default="table")
     p.add_argument("--out", metavar="FILE", help="write to FILE instead of standard output")
     p.add_argument("-q", "--quiet", action="store_true", help="no summary")
+    motion_cmd.add_plot_option(p)
     p.set_defaults(func=run)
 
 
 def run(args: argparse.Namespace) -> int:
     if args.out is not None:
         options.check_output_path(args.out, "--out")
+    motion_cmd.check_plot(args.plot)
     arm = options.load_arm(args)
     request = planning.motion_request(args, arm)
     traj = planning.plan_motion(request, arm, request.start or tuple(arm.home))
@@ -46,4 +48,5 @@ def run(args: argparse.Namespace) -> int:
               file=sys.stderr)
     else:
         emit(text)
+    motion_cmd.plot(args.plot, arm, traj)
     return 0

@@ -24,7 +24,8 @@ def register(subparsers: argparse._SubParsersAction) -> None:
                     "Exit code 4 when no servo answers.")
     options.add_device_options(p, default_help="default: the [bus] port of --config",
                                repeat_baud=True)
-    p.add_argument("--config", metavar="FILE", help="arm TOML whose [bus] gives device and baud")
+    p.add_argument("--config", metavar="FILE|NAME",
+                   help="arm TOML (or example name) whose [bus] gives device and baud")
     p.add_argument("--all-bauds", action="store_true",
                    help="try every baud rate the Python SDK can set (9600 .. 4000000)")
     p.add_argument("--ids", type=options.id_list, help="ping only these ids, e.g. 1,2,5-8")
@@ -37,9 +38,7 @@ def run(args: argparse.Namespace) -> int:
 
     device, bauds = args.device, args.baud
     if args.config is not None:
-        from robodcn.config import load_arm
-
-        arm = load_arm(args.config)
+        arm = options.load_arm(argparse.Namespace(arm=args.config), option="--config")
         device = device if device is not None else arm.bus.port
         bauds = bauds or [arm.bus.baud]
     if not device:

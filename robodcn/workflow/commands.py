@@ -3,8 +3,9 @@ servo info / set-id / set-baud, check-config and config example.
 
 :func:`register` adds them to the CLI's subparsers. Every command that talks to servos takes
 ``--device`` (serial port), ``--baud`` and ``--arm`` (a TOML file or an example name:
-``arm3r``, ``arm2r``). Exit codes as the rest of the CLI: 0 done, 2 bad usage or input, 3
-infeasible, 4 servo or bus fault, 130 stopped by the user. Arguments, input files and
+``arm3r``, ``arm2r``). Exit codes as the rest of the CLI (:mod:`robodcn.cli.exit_codes`): 0
+done, 2 bad usage or input, 3 infeasible, 4 servo or bus fault, 5 completed with samples
+skipped, 130 stopped by the user. Arguments, input files and
 output paths are checked before the bus is opened. Prompts go to stderr and answers come
 from stdin, one line each, so every dialogue can be scripted.
 """
@@ -21,15 +22,10 @@ from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
 
+from robodcn.cli import motion_cmd, options
 from robodcn.config import BAUD_RATES, Arm, load_arm
 from robodcn.errors import InputError, RobodcnError, StoppedError
 from robodcn.workflow.examples import EXAMPLES, example_text, resolve_arm_path
-
-EXIT_BY_STOP_REASON = {"completed": 0, "stopped": 130, "comm_failure": 4,
-                       "hardware_alert": 4, "tracking_error": 4}
-ARM_HELP = ("arm TOML file or example name (" + ", ".join(EXAMPLES) + "); default: "
-            "$ROBODCN_ARM, else configs/arm3r.toml here, else the arm3r example")
-
 
 # -- argument types and shared options -------------------------------------------------------------
 
@@ -75,16 +71,6 @@ def _count(text: str) -> int:
     return value
 
 
-def _non_negative_int(text: str) -> int:
-    try:
-        value = int(text)
-    except ValueError:
-        value = -1
-    if value < 0:
-        raise argparse.ArgumentTypeError(f"must be an integer ≥ 0, got {text!r}")
-    return value
-
-
 def _rate(text: str) -> float:
     value = _positive(text)
     if not 1.0 <= value <= 1000.0:
@@ -92,19 +78,11 @@ def _rate(text: str) -> float:
     return value
 
 
-def _add_arm(p: argparse.ArgumentParser) -> None:
-    p.add_argument("--arm", metavar="FILE|NAME", help=ARM_HELP)
-
-
 def _add_bus(p: argparse.ArgumentParser) -> None:
     g = p.add_argument_group("bus")
     g.add_argument("--device", metavar="DEV",
                    help="serial device of the servos (default: the arm's [bus] port)")
     g.add_argument("--baud", type=_baud, help="baud rate (default: the arm's [bus] baud)")
-
-
-def _arm(args: argparse.Namespace) -> Arm:
-    return load_arm(resolve_arm_path(args.arm))
 
 
 def _say(text: str) -> None:
@@ -147,15 +125,6 @@ def check_output_path(path: str, option: str, force: bool) -> Path:
     return out
 
 
-def _check_plot(path: str | None) -> None:
-    if path is None:
-        return
-    from robodcn.plots import require_matplotlib
-
-    require_matplotlib()
-    check_output_path(path, "--plot", force=True)
-
-
 def open_bus(args: argparse.Namespace, arm: Arm):
     """A ServoBus on ``--device`` (or the arm's port) at ``--baud`` (or the arm's), opened.
 
@@ -182,7 +151,7 @@ def _add_calibrate(sub) -> None:
                     "--margin and the joint limits inside them). Writes --out, a copy of the "
                     "arm TOML with its comments and layout kept, after showing a diff. Answers "
                     "are read from stdin, one line per prompt.")
-    _add_arm(p)
+    options.add_arm_option(p)
     _add_bus(p)
     p.add_argument("--out", required=True, metavar="NEW.toml", help="calibrated arm TOML")
     p.add_argument("--force", action="store_true", help="overwrite --out if it exists")
@@ -198,7 +167,7 @@ def cmd_calibrate(args: argparse.Namespace) -> int:
     from robodcn.workflow.calibrate import calibrate, diff, updated_toml
 
     source = resolve_arm_path(args.arm)
-    arm = load_arm(source)
+    arm = options.load_arm(args)
     out = check_output_path(args.out, "--out", args.force)
     text = source.read_text(encoding="utf-8")
     with open_bus(args, arm) as bus:
@@ -224,7 +193,7 @@ def _add_teach(sub) -> None:
         description="Torque off; each Enter records the present pose (FK of the present "
                     "joints) as a waypoint, 'u' undoes the last one, 'q' (or end of input) "
                     "finishes and writes the waypoints file for 'robodcn run'.")
-    _add_arm(p)
+    options.add_arm_option(p)
     _add_bus(p)
     p.add_argument("--out", required=True, metavar="POSES.toml", help="waypoints file")
     p.add_argument("--force", action="store_true", help="overwrite --out if it exists")
@@ -251,7 +220,7 @@ def cmd_teach(args: argparse.Namespace) -> int:
     from robodcn.interpolate import METHODS
     from robodcn.workflow.teach import teach, waypoints_toml
 
-    arm = _arm(args)
+    arm = options.load_arm(args)
     out = check_output_path(args.out, "--out", args.force)
     method = _split(args.method, "--method", METHODS)
     turn = _split(args.turn, "--turn", TURNS)
@@ -287,7 +256,7 @@ def _add_run(sub) -> None:
                     "approaches the first pose from where it is. Ctrl-C stops and holds.")
     p.add_argument("file", metavar="FILE", help="waypoints .toml, Trajectory or "
                                                 "JointTrajectory .json")
-    _add_arm(p)
+    options.add_arm_option(p)
     _add_bus(p)
     p.add_argument("--sim", action="store_true",
                    help="run against an in-process simulated bus (servos start at home)")
@@ -301,15 +270,7 @@ def _add_run(sub) -> None:
                    help="pass through via poses without stopping")
     g.add_argument("--rate", type=_rate, metavar="HZ",
                    help="stream rate, 1..1000 Hz (default: the file's, else the arm's)")
-    e = p.add_argument_group("execution")
-    e.add_argument("--feedback-every", type=_non_negative_int, default=1, metavar="K",
-                   help="read present positions every K samples (0: only at the end)")
-    e.add_argument("--tracking-limit", type=_positive, default=15.0, metavar="DEG",
-                   help="stop when a joint lags its goal by more than DEG degrees")
-    e.add_argument("--release", action="store_true", help="torque off at the end")
-    e.add_argument("--realtime", action="store_true", help="stream from a SCHED_FIFO thread")
-    e.add_argument("--json", action="store_true", help="print the report as JSON")
-    e.add_argument("--plot", metavar="FILE.png", help="draw the motion (needs matplotlib)")
+    motion_cmd.add_execution_options(p)
     p.set_defaults(func=cmd_run)
 
 
@@ -378,58 +339,37 @@ def load_run_file(args: argparse.Namespace, arm: Arm) -> tuple[str, Any]:
     return kind, files.load_joint_trajectory(args.file, arm, rate, text=text)
 
 
-def _execute(args: argparse.Namespace, arm: Arm, bus, kind: str, loaded: Any):
-    from robodcn import servo_units
-    from robodcn.cli import motion_cmd
-    from robodcn.planner import plan
-    from robodcn.stream import StopSignal, execute
+def plan_run(args: argparse.Namespace, arm: Arm, bus, kind: str, loaded: Any):
+    """The trajectory ``run`` streams: a waypoints file planned from the present joints, or
+    a saved trajectory as saved after a joint-space approach to its first sample."""
+    from robodcn.present import plan_from_present, present_joints
     from robodcn.workflow.files import with_approach
 
-    present = servo_units.ticks_to_radians(bus.read_positions(), arm.servos)
     if kind == "waypoints":
         fields = dict(loaded)
         with _naming_file(args.file):
-            traj = plan(arm, fields.pop("waypoints"), start_joints=present, **fields)
-    else:
-        # A saved trajectory plays as saved, after a joint-space approach to its first sample.
-        traj = with_approach(loaded, arm, present)
-    stop = StopSignal()
-    live = motion_cmd._LiveProgress(traj, arm)
-    with motion_cmd._ctrl_c_stops(stop):
-        try:
-            report = execute(traj, bus, feedback_every=args.feedback_every,
-                             tracking_limit=math.radians(args.tracking_limit), stop=stop,
-                             progress=live, release=args.release, realtime=args.realtime)
-        finally:
-            live.finish()
-    return traj, report, live
+            return plan_from_present(arm, bus, fields.pop("waypoints"), **fields)
+    return with_approach(loaded, arm, present_joints(arm, bus))
 
 
 def cmd_run(args: argparse.Namespace) -> int:
-    from robodcn.cli.report_text import report_text
-
-    arm = _arm(args)
-    _check_plot(args.plot)
+    """Plan (or load), stream, report and plot through the path ``move`` uses
+    (:func:`robodcn.cli.motion_cmd.stream` and :func:`~robodcn.cli.motion_cmd.finish`)."""
+    arm = options.load_arm(args)
+    motion_cmd.check_plot(args.plot)
     kind, loaded = load_run_file(args, arm)
     if args.sim:
         from robodcn.simulated import simulated_arm
 
         with simulated_arm(arm, timing="fast") as sim:
-            traj, report, live = _execute(args, arm, sim.bus, kind, loaded)
+            traj = plan_run(args, arm, sim.bus, kind, loaded)
+            report, live = motion_cmd.stream(args, traj, arm, sim.bus)
     else:
         with open_bus(args, arm) as bus:
-            bus.verify()
-            traj, report, live = _execute(args, arm, bus, kind, loaded)
-    print(json.dumps(report.to_dict(), indent=2) if args.json else report_text(report))
-    if args.plot:
-        from robodcn.plots import plot_motion
-
-        stop = None if report.stop_reason == "completed" else {
-            "t": report.duration_s, "reason": report.stop_reason}
-        plot_motion(args.plot, arm, traj, samples=live.samples, stop=stop,
-                    waypoints=loaded["waypoints"] if kind == "waypoints" else None)
-        _say(f"plot: {args.plot}")
-    return EXIT_BY_STOP_REASON.get(report.stop_reason, 4)
+            traj = plan_run(args, arm, bus, kind, loaded)
+            report, live = motion_cmd.stream(args, traj, arm, bus)
+    return motion_cmd.finish(args, arm, traj, report, live,
+                             waypoints=loaded["waypoints"] if kind == "waypoints" else None)
 
 
 # -- pose, torque, reboot -------------------------------------------------------------------------
@@ -438,7 +378,7 @@ def _add_pose(sub) -> None:
     p = sub.add_parser("pose", help="print the present joints, ticks and pose",
                        description="Read every servo's Present Position and print the joint "
                                    "angles (degrees), ticks and the tool pose (FK).")
-    _add_arm(p)
+    options.add_arm_option(p)
     _add_bus(p)
     p.add_argument("--watch", action="store_true", help="refresh until Ctrl-C")
     p.add_argument("--interval", type=_positive, default=0.5, metavar="SECONDS",
@@ -459,7 +399,7 @@ def _pose_line(arm: Arm, state) -> str:
 def cmd_pose(args: argparse.Namespace) -> int:
     from robodcn.workflow.admin import present_state
 
-    arm = _arm(args)
+    arm = options.load_arm(args)
     with open_bus(args, arm) as bus:
         n = 0
         try:
@@ -482,7 +422,7 @@ def _add_torque(sub) -> None:
                                    "position.")
     p.add_argument("state", choices=("on", "off"), help="on or off")
     p.add_argument("--joint", metavar="NAME", help="only this joint (default: every joint)")
-    _add_arm(p)
+    options.add_arm_option(p)
     _add_bus(p)
     p.set_defaults(func=cmd_torque)
 
@@ -490,7 +430,7 @@ def _add_torque(sub) -> None:
 def cmd_torque(args: argparse.Namespace) -> int:
     from robodcn.workflow.admin import joint_ids, set_torque
 
-    arm = _arm(args)
+    arm = options.load_arm(args)
     ids = joint_ids(arm, args.joint)
     with open_bus(args, arm) as bus:
         set_torque(bus, arm, args.state == "on", args.joint)
@@ -504,7 +444,7 @@ def _add_reboot(sub) -> None:
                                    "it answers. Clears Hardware Error Status (overload, "
                                    "overheating); the servo comes back with torque off.")
     p.add_argument("--joint", metavar="NAME", help="only this joint (default: every joint)")
-    _add_arm(p)
+    options.add_arm_option(p)
     _add_bus(p)
     p.set_defaults(func=cmd_reboot)
 
@@ -512,7 +452,7 @@ def _add_reboot(sub) -> None:
 def cmd_reboot(args: argparse.Namespace) -> int:
     from robodcn.workflow.admin import joint_ids, reboot
 
-    arm = _arm(args)
+    arm = options.load_arm(args)
     joint_ids(arm, args.joint)
     with open_bus(args, arm) as bus:
         ids = reboot(bus, arm, args.joint)
@@ -529,7 +469,7 @@ def _add_servo(sub) -> None:
     info = ssub.add_parser("info", help="model, firmware, id, baud, mode, errors, voltage, "
                                         "temperature of the arm's servos",
                            description="Ping and read every servo of the arm.")
-    _add_arm(info)
+    options.add_arm_option(info)
     _add_bus(info)
     info.add_argument("--json", action="store_true", help="print JSON")
     info.set_defaults(func=cmd_servo_info)
@@ -539,7 +479,7 @@ def _add_servo(sub) -> None:
                                       "is touched (torque off, then the EEPROM ID item).")
     sid.add_argument("old", type=_servo_id, metavar="OLD", help="present id")
     sid.add_argument("new", type=_servo_id, metavar="NEW", help="new id, 0..252, free")
-    _add_arm(sid)
+    options.add_arm_option(sid)
     _add_bus(sid)
     sid.add_argument("--yes", action="store_true", help="do not ask for confirmation")
     sid.set_defaults(func=cmd_servo_set_id)
@@ -548,7 +488,7 @@ def _add_servo(sub) -> None:
                                      "Refused when a servo with one of the arm's ids already "
                                      "answers at BAUD. Update [bus] baud in the arm TOML after.")
     sb.add_argument("new_baud", type=_baud, metavar="BAUD", help="new baud rate")
-    _add_arm(sb)
+    options.add_arm_option(sb)
     _add_bus(sb)
     sb.add_argument("--yes", action="store_true", help="do not ask for confirmation")
     sb.set_defaults(func=cmd_servo_set_baud)
@@ -557,7 +497,7 @@ def _add_servo(sub) -> None:
 def cmd_servo_info(args: argparse.Namespace) -> int:
     from robodcn.workflow.admin import servo_info
 
-    arm = _arm(args)
+    arm = options.load_arm(args)
     with open_bus(args, arm) as bus:
         rows = servo_info(bus)
     if args.json:
@@ -580,7 +520,7 @@ def cmd_servo_info(args: argparse.Namespace) -> int:
 def cmd_servo_set_id(args: argparse.Namespace) -> int:
     from robodcn.workflow.admin import set_id
 
-    arm = _arm(args)
+    arm = options.load_arm(args)
     if args.old == args.new:
         raise InputError(f"NEW must differ from OLD, both are {args.old}", field="new",
                          value=args.new)
@@ -595,7 +535,7 @@ def cmd_servo_set_id(args: argparse.Namespace) -> int:
 def cmd_servo_set_baud(args: argparse.Namespace) -> int:
     from robodcn.workflow.admin import set_baud
 
-    arm = _arm(args)
+    arm = options.load_arm(args)
     device, baud = args.device or arm.bus.port, args.baud or arm.bus.baud
     if args.new_baud == baud:
         raise InputError(f"BAUD {baud} is the present baud rate already", field="baud",
@@ -625,7 +565,7 @@ def _add_check(sub) -> None:
 def cmd_check(args: argparse.Namespace) -> int:
     from robodcn.workflow.check import summary, summary_text, workspace_samples
 
-    _check_plot(args.plot)
+    motion_cmd.check_plot(args.plot)
     arm = load_arm(resolve_arm_path(args.file, option="FILE"))
     print(json.dumps(summary(arm), indent=2) if args.json else summary_text(arm))
     if args.plot:
