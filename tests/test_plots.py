@@ -5,18 +5,16 @@ from __future__ import annotations
 
 import subprocess
 import sys
-from pathlib import Path
 
 import numpy as np
+from conftest import ARM3R, ROOT
 
 from robodcn import kinematics, servo_units
-from robodcn.config import load_arm
 from robodcn.planner import plan
 from robodcn.plots import approach_end, arm_points, plot_motion, plot_workspace, waypoint_samples
 from robodcn.workflow.check import workspace_samples
 
-ROOT = Path(__file__).resolve().parent.parent
-ARM = load_arm(ROOT / "configs" / "arm3r.toml")
+ARM = ARM3R
 WAYPOINTS = [ARM.home, (0.12, 0.24, np.radians(60)), (-0.10, 0.22, np.radians(120))]
 
 

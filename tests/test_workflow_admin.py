@@ -172,7 +172,7 @@ def test_commands_as_processes_against_python_m_firmware_sim():
     import subprocess
     import sys
 
-    from workflow_helpers import ROOT
+    from conftest import ROOT
 
     proc = subprocess.Popen([sys.executable, "-m", "firmware_sim", "--ids", "1,2,3", "--timing",
                              "fast"], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,

@@ -8,7 +8,8 @@ import subprocess
 import sys
 
 import numpy as np
-from workflow_helpers import ARM2R, ARM3R, ROOT, run_cli
+from conftest import ROOT
+from workflow_helpers import ARM2R, ARM3R, run_cli
 
 from robodcn import kinematics
 from robodcn.config import load_arm

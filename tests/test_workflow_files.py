@@ -5,21 +5,19 @@ from __future__ import annotations
 import csv
 import io
 import json
-from pathlib import Path
 
 import numpy as np
 import pytest
+from conftest import ARM3R
 
 from robodcn import kinematics, servo_units
-from robodcn.config import load_arm
 from robodcn.errors import InputError, PlanError
 from robodcn.planner import Trajectory, plan
 from robodcn.workflow import files
 from robodcn.workflow.record import recording, recording_csv
 from robodcn.workflow.teach import waypoints_toml
 
-ROOT = Path(__file__).resolve().parent.parent
-ARM = load_arm(ROOT / "configs" / "arm3r.toml")
+ARM = ARM3R
 
 
 def _jt(q, t):

@@ -1,9 +1,9 @@
-"""Fixtures of the workflow tests (``pytest_plugins = ["workflow_fixtures"]``): an in-process
-SimBus with arm3r's servos and the simulator's backdrive (a hand moving a torque-off joint)."""
+"""Fixtures of the workflow tests (``pytest_plugins = ["workflow_fixtures"]``): the simulator's
+backdrive (a hand moving a torque-off joint) and ``sim``, conftest's ``sim3`` by another name."""
 
 from __future__ import annotations
 
-from collections.abc import Callable, Iterator
+from collections.abc import Callable
 
 import pytest
 
@@ -38,12 +38,7 @@ def backdrive(monkeypatch) -> Callable[[SimBus, dict[int, int]], None]:
 
 
 @pytest.fixture
-def sim() -> Iterator[SimBus]:
-    """Three XM430-W350 (ids 1..3, arm3r's) at 1 Mbps, at tick 2048, torque off."""
-    bus = SimBus([1, 2, 3], "xm430-w350", baud=1_000_000, timing="fast", log=False)
-    bus.start()
-    try:
-        yield bus
-    finally:
-        bus.close()
-        assert bus.errors == []
+def sim(sim3: SimBus) -> SimBus:
+    """arm3r's three XM430-W350 (ids 1..3) at 1 Mbps, at tick 2048, torque off: conftest's
+    ``sim3`` under the name the workflow tests use."""
+    return sim3

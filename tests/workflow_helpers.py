@@ -6,14 +6,14 @@ from __future__ import annotations
 import sys
 import time
 from collections.abc import Callable, Sequence
-from pathlib import Path
+
+from conftest import CONFIGS
 
 from firmware_sim.bus import SimBus
 from robodcn import cli
 
-ROOT = Path(__file__).resolve().parent.parent
-ARM3R = str(ROOT / "configs" / "arm3r.toml")
-ARM2R = str(ROOT / "configs" / "arm2r.toml")
+ARM3R = str(CONFIGS / "arm3r.toml")
+ARM2R = str(CONFIGS / "arm2r.toml")
 #: A device that does not exist: a command that fails with exit code 2 on it has refused
 #: before opening the bus.
 NO_DEVICE = "/dev/robodcn-test-no-such-device"
