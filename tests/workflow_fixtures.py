@@ -1,9 +1,10 @@
-"""Fixtures of the workflow tests (``pytest_plugins = ["workflow_fixtures"]``): the simulator's
-backdrive (a hand moving a torque-off joint) and ``sim``, conftest's ``sim3`` by another name."""
+"""Fixtures of the workflow tests (``pytest_plugins = ["workflow_fixtures"]``): the
+simulator's backdrive (a hand moving a torque-off joint) and ``sim``, conftest's ``sim3``
+without its packet log."""
 
 from __future__ import annotations
 
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
 
 import pytest
 
@@ -38,7 +39,11 @@ def backdrive(monkeypatch) -> Callable[[SimBus, dict[int, int]], None]:
 
 
 @pytest.fixture
-def sim(sim3: SimBus) -> SimBus:
-    """arm3r's three XM430-W350 (ids 1..3) at 1 Mbps, at tick 2048, torque off: conftest's
-    ``sim3`` under the name the workflow tests use."""
-    return sim3
+def sim() -> Iterator[SimBus]:
+    """Three XM430-W350 (ids 1..3, arm3r's) at 1 Mbps, at tick 2048, torque off: conftest's
+    ``sim3`` without the packet log (the run tests stream whole trajectories through the CLI;
+    logging every packet slows the simulator thread enough to lose replies on a loaded
+    machine)."""
+    with SimBus((1, 2, 3), timing="fast", log=False) as bus:
+        yield bus
+    assert not bus.errors, bus.errors

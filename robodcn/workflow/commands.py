@@ -345,11 +345,13 @@ def plan_run(args: argparse.Namespace, arm: Arm, bus, kind: str, loaded: Any):
     from robodcn.present import plan_from_present, present_joints
     from robodcn.workflow.files import with_approach
 
+    present = present_joints(arm, bus)     # a bus error is not the file's
     if kind == "waypoints":
         fields = dict(loaded)
         with _naming_file(args.file):
-            return plan_from_present(arm, bus, fields.pop("waypoints"), **fields)
-    return with_approach(loaded, arm, present_joints(arm, bus))
+            return plan_from_present(arm, None, fields.pop("waypoints"), joints=present,
+                                     **fields)
+    return with_approach(loaded, arm, present)
 
 
 def cmd_run(args: argparse.Namespace) -> int:
