@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from hypothesis import given, settings
+from hypothesis import assume, given, settings
 from hypothesis import strategies as st
 from strategies import params, poses
 
@@ -27,6 +27,12 @@ def pole(start, end, delta):
 @given(poses(), poses(), params, st.sampled_from(METHODS), st.sampled_from(TURNS),
        st.floats(-0.5, 2.5))
 def test_the_three_backends_agree(a, b, s, method, turn, beta):
+    # The dq backend sees only the relative quaternion, whose z part is sin(Δ₀/2) for the
+    # wrapped rotation Δ₀ between the poses: within dualquat's tie (1e-12) of zero it counts
+    # as no rotation, so ccw/cw of an all-but-zero rotation (a turn of 2π − 1e-12) is not
+    # the one the DCN backend (which has Δ exactly) draws. Such pairs are outside the check.
+    wrapped = (b[2] - a[2] + np.pi) % (2 * np.pi) - np.pi
+    assume(turn == "shortest" or wrapped == 0.0 or abs(np.sin(wrapped / 2)) >= 1e-9)
     try:
         fast = robodcn.interpolate(a, b, s, method=method, beta=beta, turn=turn)
     except DegenerateError:
