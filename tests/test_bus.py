@@ -385,3 +385,20 @@ def test_open_again_after_a_lost_device(tmp_path):
         bus.open()                               # open() on a lost bus reopens it
         assert not bus.lost and len(bus.read_positions()) == 3
         bus.close()
+
+
+def test_torque_on_some_servos_only_and_unknown_ids_refused(sim3):
+    from conftest import ARM3R, open_bus
+
+    from robodcn.errors import InputError
+
+    with open_bus(sim3, ARM3R.servos) as bus:
+        bus.torque(True, [2])
+        assert bus.torque_enabled() == {1: False, 2: True, 3: False}
+        with pytest.raises(InputError) as exc:
+            bus.torque(True, [2, 9])          # nothing written: 2 stays as it was
+        assert exc.value.field == "ids" and exc.value.value == [9]
+        bus.torque(False, [2])
+        bus.torque(True)
+        assert bus.torque_enabled() == {1: True, 2: True, 3: True}
+        assert all(sim3.servo(i).torque_enabled for i in (1, 2, 3))
