@@ -162,8 +162,8 @@ def op_get_move(server: RobodcnHTTPServer, request: Request, params: dict[str, s
 def op_stop(server: RobodcnHTTPServer, request: Request, params: dict[str, str]
             ) -> tuple[int, Any]:
     controller = _controller(server)
-    body = read_json(request, required=False)
-    if body is not None and body != {}:
+    body = read_json(request, required=False) if request.body else {}
+    if body != {}:
         if not isinstance(body, dict):
             raise InputError("the stop body must be empty or {}", field="body")
         name = next(iter(body))

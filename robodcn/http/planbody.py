@@ -6,9 +6,9 @@ import math
 from typing import Any
 
 from robodcn.config import Arm
-from robodcn.errors import InputError
+from robodcn.errors import InputError, TooLargeError
 from robodcn.interpolate import METHODS
-from robodcn.planner import PROFILES, TURNS, PlanRequest
+from robodcn.planner import MAX_SAMPLES, PROFILES, TURNS, PlanRequest
 
 #: Fields of a plan body: name → (JSON schema, description). The body parser accepts exactly
 #: these names and the OpenAPI schema is generated from them.
@@ -73,6 +73,16 @@ def _check_start_joints(arm: Arm, value: Any) -> None:
                              f"{v!r}", field="start_joints", value=value)
 
 
+def _check_samples(duration: Any, rate_hz: Any) -> None:
+    """TooLargeError (413) naming duration when duration × rate is over MAX_SAMPLES, before
+    the product can overflow anywhere."""
+    if _is_number(duration) and _is_number(rate_hz) and math.isfinite(duration) \
+            and duration > 0 and 0 < rate_hz <= 1000 and duration * rate_hz > MAX_SAMPLES:
+        raise TooLargeError(f"duration {duration:g} s at {rate_hz:g} Hz needs more than "
+                            f"{MAX_SAMPLES} samples: shorten the duration or lower rate_hz",
+                            field="duration", value=duration)
+
+
 def parse_plan_body(arm: Arm, body: Any, fields: dict[str, Any] = PLAN_FIELDS) -> PlanRequest:
     """A JSON body → a validated :class:`PlanRequest` for ``arm``.
 
@@ -93,6 +103,7 @@ def parse_plan_body(arm: Arm, body: Any, fields: dict[str, Any] = PLAN_FIELDS) -
     _check_start_joints(arm, body.get("start_joints"))
     args = dict(body)
     args.setdefault("rate_hz", arm.bus.rate_hz)
+    _check_samples(args["duration"] if "duration" in args else "auto", args["rate_hz"])
     for key in ("method", "turn"):
         if isinstance(args.get(key), list):
             args[key] = tuple(args[key])
