@@ -232,3 +232,51 @@ def test_bad_arguments() -> None:
         controller.close()  # idempotent
         with pytest.raises(InputError):
             controller.start_move(short_move())
+
+
+def test_the_move_status_tells_the_report_outcome(rig: Any) -> None:
+    """A run that skipped samples said ``done``: the status is the report's outcome."""
+    import dataclasses
+
+    from robodcn.controller import move_status
+
+    _, controller = rig
+    record = controller.start_move(short_move())
+    controller.wait(record.id, 10)
+    report = record.report
+    assert report is not None and record.status == move_status(report)
+    # The outcome field, when the report has it, is the status as is.
+    for outcome in ("done", "degraded", "stopped", "fault"):
+        fake = type("Report", (), {"outcome": outcome, "stop_reason": "completed",
+                                   "samples_skipped": 0})()
+        assert move_status(fake) == outcome
+    # Without it, derived from the stop reason and the samples skipped.
+    completed = dataclasses.replace(report, stop_reason="completed")
+    if hasattr(completed, "outcome"):
+        completed = dataclasses.replace(completed, outcome=None)
+    assert move_status(dataclasses.replace(completed, samples_skipped=0)) == "done"
+    assert move_status(dataclasses.replace(completed, samples_skipped=3)) == "degraded"
+    assert move_status(dataclasses.replace(completed, stop_reason="stopped")) == "stopped"
+    assert move_status(dataclasses.replace(completed, stop_reason="comm_failure")) == "fault"
+
+
+def test_a_lost_device_is_a_comm_error_and_the_next_read_reopens(rig: Any,
+                                                                  monkeypatch: Any) -> None:
+    """A SerialException/termios error from the SDK used to escape as a 500."""
+    import termios
+
+    sa, controller = rig
+    real = controller.bus.read_positions
+    calls = {"n": 0}
+
+    def lost() -> Any:
+        calls["n"] += 1
+        raise termios.error(5, "Input/output error")
+
+    monkeypatch.setattr(controller.bus, "read_positions", lost)
+    with pytest.raises(CommError) as exc:
+        controller.state()
+    assert "reopened on the next request" in exc.value.message
+    monkeypatch.setattr(controller.bus, "read_positions", real)
+    state = controller.state()  # reopens and re-verifies the port first
+    assert state["ticks"] == present(sa) and calls["n"] == 1
