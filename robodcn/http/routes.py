@@ -4,8 +4,11 @@ request runs in, and ``/openapi.json``.
 ``pool`` says where a request runs once framed:
 
 - ``"work"``: the ordinary worker pool (planning, starting moves) — bounded, 503 when full;
-- ``"control"``: threads reserved for stop, state and health, which nothing else may use,
-  so no load of plans or slow clients can delay a stop;
+- ``"read"``: threads for the quick reads (state, health, move status), so a load of plans
+  cannot delay them;
+- ``"control"``: threads reserved for ``POST /v1/stop``, which nothing else may use, so no
+  load of plans, reads (a state read waits up to 5 s on a faulty bus) or slow clients can
+  delay a stop;
 - ``"stream"``: a long-lived response (e.g. Server-Sent Events): its own bounded pool of
   threads, exempt from the request deadline once its headers are in; the operation gets
   the socket and writes until the client leaves or the server shuts down.
@@ -19,7 +22,7 @@ from typing import Literal
 
 from robodcn.http.framing import HTTPError
 
-Pool = Literal["work", "control", "stream"]
+Pool = Literal["work", "read", "control", "stream"]
 
 
 @dataclass(frozen=True)
@@ -54,18 +57,18 @@ BODY_ERRORS = (400, 411, 413, 415, 422)
 
 ROUTES: tuple[Route, ...] = (
     Route("GET", "/healthz", "health", "Liveness: arm name, whether a move runs", 200,
-          "Health", pool="control"),
+          "Health", pool="read"),
     Route("GET", "/v1/arm", "arm", "The arm configuration (metres, radians, SI)", 200, "Arm"),
     Route("POST", "/v1/trajectories", "plan", "Plan a trajectory (no motion)", 200,
           "Trajectory", "PlanBody", BODY_ERRORS),
     Route("POST", "/v1/moves", "start_move", "Plan and execute a move on the arm", 202,
           "Move", "MoveBody", (*BODY_ERRORS, 409)),
     Route("GET", "/v1/moves/{id}", "get_move", "Status, progress and report of a move", 200,
-          "Move", None, (404,), pool="control"),
+          "Move", None, (404,), pool="read"),
     Route("POST", "/v1/stop", "stop", "Stop the running move and hold position", 200,
           "Stop", "StopBody", (400, 413, 415, 422), pool="control"),
     Route("GET", "/v1/state", "state", "Present joints, pose, torque and hardware alerts",
-          200, "State", pool="control"),
+          200, "State", pool="read"),
     Route("GET", "/openapi.json", "openapi", "This OpenAPI 3.1 document", 200, "OpenAPI"),
 )
 

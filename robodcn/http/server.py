@@ -15,9 +15,9 @@ header line every few seconds) hold every thread, ``POST /v1/stop`` included. He
   with 503 — so a flood of slow connections cannot keep a new client, and its stop, out.
   Only when every connection is inside a worker is the newcomer refused (503, Retry-After).
 - **Worker pools per route** (:attr:`Route.pool`): ``work`` (plans, moves; ``workers``
-  threads, a bounded queue, 503 beyond it), ``control`` (stop, state, health, move status:
-  threads nothing else may use) and ``stream`` (long-lived responses, a thread each out of
-  ``stream_slots``; exempt from the deadline once their head is in).
+  threads, a bounded queue, 503 beyond it), ``read`` (state, health, move status),
+  ``control`` (stop: threads nothing else may use) and ``stream`` (long-lived responses, a
+  thread each out of ``stream_slots``; exempt from the deadline once their head is in).
 
 Every request is logged (one INFO line on ``robodcn.http``: client, method, path, status,
 milliseconds). Binding a non-loopback address needs a token of visible ASCII.
@@ -131,8 +131,12 @@ class RobodcnHTTPServer:
         self.socket.setblocking(False)
         self.server_address = self.socket.getsockname()
         self._pools = {"work": ThreadPoolExecutor(workers, "robodcn-http-work"),
+                       "read": ThreadPoolExecutor(control_workers, "robodcn-http-read"),
                        "control": ThreadPoolExecutor(control_workers, "robodcn-http-control")}
+        # Each connection has at most one request in a pool: a read or stop queue is bounded
+        # by the connections, the work queue by WORK_QUEUE.
         self._queue_cap = {"work": workers + limits.WORK_QUEUE,
+                           "read": control_workers + 4 * max_per_client,
                            "control": control_workers + 4 * max_per_client}
         self._in_pool = collections.Counter[str]()
         self._stream_slots = threading.BoundedSemaphore(stream_slots)
@@ -439,8 +443,7 @@ class RobodcnHTTPServer:
             self._returned.put(conn)
             self._wake()
         else:
-            self._forget(conn)
-            self._close(conn)
+            self._drop(conn)
 
     def _run_stream(self, conn: Connection, request: Request, route: Route,
                     params: dict[str, str], started: float) -> None:
@@ -456,8 +459,7 @@ class RobodcnHTTPServer:
             self._log(request, status, started)
         finally:
             self._stream_slots.release()
-            self._forget(conn)
-            self._close(conn)
+            self._drop(conn)
 
     # -- connection bookkeeping ----------------------------------------------------------------
 
@@ -492,6 +494,13 @@ class RobodcnHTTPServer:
             self._conns[conn.sock] = conn
         with contextlib.suppress(KeyError, ValueError, OSError):
             self._selector.register(conn.sock, selectors.EVENT_READ, conn)
+
+    def _drop(self, conn: Connection) -> None:
+        """Forget and close a connection a worker holds (already out of the selector, which
+        only the selector thread may touch)."""
+        with self._lock:
+            self._conns.pop(conn.sock, None)
+        self._close(conn)
 
     @staticmethod
     def _close(conn: Connection) -> None:
