@@ -92,6 +92,28 @@ def test_slowloris_past_the_cap_cannot_delay_a_stop(arm_server: Any) -> None:
             sock.close()
 
 
+def test_stop_does_not_wait_behind_slow_state_reads(arm_server: Any) -> None:
+    """State reads on a silent bus take seconds each; a stop must not queue behind them."""
+    import threading
+
+    server, sa = arm_server
+    sa.sim.faults.drop(times=None)
+    readers = [threading.Thread(target=call, args=(server, "GET", "/v1/state"),
+                                kwargs={"timeout": 30}) for _ in range(4)]
+    try:
+        for t in readers:
+            t.start()
+        time.sleep(0.3)  # the reads hold their threads
+        t0 = time.monotonic()
+        status, _, stopped = call(server, "POST", "/v1/stop", timeout=5)
+        assert status == 200 and stopped["stopped"] is False, stopped
+        assert time.monotonic() - t0 < 1.0
+    finally:
+        sa.sim.faults.clear()
+        for t in readers:
+            t.join(30)
+
+
 def test_the_request_deadline_is_absolute_not_per_byte(planner_server: Any) -> None:
     """The 10 s timeout restarted on every byte: one header line per 2 s kept a slot forever."""
     with socket.create_connection(address(planner_server), timeout=10) as sock:
