@@ -29,8 +29,39 @@ from typing import Any
 
 from robodcn.errors import ConfigError
 
-#: Dynamixel models robodcn knows (X series, Protocol 2.0, 4096 ticks a turn).
-SERVO_MODELS = ("xm430-w350", "xl430-w250")
+
+@dataclass(frozen=True)
+class ServoModel:
+    """What one Dynamixel model can do (ROBOTIS e-manual; shared/dynamixel-notes.md §2).
+
+    ticks_per_turn : position resolution (pulse/rev) in position mode (Operating Mode 3)
+    max_velocity : no-load speed at the highest rated voltage (rad/s): no joint driven by
+        this servo can be faster
+    max_acceleration : the largest Profile Acceleration the servo can express
+        (32 767 × 214.577 rev/min², rad/s²)
+    """
+
+    ticks_per_turn: int
+    max_velocity: float
+    max_acceleration: float
+
+
+_RPM = 2.0 * math.pi / 60.0
+_PROFILE_ACCELERATION_MAX = 32_767 * 214.577 * 2.0 * math.pi / 3600.0  # ≈ 12 272 rad/s²
+#: Dynamixel models robodcn knows (X series, Protocol 2.0): name → capabilities.
+SERVO_SPECS = {
+    # XM430-W350: 57 rev/min no-load at 14.8 V (46 at 12 V).
+    "xm430-w350": ServoModel(4096, 57 * _RPM, _PROFILE_ACCELERATION_MAX),
+    # XL430-W250: 61 rev/min no-load at 12 V.
+    "xl430-w250": ServoModel(4096, 61 * _RPM, _PROFILE_ACCELERATION_MAX),
+}
+SERVO_MODELS = tuple(SERVO_SPECS)
+#: Link lengths accepted (m): a planar Dynamixel arm, from a millimetre to ten metres.
+LINK_RANGE = (1e-3, 10.0)
+#: Largest jerk limit accepted (rad/s³): the largest acceleration reached within 1 ms.
+MAX_JERK = _PROFILE_ACCELERATION_MAX / 1e-3
+#: Largest integer any key may hold (a 32-bit register; far past every real range).
+_MAX_INT = 2**31 - 1
 #: Baud rates an X-series servo can be set to (Baud Rate register, address 8).
 BAUD_RATES = (9_600, 57_600, 115_200, 1_000_000, 2_000_000, 3_000_000, 4_000_000, 4_500_000)
 ELBOWS = ("up", "down")
@@ -55,7 +86,8 @@ class ServoSpec:
 
 @dataclass(frozen=True)
 class JointSpec:
-    """A revolute joint: position limits (rad), velocity (rad/s), acceleration (rad/s²)."""
+    """A revolute joint: position limits (rad), velocity (rad/s), acceleration (rad/s²) and
+    an optional jerk limit (rad/s³; None: no jerk limit)."""
 
     name: str
     min_angle: float
@@ -63,6 +95,7 @@ class JointSpec:
     max_velocity: float
     max_acceleration: float
     servo: ServoSpec
+    max_jerk: float | None = None
 
 
 @dataclass(frozen=True)
@@ -122,6 +155,7 @@ class Arm:
             "joints": [
                 {"name": j.name, "min": j.min_angle, "max": j.max_angle,
                  "max_velocity": j.max_velocity, "max_acceleration": j.max_acceleration,
+                 **({} if j.max_jerk is None else {"max_jerk": j.max_jerk}),
                  "servo": {"id": j.servo.id, "model": j.servo.model,
                            "ticks_per_turn": j.servo.ticks_per_turn,
                            "zero_offset": j.servo.zero_offset,
@@ -133,6 +167,18 @@ class Arm:
 
 # -- reading ---------------------------------------------------------------------------------
 
+def _show(value: Any) -> str:
+    """A short form of a config value for messages: never a whole table or a long number."""
+    if isinstance(value, dict):
+        return "a table"
+    if isinstance(value, list) and any(isinstance(v, dict | list) for v in value):
+        return f"an array of {len(value)} entries"
+    if isinstance(value, int) and not isinstance(value, bool) and abs(value) > _MAX_INT:
+        return f"an integer of {len(str(abs(value)))} digits"
+    text = repr(value)
+    return text if len(text) <= 60 else text[:57] + "..."
+
+
 class _Reader:
     """Typed access to one TOML table that names file and dotted key in every error."""
 
@@ -140,7 +186,7 @@ class _Reader:
         self.source = source
         self.prefix = prefix
         if not isinstance(table, dict):
-            raise ConfigError(f"{self.key_name('')!r} must be a table, got {table!r}",
+            raise ConfigError(f"{self.key_name('')!r} must be a table, got {_show(table)}",
                               file=source, key=prefix or "<top>", value=table)
         self.table = table
 
@@ -151,8 +197,8 @@ class _Reader:
 
     def fail(self, key: str, message: str, value: Any) -> ConfigError:
         name = self.key_name(key)
-        return ConfigError(f"key {name!r} = {value!r}: {message}", file=self.source, key=name,
-                           value=value)
+        return ConfigError(f"key {name!r} = {_show(value)}: {message}", file=self.source,
+                           key=name, value=value)
 
     def only(self, allowed: set[str]) -> None:
         for key in self.table:
@@ -177,7 +223,7 @@ class _Reader:
         if not isinstance(value, str) or not value:
             raise self.fail(key, "must be a non-empty string", value)
         if choices is not None and value not in choices:
-            raise self.fail(key, f"must be one of {', '.join(map(repr, choices))}", value)
+            raise self.fail(key, f"must be one of {', '.join(choices)}", value)
         return value
 
     def integer(self, key: str, default: int | None = None) -> int:
@@ -188,6 +234,8 @@ class _Reader:
         value = self.table[key]
         if isinstance(value, bool) or not isinstance(value, int):
             raise self.fail(key, "must be an integer", value)
+        if abs(value) > _MAX_INT:
+            raise self.fail(key, "is far too large", value)
         return value
 
     def number(self, key: str, default: float | None = None) -> float:
@@ -198,6 +246,8 @@ class _Reader:
         value = self.table[key]
         if isinstance(value, bool) or not isinstance(value, int | float):
             raise self.fail(key, "must be a number", value)
+        if isinstance(value, int) and abs(value) > _MAX_INT:
+            raise self.fail(key, "is far too large", value)
         if not math.isfinite(value):
             raise self.fail(key, "must be finite", value)
         return float(value)
@@ -229,9 +279,11 @@ def _servo(r: _Reader) -> ServoSpec:
     if not 0 <= servo_id <= MAX_SERVO_ID:
         raise r.fail("id", f"servo id must be 0..{MAX_SERVO_ID}", servo_id)
     model = r.string("model", choices=SERVO_MODELS)
-    ticks = r.integer("ticks_per_turn", 4096)
-    if ticks <= 0:
-        raise r.fail("ticks_per_turn", "must be positive", ticks)
+    spec = SERVO_SPECS[model]
+    ticks = r.integer("ticks_per_turn", spec.ticks_per_turn)
+    if ticks != spec.ticks_per_turn:
+        raise r.fail("ticks_per_turn", f"a {model} has {spec.ticks_per_turn} ticks a turn",
+                     ticks)
     direction = r.integer("direction", 1)
     if direction not in (1, -1):
         raise r.fail("direction", "must be +1 or -1", direction)
@@ -252,23 +304,55 @@ def _servo(r: _Reader) -> ServoSpec:
 
 def _joint(r: _Reader) -> JointSpec:
     r.only({"name", "min", "min_deg", "max", "max_deg", "max_velocity", "max_velocity_deg_s",
-            "max_acceleration", "max_acceleration_deg_s2", "servo"})
+            "max_acceleration", "max_acceleration_deg_s2", "max_jerk", "max_jerk_deg_s3",
+            "servo"})
     name = r.string("name")
+    servo = _servo(r.sub("servo"))
+    model = SERVO_SPECS[servo.model]
+
+    def key_of(si: str, deg: str) -> str:
+        return deg if r.has(deg) else si
+
+    def in_deg(si: str, deg: str, x: float, unit: str) -> str:
+        """``x`` (SI) in the unit of the key the file used."""
+        return f"{math.degrees(x):.6g} {unit}" if r.has(deg) else f"{x:.6g} {unit_si[unit]}"
+
+    unit_si = {"°": "rad", "deg/s": "rad/s", "deg/s²": "rad/s²", "deg/s³": "rad/s³"}
     lo = r.angle("min", "min_deg")
     hi = r.angle("max", "max_deg")
+    turn = 2.0 * math.pi
+    for si, deg, x in (("min", "min_deg", lo), ("max", "max_deg", hi)):
+        if abs(x) > turn:
+            raise r.fail(key_of(si, deg), "a joint limit must be within one turn of zero "
+                         f"({in_deg(si, deg, turn, '°')})", r.table[key_of(si, deg)])
     if lo >= hi:
-        key = "max_deg" if r.has("max_deg") else "max"
-        raise r.fail(key, f"joint upper limit must exceed the lower limit {lo:.6g} rad",
-                     r.table[key])
+        key = key_of("max", "max_deg")
+        raise r.fail(key, f"joint upper limit must exceed the lower limit "
+                     f"{in_deg('min', 'min_deg', lo, '°')}", r.table[key])
+    if hi - lo > turn:
+        key = key_of("max", "max_deg")
+        raise r.fail(key, "the joint range must be at most one servo turn "
+                     f"({in_deg('max', 'max_deg', turn, '°')})", r.table[key])
     vel = r.angle("max_velocity", "max_velocity_deg_s")
-    if vel <= 0.0:
-        key = "max_velocity_deg_s" if r.has("max_velocity_deg_s") else "max_velocity"
-        raise r.fail(key, "must be positive", r.table[key])
     acc = r.angle("max_acceleration", "max_acceleration_deg_s2")
-    if acc <= 0.0:
-        key = "max_acceleration_deg_s2" if r.has("max_acceleration_deg_s2") else "max_acceleration"
-        raise r.fail(key, "must be positive", r.table[key])
-    return JointSpec(name, lo, hi, vel, acc, _servo(r.sub("servo")))
+    jerk = (r.angle("max_jerk", "max_jerk_deg_s3")
+            if r.has("max_jerk") or r.has("max_jerk_deg_s3") else None)
+    for si, deg, x, cap, unit, why in (
+            ("max_velocity", "max_velocity_deg_s", vel, model.max_velocity, "deg/s",
+             f"the {servo.model}'s no-load speed"),
+            ("max_acceleration", "max_acceleration_deg_s2", acc, model.max_acceleration,
+             "deg/s²", f"the {servo.model}'s largest profile acceleration"),
+            ("max_jerk", "max_jerk_deg_s3", jerk, MAX_JERK, "deg/s³",
+             "that acceleration reached in 1 ms")):
+        if x is None:
+            continue
+        key = key_of(si, deg)
+        if x <= 0.0:
+            raise r.fail(key, "must be positive", r.table[key])
+        if x > cap * (1.0 + 1e-9):
+            raise r.fail(key, f"must be at most {in_deg(si, deg, cap, unit)} ({why})",
+                         r.table[key])
+    return JointSpec(name, lo, hi, vel, acc, servo, jerk)
 
 
 def _bus(r: _Reader) -> BusSpec:
@@ -310,8 +394,9 @@ def arm_from_dict(data: Any, source: str = "<dict>") -> Arm:
                           a.prefix)
     links = tuple(link_reader.number(f"links[{i}]") for i in range(len(links_raw)))
     for i, length in enumerate(links):
-        if length <= 0.0:
-            raise a.fail(f"links[{i}]", "link length must be positive (metres)", length)
+        if not LINK_RANGE[0] <= length <= LINK_RANGE[1]:
+            raise a.fail(f"links[{i}]", f"a link length must be within "
+                         f"{LINK_RANGE[0]:g}..{LINK_RANGE[1]:g} m", links_raw[i])
     elbow = a.string("elbow", "up", choices=ELBOWS)
     h = a.sub("home")
     h.only({"x", "y", "theta", "theta_deg"})

@@ -15,6 +15,7 @@ The classes map onto CLI exit codes and HTTP statuses through ``exit_code`` and
     │   ├── JointLimitError
     │   ├── VelocityLimitError
     │   ├── AccelerationLimitError
+    │   ├── JerkLimitError
     │   └── TickLimitError
     ├── BusError                      exit 4   503  servo or bus fault
     │   ├── CommError                               no/garbled status packet
@@ -27,7 +28,60 @@ The classes map onto CLI exit codes and HTTP statuses through ``exit_code`` and
 
 from __future__ import annotations
 
-from typing import Any
+from dataclasses import dataclass
+from dataclasses import field as _field
+from typing import Any, Literal
+
+#: What a :class:`Violation` exceeds, and its SI unit.
+QUANTITY_UNITS = {"reach": "m", "position": "rad", "velocity": "rad/s",
+                  "acceleration": "rad/s^2", "jerk": "rad/s^3", "ticks": "tick"}
+Quantity = Literal["reach", "position", "velocity", "acceleration", "jerk", "ticks"]
+
+
+@dataclass(frozen=True)
+class Violation:
+    """The first sample of a plan that fails a check, as data (SI units).
+
+    The planner's validation returns it; :class:`PlanError` carries it as ``.violation``;
+    :func:`robodcn.messages.describe` words it for the CLI (degrees, options) or HTTP (SI,
+    JSON fields). Finite-difference velocity is charged to sample i, acceleration to i + 1
+    and jerk to i + 2 of the differences that produce them (planner module docstring).
+    """
+
+    sample: int = _field(metadata={"description": "Index of the first failing sample."})
+    t: float = _field(metadata={"description": "Its time from the plan start (s)."})
+    pose: tuple[float, float, float] = _field(
+        metadata={"description": "Its pose [x, y, θ] (m, m, rad)."})
+    quantity: Quantity = _field(metadata={"description": "What is exceeded."})
+    value: float = _field(metadata={
+        "description": "The value needed (reach: wrist distance from the base, m; position: "
+                       "joint angle, rad; velocity rad/s; acceleration rad/s²; jerk rad/s³; "
+                       "ticks: goal position)."})
+    limit: float = _field(metadata={
+        "description": "The bound it passes (the nearer workspace radius for reach, the "
+                       "crossed joint or tick limit for position and ticks)."})
+    unit: str = _field(metadata={"description": "SI unit of value and limit."})
+    joint: str | None = _field(default=None, metadata={"description": "Joint name, if one."})
+    joint_index: int | None = _field(default=None,
+                                    metadata={"description": "Joint index (0-based)."})
+    segment: tuple[int, int] | None = _field(default=None, metadata={
+        "description": "The path segment [i, i + 1] (waypoint i → i + 1); null on the "
+                       "joint-space approach."})
+    waypoint: int | None = _field(default=None, metadata={
+        "description": "The waypoint index when the sample is a waypoint itself."})
+    other_branch_ok: bool | None = _field(default=None, metadata={
+        "description": "For position and tick limits: whether the other elbow branch would "
+                       "pass this check along the whole plan (null: not asked)."})
+    field: str = _field(default="duration", metadata={
+        "description": "The request field to change (waypoints[i], duration, start_joints)."})
+
+    def to_dict(self) -> dict[str, Any]:
+        return {"sample": self.sample, "t": self.t, "pose": list(self.pose),
+                "quantity": self.quantity, "value": self.value, "limit": self.limit,
+                "unit": self.unit, "joint": self.joint, "joint_index": self.joint_index,
+                "segment": None if self.segment is None else list(self.segment),
+                "waypoint": self.waypoint, "other_branch_ok": self.other_branch_ok,
+                "field": self.field}
 
 
 class RobodcnError(Exception):
@@ -105,12 +159,22 @@ class PlanError(RobodcnError):
 
     def __init__(self, message: str, *, field: str | None = None, value: Any = None,
                  sample: int | None = None, t: float | None = None,
-                 pose: Any = None, joint: str | None = None) -> None:
+                 pose: Any = None, joint: str | None = None,
+                 violation: Violation | None = None, waypoint: int | None = None) -> None:
+        if violation is not None:
+            field = violation.field if field is None else field
+            value = violation.value if value is None else value
+            sample, t, pose, joint = (violation.sample, violation.t, list(violation.pose),
+                                      violation.joint)
+            waypoint = violation.waypoint if waypoint is None else waypoint
         super().__init__(message, field=field, value=value)
         self.sample = sample
         self.t = t
         self.pose = pose
         self.joint = joint
+        self.violation = violation
+        #: The waypoint at fault (index into the request's waypoints), when one is.
+        self.waypoint = waypoint
 
     def to_dict(self) -> dict[str, Any]:
         body = super().to_dict()
@@ -119,6 +183,8 @@ class PlanError(RobodcnError):
             body["t"] = self.t
         if self.joint is not None:
             body["joint"] = self.joint
+        if self.violation is not None:
+            body["violation"] = self.violation.to_dict()
         return body
 
 
@@ -138,8 +204,18 @@ class AccelerationLimitError(PlanError):
     code = "acceleration_limit"
 
 
+class JerkLimitError(PlanError):
+    code = "jerk_limit"
+
+
 class TickLimitError(PlanError):
     code = "tick_limit"
+
+
+#: The PlanError class of each violated quantity.
+VIOLATION_ERRORS: dict[str, type[PlanError]] = {
+    "reach": UnreachableError, "position": JointLimitError, "velocity": VelocityLimitError,
+    "acceleration": AccelerationLimitError, "jerk": JerkLimitError, "ticks": TickLimitError}
 
 
 class BusError(RobodcnError):
@@ -176,3 +252,35 @@ class StoppedError(RobodcnError):
     code = "stopped"
     exit_code = 130
     http_status = 409
+
+
+class RobodcnWarning(UserWarning):
+    """Base of robodcn's warnings: data (``field``) the surfaces can print or return."""
+
+    def __init__(self, message: str, *, field: str | None = None) -> None:
+        super().__init__(message)
+        self.message = message
+        self.field = field
+
+
+class BetaIgnoredWarning(RobodcnWarning):
+    """``beta`` was given with a method that does not use it (only KenLERP does).
+
+    Given through :mod:`warnings` by :class:`~robodcn.planner.PlanRequest`; ``field`` is
+    "beta" and ``method`` the request's method(s).
+    """
+
+    def __init__(self, message: str, *, field: str = "beta", method: Any = None) -> None:
+        super().__init__(message, field=field)
+        self.method = method
+
+
+class BranchSwitchWarning(RobodcnWarning):
+    """The plan's IK elbow branch changes along it (through a stretched-out or folded pose).
+
+    ``samples`` are the sample indices (also ``Trajectory.branch_switches``).
+    """
+
+    def __init__(self, message: str, *, samples: tuple[int, ...] = ()) -> None:
+        super().__init__(message, field="waypoints")
+        self.samples = samples

@@ -218,6 +218,11 @@ def _sq_dist(a: list[NDArray], b: list[NDArray]) -> NDArray[np.float64]:
     return total
 
 
+#: Joint distance (rad) under which the two IK branches count as one (a stretched-out or
+#: folded arm, q2 = 0 or ±π): there "nearest" cannot tell them apart and the branch is kept.
+SINGULAR_TOLERANCE = 1e-6
+
+
 def _choose(up: list[NDArray], down: list[NDArray], first_down: bool) -> NDArray[np.bool_]:
     n = up[0].shape[0]
     stay_up = np.ones(n, dtype=bool)
@@ -229,6 +234,11 @@ def _choose(up: list[NDArray], down: list[NDArray], first_down: bool) -> NDArray
         down_before = [c[:-1] for c in down]
         stay_up[1:] = _sq_dist(up_now, up_before) <= _sq_dist(down_now, up_before)
         stay_down[1:] = _sq_dist(down_now, down_before) <= _sq_dist(up_now, down_before)
+        # Leaving a singular sample both branches are equally near: keep the branch (the
+        # preferred one at a singular start) instead of letting rounding pick.
+        singular = _sq_dist(up_before, down_before) <= SINGULAR_TOLERANCE ** 2
+        stay_up[1:] |= singular
+        stay_down[1:] |= singular
     reset = stay_up != stay_down
     reset[0] = True
     reset_value = ~stay_up  # after a reset: down unless "up" was the branch to stay on
@@ -268,9 +278,10 @@ def ik_path(links: Sequence[float], poses: ArrayLike, *, reference: ArrayLike | 
     """Branch-continuous, unwrapped IK along a sampled path.
 
     The first sample takes the branch nearest ``reference`` (the arm's present joints; the
-    ``elbow`` preference when None), every later sample the branch nearest the previous one
-    (:func:`choose_branches`); the angles are unwrapped along the path and each joint shifted
-    by a multiple of 2π so the first sample is nearest ``reference`` — or, without a
+    ``elbow`` preference when None or at a tie, e.g. a stretched-out reference), every later
+    sample the branch nearest the previous one (:func:`choose_branches`; leaving a singular
+    sample the branch is kept); the angles are unwrapped along the path and each joint
+    shifted by a multiple of 2π so the first sample is nearest ``reference`` — or, without a
     reference, nearest the middle of ``limits`` ((k, 2) rows (min, max); 0 when None).
 
     Raises
@@ -278,6 +289,17 @@ def ik_path(links: Sequence[float], poses: ArrayLike, *, reference: ArrayLike | 
     UnreachableError
         At the first pose out of reach (sample index and pose named).
     """
+    q, bad = try_ik_path(links, poses, reference=reference, elbow=elbow, limits=limits)
+    if q is None:
+        _raise_unreachable(links, _poses(poses), np.arange(len(poses)) != bad)
+    return q
+
+
+def try_ik_path(links: Sequence[float], poses: ArrayLike, *,
+                reference: ArrayLike | None = None, elbow: str = "up",
+                limits: ArrayLike | None = None) -> tuple[NDArray[np.float64] | None, int | None]:
+    """:func:`ik_path` as data: (joints, None), or (None, index of the first pose out of
+    reach) — for searches that try many paths and must not steer by exceptions."""
     links = _links(links)
     poses = _poses(poses)
     _checks.one_of("elbow", elbow, ELBOWS)
@@ -288,17 +310,21 @@ def ik_path(links: Sequence[float], poses: ArrayLike, *, reference: ArrayLike | 
             raise InputError(f"reference joints must have shape ({k},), got {reference.shape}",
                              field="start_joints", value=reference)
     up, down, ok = _columns(links, poses)
-    _raise_unreachable(links, poses, ok)
+    if not ok.all():
+        return None, int(np.argmin(ok))
     n = poses.shape[0]
     if n == 0:
-        return np.empty((0, k))
+        return np.empty((0, k)), None
     if reference is None:
         first_down = elbow == "down"
     else:
         first_up = [np.array([c[0]]) for c in up]
         first_dn = [np.array([c[0]]) for c in down]
         ref = [np.array([v]) for v in reference]
-        first_down = bool(_sq_dist(first_dn, ref)[0] < _sq_dist(first_up, ref)[0])
+        d_dn, d_up = _sq_dist(first_dn, ref)[0], _sq_dist(first_up, ref)[0]
+        # A tie (singular first pose or a reference midway) goes to the preferred branch.
+        first_down = bool(d_dn < d_up) if abs(d_dn - d_up) > SINGULAR_TOLERANCE ** 2 \
+            else elbow == "down"
     on_down = _choose(up, down, first_down)
     if reference is not None:
         target = reference
@@ -311,7 +337,7 @@ def ik_path(links: Sequence[float], poses: ArrayLike, *, reference: ArrayLike | 
         column = _unwrap(np.where(on_down, down[j], up[j]))
         column += _TWO_PI * np.round((target[j] - column[0]) / _TWO_PI)
         q[:, j] = column
-    return q
+    return q, None
 
 
 def jacobian(links: Sequence[float], q: ArrayLike) -> NDArray[np.float64]:

@@ -136,18 +136,21 @@ def auto_duration(dq_dtau: ArrayLike, d2q_dtau2: ArrayLike, v_max: ArrayLike,
 
 
 def fd_min_duration(q: ArrayLike, v_max: ArrayLike, a_max: ArrayLike, *,
-                    at_rest: bool = True) -> float:
+                    at_rest: bool = True, j_max: ArrayLike | None = None) -> float:
     """Shortest T for which N + 1 samples q_i = q(i/N), spaced T/N, pass finite differences.
 
     Velocity (q_{i} − q_{i−1})·N/T ≤ v and acceleration (q_{i+1} − 2q_i + q_{i−1})·N²/T² ≤ a
-    give T ≥ N·max|Δq|/v and T ≥ N·√(max|Δ²q|/a). With ``at_rest`` the arm rests before the
-    first and after the last sample (q_{−1} = q_0, q_{N+1} = q_N), as it does when a streamed
-    move starts and ends, so a velocity step there counts as an acceleration.
+    give T ≥ N·max|Δq|/v and T ≥ N·√(max|Δ²q|/a); with ``j_max`` (k,) (inf: no limit) the
+    jerk (third difference)·N³/T³ ≤ j gives T ≥ N·∛(max|Δ³q|/j). With ``at_rest`` the arm
+    rests before the first and after the last sample (q_{−1} = q_0, q_{N+1} = q_N), as it
+    does when a streamed move starts and ends, so a velocity step there counts as an
+    acceleration (and, for jerk, as a jerk).
     """
     q = _checks.finite("q", q)
     v, a = _limits(q, v_max, a_max)
     n = q.shape[0] - 1
     need = 0.0
+    samples = q
     if n >= 1:
         need = float(np.max(np.abs(np.diff(q, axis=0)).max(axis=0) / v)) * n
         if at_rest:
@@ -155,4 +158,17 @@ def fd_min_duration(q: ArrayLike, v_max: ArrayLike, a_max: ArrayLike, *,
     if q.shape[0] >= 3:
         d2 = np.abs(q[2:] - 2.0 * q[1:-1] + q[:-2]).max(axis=0)
         need = max(need, n * math.sqrt(float(np.max(d2 / a))))
+    if j_max is not None:
+        j = np.asarray(j_max, dtype=np.float64)
+        if j.shape != v.shape:
+            raise InputError(f"j_max must have shape {v.shape}, got {j.shape}", field="j_max",
+                             value=j.shape)
+        limited = np.isfinite(j)
+        if limited.any() and n >= 1:
+            p = samples[:, limited]
+            if at_rest:
+                p = np.concatenate([p[:1], p[:1], p, p[-1:], p[-1:]])
+            if p.shape[0] >= 4:
+                d3 = np.abs(np.diff(p, n=3, axis=0)).max(axis=0)
+                need = max(need, n * float(np.max(d3 / j[limited])) ** (1.0 / 3.0))
     return need

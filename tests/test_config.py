@@ -159,3 +159,56 @@ def test_either_unit_not_both() -> None:
     with pytest.raises(ConfigError) as info:
         arm_from_dict(data, source="x.toml")
     assert "not both" in str(info.value)
+
+
+# -- issue 9: values past what the servo or physics allows ------------------------------------
+
+HUGE = int("9" * 400)
+
+
+@pytest.mark.parametrize(("key", "value", "named"), [
+    ("joints[0].servo.id", HUGE, "joints[0].servo.id"),
+    ("joints[0].max_velocity_deg_s", HUGE, "joints[0].max_velocity_deg_s"),
+    ("arm.links", [1e300, 0.15, 0.05], "arm.links[0]"),
+    ("arm.links", [0.2, 0.0, 0.05], "arm.links[1]"),
+    ("joints[0].servo.ticks_per_turn", 2**63 - 1, "joints[0].servo.ticks_per_turn"),
+    ("joints[0].servo.ticks_per_turn", 8192, "joints[0].servo.ticks_per_turn"),
+    ("joints[0].max_velocity_deg_s", 1e308, "joints[0].max_velocity_deg_s"),
+    ("joints[0].max_velocity_deg_s", 400.0, "joints[0].max_velocity_deg_s"),
+    ("joints[0].max_acceleration_deg_s2", 1e9, "joints[0].max_acceleration_deg_s2"),
+    ("joints[0].min_deg", -1e300, "joints[0].min_deg"),
+    ("joints[0].max_jerk_deg_s3", -1.0, "joints[0].max_jerk_deg_s3"),
+    ("joints[0].max_jerk_deg_s3", 1e300, "joints[0].max_jerk_deg_s3"),
+])
+def test_values_past_the_servo_or_physics_are_config_errors(key: str, value: Any,
+                                                           named: str) -> None:
+    with pytest.raises(ConfigError) as info:
+        arm_from_dict(set_key(raw(), key, value), source="arm.toml")
+    err = info.value
+    assert err.key == named and err.file == "arm.toml"
+    text = str(err)
+    assert len(text) < 200 and "arm.toml" in text and named in text
+    assert "['" not in text and "{'" not in text
+
+
+def test_messages_are_short_and_plain() -> None:
+    data = set_key(raw(), "arm.elbow", "sideways")
+    with pytest.raises(ConfigError) as info:
+        arm_from_dict(data, source="a.toml")
+    assert "one of up, down" in str(info.value)
+    data = set_key(raw(), "joints", raw()["joints"][:2])
+    with pytest.raises(ConfigError) as info:
+        arm_from_dict(data, source="a.toml")
+    assert len(str(info.value)) < 160 and "{" not in str(info.value)
+
+
+def test_jerk_limit_is_optional_and_si() -> None:
+    arm = load_arm(ARM3R)
+    assert all(j.max_jerk is None for j in arm.joints)
+    data = set_key(raw(), "joints[1].max_jerk_deg_s3", 20000.0)
+    arm = arm_from_dict(data, source="a.toml")
+    assert arm.joints[1].max_jerk == pytest.approx(math.radians(20000.0))
+    assert arm.joints[0].max_jerk is None
+    assert arm_from_dict(arm.to_dict(), source="a.toml") == arm
+    data = set_key(raw(), "joints[1].max_jerk", 300.0)
+    assert arm_from_dict(data, source="a.toml").joints[1].max_jerk == 300.0

@@ -98,8 +98,10 @@ def naive_branch_path(up: np.ndarray, down: np.ndarray, first_down: bool) -> np.
     for i in range(1, len(up)):
         du = np.sum(K.wrap(up[i] - prev) ** 2)
         dd = np.sum(K.wrap(down[i] - prev) ** 2)
-        # ties keep the current branch, as the vectorised version does
-        out[i] = (dd <= du) if out[i - 1] else (dd < du)
+        # ties keep the current branch, as the vectorised version does; so does leaving a
+        # singular sample (both branches one), where nearness cannot choose
+        singular = np.sum(K.wrap(up[i - 1] - down[i - 1]) ** 2) <= K.SINGULAR_TOLERANCE ** 2
+        out[i] = out[i - 1] if singular else (dd <= du) if out[i - 1] else (dd < du)
         prev = down[i] if out[i] else up[i]
     return out
 

@@ -53,6 +53,14 @@ def variant(arm: Arm, only: int | None = None, **changes: Any) -> Arm:
     return arm_from_dict(data, source=arm.source)
 
 
+def unlimited(arm: Arm) -> Arm:
+    """The arm with dynamic limits no servo has (built directly: the loader refuses them),
+    so that only geometry decides."""
+    joints = tuple(dataclasses.replace(j, max_velocity=1e4, max_acceleration=1e7)
+                   for j in arm.joints)
+    return dataclasses.replace(arm, joints=joints)
+
+
 def check_trajectory(traj: Trajectory, arm: Arm, waypoints: Any, approach: bool = False) -> None:
     """Shapes, timing, FK consistency, ticks, and every limit, checked from the arrays."""
     wp = np.asarray(waypoints, dtype=float)
@@ -132,7 +140,7 @@ def test_single_segment_matches_interpolate_under_the_profile() -> None:
 def test_unreachable_sample_is_named() -> None:
     """The tool point stays put while θ swings the long way through ±π: the wrist point
     (l3 behind the tool) leaves the workspace in the middle, both ends are reachable."""
-    arm = variant(ARM3R, max_velocity=1e4, max_acceleration=1e7)
+    arm = unlimited(ARM3R)
     start, end = [0.32, 0.0, -2.0], [0.32, 0.0, 2.0]
     rate, duration = 100, 4.0
     with pytest.raises(UnreachableError) as info:
@@ -213,7 +221,7 @@ def test_tick_limit_sample_is_named() -> None:
 @pytest.mark.parametrize("profile", ["quintic", "trapezoid"])
 def test_too_fast_duration_fails_at_the_first_fast_sample(profile: str) -> None:
     wps = WAYPOINTS_3R[:2]
-    fast = variant(ARM3R, max_velocity=1e4, max_acceleration=1e7)
+    fast = unlimited(ARM3R)
     # trapezoid shape depends on the limits: compare against the quintic only
     loose = plan(fast, wps, duration=0.3, rate_hz=100, profile="quintic")
     q = loose.joints
@@ -425,8 +433,8 @@ def test_csv_matches_the_arrays() -> None:
 
 @pytest.mark.parametrize(("kwargs", "field"), [
     ({"waypoints": [[0.25, 0.1, 0.0]]}, "waypoints"),
-    ({"waypoints": [[0.25, 0.1], [0.2, 0.1]]}, "waypoints"),
-    ({"waypoints": [[0.25, 0.1, 0.0], [0.2, math.nan, 0.0]]}, "waypoints"),
+    ({"waypoints": [[0.25, 0.1], [0.2, 0.1]]}, "waypoints[0]"),
+    ({"waypoints": [[0.25, 0.1, 0.0], [0.2, math.nan, 0.0]]}, "waypoints[1][1]"),
     ({"method": "cubic"}, "method"),
     ({"method": ["sclerp"]}, "method"),
     ({"turn": ["shortest", "left"]}, "turn[1]"),
@@ -502,3 +510,182 @@ def test_random_requests_plan_or_fail_cleanly(arm: Arm, data: st.DataObject) -> 
         assert err.field == "duration" and "more than 1000000" in str(err)
         return
     check_trajectory(traj, arm, wps, approach="start_joints" in kwargs)
+
+
+# -- issue 9: θ on a position-only arm, the elbow at a singular start, violations as data -----
+
+def test_theta_plays_no_part_on_a_2r_arm() -> None:
+    """Path, duration and feasibility of a 2R plan do not depend on the θ given."""
+    base = plan(ARM2R, WAYPOINTS_2R)
+    for thetas in ([0.0, 3.0, -2.0], [1.5, 1.5, 1.5], [0.0, -3.1, 3.1]):
+        wps = [[x, y, th] for (x, y, _), th in zip(WAYPOINTS_2R, thetas, strict=True)]
+        other = plan(ARM2R, wps, method="kenlerp", beta=0.3)
+        assert other.duration == base.duration
+        np.testing.assert_allclose(other.joints, base.joints, atol=1e-12)
+    # the position path is the straight line between the waypoints
+    np.testing.assert_allclose(np.cross(np.diff(base.poses[:40, :2], axis=0),
+                                        base.poses[1:40, :2] - base.poses[0, :2]), 0.0,
+                               atol=1e-12)
+    # θ reported is the arm's own (FK), as the simulator would read it back
+    fk = kinematics.fk(ARM2R.links, base.joints)
+    np.testing.assert_allclose(base.poses[:, 2], fk[:, 2], atol=1e-12)
+
+
+def test_2r_waypoints_may_be_positions() -> None:
+    xy = [w[:2] for w in WAYPOINTS_2R]
+    a = plan(ARM2R, xy)
+    b = plan(ARM2R, WAYPOINTS_2R)
+    np.testing.assert_array_equal(a.joints, b.joints)
+    with pytest.raises(InputError) as info:
+        plan(ARM3R, [w[:2] for w in WAYPOINTS_3R])
+    assert info.value.field == "waypoints[0]"
+
+
+def test_2r_plan_from_home_pose_equals_plan_from_home_joints() -> None:
+    """``plan`` starts from the home pose, ``sim`` from the FK of the home joints: the same."""
+    home_joints = kinematics.ik(ARM2R.links, [ARM2R.home], elbow=ARM2R.elbow)[0]
+    start_pose = kinematics.fk(ARM2R.links, [home_joints])[0]
+    target = [0.05, 0.2, 1.0]
+    from_pose = plan(ARM2R, [list(ARM2R.home), target])
+    from_joints = plan(ARM2R, [start_pose, target], start_joints=home_joints)
+    assert from_pose.duration == from_joints.duration
+    np.testing.assert_allclose(from_pose.joints, from_joints.joints, atol=1e-9)
+
+
+STRETCHED = [[0.4, 0.0, 0.0], [0.12, 0.24, math.radians(60)]]
+
+
+@pytest.mark.parametrize("start", [None, [0.0, 0.0, 0.0]], ids=["pose", "fresh-sim-joints"])
+def test_configured_elbow_breaks_the_tie_at_a_stretched_start(start: Any) -> None:
+    up = plan(ARM3R, STRETCHED, start_joints=start)
+    assert ARM3R.elbow == "up"
+    assert (up.joints[1:, 1] < 0).all() and up.elbow is None and up.branch_switches == ()
+    down = plan(ARM3R, STRETCHED, start_joints=start, elbow="down")
+    assert (down.joints[1:, 1] > 0).all()
+    check_trajectory(down, ARM3R, STRETCHED)
+
+
+def test_elbow_request_picks_the_branch() -> None:
+    for elbow, sign in (("up", -1), ("down", 1)):
+        traj = plan(ARM3R, WAYPOINTS_3R, elbow=elbow)
+        assert traj.elbow == elbow and (sign * traj.joints[:, 1] > 0).all()
+        assert traj.request.elbow == elbow
+        assert Trajectory.from_json(traj.to_json()).elbow == elbow
+
+
+def test_branch_switch_is_reported() -> None:
+    """Through the stretched-out pose (radius out to full reach and back, the path
+    continuing past it) the branch may change: it is data and a warning, never silent."""
+    from robodcn.planner import validate
+
+    q = np.column_stack([np.zeros(5), [-0.2, -0.1, 0.0, 0.1, 0.2], np.zeros(5)])
+    assert validate.elbow_branches(q) == ("up", (3,))
+    assert validate.elbow_branches(q[:3]) == ("up", ())
+    assert validate.elbow_branches(q[2:]) == (None, ())
+
+
+def test_violation_is_data_and_names_segment_and_branch() -> None:
+    free = plan(ARM3R, WAYPOINTS_3R, duration=3.0, rate_hz=100)
+    # a shoulder limit the path crosses in its second segment only
+    limit = float(np.abs(free.joints[:, 0]).max()) * 0.97
+    narrow = variant(ARM3R, only=0, min=-limit, max=limit)
+    with pytest.raises(JointLimitError) as info:
+        plan(narrow, WAYPOINTS_3R, duration=3.0, rate_hz=100)
+    v = info.value.violation
+    assert v is not None and v.quantity == "position" and v.joint == "shoulder"
+    assert v.joint_index == 0 and v.unit == "rad"
+    assert abs(v.limit) == pytest.approx(limit) and abs(v.value) > limit
+    assert v.sample == info.value.sample and v.t == pytest.approx(v.sample / 100)
+    assert v.segment is not None and v.segment[1] == v.segment[0] + 1
+    bad = np.abs(free.joints[:, 0]) > limit
+    assert v.sample == first_bad_row(bad[:, None])
+    assert isinstance(v.other_branch_ok, bool)
+    assert "segment waypoint" in str(info.value) and "elbow branch" in str(info.value)
+
+
+def test_auto_timing_reads_violations_not_exceptions(monkeypatch: pytest.MonkeyPatch) -> None:
+    """The linear profile's velocity steps at the joins are fixed by reading the Violation
+    the validation returns; no PlanError is raised and caught on the way."""
+    from robodcn import errors
+
+    raised: list[str] = []
+    original = errors.PlanError.__init__
+
+    def spy(self: Any, *args: Any, **kwargs: Any) -> None:
+        raised.append(type(self).__name__)
+        original(self, *args, **kwargs)
+
+    monkeypatch.setattr(errors.PlanError, "__init__", spy)
+    traj = plan(ARM3R, WAYPOINTS_3R, profile="linear")
+    check_trajectory(traj, ARM3R, WAYPOINTS_3R)
+    assert raised == []
+
+
+@pytest.mark.parametrize(("kwargs", "field", "cls"), [
+    ({"duration": 1e308}, "duration", InputError),
+    ({"duration": 1e5, "rate_hz": 1000}, "duration", robodcn.TooLargeError
+     if hasattr(robodcn, "TooLargeError") else InputError),
+    ({"start_joints": [0.0, 3.0, 0.0]}, "start_joints[1]", InputError),
+    ({"start_joints": [1e308, 0.0, 0.0]}, "start_joints[0]", InputError),
+    ({"beta": -0.5, "method": "kenlerp"}, "beta", InputError),
+])
+def test_range_checks_before_planning(kwargs: dict[str, Any], field: str, cls: type) -> None:
+    with pytest.raises(cls) as info:
+        plan(ARM3R, WAYPOINTS_3R, **kwargs)
+    assert info.value.field == field
+
+
+def test_waypoint_cap_is_checked_first_and_names_waypoints() -> None:
+    import time
+
+    from robodcn.contract import MAX_WAYPOINTS
+    from robodcn.errors import TooLargeError
+
+    wps = np.tile(WAYPOINTS_3R[:2], (30_000, 1))
+    t0 = time.perf_counter()
+    with pytest.raises(TooLargeError) as info:
+        plan(ARM3R, wps)
+    assert time.perf_counter() - t0 < 1.0
+    assert info.value.field == "waypoints" and str(MAX_WAYPOINTS) in str(info.value)
+
+
+def test_beta_with_a_method_that_ignores_it_warns() -> None:
+    from robodcn.errors import BetaIgnoredWarning
+
+    with pytest.warns(BetaIgnoredWarning) as record:
+        plan(ARM3R, WAYPOINTS_3R, method="sclerp", beta=0.5)
+    assert record[0].message.field == "beta"
+    import warnings
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", BetaIgnoredWarning)
+        plan(ARM3R, WAYPOINTS_3R, method=["sclerp", "kenlerp"], beta=0.5)
+        plan(ARM3R, WAYPOINTS_3R, method="sclerp")
+        # β > 1 extrapolates past ScLERP (KenLERP's definition): allowed
+        plan(ARM3R, WAYPOINTS_3R, method="kenlerp", beta=1.5)
+
+
+def jerk_arm(jerk: float) -> Arm:
+    data = ARM3R.to_dict()
+    for joint in data["joints"]:
+        joint["max_jerk"] = jerk
+    return arm_from_dict(data, source=ARM3R.source)
+
+
+def test_jerk_limit_is_respected_by_auto_timing_and_checked() -> None:
+    free = plan(ARM3R, WAYPOINTS_3R[:2])
+    jerk3 = np.abs(np.diff(np.concatenate([free.joints[:1]] * 2 + [free.joints]
+                                          + [free.joints[-1:]] * 2), 3, axis=0)).max()
+    limit = 0.5 * jerk3 * free.rate_hz**3
+    arm = jerk_arm(limit)
+    slow = plan(arm, WAYPOINTS_3R[:2])
+    assert slow.duration > free.duration
+    q = np.concatenate([slow.joints[:1]] * 3 + [slow.joints] + [slow.joints[-1:]] * 2)
+    assert (np.abs(np.diff(q, 3, axis=0)) * slow.rate_hz**3 <= limit * (1 + 1e-9)).all()
+    from robodcn.errors import JerkLimitError
+
+    with pytest.raises(JerkLimitError) as info:
+        plan(arm, WAYPOINTS_3R[:2], duration=free.duration)
+    v = info.value.violation
+    assert v.quantity == "jerk" and v.unit == "rad/s^3" and v.value > v.limit == limit
+    assert info.value.field == "duration"

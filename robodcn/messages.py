@@ -1,0 +1,112 @@
+"""Errors and violations in the user's terms: CLI (degrees, options) or HTTP (SI, JSON fields).
+
+:func:`describe` words a :class:`~robodcn.errors.RobodcnError` or a
+:class:`~robodcn.errors.Violation` from its data, never from another message's text:
+
+* ``units="cli"``: angles in degrees (°, deg/s, deg/s², deg/s³, the config's units), the
+  option the user typed (``--rate``, ``--duration``) for request fields;
+* ``units="si"``: radians, rad/s, ..., and the JSON field (``rate_hz``, ``waypoints[2]``).
+
+A violation on a multi-segment plan names its segment (waypoint i → i + 1); a joint or tick
+limit says whether the other elbow branch would pass.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from typing import Any, Literal
+
+from robodcn import contract
+from robodcn.errors import PlanError, RobodcnError, Violation
+
+Units = Literal["cli", "si"]
+
+#: (CLI unit, factor from SI) per SI unit.
+_CLI_UNITS = {"rad": ("°", 180.0 / math.pi), "rad/s": ("deg/s", 180.0 / math.pi),
+              "rad/s^2": ("deg/s²", 180.0 / math.pi), "rad/s^3": ("deg/s³", 180.0 / math.pi),
+              "m": ("m", 1.0), "tick": ("", 1.0)}
+_SI_UNITS = {"rad": " rad", "rad/s": " rad/s", "rad/s^2": " rad/s²", "rad/s^3": " rad/s³",
+             "m": " m", "tick": ""}
+_WHAT = {"velocity": "velocity", "acceleration": "acceleration", "jerk": "jerk"}
+
+
+def quantity(value: float, unit: str, units: Units) -> str:
+    """``value`` (SI ``unit``) as text in the user's units: 0.5 rad → "28.6°" on the CLI."""
+    if units == "cli":
+        name, factor = _CLI_UNITS.get(unit, (unit, 1.0))
+        x = value * factor
+        if name == "°":
+            return f"{x:.1f}°"
+        return f"{x:.4g} {name}".rstrip()
+    return f"{value:.4g}{_SI_UNITS.get(unit, ' ' + unit)}"
+
+
+def pose_text(pose: Sequence[float], units: Units) -> str:
+    """x, y in metres; θ in degrees on the CLI, radians over HTTP."""
+    theta = (f"θ={math.degrees(pose[2]):.1f}°" if units == "cli"
+             else f"θ={pose[2]:.4f} rad")
+    return f"x={pose[0]:.4f} m, y={pose[1]:.4f} m, {theta}"
+
+
+def field_name(path: str | None, units: Units) -> str | None:
+    """The name the user knows a request field by: the CLI option or the JSON path."""
+    if path is None or units == "si":
+        return path
+    option = contract.cli_option(path)
+    if option is None or "/" in option:  # waypoints: the CLI names --from/--via/--to itself
+        return path
+    return option
+
+
+def describe_violation(v: Violation, units: Units = "si") -> str:
+    """One line (two for a limit with a hint) naming sample, time, pose, segment, joint."""
+    where = [f"sample {v.sample}"]
+    if v.waypoint is not None:
+        where.append(f"waypoints[{v.waypoint}]")
+    elif v.segment is not None:
+        where.append(f"segment waypoint {v.segment[0]} → {v.segment[1]}")
+    where.append(f"t={v.t:.3f} s")
+    where.append(pose_text(v.pose, units))
+    head = f"{where[0]} ({', '.join(where[1:])})"
+    who = f"joint {v.joint!r} " if v.joint else ""
+    if v.quantity == "reach":
+        text = (f"{head}: is out of reach: the wrist point is {v.value:.4f} m from the base, "
+                f"the arm reaches to {v.limit:.4f} m")
+        return text
+    if v.quantity == "position":
+        text = (f"{head}: {who}at {quantity(v.value, v.unit, units)} is outside its limit "
+                f"{quantity(v.limit, v.unit, units)}")
+    elif v.quantity == "ticks":
+        text = f"{head}: {who}needs tick {v.value:.0f}, outside its tick limit {v.limit:.0f}"
+    else:
+        option = field_name("duration", units)
+        text = (f"{head}: {who}needs {quantity(v.value, v.unit, units)}, limit "
+                f"{quantity(v.limit, v.unit, units)} ({_WHAT[v.quantity]}): lengthen "
+                f"{option}")
+    if v.other_branch_ok is not None:
+        flag = "--elbow" if units == "cli" else "elbow"
+        text += ("; the other elbow branch would pass (" + flag + ")" if v.other_branch_ok
+                 else "; the other elbow branch fails too")
+    return text
+
+
+def describe(item: RobodcnError | Violation | Warning, units: Units = "si") -> str:
+    """``item`` in the user's terms (module docstring); errors from data, not text.
+
+    For an InputError raised by :mod:`robodcn.contract` the field path is swapped for the
+    CLI option (``--rate must be within 1..1000 Hz, got 5000``); a PlanError carrying a
+    :class:`Violation` is reworded from it; anything else keeps its own message.
+    """
+    if isinstance(item, Violation):
+        return describe_violation(item, units)
+    if isinstance(item, PlanError) and item.violation is not None:
+        return describe_violation(item.violation, units)
+    reason = getattr(item, "reason", None)
+    path = getattr(item, "field", None)
+    if reason is not None and path is not None:
+        return f"{field_name(path, units)} {reason}"
+    if isinstance(item, Warning):
+        message: Any = getattr(item, "message", str(item))
+        return str(message).replace("beta", field_name("beta", units) or "beta", 1)
+    return str(getattr(item, "message", item))

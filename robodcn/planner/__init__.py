@@ -1,0 +1,62 @@
+"""Waypoints → interpolated poses → branch-continuous joint angles → servo ticks, validated.
+
+``plan(arm, waypoints, ...)`` builds a :class:`PlanRequest` (immutable, validated) and
+returns a :class:`Trajectory` sampled exactly every 1/rate_hz seconds from t = 0
+(design.md §1, §4). Nothing leaves the planner unvalidated and nothing is clamped: the first
+failing sample (reach, joint limits, tick limits, finite-difference velocity and acceleration)
+raises a :mod:`robodcn.errors` PlanError naming its index, time, pose and joint.
+
+Structure of a plan
+-------------------
+* **Segments.** Waypoint j → j + 1 follows ``robodcn.interpolate.interpolate`` with that
+  segment's method and turn; θ is chained so it stays continuous across waypoints.
+* **Stops (blend=False).** Each segment has its own time law s(τ) and stops at its end
+  waypoint (quintic and trapezoid are rest-to-rest; "linear" has velocity steps).
+* **Blend (blend=True).** One time law over a global path parameter u ∈ [0, 1] whose knots
+  are spaced by each segment's joint-space travel time; each segment's pose curve gets a
+  cubic Hermite correction h₁(s)·Δ₀ + h₂(s)·Δ₁ (h₁ = s(1 − s)², h₂ = s²(s − 1): zero at both
+  ends, unit slope at one end) so that at every via point the tangent dP/du equals the
+  knot-weighted (Bessel) average of the two neighbouring segments' tangents. The path still
+  passes exactly through every waypoint, and the velocity is continuous there; between
+  waypoints the curve departs from the pure ScLERP/KenLERP/... path by that correction.
+* **Approach.** With ``start_joints`` farther than half a servo tick from the IK of the first
+  waypoint (the branch and 2π turn nearest start_joints, unless that turn is outside the
+  joint limits and another is inside), a joint-space quintic from start_joints is
+  prepended. It is always timed "auto" and comes on top of a numeric ``duration``.
+* **Duration.** A number: the path's time, rounded up to whole sample periods and split over
+  stop segments in proportion to their own shortest durations. "auto": per piece, the
+  smallest number of sample periods N for which the finite-difference checks pass. The
+  estimate N = ⌈T_fd(N)·rate⌉ from :func:`robodcn.timing.fd_min_duration` (the closed form of
+  uniform time scaling) is iterated, then confirmed: N passes and N − 1 fails (or N = 1).
+  Each piece is minimal on its own; if a join between stop segments still fails (only the
+  linear profile, whose velocity steps at the joins), all path pieces are slowed by the
+  failing ratio and re-checked, a few times at most. A path that leaves the workspace
+  cannot be timed: its UnreachableError names the first sample out of reach in the plan
+  timed by the estimate, ignoring the speeds before it (which that timing did not set).
+
+Validation is by finite differences at the sample rate: velocity (q_i − q_{i−1})·rate is
+charged to sample i, acceleration (q_{i+1} − 2q_i + q_{i−1})·rate² to sample i + 1 (the
+first sample that cannot be reached in time). The arm is at rest before t = 0 and after the
+end (the streamer starts from a standing arm and holds the last goal), so q_{−1} = q_0 and
+q_{n} = q_{n−1}: a velocity step at either end, as the linear profile has, is an acceleration
+like any other (the end one is charged to the last sample). A joint with a jerk limit is
+checked the same way with third differences.
+
+Modules: :mod:`~robodcn.planner.request` (PlanRequest), :mod:`~robodcn.planner.trajectory`
+(Trajectory, JSON/CSV), :mod:`~robodcn.planner.path` (segments, blending, IK),
+:mod:`~robodcn.planner.search` (auto timing), :mod:`~robodcn.planner.validate` (checks that
+return :class:`~robodcn.errors.Violation` data), :mod:`~robodcn.planner.build` (assembly).
+"""
+
+from robodcn.contract import MAX_SAMPLES
+from robodcn.dcn import TURNS
+from robodcn.errors import BetaIgnoredWarning, BranchSwitchWarning
+from robodcn.planner.build import plan, plan_request
+from robodcn.planner.request import PlanRequest
+from robodcn.planner.trajectory import Trajectory
+from robodcn.planner.validate import ANGLE_SLACK, LIMIT_SLACK
+from robodcn.timing import PROFILES
+
+__all__ = ["ANGLE_SLACK", "LIMIT_SLACK", "MAX_SAMPLES", "PROFILES", "TURNS",
+           "BetaIgnoredWarning", "BranchSwitchWarning", "PlanRequest", "Trajectory", "plan",
+           "plan_request"]

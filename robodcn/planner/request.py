@@ -1,0 +1,136 @@
+"""PlanRequest: everything a plan depends on, validated on construction by the contract."""
+
+from __future__ import annotations
+
+import warnings
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from robodcn import contract
+from robodcn.config import Arm, arm_from_dict
+from robodcn.contract import fail
+from robodcn.errors import BetaIgnoredWarning
+
+
+@dataclass(frozen=True)
+class PlanRequest:
+    """Everything a plan depends on; validated on construction (Ruckig-style input data).
+
+    Every range and choice comes from :mod:`robodcn.contract` (one source for the Python
+    API, the HTTP body and the CLI); errors name the field path (``waypoints[2][1]``,
+    ``start_joints[0]``).
+
+    Attributes
+    ----------
+    arm : Arm
+    waypoints : tuple of 2 ≤ m ≤ MAX_WAYPOINTS poses (x, y, θ), metres and radians; on a
+        2-joint (position-only) arm (x, y) is accepted too (stored with θ = 0) and θ plays no
+        part in the plan
+    method : "sclerp" | "kenlerp" | "seplerp" | "dlb", or one per segment
+    beta : KenLERP bias within contract.BETA_RANGE (0 SEP-LERP, 1 ScLERP, > 1 extrapolates);
+        a β other than 1 with no KenLERP segment warns (BetaIgnoredWarning)
+    turn : "shortest" | "ccw" | "cw", or one per segment
+    duration : total seconds (> 0) or "auto"
+    profile : "linear" | "quintic" | "trapezoid"
+    rate_hz : sample rate, 1..1000 Hz
+    blend : pass through via points with continuous velocity instead of stopping
+    start_joints : the arm's present joints (k,), each within its joint limits, or None
+        (then the plan starts at the IK of waypoints[0])
+    elbow : "up" | "down" IK branch, or None for the arm's configured one
+
+    Lists given for method, turn, waypoints and start_joints are stored as tuples.
+    """
+
+    arm: Arm
+    waypoints: Any
+    method: Any = "sclerp"
+    beta: float = 1.0
+    turn: Any = "shortest"
+    duration: Any = "auto"
+    profile: str = "quintic"
+    rate_hz: float = 100.0
+    blend: bool = False
+    start_joints: Any = None
+    elbow: str | None = None
+
+    def __post_init__(self) -> None:
+        put = object.__setattr__
+        if not isinstance(self.arm, Arm):
+            raise fail("arm", f"must be an Arm (robodcn.load_arm), got {type(self.arm)!r}",
+                       self.arm)
+        wp = contract.check_waypoints(self.waypoints, self.arm)
+        put(self, "waypoints", wp)
+        segments = len(wp) - 1
+        put(self, "method", contract.check_per_segment("method", self.method, segments))
+        put(self, "turn", contract.check_per_segment("turn", self.turn, segments))
+        for name in ("beta", "profile", "rate_hz", "blend", "elbow"):
+            put(self, name, contract.check_field(name, getattr(self, name)))
+        put(self, "duration", contract.check_duration(self.duration, self.rate_hz, segments))
+        put(self, "start_joints", contract.check_start_joints(self.start_joints, self.arm))
+        methods = {self.segment_method(j) for j in range(segments)}
+        if self.beta != 1.0 and not methods & set(contract.BETA_METHODS):
+            used = ", ".join(sorted(methods))
+            warnings.warn(BetaIgnoredWarning(
+                f"beta = {self.beta:g} has no effect: method {used} does not use it (only "
+                "kenlerp does)", method=self.method), stacklevel=3)
+
+    @property
+    def waypoints_array(self) -> NDArray[np.float64]:
+        """Waypoints as an (m, 3) array."""
+        return np.array(self.waypoints, dtype=np.float64)
+
+    @property
+    def segments(self) -> int:
+        return len(self.waypoints) - 1
+
+    @property
+    def branch(self) -> str:
+        """The IK branch this plan uses: ``elbow``, or the arm's configured one."""
+        return self.elbow if self.elbow is not None else self.arm.elbow
+
+    @property
+    def position_only(self) -> bool:
+        """A 2-joint arm: θ plays no part."""
+        return self.arm.dof == 2
+
+    def segment_method(self, j: int) -> str:
+        return self.method if isinstance(self.method, str) else self.method[j]
+
+    def segment_turn(self, j: int) -> str:
+        return self.turn if isinstance(self.turn, str) else self.turn[j]
+
+    def to_dict(self) -> dict[str, Any]:
+        """JSON-ready dict (the arm embedded in SI keys, see Arm.to_dict)."""
+        return {"arm": self.arm.to_dict(), "arm_source": self.arm.source,
+                "waypoints": [list(w) for w in self.waypoints],
+                "method": self.method if isinstance(self.method, str) else list(self.method),
+                "beta": self.beta,
+                "turn": self.turn if isinstance(self.turn, str) else list(self.turn),
+                "duration": self.duration, "profile": self.profile, "rate_hz": self.rate_hz,
+                "blend": self.blend,
+                "start_joints": None if self.start_joints is None else list(self.start_joints),
+                "elbow": self.elbow}
+
+    @classmethod
+    def from_dict(cls, data: dict[str, Any], arm: Arm | None = None) -> PlanRequest:
+        """Inverse of :meth:`to_dict`; ``arm`` overrides the embedded arm.
+
+        The request fields are parsed by :func:`robodcn.contract.parse_request`.
+        """
+        if not isinstance(data, dict):
+            raise fail("request", "must be an object", data)
+        data = dict(data)
+        embedded = data.pop("arm", None)
+        source = data.pop("arm_source", "<json>")
+        if arm is None:
+            if embedded is None:
+                raise fail("request.arm", "is missing: pass arm=", None)
+            arm = arm_from_dict(embedded, source=str(source))
+        data.setdefault("rate_hz", 100.0)
+        with warnings.catch_warnings():
+            # The warning was given when the request was made; a round trip repeats nothing.
+            warnings.simplefilter("ignore", BetaIgnoredWarning)
+            return contract.parse_request(data, arm)

@@ -1,0 +1,103 @@
+"""Auto timing: the fewest sample periods per piece whose finite differences pass.
+
+See the :mod:`robodcn.planner` docstring ("Duration"). Nothing here raises to steer the
+search: the joins between pieces are checked by :func:`robodcn.planner.validate.check`,
+whose :class:`~robodcn.errors.Violation` gives the ratio to slow down by.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+
+import numpy as np
+from numpy.typing import NDArray
+
+from robodcn import timing
+from robodcn.config import Arm
+from robodcn.contract import MAX_SAMPLES, intervals
+from robodcn.errors import TooLargeError
+from robodcn.planner.path import COARSE, Piece, rate_limits
+
+MAX_SEARCH_STEPS = 40
+
+
+def fd_need(q: NDArray[np.float64], arm: Arm) -> float:
+    """Shortest duration (s) of the sampled joints q under the arm's limits (jerk included
+    where a joint sets one)."""
+    v, a = rate_limits(arm)
+    jerk = [math.inf if j.max_jerk is None else j.max_jerk for j in arm.joints]
+    return timing.fd_min_duration(q, v, a, j_max=None if all(x == math.inf for x in jerk)
+                                  else np.array(jerk))
+
+
+def estimate(piece: Piece, arm: Arm, reference: NDArray | None
+              ) -> tuple[float, NDArray | None]:
+    """Shortest duration on a uniform grid of COARSE periods (≈ the closed form), seconds,
+    and the piece's last joints; (1 s, None) if the path leaves the workspace (validation
+    then names the sample)."""
+    _, q, _ = piece.sample(COARSE, arm, reference)
+    if q is None:
+        return 1.0, None
+    return fd_need(q, arm), q[-1]
+
+
+def search(piece: Piece, arm: Arm, reference: NDArray | None, rate: float) -> int:
+    """Smallest N (sample periods) whose samples pass the velocity/acceleration checks.
+
+    Bracket, then bisect: from the estimate, grow N (to the finite-difference closed form's
+    ⌈T_fd(N)·rate⌉, at least doubling) until it passes; then try the closed form's guess just
+    below and bisect between the largest failing and the smallest passing N until they are
+    neighbours. The result passes and N − 1 fails (or N = 1). Typically 2–3 evaluations.
+    """
+
+    def need(n: int) -> float | None:
+        q = piece.sample(n, arm, reference)[1]
+        # None: out of reach; validation reports it with the real sample index
+        return None if q is None else fd_need(q, arm)
+
+    n = intervals(max(estimate(piece, arm, reference)[0], 1e-12), rate)
+    fail, ok = 0, None  # largest N known to fail (0: none), smallest known to pass
+    stepped_down = False
+    for _ in range(MAX_SEARCH_STEPS):
+        if ok is not None and ok - fail <= 1:
+            return ok
+        if n + 1 > MAX_SAMPLES:
+            raise TooLargeError(f"the 'auto' duration needs more than {MAX_SAMPLES} samples at "
+                             f"{rate:g} Hz: lower rate_hz or raise the joint limits",
+                             field="duration", value="auto")
+        t_need = need(n)
+        if t_need is None:
+            return ok or n
+        guess = max(1, math.ceil(t_need * rate - 1e-9))
+        if t_need <= n / rate:
+            ok = n
+            if fail < guess < ok:
+                n = guess
+            elif not stepped_down:
+                n, stepped_down = ok - 1, True  # usually the estimate was exact: confirm
+            else:
+                n = (fail + ok) // 2
+        else:
+            fail = n
+            if ok is None:
+                n = max(guess, 2 * n)
+            else:
+                n = guess if fail < guess < ok else (fail + ok) // 2
+    return ok if ok is not None else n
+
+
+def split(total: int, weights: Sequence[float]) -> list[int]:
+    """Split ``total`` periods over segments ∝ weights (largest remainder, each ≥ 1)."""
+    w = np.maximum(np.asarray(weights, dtype=np.float64), 0.0)
+    m = len(w)
+    if w.sum() <= 0.0:
+        w = np.ones(m)
+    share = (total - m) * w / w.sum()
+    base = np.floor(share).astype(int)
+    rest = (total - m) - base.sum()
+    order = np.argsort(-(share - base), kind="stable")
+    base[order[:rest]] += 1
+    return (base + 1).tolist()
+
+

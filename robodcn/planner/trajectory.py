@@ -1,0 +1,174 @@
+"""Trajectory: a validated plan's samples, with its JSON and CSV forms."""
+
+from __future__ import annotations
+
+import csv
+import io
+import json
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from robodcn import _checks
+from robodcn.config import RATE_RANGE, Arm
+from robodcn.contract import is_number as _is_number
+from robodcn.errors import InputError
+from robodcn.planner.request import PlanRequest
+
+
+@dataclass(eq=False)
+class Trajectory:
+    """A validated plan: samples every 1/rate_hz s from t = 0.
+
+    Attributes
+    ----------
+    t : (n,) seconds; poses : (n, 3) (x, y, θ) with θ continuous (for a 2-joint arm θ plays
+    no part in the plan and is FK's q1 + q2); joints : (n, k) radians, unwrapped;
+    ticks : (n, k) int64 goal positions; joint_names, servo_ids : k each; rate_hz; method
+    (the request's, a string or a list per segment); request; elbow : the IK branch at the
+    first sample ("up" q2 < 0, "down" q2 > 0, None when stretched out or folded there);
+    branch_switches : sample indices where the elbow branch differs from the one before
+    (through a singular pose; empty for almost every plan).
+    """
+
+    t: NDArray[np.float64] = field(metadata={
+        "description": "Sample times (s), from 0 in steps of exactly 1/rate_hz.",
+        "schema": {"type": "array", "minItems": 1, "items": {"type": "number"}}})
+    poses: NDArray[np.float64] = field(metadata={
+        "description": "Pose [x, y, θ] per sample (m, m, rad), θ continuous.",
+        "schema": {"type": "array", "items": {"type": "array", "minItems": 3, "maxItems": 3,
+                                              "items": {"type": "number"}}}})
+    joints: NDArray[np.float64] = field(metadata={
+        "description": "Joint angles per sample (rad, unwrapped), one per joint.",
+        "schema": {"type": "array", "items": {"type": "array", "items": {"type": "number"}}}})
+    ticks: NDArray[np.int64] = field(metadata={
+        "description": "Servo goal positions per sample (ticks), one per servo.",
+        "schema": {"type": "array",
+                   "items": {"type": "array", "items": {"type": "integer"}}}})
+    joint_names: tuple[str, ...] = field(metadata={"description": "Joint names, base first."})
+    servo_ids: tuple[int, ...] = field(metadata={"description": "Servo ids in joint order."})
+    rate_hz: float = field(metadata={"description": "Sample rate (Hz)."})
+    method: str | list[str] = field(metadata={
+        "description": "Interpolation method, or one per segment."})
+    request: PlanRequest | None = field(default=None, metadata={
+        "description": "The request that was planned (the arm embedded, SI units).",
+        "schema": {"type": ["object", "null"]}})
+    elbow: str | None = field(default=None, metadata={
+        "description": "IK branch at the first sample: up (q2 < 0), down (q2 > 0), or null "
+                       "when stretched out or folded there.",
+        "schema": {"enum": ["up", "down", None]}})
+    branch_switches: tuple[int, ...] = field(default=(), metadata={
+        "description": "Samples where the elbow branch changes (passing a singular pose)."})
+
+    def __post_init__(self) -> None:
+        self.t = np.asarray(self.t, dtype=np.float64)
+        self.poses = np.asarray(self.poses, dtype=np.float64)
+        self.joints = np.asarray(self.joints, dtype=np.float64)
+        ticks = np.asarray(self.ticks)
+        if ticks.size and not np.issubdtype(ticks.dtype, np.integer):
+            if not np.array_equal(ticks, np.round(ticks)):
+                raise InputError("ticks must be integers", field="ticks", value=None)
+        self.ticks = ticks.astype(np.int64)
+        self.joint_names = tuple(self.joint_names)
+        self.servo_ids = tuple(int(i) for i in self.servo_ids)
+        self.branch_switches = tuple(int(i) for i in self.branch_switches)
+        n = self.t.shape[0] if self.t.ndim == 1 else -1
+        k = len(self.joint_names)
+        for name, array, shape in (("t", self.t, (n,)), ("poses", self.poses, (n, 3)),
+                                   ("joints", self.joints, (n, k)),
+                                   ("ticks", self.ticks, (n, k))):
+            if n < 1 or array.shape != shape:
+                raise InputError(f"trajectory {name} must have shape {shape} (n ≥ 1 samples, "
+                                 f"k = {k} joints), got {array.shape}", field=name,
+                                 value=array.shape)
+        if len(self.servo_ids) != k:
+            raise InputError(f"servo_ids must name {k} servos, got {len(self.servo_ids)}",
+                             field="servo_ids", value=self.servo_ids)
+        if not _is_number(self.rate_hz) or not RATE_RANGE[0] <= self.rate_hz <= RATE_RANGE[1]:
+            raise InputError(f"rate_hz must be within {RATE_RANGE[0]:g}..{RATE_RANGE[1]:g} Hz, "
+                             f"got {self.rate_hz!r}", field="rate_hz", value=self.rate_hz)
+        self.rate_hz = float(self.rate_hz)
+        expected = np.arange(n) / self.rate_hz
+        if np.abs(self.t - expected).max() > 1e-9:
+            raise InputError("t must start at 0 and step by exactly 1/rate_hz", field="t",
+                             value=None)
+        for name, array in (("poses", self.poses), ("joints", self.joints)):
+            if not np.isfinite(array).all():
+                raise InputError(f"trajectory {name} must be finite", field=name, value=None)
+
+    @property
+    def duration(self) -> float:
+        """t[-1], seconds."""
+        return float(self.t[-1])
+
+    def to_dict(self) -> dict[str, Any]:
+        return {"t": self.t.tolist(), "poses": self.poses.tolist(),
+                "joints": self.joints.tolist(), "ticks": self.ticks.tolist(),
+                "joint_names": list(self.joint_names), "servo_ids": list(self.servo_ids),
+                "rate_hz": self.rate_hz, "method": self.method,
+                "request": None if self.request is None else self.request.to_dict(),
+                "elbow": self.elbow, "branch_switches": list(self.branch_switches)}
+
+    def to_json(self) -> str:
+        """JSON with keys t, poses, joints, ticks, joint_names, servo_ids, rate_hz, method,
+        request (floats written with repr precision: the round trip is exact)."""
+        return json.dumps(self.to_dict())
+
+    @classmethod
+    def from_json(cls, text: str, arm: Arm | None = None) -> Trajectory:
+        """Parse :meth:`to_json` output, checking every shape (InputError naming the key).
+
+        The request is rebuilt with ``arm`` when given, else with the arm embedded in it.
+        """
+        try:
+            data = json.loads(text)
+        except (json.JSONDecodeError, TypeError) as exc:
+            raise InputError(f"trajectory JSON is invalid: {exc}", field="json",
+                             value=None) from exc
+        if not isinstance(data, dict):
+            raise InputError("trajectory JSON must be an object", field="json", value=None)
+        keys = ("t", "poses", "joints", "ticks", "joint_names", "servo_ids", "rate_hz",
+                "method")
+        for key in keys:
+            if key not in data:
+                raise InputError(f"trajectory JSON lacks key {key!r}", field=key, value=None)
+        if arm is not None and tuple(data["servo_ids"]) != arm.servo_ids:
+            raise InputError(f"trajectory servo_ids {data['servo_ids']} do not match arm "
+                             f"{arm.name!r} {list(arm.servo_ids)}", field="servo_ids",
+                             value=data["servo_ids"])
+        request = None
+        if data.get("request") is not None:
+            request = PlanRequest.from_dict(data["request"], arm)
+        arrays = {}
+        for key in ("t", "poses", "joints", "ticks"):
+            arrays[key] = _checks.finite(key, data[key])
+        names = data["joint_names"]
+        if not isinstance(names, list) or not all(isinstance(n, str) for n in names):
+            raise InputError("joint_names must be a list of strings", field="joint_names",
+                             value=names)
+        elbow = data.get("elbow")
+        if elbow not in ("up", "down", None):
+            raise InputError("elbow must be up, down or null", field="elbow", value=elbow)
+        switches = data.get("branch_switches", [])
+        if not isinstance(switches, list) or not all(
+                isinstance(i, int) and not isinstance(i, bool) for i in switches):
+            raise InputError("branch_switches must be a list of sample indices",
+                             field="branch_switches", value=None)
+        return cls(arrays["t"], arrays["poses"], arrays["joints"], arrays["ticks"], names,
+                   data["servo_ids"], data["rate_hz"], data["method"], request, elbow,
+                   tuple(switches))
+
+    def to_csv(self) -> str:
+        """CSV: t, x, y, theta, one column per joint (rad), one per servo (ticks)."""
+        out = io.StringIO()
+        writer = csv.writer(out, lineterminator="\n")
+        writer.writerow(["t", "x", "y", "theta", *(f"q_{n}" for n in self.joint_names),
+                         *(f"tick_{i}" for i in self.servo_ids)])
+        floats = np.column_stack([self.t, self.poses, self.joints])
+        for row, ticks in zip(floats.tolist(), self.ticks.tolist(), strict=True):
+            writer.writerow([repr(v) for v in row] + ticks)
+        return out.getvalue()
+
+

@@ -1,0 +1,173 @@
+"""Validation of sampled plans: reach, joint and tick limits, finite-difference dynamics.
+
+:func:`check` returns the first failing sample as a :class:`~robodcn.errors.Violation`
+(data; the auto-timing search reads it); :func:`raise_for` turns one into its PlanError.
+
+Finite differences at the sample rate (planner module docstring): velocity
+(q_i − q_{i−1})·rate is charged to sample i, acceleration (q_{i+1} − 2q_i + q_{i−1})·rate² to
+sample i + 1 and jerk (q_{i+2} − 3q_{i+1} + 3q_i − q_{i−1})·rate³ to sample i + 2, the first
+sample that cannot be reached in time. The arm rests before t = 0 and after the end, so the
+sequence is padded with copies of its first and last samples.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from typing import NoReturn
+
+import numpy as np
+from numpy.typing import NDArray
+
+from robodcn import kinematics, servo_units
+from robodcn.config import Arm
+from robodcn.errors import QUANTITY_UNITS, VIOLATION_ERRORS, UnreachableError, Violation
+from robodcn.messages import describe_violation
+from robodcn.planner.request import PlanRequest
+
+#: Relative slack on velocity/acceleration/jerk limits, for float rounding only (auto timing
+#: itself uses the exact limits, so auto plans never rely on it).
+LIMIT_SLACK = 1e-9
+#: Slack on joint position limits (rad), float rounding only.
+ANGLE_SLACK = 1e-9
+
+
+def fmt_pose(pose: Sequence[float]) -> str:
+    return f"x={pose[0]:.4f} m, y={pose[1]:.4f} m, θ={math.degrees(pose[2]):.1f}°"
+
+
+def check_waypoints(req: PlanRequest) -> None:
+    """Every waypoint within the workspace annulus, else UnreachableError naming it."""
+    arm = req.arm
+    wp = req.waypoints_array
+    ok = kinematics.reachable(arm.links, wp)
+    if ok.all():
+        return
+    j = int(np.argmin(ok))
+    inner, outer = kinematics.workspace(arm.links)
+    r = float(kinematics.wrist_radius(arm.links, wp[j:j + 1])[0])
+    raise UnreachableError(f"waypoints[{j}] ({fmt_pose(wp[j])}) is out of reach: the wrist "
+                           f"point is {r:.4f} m from the base, the arm reaches "
+                           f"{inner:.4f}..{outer:.4f} m", field=f"waypoints[{j}]",
+                           value=wp[j].tolist(), pose=wp[j].tolist(), waypoint=j)
+
+
+def dynamic_limits(arm: Arm) -> tuple[NDArray, NDArray, NDArray]:
+    """Per-joint velocity, acceleration and jerk limits (inf where no jerk limit is set)."""
+    jerk = [math.inf if j.max_jerk is None else j.max_jerk for j in arm.joints]
+    return (np.array([j.max_velocity for j in arm.joints]),
+            np.array([j.max_acceleration for j in arm.joints]), np.array(jerk))
+
+
+def _differences(joints: NDArray, order: int) -> NDArray:
+    """|Δ^order q| at rest on both sides, row r charged to sample min(r, n − 1)."""
+    padded = np.concatenate([np.repeat(joints[:1], order, axis=0), joints,
+                             np.repeat(joints[-1:], order - 1, axis=0)]) if order > 1 else \
+        np.concatenate([joints[:1], joints])
+    d = np.abs(np.diff(padded, n=order, axis=0))
+    n = joints.shape[0]
+    if d.shape[0] > n:  # differences past the end belong to the last sample
+        d = np.concatenate([d[:n - 1], d[n - 1:].max(axis=0, keepdims=True)])
+    return d
+
+
+def check(req: PlanRequest, poses: NDArray, joints: NDArray, *, dynamics: bool = True,
+          marks: dict[int, int] | None = None, segment_of: NDArray | None = None,
+          ticks: NDArray | None = None) -> tuple[NDArray[np.int64], Violation | None]:
+    """All checks at once: the ticks and the earliest failing sample, or None.
+
+    Ties at one sample go position limits, ticks, velocity, acceleration, jerk.
+    ``dynamics=False`` skips the finite differences; ``marks`` maps sample indices to the
+    waypoints sampled there (a waypoint outside the limits is named as such);
+    ``segment_of`` gives each sample's segment index (−1 on the approach).
+    """
+    arm = req.arm
+    rate = req.rate_hz
+    n = joints.shape[0]
+    lo = np.array([j.min_angle for j in arm.joints]) - ANGLE_SLACK
+    hi = np.array([j.max_angle for j in arm.joints]) + ANGLE_SLACK
+    v, a, jk = dynamic_limits(arm)
+    if ticks is None:
+        ticks = servo_units.ticks_unchecked(joints, arm.servos)
+    tmin = np.array([j.servo.min_tick for j in arm.joints])
+    tmax = np.array([j.servo.max_tick for j in arm.joints])
+    slack = 1.0 + LIMIT_SLACK
+    # Fast path on per-joint extremes; per-sample arrays only on failure.
+    fine = bool(np.all(joints.min(axis=0) >= lo) and np.all(joints.max(axis=0) <= hi)
+                and np.all(ticks.min(axis=0) >= tmin) and np.all(ticks.max(axis=0) <= tmax))
+    rates = []
+    if dynamics:
+        for order, limit, quantity in ((1, v, "velocity"), (2, a, "acceleration"),
+                                       (3, jk, "jerk")):
+            if order == 3 and not np.isfinite(limit).any():
+                continue
+            d = _differences(joints, order) * rate ** order
+            rates.append((quantity, d, limit))
+            fine = fine and bool(np.all(d.max(axis=0) <= limit * slack))
+    if fine:
+        return ticks, None
+    pos_excess = np.maximum(lo - joints, joints - hi)
+    tick_excess = np.maximum(tmin - ticks, ticks - tmax).astype(np.float64)
+    checks = [("position", pos_excess > 0.0, pos_excess, joints),
+              ("ticks", tick_excess > 0.0, tick_excess, ticks)]
+    checks += [(q, d / limit > slack, d / limit, d) for q, d, limit in rates]
+    first, chosen = n, None
+    for quantity, bad, score, values in checks:
+        rows = bad.any(axis=1)
+        if rows.any():
+            i = int(np.argmax(rows))
+            if i < first:
+                first, chosen = i, (quantity, bad, score, values)
+    if chosen is None:
+        return ticks, None
+    quantity, bad, score, values = chosen
+    i = first
+    j = int(np.argmax(np.where(bad[i], score[i], -np.inf)))
+    spec = arm.joints[j]
+    value = float(values[i, j])
+    if quantity == "position":
+        limit = spec.min_angle if value < spec.min_angle else spec.max_angle
+    elif quantity == "ticks":
+        limit = float(spec.servo.min_tick if value < spec.servo.min_tick
+                      else spec.servo.max_tick)
+    else:
+        limit = float({"velocity": v, "acceleration": a, "jerk": jk}[quantity][j])
+    waypoint = (marks or {}).get(i) if quantity in ("position", "ticks") else None
+    segment = None
+    if segment_of is not None and segment_of[i] >= 0:
+        segment = (int(segment_of[i]), int(segment_of[i]) + 1)
+    field = "duration" if quantity in ("velocity", "acceleration", "jerk") else (
+        f"waypoints[{waypoint}]" if waypoint is not None else "waypoints")
+    if segment is None and segment_of is not None and quantity in ("position", "ticks") \
+            and req.start_joints is not None:
+        field = "start_joints"
+    return ticks, Violation(sample=i, t=i / rate, pose=tuple(float(x) for x in poses[i]),
+                            quantity=quantity, value=value, limit=limit,
+                            unit=QUANTITY_UNITS[quantity], joint=spec.name, joint_index=j,
+                            segment=segment, waypoint=waypoint, field=field)
+
+
+def elbow_branches(joints: NDArray) -> tuple[str | None, tuple[int, ...]]:
+    """The elbow branch at the first sample and the samples where it changes.
+
+    "up" is wrap(q2) < 0, "down" wrap(q2) > 0 (robodcn.kinematics); samples within
+    kinematics.SINGULAR_TOLERANCE of q2 = 0 or ±π (stretched out, folded) belong to neither
+    and carry the branch before them, so a switch is counted where the branch after a
+    singular stretch differs from the one before it.
+    """
+    q2 = kinematics.wrap(joints[:, 1])
+    tol = kinematics.SINGULAR_TOLERANCE
+    singular = (np.abs(q2) < tol) | (math.pi - np.abs(q2) < tol)
+    side = np.where(singular, 0, np.where(q2 < 0.0, -1, 1))
+    known = np.where(side != 0, np.arange(side.shape[0]), -1)
+    np.maximum.accumulate(known, out=known)
+    filled = np.where(known >= 0, side[np.maximum(known, 0)], 0)
+    changed = (filled[1:] != filled[:-1]) & (filled[:-1] != 0)
+    first = {-1: "up", 1: "down", 0: None}[int(side[0])]
+    return first, tuple(int(i) + 1 for i in np.flatnonzero(changed))
+
+
+def raise_for(violation: Violation) -> NoReturn:
+    """Raise the PlanError of ``violation`` (message in SI and JSON names)."""
+    cls = VIOLATION_ERRORS[violation.quantity]
+    raise cls(describe_violation(violation, "si"), violation=violation)
