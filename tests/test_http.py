@@ -164,8 +164,8 @@ def test_infeasible_sample_is_named(planner_server: Any) -> None:
     ({"waypoints": [HOME, TARGET], "blend": "yes"}, "blend"),
     ({"waypoints": [HOME, TARGET], "beta": "half"}, "beta"),
     ({"waypoints": [HOME, [0.2, 0.1]]}, "waypoints[1]"),
-    ({"waypoints": [HOME, TARGET, [0.2, "x", 0]]}, "waypoints[2]"),
-    ({"waypoints": [HOME, TARGET, [0.2, 1e400, 0]]}, "waypoints[2]"),
+    ({"waypoints": [HOME, TARGET, [0.2, "x", 0]]}, "waypoints[2][1]"),
+    ({"waypoints": [HOME, TARGET, [0.2, 1e400, 0]]}, "waypoints[2][1]"),
     ({"waypoints": [HOME]}, "waypoints"),
     ({"method": "sclerp"}, "waypoints"),
     ([HOME, TARGET], "body"),
@@ -413,7 +413,7 @@ def test_openapi_body_schema_is_what_the_parser_accepts(planner_server: Any) -> 
     # Every documented field is accepted (a valid value of each, all at once).
     body = {"waypoints": [HOME, TARGET], "method": "seplerp", "beta": 1.0, "turn": "ccw",
             "duration": 1.5, "profile": "trapezoid", "rate_hz": 50, "blend": False,
-            "start_joints": None}
+            "start_joints": None, "elbow": None}
     assert set(body) == set(props)
     status, _, data = call(planner_server, "POST", "/v1/trajectories", body)
     assert status == 200, data
@@ -498,7 +498,9 @@ def test_move_executes_and_reports(arm_server: Any) -> None:
                 start_joints=start)
     assert body["samples"] == len(want.t) and body["duration"] == want.duration
     done = poll_move(server, body["id"], lambda b: b["status"] not in ("queued", "running"))
-    assert done["status"] == "done" and done["progress"] == 1.0, done
+    # "degraded" when the loaded test machine made the streamer skip samples.
+    assert done["status"] in ("done", "degraded") and done["progress"] == 1.0, done
+    assert (done["status"] == "degraded") == (done["report"]["samples_skipped"] > 0)
     assert done["report"]["stop_reason"] == "completed"
     assert done["report"]["samples_sent"] + done["report"]["samples_skipped"] == \
         done["report"]["samples_total"]
@@ -540,7 +542,7 @@ def test_two_concurrent_moves_one_is_409(arm_server: Any) -> None:
     _, _, health = call(server, "GET", "/healthz")
     assert health["moving"] is True
     final = poll_move(server, accepted["id"], lambda b: b["status"] not in ("queued", "running"))
-    assert final["status"] == "done", final["error"]
+    assert final["status"] in ("done", "degraded"), final["error"]
     assert call(server, "GET", "/healthz")[2]["moving"] is False
 
 

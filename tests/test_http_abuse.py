@@ -207,8 +207,8 @@ _ZEROS = "0" * 400
     (f'{{"waypoints": {_WP}, "beta": 1{_ZEROS}}}'.encode(), 422, "beta"),
     (f'{{"waypoints": {_WP}, "duration": -1{_ZEROS}}}'.encode(), 422, "duration"),
     (f'{{"waypoints": [[1{_ZEROS}, 0, 0], {json.dumps(TARGET)}]}}'.encode(), 422,
-     "waypoints[0]"),
-    (f'{{"waypoints": {_WP}, "start_joints": [1e308, 0, 0]}}'.encode(), 422, "start_joints"),
+     "waypoints[0][0]"),
+    (f'{{"waypoints": {_WP}, "start_joints": [1e308, 0, 0]}}'.encode(), 422, "start_joints[0]"),
     (f'{{"waypoints": {_WP}, "rate_hz": 1{_ZEROS}}}'.encode(), 422, "rate_hz"),
 ], ids=["nested-1000", "nested-waypoints", "huge-int-beta", "huge-int-duration",
         "huge-int-waypoint", "start-joints-1e308", "huge-int-rate"])

@@ -1,57 +1,19 @@
 """Request bodies as JSON: UTF-8 only (RFC 8259 §8.1), bounded depth, numbers a float holds.
 
 The decoder never raises anything but :class:`~robodcn.http.framing.HTTPError`: malformed
-JSON, another encoding (a UTF-16 body, a BOM) or nesting deeper than
-:data:`~robodcn.http.limits.MAX_JSON_DEPTH` are 400. An integer too large for a float
-(``1`` followed by 400 zeros) decodes to :class:`HugeNumber`, an infinite float that prints
-its digits, so the field checks downstream reject it as "not a finite number" *naming the
-field* (422), as they do ``1e400``.
+JSON (NaN and Infinity included), another encoding (a UTF-16 body, a BOM) or nesting deeper
+than :data:`~robodcn.http.limits.MAX_JSON_DEPTH` are 400. Numbers stay as JSON gives them:
+an integer too large for a float (``1`` followed by 400 zeros) or ``1e400`` (inf) is refused
+by the contract's field checks, naming the field (422).
 """
 
 from __future__ import annotations
 
 import json
-import math
 from typing import Any
 
 from robodcn.http.framing import HTTPError
 from robodcn.http.limits import MAX_JSON_DEPTH
-
-
-class HugeNumber(float):
-    """A JSON number beyond the float range: infinite, but it prints what was sent."""
-
-    def __new__(cls, text: str) -> HugeNumber:
-        value = super().__new__(cls, math.copysign(math.inf, -1.0 if text.startswith("-")
-                                                   else 1.0))
-        value.text = text
-        return value
-
-    text: str
-
-    def __repr__(self) -> str:
-        digits = self.text.lstrip("-")
-        shown = digits if len(digits) <= 12 else f"{digits[:6]}…({len(digits)} digits)"
-        return ("-" if self.text.startswith("-") else "") + shown
-
-    __str__ = __repr__
-
-
-def _parse_int(text: str) -> int | float:
-    # Python ints have no limit, but every consumer turns numbers into floats.
-    if len(text.lstrip("-")) > 308:
-        return HugeNumber(text)
-    value = int(text)
-    try:
-        float(value)
-    except OverflowError:
-        return HugeNumber(text)
-    return value
-
-
-def _parse_float(text: str) -> float:
-    value = float(text)
-    return HugeNumber(text) if math.isinf(value) else value
 
 
 def _reject_constant(name: str) -> None:
@@ -99,8 +61,7 @@ def decode_json(body: bytes, content_type: str | None) -> Any:
         raise HTTPError(400, "malformed_json", "the body starts with a byte-order mark; send "
                         "plain UTF-8 JSON", "body")
     try:
-        value = json.loads(text, parse_int=_parse_int, parse_float=_parse_float,
-                           parse_constant=_reject_constant)
+        value = json.loads(text, parse_constant=_reject_constant)
     except RecursionError:
         raise HTTPError(400, "malformed_json", f"the body nests deeper than "
                         f"{MAX_JSON_DEPTH} levels", "body") from None

@@ -1,5 +1,6 @@
 """The OpenAPI 3.1 document, generated from :data:`~robodcn.http.routes.ROUTES`, the request
-fields and :func:`~robodcn.http.results.schema_of` of the result types."""
+contract (:func:`robodcn.contract.request_schema`) and :func:`robodcn.contract.schema_of` of
+the result dataclasses (:mod:`robodcn.http.results`, the Trajectory)."""
 
 from __future__ import annotations
 
@@ -8,44 +9,22 @@ from typing import Any
 
 import robodcn
 from robodcn.config import Arm
-from robodcn.http.planbody import MOVE_FIELDS, PLAN_FIELDS
-from robodcn.http.results import RESULTS, schema_of
+from robodcn.contract import schema_of
+from robodcn.http.planbody import move_body_schema, plan_body_schema
+from robodcn.http.results import RESULTS
 from robodcn.http.routes import ROUTES, TRANSPORT_ERRORS
+from robodcn.planner import Trajectory
 
 
-def _number_array(depth: int = 1) -> dict[str, Any]:
-    schema: dict[str, Any] = {"type": "number"}
-    for _ in range(depth):
-        schema = {"type": "array", "items": schema}
-    return schema
-
-
-def _body_schema(fields: dict[str, tuple[dict[str, Any], str]]) -> dict[str, Any]:
-    return {"type": "object", "required": ["waypoints"], "additionalProperties": False,
-            "properties": {k: {**s, "description": d} for k, (s, d) in fields.items()}}
-
-
-def schemas() -> dict[str, dict[str, Any]]:
-    """Component schemas: request bodies, the Trajectory and every result type."""
+def schemas(arm: Arm | None = None) -> dict[str, dict[str, Any]]:
+    """Component schemas: request bodies (from robodcn.contract, exact for ``arm``), the
+    Trajectory and every result type (schema_of their dataclasses)."""
     return {
-        "PlanBody": _body_schema(PLAN_FIELDS),
-        "MoveBody": _body_schema(MOVE_FIELDS),
+        "PlanBody": plan_body_schema(arm),
+        "MoveBody": move_body_schema(arm),
         "StopBody": {"type": "object", "additionalProperties": False, "properties": {},
                      "description": "Empty: stop takes no fields (the body may be omitted)."},
-        "Trajectory": {
-            "type": "object", "description": "Samples every 1/rate_hz s from t = 0.",
-            "required": ["t", "poses", "joints", "ticks", "joint_names", "servo_ids",
-                         "rate_hz", "method"],
-            "properties": {"t": _number_array(1), "poses": _number_array(2),
-                           "joints": _number_array(2),
-                           "ticks": {"type": "array", "items": {
-                               "type": "array", "items": {"type": "integer"}}},
-                           "joint_names": {"type": "array", "items": {"type": "string"}},
-                           "servo_ids": {"type": "array", "items": {"type": "integer"}},
-                           "rate_hz": {"type": "number"},
-                           "method": {"oneOf": [{"type": "string"}, {
-                               "type": "array", "items": {"type": "string"}}]},
-                           "request": {"type": ["object", "null"]}}},
+        "Trajectory": schema_of(Trajectory),
         "OpenAPI": {"type": "object"},
         **{name: schema_of(cls) for name, cls in RESULTS.items()},
     }
@@ -88,7 +67,7 @@ def openapi(arm: Arm | None = None, *, token: bool = False) -> dict[str, Any]:
                                 "and execute them on Dynamixel servos. SI units: metres, "
                                 "radians, seconds." + (f" Arm: {arm.name}." if arm else "")},
         "paths": paths,
-        "components": {"schemas": schemas()},
+        "components": {"schemas": schemas(arm)},
     }
     if token:
         doc["components"]["securitySchemes"] = {"bearer": {"type": "http", "scheme": "bearer"}}

@@ -20,7 +20,7 @@ from robodcn.errors import InputError, TooLargeError
 from robodcn.http.framing import HTTPError, Request
 from robodcn.http.jsonbody import decode_json
 from robodcn.http.limits import LARGE_PLAN_SAMPLES, LARGE_PLAN_WAYPOINTS, MAX_RESPONSE
-from robodcn.http.planbody import MOVE_FIELDS, PLAN_FIELDS, parse_plan_body
+from robodcn.http.planbody import parse_move, parse_plan
 from robodcn.http.results import ArmInfo, Health, to_json
 from robodcn.planner import PlanRequest, Trajectory, plan_request
 
@@ -123,7 +123,7 @@ def op_arm(server: RobodcnHTTPServer, request: Request, params: dict[str, str]
 
 def op_plan(server: RobodcnHTTPServer, request: Request, params: dict[str, str]
             ) -> tuple[int, Any]:
-    req = parse_plan_body(server.arm, read_json(request), PLAN_FIELDS)
+    req = parse_plan(server.arm, read_json(request))
     check_response_size(req)
     with planning_lane(server, req):
         trajectory: Trajectory = plan_request(req)
@@ -138,7 +138,7 @@ def op_plan(server: RobodcnHTTPServer, request: Request, params: dict[str, str]
 def op_start_move(server: RobodcnHTTPServer, request: Request, params: dict[str, str]
                   ) -> tuple[int, Any]:
     controller = _controller(server)
-    req = parse_plan_body(server.arm, read_json(request), MOVE_FIELDS)
+    req = parse_move(server.arm, read_json(request))
     # Plan from where the arm is (409 at once if it is moving), so an infeasible approach
     # is a 422 now rather than a failed move later, and the record shows what will run.
     with controller.admitting():

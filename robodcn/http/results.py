@@ -1,13 +1,11 @@
 """The service's result types, declared once: the controller builds them, the handlers send
-``to_json()`` of them and ``/openapi.json`` documents :func:`schema_of` of them, so the
-documented schema and the answer cannot drift apart.
+``to_json()`` of them and ``/openapi.json`` documents :func:`robodcn.contract.schema_of` of
+them, so the documented schema and the answer cannot drift apart.
 """
 
 from __future__ import annotations
 
 import dataclasses
-import types
-import typing
 from dataclasses import dataclass, field
 from typing import Any, Literal
 
@@ -18,7 +16,9 @@ MoveState = Literal["queued", "running", "done", "degraded", "stopped", "fault",
 
 
 def _doc(text: str, **schema: Any) -> dict[str, Any]:
-    return {"description": text, **schema}
+    """Field metadata for contract.schema_of: a description, and a schema when bounds are
+    given."""
+    return {"description": text, **({"schema": schema} if schema else {})}
 
 
 @dataclass
@@ -35,6 +35,8 @@ class ErrorDetail:
 
 @dataclass
 class ErrorResponse:
+    """Every error answer: ``{"error": {code, message, field, ...}}``."""
+
     error: ErrorDetail
 
 
@@ -45,7 +47,8 @@ class MoveStatus:
 
     id: str
     status: MoveState
-    progress: float = field(metadata=_doc("fraction of samples sent", minimum=0, maximum=1))
+    progress: float = field(metadata=_doc("fraction of samples sent", type="number",
+                                          minimum=0, maximum=1))
     elapsed: float = 0.0
     duration: float = 0.0
     samples: int = 0
@@ -85,6 +88,8 @@ class StopAnswer:
 
 @dataclass
 class Health:
+    """Liveness: the version, the arm served and whether a move runs."""
+
     status: Literal["ok"]
     version: str
     arm: str
@@ -93,6 +98,8 @@ class Health:
 
 @dataclass
 class ArmInfo:
+    """The arm configuration (SI units): name, joints, servos and the whole config."""
+
     name: str
     dof: int
     joint_names: list[str]
@@ -103,46 +110,6 @@ class ArmInfo:
 
 RESULTS: dict[str, type] = {"Move": MoveStatus, "State": State, "Stop": StopAnswer,
                             "Health": Health, "Arm": ArmInfo, "Error": ErrorResponse}
-
-
-def _type_schema(hint: Any) -> dict[str, Any]:
-    origin = typing.get_origin(hint)
-    args = typing.get_args(hint)
-    if hint is type(None):
-        return {"type": "null"}
-    if origin in (typing.Union, types.UnionType):
-        options = [_type_schema(a) for a in args]
-        if all(set(o) == {"type"} for o in options):
-            return {"type": [o["type"] for o in options]}
-        return {"anyOf": options}
-    if origin is Literal:
-        return {"enum": list(args)}
-    if origin is list:
-        return {"type": "array", "items": _type_schema(args[0])}
-    if origin is dict:
-        value = _type_schema(args[1])
-        return {"type": "object"} if value == {} else \
-            {"type": "object", "additionalProperties": value}
-    if dataclasses.is_dataclass(hint):
-        return schema_of(hint)
-    return {bool: {"type": "boolean"}, int: {"type": "integer"}, float: {"type": "number"},
-            str: {"type": "string"}, Any: {}}[hint]
-
-
-def schema_of(cls: type) -> dict[str, Any]:
-    """The JSON schema of dataclass ``cls``: a property per field from its type hint (and
-    ``metadata`` description/bounds); fields without a default are required."""
-    hints = typing.get_type_hints(cls)
-    props: dict[str, Any] = {}
-    required = []
-    for f in dataclasses.fields(cls):
-        props[f.name] = {**_type_schema(hints[f.name]), **f.metadata}
-        if f.default is dataclasses.MISSING and f.default_factory is dataclasses.MISSING:
-            required.append(f.name)
-    schema: dict[str, Any] = {"type": "object", "required": required, "properties": props}
-    if cls.__doc__ and not cls.__doc__.startswith(cls.__name__ + "("):
-        schema["description"] = " ".join(cls.__doc__.split())
-    return schema
 
 
 def to_json(result: Any) -> dict[str, Any]:
