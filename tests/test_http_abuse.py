@@ -390,3 +390,39 @@ def test_sigterm_mid_move_holds_before_the_server_shuts_down() -> None:
     # At most a goal in flight and the hold goal, not 200 ms of motion.
     assert after <= 4, after
     assert all(sim.servo(i).torque_enabled for i in ARM.servo_ids)
+
+
+# -- streaming routes ---------------------------------------------------------------------------
+
+def test_a_streaming_route_outlives_the_deadline_in_its_own_bounded_pool() -> None:
+    """The route table can mark a route streaming (the later /v1/events): its answer is not
+    cut by the request deadline, and streams beyond their slots are 503, not queued."""
+    from robodcn.http.framing import stream_head
+    from robodcn.http.routes import Route
+
+    def ticks(server: Any, request: Any, params: dict[str, str]) -> tuple[int, bytes]:
+        request.socket.sendall(stream_head())
+        for i in range(8):  # 1.6 s: past the 0.5 s request deadline
+            if server.stopping:
+                break
+            request.socket.sendall(f"data: {i}\n\n".encode())
+            time.sleep(0.2)
+        return 200, b""
+
+    routes = (*ROUTES, Route("GET", "/v1/ticks", "ticks", "test stream", 200, "OpenAPI",
+                             pool="stream", media="text/event-stream"))
+    server = make_server(ARM, None, request_timeout=0.5, stream_slots=1, routes=routes,
+                         operations={"ticks": ticks})
+    with running(server):
+        with socket.create_connection(address(server), timeout=5) as first:
+            first.sendall(b"GET /v1/ticks HTTP/1.1\r\nHost: x\r\n\r\n")
+            time.sleep(0.2)
+            line, body = exchange(server, b"GET /v1/ticks HTTP/1.1\r\nHost: x\r\n\r\n")
+            assert line.startswith(b"HTTP/1.1 503") and error_of(body)["code"] == "busy"
+            assert call(server, "GET", "/healthz")[0] == 200  # others are served meanwhile
+            reply = read_all(first)
+        assert reply.startswith(b"HTTP/1.1 200") and b"text/event-stream" in reply
+        assert reply.count(b"data: ") == 8
+        _, _, doc = call(server, "GET", "/openapi.json")
+        assert "text/event-stream" in doc["paths"]["/v1/ticks"]["get"]["responses"]["200"][
+            "content"]

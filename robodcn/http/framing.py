@@ -57,6 +57,9 @@ class Request:
     headers: dict[str, str]
     body: bytes = b""
     client: str = ""
+    #: For a streaming route only: the connection's (blocking) socket, which the operation
+    #: writes itself (:func:`stream_head`, then its events) until it returns.
+    socket: Any = None
 
     @property
     def path(self) -> str:
@@ -204,6 +207,17 @@ def dumps(obj: Any) -> bytes:
 
 def error_body(status: int, code: str, message: str, field: str | None = None) -> bytes:
     return dumps({"error": {"code": code, "message": message, "field": field}})
+
+
+def stream_head(status: int = 200, content_type: str = "text/event-stream", *,
+                headers: dict[str, str] | None = None, server: str = "robodcn") -> bytes:
+    """The head of a long-lived response (no Content-Length: it ends when the connection
+    closes), e.g. Server-Sent Events."""
+    phrase = HTTPStatus(status).phrase
+    lines = [f"HTTP/1.1 {status} {phrase}", f"Server: {server}", f"Content-Type: {content_type}",
+             "Cache-Control: no-store", "Connection: close"]
+    lines += [f"{k}: {v}" for k, v in (headers or {}).items()]
+    return ("\r\n".join(lines) + "\r\n\r\n").encode("latin-1")
 
 
 def response(status: int, body: bytes, *, headers: dict[str, str] | None = None,

@@ -12,7 +12,7 @@ from robodcn.config import Arm
 from robodcn.contract import schema_of
 from robodcn.http.planbody import move_body_schema, plan_body_schema
 from robodcn.http.results import RESULTS
-from robodcn.http.routes import ROUTES, TRANSPORT_ERRORS
+from robodcn.http.routes import ROUTES, TRANSPORT_ERRORS, Route
 from robodcn.planner import Trajectory
 
 
@@ -30,16 +30,18 @@ def schemas(arm: Arm | None = None) -> dict[str, dict[str, Any]]:
     }
 
 
-def openapi(arm: Arm | None = None, *, token: bool = False) -> dict[str, Any]:
+def openapi(arm: Arm | None = None, *, token: bool = False,
+            routes: tuple[Route, ...] = ROUTES) -> dict[str, Any]:
     """The OpenAPI 3.1 document: every operation with every status it can answer."""
     paths: dict[str, dict[str, Any]] = {}
-    for route in ROUTES:
+    for route in routes:
         op: dict[str, Any] = {
             "operationId": route.name, "summary": route.summary,
             "responses": {str(route.ok): {
                 "description": HTTPStatus(route.ok).phrase,
-                "content": {"application/json": {
-                    "schema": {"$ref": f"#/components/schemas/{route.response}"}}}}}}
+                "content": {route.media: {"schema": (
+                    {"$ref": f"#/components/schemas/{route.response}"}
+                    if route.media == "application/json" else {"type": "string"})}}}}}
         if route.params:
             op["parameters"] = [{"name": p, "in": "path", "required": True,
                                  "schema": {"type": "string"}} for p in route.params]

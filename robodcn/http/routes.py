@@ -12,6 +12,15 @@ request runs in, and ``/openapi.json``.
 - ``"stream"``: a long-lived response (e.g. Server-Sent Events): its own bounded pool of
   threads, exempt from the request deadline once its headers are in; the operation gets
   the socket and writes until the client leaves or the server shuts down.
+
+Adding a streaming endpoint (e.g. ``GET /v1/events``, Server-Sent Events)::
+
+    Route("GET", "/v1/events", "events", "Progress and state as Server-Sent Events", 200,
+          "OpenAPI", pool="stream", media="text/event-stream")
+
+and an operation ``events(server, request, params)`` that writes
+``framing.stream_head()`` then ``data: ...\n\n`` events to ``request.socket`` until the
+client leaves (OSError) or ``server.stopping`` is set, and returns ``(200, b"")``.
 """
 
 from __future__ import annotations
@@ -38,6 +47,7 @@ class Route:
     body: str | None = None     # component schema of the request body
     errors: tuple[int, ...] = ()
     pool: Pool = "work"
+    media: str = "application/json"   # content type of the success answer
     regex: re.Pattern[str] = field(init=False, repr=False, compare=False)
 
     def __post_init__(self) -> None:

@@ -45,7 +45,7 @@ from robodcn.errors import BusError, InputError, RobodcnError
 from robodcn.http import limits
 from robodcn.http.framing import HTTPError, Request, RequestReader, dumps, error_body, response
 from robodcn.http.openapi import openapi
-from robodcn.http.ops import OPERATIONS, authorize
+from robodcn.http.ops import OPERATIONS, Operation, authorize
 from robodcn.http.routes import ROUTES, Route, match
 
 log = logging.getLogger("robodcn.http")
@@ -106,7 +106,8 @@ class RobodcnHTTPServer:
                  max_per_client: int = limits.MAX_PER_CLIENT,
                  workers: int = limits.WORKERS, control_workers: int = limits.CONTROL_WORKERS,
                  stream_slots: int = limits.STREAM_SLOTS,
-                 routes: tuple[Route, ...] = ROUTES) -> None:
+                 routes: tuple[Route, ...] = ROUTES,
+                 operations: dict[str, Operation] | None = None) -> None:
         self.arm = arm
         self.controller = controller
         self.token = token
@@ -114,10 +115,12 @@ class RobodcnHTTPServer:
         self.max_connections = max_connections
         self.max_per_client = max_per_client
         self.routes = routes
+        #: Route name → operation (robodcn.http.ops.OPERATIONS and any given here).
+        self.operations = {**OPERATIONS, **(operations or {})}
         #: Small plans take turns on plan_lock, large ones on large_plan_lock (ops).
         self.plan_lock = threading.Lock()
         self.large_plan_lock = threading.Lock()
-        self.openapi_bytes = dumps(openapi(arm, token=token is not None))
+        self.openapi_bytes = dumps(openapi(arm, token=token is not None, routes=routes))
         host, port = address
         family = socket.AF_INET6 if ":" in host else socket.AF_INET
         self.socket = socket.socket(family, socket.SOCK_STREAM)
@@ -149,6 +152,11 @@ class RobodcnHTTPServer:
         self._stop = threading.Event()
         self._stopped = threading.Event()
         self._stopped.set()
+
+    @property
+    def stopping(self) -> bool:
+        """Shutdown was requested: streaming operations end their streams."""
+        return self._stop.is_set()
 
     @property
     def url(self) -> str:
@@ -407,7 +415,7 @@ class RobodcnHTTPServer:
         """Run the operation; every failure becomes its JSON error, never a traceback."""
         try:
             authorize(self, request)
-            status, payload = OPERATIONS[route.name](self, request, params)
+            status, payload = self.operations[route.name](self, request, params)
             headers = {}
             if route.name == "start_move":
                 headers["Location"] = f"/v1/moves/{payload['id']}"
@@ -447,12 +455,17 @@ class RobodcnHTTPServer:
 
     def _run_stream(self, conn: Connection, request: Request, route: Route,
                     params: dict[str, str], started: float) -> None:
-        """A streaming operation owns the (blocking) socket until it returns; no deadline."""
+        """A streaming operation owns the (blocking) socket until it returns: no request
+        deadline once its head is in; it gets ``request.socket`` (with WRITE_TIMEOUT per
+        write, so a client that stops reading frees the slot), writes
+        :func:`~robodcn.http.framing.stream_head` and its events, and returns
+        ``(status, b"")``. Refusing before streaming (an error) is answered here."""
         try:
             conn.sock.setblocking(True)
-            conn.sock.settimeout(None)
+            conn.sock.settimeout(limits.WRITE_TIMEOUT)
+            request.socket = conn.sock
             status, body, headers = self._answer(route, request, params)
-            if body:  # a refusal before streaming started
+            if body:  # a refusal (or a plain answer) instead of a stream
                 with contextlib.suppress(OSError):
                     conn.sock.sendall(response(status, body, headers=headers, close=True,
                                                server=_SERVER))
@@ -523,7 +536,9 @@ def make_server(arm: Arm, controller: Any, *, host: str = "127.0.0.1", port: int
                 token: str | None = None, request_timeout: float = limits.REQUEST_TIMEOUT,
                 max_connections: int = limits.MAX_CONNECTIONS,
                 max_per_client: int = limits.MAX_PER_CLIENT,
-                workers: int = limits.WORKERS) -> RobodcnHTTPServer:
+                workers: int = limits.WORKERS, stream_slots: int = limits.STREAM_SLOTS,
+                routes: tuple[Route, ...] = ROUTES,
+                operations: dict[str, Operation] | None = None) -> RobodcnHTTPServer:
     """A bound, not yet serving, HTTP server for ``arm`` (call ``serve_forever()``).
 
     Parameters
@@ -538,6 +553,9 @@ def make_server(arm: Arm, controller: Any, *, host: str = "127.0.0.1", port: int
         last byte (an absolute deadline)
     max_connections, max_per_client : open connections in all and from one address
     workers : threads for the ordinary operations
+    stream_slots : long-lived (``pool="stream"``) responses at once
+    routes, operations : the route table and extra operations by route name (a later
+        endpoint adds its Route and its function here, or in routes.ROUTES/ops.OPERATIONS)
 
     Raises
     ------
@@ -555,7 +573,8 @@ def make_server(arm: Arm, controller: Any, *, host: str = "127.0.0.1", port: int
         raise InputError(f"port must be an integer 0..65535, got {port!r}", field="port",
                          value=port)
     for name, value in (("max_connections", max_connections),
-                        ("max_per_client", max_per_client), ("workers", workers)):
+                        ("max_per_client", max_per_client), ("workers", workers),
+                        ("stream_slots", stream_slots)):
         _positive_int(name, value)
     if isinstance(request_timeout, bool) or not isinstance(request_timeout, int | float) \
             or not request_timeout > 0:
@@ -566,7 +585,9 @@ def make_server(arm: Arm, controller: Any, *, host: str = "127.0.0.1", port: int
         return RobodcnHTTPServer((host, port), arm, controller, token=token,
                                  request_timeout=float(request_timeout),
                                  max_connections=max_connections,
-                                 max_per_client=max_per_client, workers=workers)
+                                 max_per_client=max_per_client, workers=workers,
+                                 stream_slots=stream_slots, routes=routes,
+                                 operations=operations)
     except OSError as exc:
         reason = "address in use" if exc.errno == errno.EADDRINUSE else \
             (exc.strerror or str(exc)).lower()
