@@ -426,3 +426,19 @@ def test_a_streaming_route_outlives_the_deadline_in_its_own_bounded_pool() -> No
         _, _, doc = call(server, "GET", "/openapi.json")
         assert "text/event-stream" in doc["paths"]["/v1/ticks"]["get"]["responses"]["200"][
             "content"]
+
+
+def test_every_request_is_logged_in_one_line(planner_server: Any, caplog: Any) -> None:
+    import logging
+
+    with caplog.at_level(logging.INFO, logger="robodcn.http"):
+        call(planner_server, "GET", "/healthz")
+        call(planner_server, "TRACE", "/v1/arm")
+        call(planner_server, "POST", "/v1/trajectories", BODY)
+        time.sleep(0.1)
+    lines = [r.getMessage() for r in caplog.records if r.name == "robodcn.http"]
+    for method, path, status in (("GET", "/healthz", 200), ("TRACE", "/v1/arm", 405),
+                                 ("POST", "/v1/trajectories", 200)):
+        found = [x for x in lines if f" {method} {path} {status} " in x]
+        assert len(found) == 1, lines
+        assert found[0].endswith(" ms") and found[0].startswith("127.0.0.1 ")

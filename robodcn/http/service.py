@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import contextlib
+import logging
 import os
 import signal
 import threading
@@ -61,6 +62,8 @@ def serve(arm: Arm, *, host: str = "127.0.0.1", port: int = 8080, token: str | N
     if token is None:
         token = os.environ.get(TOKEN_ENV) or None
     check_token(token)
+    # Warnings of a request (e.g. a beta that the method ignores) go to the log, not stderr.
+    logging.captureWarnings(True)
     with contextlib.ExitStack() as stack:
         if sim:
             from robodcn.simulated import simulated_arm
