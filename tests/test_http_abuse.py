@@ -222,6 +222,19 @@ def test_hostile_numbers_and_nesting_name_the_field(planner_server: Any, raw: by
     assert len(err["message"]) < 400
 
 
+def test_errors_name_the_right_field(planner_server: Any) -> None:
+    """start_joints beyond a limit was reported as waypoints; too many waypoints as duration."""
+    beyond = ARM.joints[0].max_angle + 0.05
+    status, _, data = call(planner_server, "POST", "/v1/trajectories",
+                           {"waypoints": [HOME, TARGET], "start_joints": [beyond, 0, 0]})
+    assert status == 422 and error_of(data)["field"] == "start_joints[0]", data
+    t0 = time.monotonic()
+    status, _, data = call(planner_server, "POST", "/v1/trajectories",
+                           {"waypoints": [[0.2, 0.1, 0]] * 20_000})
+    assert status == 413 and error_of(data)["field"] == "waypoints", data
+    assert time.monotonic() - t0 < 2.0  # refused before planning (it took 65 s)
+
+
 def test_huge_plans_are_refused_before_planning(planner_server: Any) -> None:
     """``{"duration": 9999}`` used to plan for 8 s and answer 154 MB."""
     t0 = time.monotonic()
