@@ -248,7 +248,7 @@ class RobodcnHTTPServer:
                 log.info("%s refused: every connection is in use", conn.client)
                 self._send_and_close(conn, 503, "too_many_connections", "the server has too "
                                      "many requests in progress; retry later",
-                                     {"Retry-After": "1"})
+                                     {"Retry-After": "1"}, drain=False)
                 continue
             with self._lock:
                 self._conns[sock] = conn
