@@ -70,7 +70,7 @@ def one_of(name: str, value: Any, allowed: Iterable[str]) -> str:
     """``value`` when it is one of ``allowed``; InputError listing the choices otherwise."""
     allowed = tuple(allowed)
     if not isinstance(value, str) or value not in allowed:
-        raise InputError(f"{name} must be one of {', '.join(map(repr, allowed))}, got {value!r}",
+        raise InputError(f"{name} must be one of {', '.join(allowed)}, got {show(value)}",
                          field=name, value=value)
     return value
 

@@ -13,10 +13,15 @@ File layout (see ``configs/arm3r.toml``)::
     [arm.home] x, y (metres), theta | theta_deg
     [bus]      port, baud, protocol = 2.0, rate_hz
     [[joints]] name, min | min_deg, max | max_deg, max_velocity | max_velocity_deg_s,
-               max_acceleration | max_acceleration_deg_s2
+               max_acceleration | max_acceleration_deg_s2,
+               optional max_jerk | max_jerk_deg_s3 (absent: no jerk limit)
     [joints.servo] id, model, ticks_per_turn, zero_offset, direction, min_tick, max_tick
 
 Two joints make a position-only arm (θ free), three joints a full-pose arm.
+
+Values are checked against the servo model (:data:`SERVO_SPECS`: ticks a turn, no-load
+speed, largest profile acceleration) and physical sense (link lengths in
+:data:`LINK_RANGE`, joint limits within one turn); messages stay one short line.
 """
 
 from __future__ import annotations

@@ -31,6 +31,7 @@ Only numpy and the standard library are imported here, so the planning core stay
 from __future__ import annotations
 
 import dataclasses
+import json
 import math
 import types
 import typing
@@ -246,9 +247,25 @@ def is_number(value: Any) -> bool:
 
 
 def _show(value: Any) -> str:
+    """A short form of a JSON value for messages: never a deep repr or a 400-digit number."""
+    if isinstance(value, dict):
+        return "an object"
+    if isinstance(value, list | tuple) and any(isinstance(v, dict | list | tuple)
+                                               for v in value):
+        return f"an array of {len(value)} arrays/objects"
+    if isinstance(value, list | tuple) and len(value) > 8:
+        return f"an array of {len(value)} entries"
     if isinstance(value, int) and not isinstance(value, bool) and abs(value) > 10**15:
         return f"an integer of {len(str(abs(value)))} digits"
-    text = repr(value) if not isinstance(value, float | np.floating) else f"{float(value):g}"
+    if isinstance(value, float | np.floating):
+        text = f"{float(value):g}"
+    elif isinstance(value, list | tuple):
+        try:  # the user's own JSON, not a Python repr
+            text = json.dumps(list(value), allow_nan=True)
+        except (TypeError, ValueError):
+            text = repr(value)
+    else:
+        text = repr(value)
     return text if len(text) <= 60 else text[:57] + "..."
 
 

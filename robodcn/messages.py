@@ -49,23 +49,49 @@ def pose_text(pose: Sequence[float], units: Units) -> str:
     return f"x={pose[0]:.4f} m, y={pose[1]:.4f} m, {theta}"
 
 
-def field_name(path: str | None, units: Units) -> str | None:
-    """The name the user knows a request field by: the CLI option or the JSON path."""
+def field_name(path: str | None, units: Units,
+               waypoint_names: Sequence[str] | None = None) -> str | None:
+    """The name the user knows a request field by: the CLI option or the JSON path.
+
+    On the CLI a waypoint is named by the option that gave it when ``waypoint_names``
+    (one per waypoint, e.g. ``["--from", "--via #1", "--to"]``) is passed.
+    """
     if path is None or units == "si":
         return path
+    if path.startswith("waypoints["):
+        index = _index(path)
+        if waypoint_names is not None and index is not None and index < len(waypoint_names):
+            return waypoint_names[index]
+        return path
     option = contract.cli_option(path)
-    if option is None or "/" in option:  # waypoints: the CLI names --from/--via/--to itself
+    if option is None or "/" in option:
         return path
     return option
 
 
-def describe_violation(v: Violation, units: Units = "si") -> str:
-    """One line (two for a limit with a hint) naming sample, time, pose, segment, joint."""
+def _index(path: str) -> int | None:
+    """i of "waypoints[i]..." (a path the contract built)."""
+    head = path.split("]", 1)[0]
+    digits = head.split("[", 1)[1] if "[" in head else ""
+    return int(digits) if digits.isdigit() else None
+
+
+def _waypoint(i: int, units: Units, names: Sequence[str] | None) -> str:
+    if units == "cli" and names is not None and i < len(names):
+        return names[i]
+    return f"waypoint {i}" if units == "cli" else f"waypoints[{i}]"
+
+
+def describe_violation(v: Violation, units: Units = "si",
+                       waypoint_names: Sequence[str] | None = None) -> str:
+    """One line naming sample, time, pose, segment (or waypoint), joint, value and limit."""
     where = [f"sample {v.sample}"]
     if v.waypoint is not None:
-        where.append(f"waypoints[{v.waypoint}]")
+        where.append(_waypoint(v.waypoint, units, waypoint_names))
     elif v.segment is not None:
-        where.append(f"segment waypoint {v.segment[0]} → {v.segment[1]}")
+        a, b = (_waypoint(i, units, waypoint_names) for i in v.segment)
+        where.append(f"segment {a} → {b}" if units == "cli" or waypoint_names
+                     else f"segment waypoint {v.segment[0]} → {v.segment[1]}")
     where.append(f"t={v.t:.3f} s")
     where.append(pose_text(v.pose, units))
     head = f"{where[0]} ({', '.join(where[1:])})"
@@ -91,7 +117,8 @@ def describe_violation(v: Violation, units: Units = "si") -> str:
     return text
 
 
-def describe(item: RobodcnError | Violation | Warning, units: Units = "si") -> str:
+def describe(item: RobodcnError | Violation | Warning, units: Units = "si",
+             waypoint_names: Sequence[str] | None = None) -> str:
     """``item`` in the user's terms (module docstring); errors from data, not text.
 
     For an InputError raised by :mod:`robodcn.contract` the field path is swapped for the
@@ -99,13 +126,16 @@ def describe(item: RobodcnError | Violation | Warning, units: Units = "si") -> s
     :class:`Violation` is reworded from it; anything else keeps its own message.
     """
     if isinstance(item, Violation):
-        return describe_violation(item, units)
+        return describe_violation(item, units, waypoint_names)
     if isinstance(item, PlanError) and item.violation is not None:
-        return describe_violation(item.violation, units)
+        return describe_violation(item.violation, units, waypoint_names)
     reason = getattr(item, "reason", None)
     path = getattr(item, "field", None)
     if reason is not None and path is not None:
-        return f"{field_name(path, units)} {reason}"
+        return f"{field_name(path, units, waypoint_names)} {reason}"
+    if isinstance(item, PlanError) and item.waypoint is not None and units == "cli" \
+            and waypoint_names is not None and item.waypoint < len(waypoint_names):
+        return f"{item.message} ({waypoint_names[item.waypoint]})"
     if isinstance(item, Warning):
         message: Any = getattr(item, "message", str(item))
         return str(message).replace("beta", field_name("beta", units) or "beta", 1)

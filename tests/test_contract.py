@@ -170,3 +170,27 @@ def test_one_bad_value_is_named(data: st.DataObject) -> None:
     with pytest.raises(InputError) as info:
         contract.parse_request(b, ARM)
     assert info.value.field.split("[")[0] == name, (b, info.value)
+
+
+def test_trajectory_schema_from_its_definition() -> None:
+    from robodcn.planner import Trajectory, plan
+
+    schema = contract.schema_of(Trajectory)
+    traj = plan(ARM, [HOME, [0.2, 0.1, 0.3]])
+    data = json.loads(traj.to_json())
+    assert set(data) == set(schema["properties"])
+    assert set(schema["required"]) <= set(data)
+    assert schema["properties"]["ticks"]["items"]["items"] == {"type": "integer"}
+    assert schema["properties"]["method"]["anyOf"][0] == {"type": "string"}
+    assert all("description" in p for p in schema["properties"].values())
+
+
+def test_deep_or_huge_values_give_short_messages() -> None:
+    deep: Any = 0.0
+    for _ in range(400):
+        deep = [deep]
+    for bad in ({"waypoints": [HOME, deep]}, {"waypoints": [HOME, [0.1, 0.2, {"a": 1}]]},
+                {"beta": [1.0] * 10_000}, {"start_joints": deep}):
+        with pytest.raises(InputError) as info:
+            contract.parse_request({**body(), **bad}, ARM)
+        assert len(info.value.message) < 200

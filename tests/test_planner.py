@@ -344,12 +344,16 @@ def test_approach_segment_from_present_joints() -> None:
     hit = np.flatnonzero(np.linalg.norm(traj.poses - WAYPOINTS_3R[0], axis=1) < 1e-12)
     assert hit.size and hit[0] > 0
     np.testing.assert_allclose(traj.joints[hit[0]:], direct.joints, atol=1e-9)
+    # the approach is data: its length, in samples and seconds, survives JSON
+    assert traj.approach_samples == hit[0] and direct.approach_samples == 0
+    assert traj.approach_duration == pytest.approx(hit[0] / 200)
+    assert Trajectory.from_json(traj.to_json()).approach_samples == hit[0]
 
 
 def test_no_approach_when_already_there_and_replan() -> None:
     direct = plan(ARM3R, WAYPOINTS_3R, rate_hz=100)
     same = plan(ARM3R, WAYPOINTS_3R, rate_hz=100, start_joints=direct.joints[0] + 1e-5)
-    assert same.t.shape == direct.t.shape
+    assert same.t.shape == direct.t.shape and same.approach_samples == 0
     # the streamer's re-plan: same request, new present joints
     again = plan_request(dataclasses.replace(direct.request,
                                              start_joints=tuple(direct.joints[0] - 0.2)))
@@ -689,3 +693,29 @@ def test_jerk_limit_is_respected_by_auto_timing_and_checked() -> None:
     v = info.value.violation
     assert v.quantity == "jerk" and v.unit == "rad/s^3" and v.value > v.limit == limit
     assert info.value.field == "duration"
+
+
+def test_joint_limit_error_says_the_other_branch_would_pass() -> None:
+    # the elbow may only bend "down" (q2 ≥ −0.05): the configured "up" branch fails
+    arm = variant(ARM3R, only=1, min=-0.05, max=2.8)
+    with pytest.raises(JointLimitError) as info:
+        plan(arm, WAYPOINTS_3R)
+    v = info.value.violation
+    assert v.joint == "elbow" and v.other_branch_ok is True and v.sample == 0
+    assert v.waypoint == 0 and info.value.field == "waypoints[0]"
+    assert "other elbow branch would pass" in str(info.value)
+    traj = plan(arm, WAYPOINTS_3R, elbow="down")
+    check_trajectory(traj, arm, WAYPOINTS_3R)
+
+
+def test_issue_command_ends_elbow_up() -> None:
+    """``robodcn plan --from 0.4,0,0 --to 0.12,0.24,60`` on arm3r (elbow = "up")."""
+    import subprocess
+    import sys
+
+    out = subprocess.run([sys.executable, "-m", "robodcn", "plan", "--arm",
+                          str(CONFIGS / "arm3r.toml"), "--from", "0.4,0,0", "--to",
+                          "0.12,0.24,60", "--format", "json"], capture_output=True, text=True,
+                         check=True, timeout=60)
+    joints = np.array(json.loads(out.stdout)["joints"])
+    assert (joints[1:, 1] < 0).all()

@@ -99,7 +99,8 @@ def plan_request(req: PlanRequest) -> Trajectory:
             traj, violation = _assemble(req, pieces, counts, start)
     if violation is not None:
         if violation.quantity in ("position", "ticks"):
-            violation = dataclasses.replace(violation, other_branch_ok=_other_branch_ok(req))
+            violation = dataclasses.replace(violation,
+                                            other_branch_ok=_other_branch_ok(req, counts))
         validate.raise_for(violation)
     assert traj is not None
     if traj.branch_switches:
@@ -113,8 +114,9 @@ def plan_request(req: PlanRequest) -> Trajectory:
     return traj
 
 
-def _other_branch_ok(req: PlanRequest) -> bool:
-    """Whether the same request on the other elbow branch passes position and tick limits."""
+def _other_branch_ok(req: PlanRequest, counts: list[int]) -> bool:
+    """Whether the same request on the other elbow branch passes position and tick limits
+    (sampled as the failed plan was: timing plays no part in these checks)."""
     other = "down" if req.branch == "up" else "up"
     try:
         with warnings.catch_warnings():
@@ -123,7 +125,8 @@ def _other_branch_ok(req: PlanRequest) -> bool:
     except Exception:  # pragma: no cover - the same fields validated once already
         return False
     pieces, start = _pieces(alt)
-    counts = _counts(alt, pieces, start)
+    if len(pieces) != len(counts):  # an approach on one branch and not the other
+        counts = [COARSE] * len(pieces)
     _, violation = _assemble(alt, pieces, counts, start, dynamics=False)
     return violation is None
 
@@ -174,9 +177,10 @@ def _assemble(req: PlanRequest, pieces: list[Piece], counts: list[int],
         return None, violation
     t = np.arange(total) / rate
     elbow, switches = validate.elbow_branches(joints)
+    approach = counts[0] if pieces[0].path is None else 0
     return Trajectory(t, poses, joints, ticks, arm.joint_names, arm.servo_ids, rate,
                       req.method if isinstance(req.method, str) else list(req.method),
-                      req, elbow, switches), None
+                      req, elbow, switches, approach), None
 
 
 def _unreachable(req: PlanRequest, piece: Piece, n: int, ref: NDArray | None, offset: int,

@@ -30,7 +30,9 @@ class Trajectory:
     (the request's, a string or a list per segment); request; elbow : the IK branch at the
     first sample ("up" q2 < 0, "down" q2 > 0, None when stretched out or folded there);
     branch_switches : sample indices where the elbow branch differs from the one before
-    (through a singular pose; empty for almost every plan).
+    (through a singular pose; empty for almost every plan); approach_samples : sample
+    periods of the joint-space approach prepended from start_joints (0: none), so the
+    approach lasts ``approach_duration`` seconds from t = 0.
     """
 
     t: NDArray[np.float64] = field(metadata={
@@ -61,6 +63,9 @@ class Trajectory:
         "schema": {"enum": ["up", "down", None]}})
     branch_switches: tuple[int, ...] = field(default=(), metadata={
         "description": "Samples where the elbow branch changes (passing a singular pose)."})
+    approach_samples: int = field(default=0, metadata={
+        "description": "Sample periods of the joint-space approach from start_joints that "
+                       "opens the plan (0: none); it lasts approach_samples / rate_hz s."})
 
     def __post_init__(self) -> None:
         self.t = np.asarray(self.t, dtype=np.float64)
@@ -74,6 +79,7 @@ class Trajectory:
         self.joint_names = tuple(self.joint_names)
         self.servo_ids = tuple(int(i) for i in self.servo_ids)
         self.branch_switches = tuple(int(i) for i in self.branch_switches)
+        self.approach_samples = int(self.approach_samples)
         n = self.t.shape[0] if self.t.ndim == 1 else -1
         k = len(self.joint_names)
         for name, array, shape in (("t", self.t, (n,)), ("poses", self.poses, (n, 3)),
@@ -103,13 +109,19 @@ class Trajectory:
         """t[-1], seconds."""
         return float(self.t[-1])
 
+    @property
+    def approach_duration(self) -> float:
+        """Seconds of the joint-space approach at the start (0.0 without one)."""
+        return self.approach_samples / self.rate_hz
+
     def to_dict(self) -> dict[str, Any]:
         return {"t": self.t.tolist(), "poses": self.poses.tolist(),
                 "joints": self.joints.tolist(), "ticks": self.ticks.tolist(),
                 "joint_names": list(self.joint_names), "servo_ids": list(self.servo_ids),
                 "rate_hz": self.rate_hz, "method": self.method,
                 "request": None if self.request is None else self.request.to_dict(),
-                "elbow": self.elbow, "branch_switches": list(self.branch_switches)}
+                "elbow": self.elbow, "branch_switches": list(self.branch_switches),
+                "approach_samples": self.approach_samples}
 
     def to_json(self) -> str:
         """JSON with keys t, poses, joints, ticks, joint_names, servo_ids, rate_hz, method,
@@ -156,9 +168,14 @@ class Trajectory:
                 isinstance(i, int) and not isinstance(i, bool) for i in switches):
             raise InputError("branch_switches must be a list of sample indices",
                              field="branch_switches", value=None)
+        approach = data.get("approach_samples", 0)
+        if isinstance(approach, bool) or not isinstance(approach, int) \
+                or not 0 <= approach < arrays["t"].shape[0]:
+            raise InputError("approach_samples must be a sample count within the trajectory",
+                             field="approach_samples", value=approach)
         return cls(arrays["t"], arrays["poses"], arrays["joints"], arrays["ticks"], names,
                    data["servo_ids"], data["rate_hz"], data["method"], request, elbow,
-                   tuple(switches))
+                   tuple(switches), approach)
 
     def to_csv(self) -> str:
         """CSV: t, x, y, theta, one column per joint (rad), one per servo (ticks)."""

@@ -71,6 +71,36 @@ def _differences(joints: NDArray, order: int) -> NDArray:
     return d
 
 
+def _fine(joints: NDArray, ticks: NDArray, lo: NDArray, hi: NDArray, tmin: NDArray,
+          tmax: NDArray, limits: tuple[NDArray, NDArray, NDArray] | None, rate: float,
+          slack: float) -> bool:
+    """Whether every check passes, from per-joint extremes on contiguous columns (the fast
+    path: per-sample arrays are built only when something fails)."""
+    n = joints.shape[0]
+    for j in range(joints.shape[1]):
+        q = np.ascontiguousarray(joints[:, j])
+        tick = np.ascontiguousarray(ticks[:, j])
+        if not (lo[j] <= q.min() and q.max() <= hi[j] and tmin[j] <= tick.min()
+                and tick.max() <= tmax[j]):
+            return False
+        if limits is None or n < 2:
+            continue
+        v, a, jk = limits
+        d = np.diff(q)
+        if max(d.max(), -d.min()) * rate > v[j] * slack:
+            return False
+        # At rest on both sides: the end velocities are accelerations from/to zero.
+        d2 = np.diff(d) if n > 2 else np.empty(0)
+        step = max(abs(d[0]), abs(d[-1]), d2.max(initial=0.0), -d2.min(initial=0.0))
+        if step * rate * rate > a[j] * slack:
+            return False
+        if math.isfinite(jk[j]):
+            d3 = _differences(q[:, None], 3)
+            if d3.max() * rate ** 3 > jk[j] * slack:
+                return False
+    return True
+
+
 def check(req: PlanRequest, poses: NDArray, joints: NDArray, *, dynamics: bool = True,
           marks: dict[int, int] | None = None, segment_of: NDArray | None = None,
           ticks: NDArray | None = None) -> tuple[NDArray[np.int64], Violation | None]:
@@ -92,20 +122,15 @@ def check(req: PlanRequest, poses: NDArray, joints: NDArray, *, dynamics: bool =
     tmin = np.array([j.servo.min_tick for j in arm.joints])
     tmax = np.array([j.servo.max_tick for j in arm.joints])
     slack = 1.0 + LIMIT_SLACK
-    # Fast path on per-joint extremes; per-sample arrays only on failure.
-    fine = bool(np.all(joints.min(axis=0) >= lo) and np.all(joints.max(axis=0) <= hi)
-                and np.all(ticks.min(axis=0) >= tmin) and np.all(ticks.max(axis=0) <= tmax))
+    if _fine(joints, ticks, lo, hi, tmin, tmax, (v, a, jk) if dynamics else None, rate, slack):
+        return ticks, None
     rates = []
     if dynamics:
         for order, limit, quantity in ((1, v, "velocity"), (2, a, "acceleration"),
                                        (3, jk, "jerk")):
             if order == 3 and not np.isfinite(limit).any():
                 continue
-            d = _differences(joints, order) * rate ** order
-            rates.append((quantity, d, limit))
-            fine = fine and bool(np.all(d.max(axis=0) <= limit * slack))
-    if fine:
-        return ticks, None
+            rates.append((quantity, _differences(joints, order) * rate ** order, limit))
     pos_excess = np.maximum(lo - joints, joints - hi)
     tick_excess = np.maximum(tmin - ticks, ticks - tmax).astype(np.float64)
     checks = [("position", pos_excess > 0.0, pos_excess, joints),
