@@ -5,10 +5,17 @@ move is :func:`robodcn.stream.execute` on that thread, and an idle state read is
 queued to it. Other threads only start moves, read records, request stops and read the
 streamer's latest feedback, all under one lock that is never held across I/O.
 
-Move lifecycle: ``queued`` → ``running`` → ``done`` | ``stopped`` | ``failed``. One move at a
-time: :meth:`ArmController.start_move` raises :class:`~robodcn.errors.BusyError` while
-another is queued or running. The most recent ``history`` moves are kept for
-:meth:`ArmController.move`.
+Move lifecycle: ``queued`` → ``running`` → ``done`` | ``degraded`` | ``stopped`` | ``fault``
+| ``failed`` (:data:`robodcn.http.results.MoveState`): the finished status is the report's
+outcome (``degraded``: completed with samples skipped); ``fault`` is a bus or servo fault
+after motion began, ``failed`` a refusal before any sample was sent. One move at a time:
+:meth:`ArmController.start_move` raises :class:`~robodcn.errors.BusyError` while another is
+queued or running. The most recent ``history`` moves are kept for :meth:`ArmController.move`.
+
+Losing the serial device (unplugged, firmware_sim killed) is a bus fault, never a crash: the
+move ends ``fault`` with a report of what was sent, reads raise CommError (503), and the next
+request after a fault reopens and re-verifies the port, so the service recovers by itself
+once the device is back.
 """
 
 from __future__ import annotations
@@ -17,6 +24,7 @@ import collections
 import contextlib
 import itertools
 import logging
+import termios
 import threading
 import time
 from collections.abc import Iterator
@@ -30,7 +38,8 @@ import numpy as np
 from robodcn import kinematics, servo_units
 from robodcn.bus import ServoBus, describe_hardware_error
 from robodcn.config import Arm
-from robodcn.errors import BusyError, CommError, InputError, RobodcnError
+from robodcn.errors import BusError, BusyError, CommError, InputError, RobodcnError
+from robodcn.http.results import MoveStatus, State, StopAnswer, to_json
 from robodcn.planner import Trajectory
 from robodcn.stream import ExecutionReport, Progress, StopSignal, execute
 
@@ -41,7 +50,27 @@ log = logging.getLogger("robodcn.controller")
 DEFAULT_EXECUTE: dict[str, Any] = {"approach": True, "release": False}
 #: Seconds :meth:`ArmController.state` waits for an idle bus read.
 STATE_TIMEOUT = 5.0
-_STATUS = {"completed": "done", "stopped": "stopped"}
+#: Exceptions of a lost serial device that dynamixel-sdk/pyserial let through (pyserial's
+#: SerialException is an OSError; termios.error is not).
+DEVICE_ERRORS: tuple[type[BaseException], ...] = (OSError, termios.error)
+_OUTCOMES = ("done", "degraded", "stopped", "fault")
+
+
+def move_status(report: ExecutionReport) -> str:
+    """The move status of a finished execution: the report's ``outcome`` ("done" |
+    "degraded" | "stopped" | "fault"), derived from its stop reason and skipped samples
+    when the report predates ``outcome``."""
+    outcome = getattr(report, "outcome", None)
+    if outcome in _OUTCOMES:
+        return outcome
+    if report.stop_reason == "completed":
+        return "degraded" if report.samples_skipped else "done"
+    return "stopped" if report.stop_reason == "stopped" else "fault"
+
+
+def _device_fault(bus: ServoBus, exc: BaseException) -> CommError:
+    return CommError(f"the serial device {bus.port} failed ({type(exc).__name__}: {exc}); "
+                     "it is reopened on the next request", field="bus", value=bus.port)
 
 
 @dataclass
@@ -66,6 +95,8 @@ class MoveRecord:
     tracking_error: float | None = None
     report: ExecutionReport | None = None
     error: dict[str, Any] | None = None
+    #: The report as JSON when execute() raised (a lost device): what the controller saw.
+    fault_report: dict[str, Any] | None = None
     stop_signal: StopSignal = field(default_factory=StopSignal, repr=False)
     done: threading.Event = field(default_factory=threading.Event, repr=False)
     latest: Progress | None = field(default=None, repr=False)
@@ -75,12 +106,12 @@ class MoveRecord:
         return self.status in ("queued", "running")
 
     def to_dict(self) -> dict[str, Any]:
-        return {"id": self.id, "status": self.status, "progress": self.progress,
-                "elapsed": self.elapsed, "duration": self.trajectory.duration,
-                "samples": len(self.trajectory.t), "tracking_error": self.tracking_error,
-                "created": self.created, "started": self.started, "finished": self.finished,
-                "report": None if self.report is None else self.report.to_dict(),
-                "error": self.error}
+        report = self.fault_report if self.report is None else self.report.to_dict()
+        return to_json(MoveStatus(
+            id=self.id, status=self.status, progress=self.progress, elapsed=self.elapsed,
+            duration=self.trajectory.duration, samples=len(self.trajectory.t),
+            tracking_error=self.tracking_error, created=self.created, started=self.started,
+            finished=self.finished, report=report, error=None)) | {"error": self.error}
 
 
 class ArmController:
@@ -121,6 +152,8 @@ class ArmController:
         self._rad_per_tick = np.array([2.0 * np.pi / s.ticks_per_turn for s in arm.servos])
         #: The newest positions known without a read (feedback, goals, final reads).
         self._last_ticks: tuple[int, ...] | None = None
+        #: The last bus operation failed: reopen and re-verify the port before the next.
+        self._suspect = False
         self._worker = ThreadPoolExecutor(max_workers=1, thread_name_prefix="robodcn-arm")
 
     # -- moves --------------------------------------------------------------------------------
@@ -215,21 +248,27 @@ class ArmController:
         record.done.wait(timeout)
         return record
 
+    def request_stop(self, reason: str = "stop requested") -> None:
+        """Signal the current move to stop, without a lock or a wait (signal handlers)."""
+        record = self._current
+        if record is not None:
+            record.stop_signal.request(reason)
+
     def stop(self, *, wait: float = 1.0) -> dict[str, Any]:
         """Stop the current move, if any; the streamer holds the arm where it is.
 
         Thread-safe; sets the move's stop signal (acted on within one sample period) and
-        waits up to ``wait`` seconds for the hold to be written. Returns ``{"stopped": bool,
-        "move": id | None, "status": ...}``.
+        waits up to ``wait`` seconds for the hold to be written. Returns a
+        :class:`~robodcn.http.results.StopAnswer` as JSON.
         """
         with self._lock:
             record = self._current
         if record is None:
-            return {"stopped": False, "move": None, "status": None}
+            return to_json(StopAnswer(stopped=False, move=None, status=None))
         record.stop_signal.request("stop requested")
         record.done.wait(wait)
         with self._lock:
-            return {"stopped": True, "move": record.id, "status": record.status}
+            return to_json(StopAnswer(stopped=True, move=record.id, status=record.status))
 
     def _on_progress(self, record: MoveRecord, p: Progress) -> None:
         error = None
@@ -249,22 +288,84 @@ class ArmController:
             record.status = "running"
             record.started = time.time()
         try:
+            self._recover()
             report = execute(record.trajectory, self.bus, stop=record.stop_signal,
                              progress=lambda p: self._on_progress(record, p),
                              **self.execute_options)
         except RobodcnError as exc:
-            log.info("move %s refused: %s", record.id, exc.message)
-            self._finish(record, "failed", None, exc.to_dict())
+            self._suspect = self._suspect or isinstance(exc, BusError)
+            log.info("move %s ended: %s", record.id, exc.message)
+            self._finish(record, self._failed_or_fault(record), None, exc.to_dict())
+        except DEVICE_ERRORS as exc:
+            self._suspect = True
+            fault = _device_fault(self.bus, exc)
+            log.warning("move %s: %s", record.id, fault.message)
+            self._finish(record, self._failed_or_fault(record), None, fault.to_dict())
         except Exception as exc:  # a bug: keep the service up, say what happened
             log.exception("move %s crashed", record.id)
-            self._finish(record, "failed", None, {"code": "internal", "message":
-                                                  f"{type(exc).__name__}: {exc}",
-                                                  "field": None})
+            self._finish(record, self._failed_or_fault(record), None, {
+                "code": "internal", "message": f"{type(exc).__name__}: {exc}", "field": None})
         else:
-            status = _STATUS.get(report.stop_reason, "failed")
-            error = None if status != "failed" else {
+            status = move_status(report)
+            self._suspect = status == "fault"
+            error = None if status != "fault" else {
                 "code": report.stop_reason, "message": report.message, "field": None}
             self._finish(record, status, report, error)
+
+    @staticmethod
+    def _failed_or_fault(record: MoveRecord) -> str:
+        """``fault`` once a sample went out (the arm moved), ``failed`` before."""
+        return "failed" if record.latest is None else "fault"
+
+    def _fault_report(self, record: MoveRecord, error: dict[str, Any]) -> dict[str, Any]:
+        """What is known of a move that execute() could not report on (a lost device)."""
+        p = record.latest
+        return {"outcome": "fault", "stop_reason": error["code"], "message": error["message"],
+                "samples_total": len(record.trajectory.t),
+                "samples_sent": 0 if p is None else p.sample + 1,
+                "duration_s": record.elapsed, "last_goals": None if p is None else
+                list(p.goals), "last_present": None if p is None or p.present is None else
+                list(p.present)}
+
+    def _recover(self) -> None:
+        """After a bus fault: reopen and re-verify the port (worker thread only).
+
+        Raises CommError saying the device is still unavailable."""
+        if not self._suspect:
+            return
+        with self.bus.claim():
+            try:
+                self.bus.close()
+                self.bus.open()
+                self.bus.verify()
+            except (RobodcnError, *DEVICE_ERRORS) as exc:
+                message = exc.message if isinstance(exc, RobodcnError) else str(exc)
+                raise CommError(f"the servo bus on {self.bus.port} is unavailable ({message});"
+                                " the service retries on each request until it is back",
+                                field="bus", value=self.bus.port) from None
+        log.info("servo bus on %s reopened", self.bus.port)
+        self._suspect = False
+
+    def _on_worker(self, fn: Any, what: str) -> Any:
+        """Run ``fn`` on the worker thread (recovering the bus first); bus faults and lost
+        devices become CommError/BusError, a slow read CommError after STATE_TIMEOUT."""
+        def job() -> Any:
+            self._recover()
+            try:
+                return fn()
+            except BusError:
+                self._suspect = True
+                raise
+            except DEVICE_ERRORS as exc:
+                self._suspect = True
+                raise _device_fault(self.bus, exc) from None
+
+        future = self._worker.submit(job)
+        try:
+            return future.result(STATE_TIMEOUT)
+        except FutureTimeout:
+            raise CommError(f"{what} took over {STATE_TIMEOUT:g} s", field="bus",
+                            value=None) from None
 
     def _finish(self, record: MoveRecord, status: str, report: ExecutionReport | None,
                 error: dict[str, Any] | None) -> None:
@@ -272,6 +373,8 @@ class ArmController:
             record.status = status
             record.report = report
             record.error = error
+            if report is None and status == "fault" and error is not None:
+                record.fault_report = self._fault_report(record, error)
             record.finished = time.time()
             if report is not None:
                 final = report.final_positions or report.hold_goals
@@ -294,10 +397,11 @@ class ArmController:
         ticks = np.asarray(ticks, dtype=np.int64)
         joints = servo_units.ticks_to_radians(ticks[None, :], self.arm.servos)[0]
         pose = kinematics.fk(self.arm.links, joints[None, :])[0]
-        return {"joints": joints.tolist(), "pose": pose.tolist(), "ticks": ticks.tolist(),
-                "joint_names": list(self.arm.joint_names), "torque": torque,
-                "alerts": {str(i): describe_hardware_error(e) for i, e in alerts.items() if e},
-                "moving": move is not None, "move": move, "source": source}
+        return to_json(State(
+            joints=joints.tolist(), pose=pose.tolist(), ticks=ticks.tolist(),
+            joint_names=list(self.arm.joint_names), torque=torque,
+            alerts={str(i): describe_hardware_error(e) for i, e in alerts.items() if e},
+            moving=move is not None, move=move, source=source))
 
     def _read_state(self) -> dict[str, Any]:
         with self.bus.claim():
@@ -326,12 +430,7 @@ class ArmController:
         if record is not None:
             return self._state_from(ticks, torque=True, alerts={}, source="stream",
                                     move=record.id)
-        future = self._worker.submit(self._read_state)
-        try:
-            return future.result(STATE_TIMEOUT)
-        except FutureTimeout:
-            raise CommError(f"reading the arm's state took over {STATE_TIMEOUT:g} s",
-                            field="bus", value=None) from None
+        return self._on_worker(self._read_state, "reading the arm's state")
 
     def present_joints(self) -> np.ndarray:
         """The arm's present joint angles (k,) rad, read on the worker thread.
@@ -341,12 +440,7 @@ class ArmController:
         """
         with self._lock:
             self._check_free()
-        future = self._worker.submit(self._read_ticks)
-        try:
-            ticks = future.result(STATE_TIMEOUT)
-        except FutureTimeout:
-            raise CommError(f"reading the arm's position took over {STATE_TIMEOUT:g} s",
-                            field="bus", value=None) from None
+        ticks = self._on_worker(self._read_ticks, "reading the arm's position")
         return servo_units.ticks_to_radians(ticks[None, :], self.arm.servos)[0]
 
     def _read_ticks(self) -> np.ndarray:

@@ -164,8 +164,8 @@ def test_infeasible_sample_is_named(planner_server: Any) -> None:
     ({"waypoints": [HOME, TARGET], "blend": "yes"}, "blend"),
     ({"waypoints": [HOME, TARGET], "beta": "half"}, "beta"),
     ({"waypoints": [HOME, [0.2, 0.1]]}, "waypoints[1]"),
-    ({"waypoints": [HOME, TARGET, [0.2, "x", 0]]}, "waypoints[2]"),
-    ({"waypoints": [HOME, TARGET, [0.2, 1e400, 0]]}, "waypoints[2]"),
+    ({"waypoints": [HOME, TARGET, [0.2, "x", 0]]}, "waypoints[2][1]"),
+    ({"waypoints": [HOME, TARGET, [0.2, 1e400, 0]]}, "waypoints[2][1]"),
     ({"waypoints": [HOME]}, "waypoints"),
     ({"method": "sclerp"}, "waypoints"),
     ([HOME, TARGET], "body"),
@@ -258,7 +258,7 @@ def test_unknown_path_and_method(planner_server: Any) -> None:
     status, headers, data = call(planner_server, "DELETE", "/v1/trajectories")
     assert status == 405 and headers["Allow"] == "POST"
     status, headers, _ = call(planner_server, "POST", "/v1/arm", {})
-    assert status == 405 and headers["Allow"] == "GET"
+    assert status == 405 and headers["Allow"] == "GET, HEAD"
 
 
 def test_move_endpoints_without_an_arm_are_503(planner_server: Any) -> None:
@@ -295,35 +295,28 @@ def test_slow_client_does_not_block_others_and_times_out(planner_server: Any) ->
         status, _, _ = call(planner_server, "POST", "/v1/trajectories", BODY)
         assert status == 200
         assert time.monotonic() - t0 < 0.9  # answered before the stalled ones time out
-        # The server's 1 s socket timeout frees both threads: the sockets get closed.
-        for sock in (slow, silent):
+        # The 1 s request deadline: the stalled request gets 408, the silent one is closed.
+        for sock, want in ((slow, b"HTTP/1.1 408"), (silent, b"")):
             sock.settimeout(4)
             t1 = time.monotonic()
-            assert _read_all(sock) == b""
+            assert _read_all(sock)[:len(want)] == want
             assert time.monotonic() - t1 < 3
 
 
-def test_connections_beyond_the_cap_get_503_at_once() -> None:
+def test_connections_beyond_the_cap_close_the_oldest_waiting_one() -> None:
     with running(make_server(ARM, None, request_timeout=5.0, max_connections=2)) as server:
         idle = [socket.create_connection(address(server), timeout=5) for _ in range(2)]
         try:
-            # Both idle sockets hold a slot once accepted; the next connection is refused.
-            deadline = time.monotonic() + 5
-            while True:
-                status, headers, data = call(server, "GET", "/healthz")
-                if status == 503 or time.monotonic() > deadline:
-                    break
-                time.sleep(0.02)
-            assert status == 503 and error_of(data)["code"] == "too_many_connections"
-            assert headers["Retry-After"] == "1"
+            time.sleep(0.2)  # both accepted
+            # A newcomer is served; the oldest connection still waiting is closed with 503.
+            status, _, _ = call(server, "GET", "/healthz")
+            assert status == 200
+            head, _, payload = _read_all(idle[0]).partition(b"\r\n\r\n")
+            assert head.startswith(b"HTTP/1.1 503")
+            assert json.loads(payload)["error"]["code"] == "too_many_connections"
         finally:
-            idle[0].close()
-        # Closing one frees its slot (the handler sees EOF), well before the 5 s timeout.
-        t0 = time.monotonic()
-        while call(server, "GET", "/healthz")[0] != 200:
-            assert time.monotonic() - t0 < 3
-            time.sleep(0.02)
-        idle[1].close()
+            for sock in idle:
+                sock.close()
 
 
 # -- any body: a clean answer, never a crash -------------------------------------------------------
@@ -420,7 +413,7 @@ def test_openapi_body_schema_is_what_the_parser_accepts(planner_server: Any) -> 
     # Every documented field is accepted (a valid value of each, all at once).
     body = {"waypoints": [HOME, TARGET], "method": "seplerp", "beta": 1.0, "turn": "ccw",
             "duration": 1.5, "profile": "trapezoid", "rate_hz": 50, "blend": False,
-            "start_joints": None}
+            "start_joints": None, "elbow": None}
     assert set(body) == set(props)
     status, _, data = call(planner_server, "POST", "/v1/trajectories", body)
     assert status == 200, data
@@ -505,7 +498,9 @@ def test_move_executes_and_reports(arm_server: Any) -> None:
                 start_joints=start)
     assert body["samples"] == len(want.t) and body["duration"] == want.duration
     done = poll_move(server, body["id"], lambda b: b["status"] not in ("queued", "running"))
-    assert done["status"] == "done" and done["progress"] == 1.0, done
+    # "degraded" when the loaded test machine made the streamer skip samples.
+    assert done["status"] in ("done", "degraded") and done["progress"] == 1.0, done
+    assert (done["status"] == "degraded") == (done["report"]["samples_skipped"] > 0)
     assert done["report"]["stop_reason"] == "completed"
     assert done["report"]["samples_sent"] + done["report"]["samples_skipped"] == \
         done["report"]["samples_total"]
@@ -547,7 +542,7 @@ def test_two_concurrent_moves_one_is_409(arm_server: Any) -> None:
     _, _, health = call(server, "GET", "/healthz")
     assert health["moving"] is True
     final = poll_move(server, accepted["id"], lambda b: b["status"] not in ("queued", "running"))
-    assert final["status"] == "done", final["error"]
+    assert final["status"] in ("done", "degraded"), final["error"]
     assert call(server, "GET", "/healthz")[2]["moving"] is False
 
 
