@@ -10,6 +10,8 @@ Endpoints (one route table, :data:`ROUTES`, drives both dispatch and ``/openapi.
     POST /v1/stop            stop and hold
     GET  /v1/state           present joints, pose, torque, alerts
     GET  /openapi.json       OpenAPI 3.1 document of all of the above
+    GET  /v1/events          Server-Sent Events: live state, move status, alerts
+    GET  /                   the web console (robodcn.web); its files under /static/{name}
 
 Errors are ``{"error": {"code", "message", "field", ...}}`` with the status of the
 :mod:`robodcn.errors` class (``http_status``: 422 input/plan, 409 busy, 503 bus fault) or of
@@ -49,6 +51,7 @@ from robodcn.config import Arm
 from robodcn.errors import BusError, InputError, RobodcnError
 from robodcn.interpolate import METHODS
 from robodcn.planner import PROFILES, TURNS, PlanRequest, plan_request
+from robodcn.web import assets, events
 
 log = logging.getLogger("robodcn.http")
 
@@ -153,6 +156,7 @@ class Route:
     response: str               # component schema of the success body
     body: str | None = None     # component schema of the request body
     errors: tuple[int, ...] = ()
+    media: str = "application/json"  # content type of the success body
 
     @property
     def regex(self) -> re.Pattern[str]:
@@ -180,6 +184,12 @@ ROUTES: tuple[Route, ...] = (
     Route("GET", "/v1/state", "state", "Present joints, pose, torque and hardware alerts",
           200, "State", None, (503,)),
     Route("GET", "/openapi.json", "openapi", "This OpenAPI 3.1 document", 200, "OpenAPI"),
+    Route("GET", "/v1/events", "events", "Server-Sent Events: state (≥ 20 Hz while moving, "
+          "≥ 1 Hz at rest), move status changes, alerts", 200, "Events", None, (503,),
+          "text/event-stream"),
+    Route("GET", "/", "console", "The web console (HTML page)", 200, "Page", media="text/html"),
+    Route("GET", "/static/{name}", "static", "A file of the web console (JS, CSS)", 200,
+          "Page", None, (404,), "text/plain"),
 )
 _COMPILED = tuple((route, route.regex) for route in ROUTES)
 
@@ -262,6 +272,9 @@ SCHEMAS: dict[str, dict[str, Any]] = {
                            "config": {"type": "object",
                                       "description": "robodcn.config.Arm.to_dict()"}}},
     "OpenAPI": {"type": "object"},
+    "Events": {"type": "string", "description": "SSE: `event: state|move|alert`, `data:` one "
+               "JSON object (State plus move_info and time; Move; {alerts, error})"},
+    "Page": {"type": "string"},
     "Error": _error_schema(),
 }
 
@@ -274,7 +287,7 @@ def openapi(arm: Arm | None = None, *, token: bool = False) -> dict[str, Any]:
             "operationId": route.name, "summary": route.summary,
             "responses": {str(route.ok): {
                 "description": HTTPStatus(route.ok).phrase,
-                "content": {"application/json": {
+                "content": {route.media: {
                     "schema": {"$ref": f"#/components/schemas/{route.response}"}}}}}}
         if route.params:
             op["parameters"] = [{"name": p, "in": "path", "required": True,
@@ -358,6 +371,8 @@ class Handler(BaseHTTPRequestHandler):
             route, params = self._route()
             self._authorize(route)
             status, payload = getattr(self, f"_op_{route.name}")(params)
+            if status is None:  # the operation wrote its own response (page, event stream)
+                return
             headers = {}
             if route.name == "start_move":
                 headers["Location"] = f"/v1/moves/{payload['id']}"
@@ -544,6 +559,19 @@ class Handler(BaseHTTPRequestHandler):
     def _op_openapi(self, params: dict[str, str]) -> tuple[int, Any]:
         return 200, self.server.openapi_bytes
 
+    def _op_events(self, params: dict[str, str]) -> tuple[None, None]:
+        self._controller()
+        events.serve(self, self.server.events)
+        return None, None
+
+    def _op_console(self, params: dict[str, str]) -> tuple[None, None]:
+        return self._op_static({"name": assets.INDEX})
+
+    def _op_static(self, params: dict[str, str]) -> tuple[None, None]:
+        if not assets.serve_asset(self, params["name"]):
+            raise HTTPError(404, "not_found", f"no console file {params['name']!r}", "name")
+        return None, None
+
 
 class RobodcnHTTPServer(ThreadingHTTPServer):
     """A ThreadingHTTPServer holding the arm, the controller and the settings of one service."""
@@ -567,7 +595,12 @@ class RobodcnHTTPServer(ThreadingHTTPServer):
         # clients (bench_http).
         self.plan_lock = threading.Lock()
         self.openapi_bytes = _dumps(openapi(arm, token=token is not None))
+        self.events = events.EventHub(controller)
         super().__init__(address, Handler)
+
+    def server_close(self) -> None:
+        self.events.close()  # end the event streams, which would otherwise never finish
+        super().server_close()
 
     def process_request(self, request: Any, client_address: Any) -> None:
         if not self.connection_slots.acquire(blocking=False):
