@@ -376,22 +376,32 @@ async function preview() {
   if (seq !== S.previewSeq) return;  // a newer preview was asked for meanwhile
   S.plans = Object.fromEntries(results);
   S.planOrder = methods;
-  const rows = results.map(([m, p]) => {
-    const d = p.traj ? `${p.traj.t[p.traj.t.length - 1].toFixed(2)} s` : "–";
-    const ok = p.traj ? `<td class="ok">feasible · ${p.traj.t.length} samples</td>`
-      : `<td class="bad">${esc(p.error.code || "infeasible")}</td>`;
-    return `<tr data-method="${m}"><td><span class="swatch" style="background:${COLORS[m]}"></span></td>` +
-      `<td>${NAMES[m]}${m === "kenlerp" ? " β=" + parseFloat($("beta").value).toFixed(2) : ""}</td><td>${d}</td>${ok}</tr>`;
-  });
-  $("plans").querySelector("tbody").innerHTML = rows.join("");
+  // Built node by node: the page's Content-Security-Policy forbids inline style markup.
+  const tbody = $("plans").querySelector("tbody");
+  tbody.replaceChildren(...results.map(([m, p]) => {
+    const tr = document.createElement("tr");
+    tr.dataset.method = m;
+    const cell = (text, cls) => {
+      const td = document.createElement("td");
+      td.textContent = text;
+      if (cls) td.className = cls;
+      tr.appendChild(td);
+      return td;
+    };
+    const swatch = document.createElement("span");
+    swatch.className = "swatch";
+    swatch.style.background = COLORS[m];
+    cell("").appendChild(swatch);
+    cell(NAMES[m] + (m === "kenlerp" ? " β=" + parseFloat($("beta").value).toFixed(2) : ""));
+    cell(p.traj ? `${p.traj.t[p.traj.t.length - 1].toFixed(2)} s` : "–");
+    if (p.traj) cell(`feasible · ${p.traj.t.length} samples`, "ok");
+    else cell(p.error.code || "infeasible", "bad").title = p.error.message;
+    return tr;
+  }));
   const failed = results.filter(([, p]) => p.error);
   if (failed.length) showError(failed.map(([m, p]) => (failed.length > 1 || m !== main ? NAMES[m] + ": " : "") + p.error.message).join("\n"));
   else clearError();
   redraw();
-}
-
-function esc(s) {
-  return String(s).replace(/[&<>"]/g, (c) => ({ "&": "&amp;", "<": "&lt;", ">": "&gt;", '"': "&quot;" }[c]));
 }
 
 // -- control ------------------------------------------------------------------------------------
@@ -638,6 +648,7 @@ function bindControls() {
     schedulePreview();
   });
   $("token").value = S.token;
+  $("token-box").addEventListener("submit", (ev) => { ev.preventDefault(); $("token").blur(); });
   $("token").addEventListener("change", () => {
     S.token = $("token").value.trim();
     if (S.token) sessionStorage.setItem("robodcn-token", S.token);
