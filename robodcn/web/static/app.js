@@ -692,5 +692,6 @@ async function init() {
   redraw();
 }
 
-window.robodcnConsole = { S, toCanvas, preview, stats: S.stats };
+// For tests and the curious: the page's state and a synchronous redraw.
+window.robodcnConsole = { S, toCanvas, preview, draw: drawArm, stats: S.stats };
 document.addEventListener("DOMContentLoaded", init);
