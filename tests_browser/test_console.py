@@ -114,6 +114,15 @@ def test_move_runs_to_done(driver: Any, until: Any, service: Any, tmp_path: Path
     open_console(driver, until, service)
     start = present_degrees(service)
     type_target(driver, REACHABLE, duration="2.5")
+    # Overlay all four methods: each gets a row with its duration and feasibility.
+    for box in driver.find_elements("css selector", ".overlay-method"):
+        if not box.is_selected():
+            box.click()
+    el(driver, "preview").click()
+    until(lambda d: len(d.find_elements("css selector", "#plans tbody tr")) == 4, 10)
+    rows = [r.text for r in driver.find_elements("css selector", "#plans tbody tr")]
+    for name in ("ScLERP", "KenLERP", "SEP-LERP", "DLB"):
+        assert any(name in r and "2.50 s" in r and "feasible" in r for r in rows), rows
     move_id = click_move_and_wait_running(driver, until, service)
     until(lambda d: el(d, "move-status").text == "running", 10)
     time.sleep(1.0)

@@ -194,12 +194,14 @@ function drawArm() {
     ctx.stroke(); ctx.setLineDash([]);
   }
   ctx.fillStyle = "#66707c"; ctx.font = "11px system-ui";
-  ctx.fillText(`reach ${sum.toFixed(2)} m · grid 5 cm`, 8, canvas.height - 8);
+  ctx.fillText(`grid 5 cm · shaded: reach ${sum.toFixed(2)} m (any θ) · dashed ring: reach at ` +
+    "the target's θ · black: measured tool path", 8, canvas.height - 8);
 
   // Planned paths: the preview's methods, then the running move's plan.
-  for (const m of S.planOrder) {
+  const main = $("method").value;
+  for (const m of [...S.planOrder.filter((n) => n !== main), main]) {  // the chosen one on top
     const p = S.plans[m];
-    if (p && p.traj) drawPath(ctx, p.traj.poses, COLORS[m] || "#555", m === $("method").value ? 2.5 : 1.5);
+    if (p && p.traj) drawPath(ctx, p.traj.poses, COLORS[m] || "#555", m === main ? 2.5 : 1.5);
   }
   if (S.movePlan) drawPath(ctx, S.movePlan.poses, "#444", 1.2, [6, 4]);
   // The failing sample (or waypoint) of an infeasible plan.
