@@ -568,6 +568,8 @@ class Handler(BaseHTTPRequestHandler):
         return self._op_static({"name": assets.INDEX})
 
     def _op_static(self, params: dict[str, str]) -> tuple[None, None]:
+        if self._body_pending:  # an unread body would be parsed as the next request
+            self.close_connection = True
         if not assets.serve_asset(self, params["name"]):
             raise HTTPError(404, "not_found", f"no console file {params['name']!r}", "name")
         return None, None

@@ -157,6 +157,17 @@ def test_assets_are_the_shipped_files() -> None:
         assert assets.asset(bad) is None, bad
 
 
+def test_every_asset_is_package_data() -> None:
+    import fnmatch
+    import tomllib
+
+    patterns = tomllib.loads((ROOT / "pyproject.toml").read_text())["tool"]["setuptools"][
+        "package-data"]["robodcn.web"]
+    for path in (ROOT / "robodcn" / "web" / "static").iterdir():
+        rel = f"static/{path.name}"
+        assert any(fnmatch.fnmatch(rel, p) for p in patterns), rel
+
+
 def test_page_loads_nothing_from_elsewhere() -> None:
     page = assets.asset("index.html")[0].decode()
     script = assets.asset("app.js")[0].decode()

@@ -234,6 +234,24 @@ def test_the_page_works_with_a_token(driver: Any, until: Any, token_service: Any
     assert driver.execute_script("return localStorage.length") == 0
 
 
+def test_keyboard_jog_moves_the_tool(driver: Any, until: Any, service: Any) -> None:
+    from selenium.webdriver.common.action_chains import ActionChains
+    from selenium.webdriver.common.keys import Keys
+
+    service.wait_idle()
+    open_console(driver, until, service)
+    _, state = service.call("GET", "/v1/state")
+    before = service.move_count()
+    driver.execute_script("document.activeElement && document.activeElement.blur()")
+    ActionChains(driver).send_keys(Keys.ARROW_RIGHT).perform()  # +x by the 1 cm step
+    until(lambda d: service.move_count() == before + 1, 10, "the key started no move")
+    until(lambda d: el(d, "move-status").get_attribute("data-move-id") == str(before + 1))
+    until(lambda d: el(d, "move-status").text == "done", 20)
+    _, after = service.call("GET", "/v1/state")
+    assert abs(after["pose"][0] - state["pose"][0] - 0.01) < 0.002, (state["pose"], after["pose"])
+    assert abs(after["pose"][1] - state["pose"][1]) < 0.002
+
+
 @pytest.mark.parametrize("path", ["/static/app.js", "/static/style.css"])
 def test_assets_are_served(driver: Any, service: Any, path: str) -> None:
     status, _ = service.call("GET", "/healthz")
