@@ -178,6 +178,24 @@ def test_unreachable_target_shows_the_error_and_sends_no_move(driver: Any, until
         "const p = window.robodcnConsole.S.plans.sclerp; return p && p.mark"), 10)
 
 
+def test_a_too_fast_plan_marks_its_failing_sample(driver: Any, until: Any,
+                                                 service: Any) -> None:
+    service.wait_idle()
+    open_console(driver, until, service)
+    type_target(driver, REACHABLE, duration="0.3")
+    el(driver, "preview").click()
+    text = until(lambda d: el(d, "error").text, 10)
+    assert re.search(r"sample \d+", text) and "limit" in text, text
+    mark = until(lambda d: d.execute_script(
+        "const p = window.robodcnConsole.S.plans.sclerp; return p && p.error && p.mark"), 10)
+    # The mark lies on the path: between the start and the target, inside the reach.
+    _, state = service.call("GET", "/v1/state")
+    assert math.hypot(mark[0], mark[1]) <= sum(service.call("GET", "/v1/arm")[1]["config"][
+        "arm"]["links"])
+    span = math.hypot(REACHABLE[0] - state["pose"][0], REACHABLE[1] - state["pose"][1])
+    assert math.hypot(mark[0] - state["pose"][0], mark[1] - state["pose"][1]) <= span + 0.01
+
+
 def test_dragging_the_target_changes_the_inputs(driver: Any, until: Any, service: Any) -> None:
     from selenium.webdriver.common.action_chains import ActionChains
     from selenium.webdriver.common.actions.wheel_input import ScrollOrigin

@@ -204,17 +204,19 @@ function drawArm() {
     if (p && p.traj) drawPath(ctx, p.traj.poses, COLORS[m] || "#555", m === main ? 2.5 : 1.5);
   }
   if (S.movePlan) drawPath(ctx, S.movePlan.poses, "#444", 1.2, [6, 4]);
-  // The failing sample (or waypoint) of an infeasible plan.
-  for (const m of S.planOrder) {
+  // The failing sample (or waypoint) of an infeasible plan, in its method's colour.
+  S.planOrder.filter((m) => S.plans[m] && S.plans[m].mark).forEach((m, i) => {
     const p = S.plans[m];
-    if (p && p.mark) {
-      const [px, py] = toCanvas(p.mark[0], p.mark[1]);
-      ctx.strokeStyle = "#b3261e"; ctx.lineWidth = 3;
-      ctx.beginPath(); ctx.moveTo(px - 8, py - 8); ctx.lineTo(px + 8, py + 8);
-      ctx.moveTo(px + 8, py - 8); ctx.lineTo(px - 8, py + 8); ctx.stroke();
-      ctx.beginPath(); ctx.arc(px, py, 12, 0, 2 * Math.PI); ctx.stroke();
-    }
-  }
+    const [px, py] = toCanvas(p.mark[0], p.mark[1]);
+    ctx.strokeStyle = "#b3261e"; ctx.lineWidth = 3;
+    ctx.beginPath(); ctx.moveTo(px - 8, py - 8); ctx.lineTo(px + 8, py + 8);
+    ctx.moveTo(px + 8, py - 8); ctx.lineTo(px - 8, py + 8); ctx.stroke();
+    ctx.strokeStyle = COLORS[m] || "#b3261e"; ctx.lineWidth = 2;
+    ctx.beginPath(); ctx.arc(px, py, 12 + 3 * i, 0, 2 * Math.PI); ctx.stroke();
+    ctx.fillStyle = COLORS[m] || "#b3261e"; ctx.font = "12px system-ui";
+    const where = typeof p.error.sample === "number" ? `sample ${p.error.sample}` : p.error.field || "";
+    ctx.fillText(`${NAMES[m]}: ${where}`, px + 18, py - 10 + 14 * i);
+  });
   // Measured tool path of the latest move.
   if (S.measured.length > 1) {
     ctx.strokeStyle = "#111"; ctx.lineWidth = 2;
@@ -363,6 +365,28 @@ function markOf(error, body) {
   return null;
 }
 
+async function locateSample(error, body) {
+  // A speed or acceleration limit depends on the duration only: the same request slowed
+  // down F times passes through the same poses, sample k at t·F. Exact unless the planner
+  // prepends an approach (its own time law), which shows as a longer plan: then give up.
+  if (!["velocity_limit", "acceleration_limit"].includes(error.code) ||
+      typeof body.duration !== "number" || typeof error.t !== "number") return null;
+  const F = 10;
+  try {
+    const tr = await api("POST", "/v1/trajectories", { ...body, duration: body.duration * F });
+    const n = tr.t.length - 1;
+    if (Math.abs(n - Math.round(body.duration * F * tr.rate_hz)) > 1) return null;
+    return tr.poses[Math.round(error.t * F * tr.rate_hz)] || null;
+  } catch (_) {
+    return null;
+  }
+}
+
+async function failure(error, body) {
+  // A failed plan and where on the canvas it fails (null when the error cannot say).
+  return { error, body, mark: markOf(error, body) || await locateSample(error, body) };
+}
+
 async function preview() {
   if (!readInputs()) { showError({ message: "x, y and θ must be numbers", field: "target" }); return; }
   const main = $("method").value;
@@ -373,7 +397,7 @@ async function preview() {
     const body = planBody(m);
     if (S.state) body.start_joints = S.state.joints;
     try { return [m, { traj: await api("POST", "/v1/trajectories", body), body }]; }
-    catch (e) { return [m, { error: e.error, body, mark: markOf(e.error, body) }]; }
+    catch (e) { return [m, await failure(e.error, body)]; }
   }));
   if (seq !== S.previewSeq) return;  // a newer preview was asked for meanwhile
   S.plans = Object.fromEntries(results);
@@ -431,6 +455,14 @@ async function startMove() {
     }).catch(() => {});
   } catch (e) {
     showError(e.error);
+    if (e.status === 422) {  // show where the refused plan fails
+      const m = $("method").value;
+      if (S.state) body.start_joints = S.state.joints;
+      delete body.replace;
+      S.plans = { [m]: await failure(e.error, body) };
+      S.planOrder = [m];
+      redraw();
+    }
   }
 }
 
