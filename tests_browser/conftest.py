@@ -62,8 +62,8 @@ class Service:
             time.sleep(0.05)
 
 
-def _serve(token: str | None) -> Iterator[Service]:
-    args = [sys.executable, "-m", "robodcn", "serve", "--sim", "--port", "0",
+def _serve(token: str | None, target: tuple[str, ...] = ("--sim",)) -> Iterator[Service]:
+    args = [sys.executable, "-m", "robodcn", "serve", *target, "--port", "0",
             "--arm", str(ROOT / "configs" / "arm3r.toml")]
     if token:
         args += ["--token", token]
@@ -89,6 +89,23 @@ def service() -> Iterator[Service]:
 @pytest.fixture(scope="module")
 def token_service() -> Iterator[Service]:
     yield from _serve("s3cret-token")
+
+
+@pytest.fixture(scope="module")
+def device_service() -> Iterator[Service]:
+    """``robodcn serve --device`` on a firmware_sim bus in its own process (servos at 0°)."""
+    sim = subprocess.Popen([sys.executable, "-m", "firmware_sim", "--ids", "1,2,3"],
+                           stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, cwd=ROOT)
+    try:
+        device = sim.stdout.readline().strip()
+        assert device.startswith("/dev/"), sim.stderr.read()
+        yield from _serve(None, ("--device", device))
+    finally:
+        sim.send_signal(signal.SIGTERM)
+        try:
+            sim.wait(timeout=15)
+        except subprocess.TimeoutExpired:
+            sim.kill()
 
 
 @pytest.fixture(scope="session")

@@ -270,6 +270,24 @@ def test_keyboard_jog_moves_the_tool(driver: Any, until: Any, service: Any) -> N
     assert abs(after["pose"][1] - state["pose"][1]) < 0.002
 
 
+def test_the_page_drives_serve_device_on_firmware_sim(driver: Any, until: Any,
+                                                      device_service: Any) -> None:
+    driver.get_log("browser")
+    open_console(driver, until, device_service)
+    start = present_degrees(device_service)
+    type_target(driver, REACHABLE)
+    move_id = click_move_and_wait_running(driver, until, device_service)
+    until(lambda d: el(d, "move-status").text == "done", 30)
+    assert device_service.call("GET", f"/v1/moves/{move_id}")[1]["status"] == "done"
+    _, state = device_service.call("GET", "/v1/state")
+    assert math.hypot(state["pose"][0] - REACHABLE[0], state["pose"][1] - REACHABLE[1]) < 0.005
+    end = present_degrees(device_service)
+    assert max(abs(a - b) for a, b in zip(start, end, strict=True)) > 5
+    until(lambda d: all(abs(a - b) < 0.2 for a, b in zip(shown_degrees(d), end, strict=True)),
+          5, "the joints readout does not show the final joints")
+    assert severe_logs(driver) == []
+
+
 @pytest.mark.parametrize("path", ["/static/app.js", "/static/style.css"])
 def test_assets_are_served(driver: Any, service: Any, path: str) -> None:
     status, _ = service.call("GET", "/healthz")
