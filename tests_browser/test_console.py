@@ -69,6 +69,13 @@ def shown_degrees(driver: Any) -> list[float]:
     return [float(v) for v in re.findall(r"-?\d+(?:\.\d+)?", el(driver, "joints").text)]
 
 
+def far_target(service: Any) -> tuple[float, float, float]:
+    """Home or REACHABLE, whichever the arm is not at: a move of some length from here."""
+    _, state = service.call("GET", "/v1/state")
+    x, y, _ = state["pose"]
+    return (0.25, 0.10, 0.0) if math.hypot(x - 0.25, y - 0.10) > 0.05 else REACHABLE
+
+
 def click_move_and_wait_running(driver: Any, until: Any, service: Any) -> str:
     before = service.move_count()
     el(driver, "move").click()
@@ -113,16 +120,21 @@ def test_move_runs_to_done(driver: Any, until: Any, service: Any, tmp_path: Path
     service.wait_idle()
     open_console(driver, until, service)
     start = present_degrees(service)
-    type_target(driver, REACHABLE, duration="2.5")
+    type_target(driver, far_target(service), duration="2.5")
     # Overlay all four methods: each gets a row with its duration and feasibility.
     for box in driver.find_elements("css selector", ".overlay-method"):
         if not box.is_selected():
             box.click()
     el(driver, "preview").click()
-    until(lambda d: len(d.find_elements("css selector", "#plans tbody tr")) == 4, 10)
-    rows = [r.text for r in driver.find_elements("css selector", "#plans tbody tr")]
-    for name in ("ScLERP", "KenLERP", "SEP-LERP", "DLB"):
-        assert any(name in r and "2.50 s" in r and "feasible" in r for r in rows), rows
+    rows_js = "return [...document.querySelectorAll('#plans tbody tr')].map(r => r.innerText)"
+
+    def every_method_feasible(d: Any) -> bool:
+        rows = d.execute_script(rows_js)
+        return len(rows) == 4 and all(
+            any(name in r and "2.50 s" in r and "feasible" in r for r in rows)
+            for name in ("ScLERP", "KenLERP", "SEP-LERP", "DLB"))
+
+    until(every_method_feasible, 10, "not every method's row says feasible in 2.50 s")
     move_id = click_move_and_wait_running(driver, until, service)
     until(lambda d: el(d, "move-status").text == "running", 10)
     time.sleep(1.0)
@@ -146,11 +158,8 @@ def test_move_runs_to_done(driver: Any, until: Any, service: Any, tmp_path: Path
 def test_stop_during_a_move_stops_it(driver: Any, until: Any, service: Any) -> None:
     service.wait_idle()
     open_console(driver, until, service)
-    _, state = service.call("GET", "/v1/state")
-    x, y, _ = state["pose"]
-    # Back and forth from wherever the arm is, slowly, so the stop lands mid-move.
-    target = (0.25, 0.10, 0.0) if math.hypot(x - 0.25, y - 0.10) > 0.05 else REACHABLE
-    type_target(driver, target, duration="6")
+    # Slowly, so that the stop lands mid-move.
+    type_target(driver, far_target(service), duration="6")
     move_id = click_move_and_wait_running(driver, until, service)
     until(lambda d: el(d, "move-status").text == "running", 10)
     time.sleep(0.5)
@@ -182,7 +191,8 @@ def test_a_too_fast_plan_marks_its_failing_sample(driver: Any, until: Any,
                                                  service: Any) -> None:
     service.wait_idle()
     open_console(driver, until, service)
-    type_target(driver, REACHABLE, duration="0.3")
+    target = far_target(service)
+    type_target(driver, target, duration="0.3")
     el(driver, "preview").click()
     text = until(lambda d: el(d, "error").text, 10)
     assert re.search(r"sample \d+", text) and "limit" in text, text
@@ -192,7 +202,7 @@ def test_a_too_fast_plan_marks_its_failing_sample(driver: Any, until: Any,
     _, state = service.call("GET", "/v1/state")
     assert math.hypot(mark[0], mark[1]) <= sum(service.call("GET", "/v1/arm")[1]["config"][
         "arm"]["links"])
-    span = math.hypot(REACHABLE[0] - state["pose"][0], REACHABLE[1] - state["pose"][1])
+    span = math.hypot(target[0] - state["pose"][0], target[1] - state["pose"][1])
     assert math.hypot(mark[0] - state["pose"][0], mark[1] - state["pose"][1]) <= span + 0.01
 
 
@@ -219,10 +229,7 @@ def test_dragging_the_target_changes_the_inputs(driver: Any, until: Any, service
 def test_events_arrive_at_20_hz_while_moving(driver: Any, until: Any, service: Any) -> None:
     service.wait_idle()
     open_console(driver, until, service)
-    _, state = service.call("GET", "/v1/state")
-    x, y, _ = state["pose"]
-    target = (0.25, 0.10, 0.0) if math.hypot(x - 0.25, y - 0.10) > 0.05 else REACHABLE
-    type_target(driver, target, duration="3")
+    type_target(driver, far_target(service), duration="3")
     click_move_and_wait_running(driver, until, service)
     until(lambda d: el(d, "move-status").text == "running", 10)
     t0 = driver.execute_script("return performance.now()")
