@@ -62,8 +62,9 @@ class Service:
             time.sleep(0.05)
 
 
-def _serve(token: str | None, target: tuple[str, ...] = ("--sim",)) -> Iterator[Service]:
-    args = [sys.executable, "-m", "robodcn", "serve", *target, "--port", "0",
+def _serve(token: str | None, target: tuple[str, ...] = ("--sim",),
+           port: int = 0) -> Iterator[Service]:
+    args = [sys.executable, "-m", "robodcn", "serve", *target, "--port", str(port),
             "--arm", str(ROOT / "configs" / "arm3r.toml")]
     if token:
         args += ["--token", token]
@@ -89,6 +90,19 @@ def service() -> Iterator[Service]:
 @pytest.fixture(scope="module")
 def token_service() -> Iterator[Service]:
     yield from _serve("s3cret-token")
+
+
+@pytest.fixture
+def restartable() -> Iterator[tuple[int, Callable[[], Any]]]:
+    """(port, start): ``start()`` is a context running ``serve --sim`` on that fixed port, to
+    stop and start again under an open page."""
+    import contextlib
+    import socket
+
+    with socket.socket() as sock:
+        sock.bind(("127.0.0.1", 0))
+        port = sock.getsockname()[1]
+    yield port, contextlib.contextmanager(lambda: _serve(None, port=port))
 
 
 @pytest.fixture(scope="module")

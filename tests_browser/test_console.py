@@ -92,6 +92,12 @@ def test_page_loads_without_console_errors(driver: Any, until: Any, service: Any
     time.sleep(1.0)  # a few state events, drawing
     assert severe_logs(driver) == []
     assert el(driver, "arm-canvas").size["width"] > 300
+    # Controls the service does not offer stay hidden; the token field only when needed.
+    _, doc = service.call("GET", "/openapi.json")
+    for testid, path in (("pause", "/v1/pause"), ("resume", "/v1/resume"),
+                         ("speed", "/v1/speed")):
+        assert el(driver, testid).is_displayed() == (path in doc["paths"]), testid
+    assert not el(driver, "token").is_displayed()
     # The readout shows the arm's present joints, in degrees.
     shown, present = shown_degrees(driver), present_degrees(service)
     assert len(shown) == len(present)
@@ -293,6 +299,21 @@ def test_the_page_drives_serve_device_on_firmware_sim(driver: Any, until: Any,
     until(lambda d: all(abs(a - b) < 0.2 for a, b in zip(shown_degrees(d), end, strict=True)),
           5, "the joints readout does not show the final joints")
     assert severe_logs(driver) == []
+
+
+def test_the_page_reconnects_after_the_service_restarts(driver: Any, until: Any,
+                                                        restartable: Any) -> None:
+    _, start = restartable
+    with start() as first:
+        open_console(driver, until, first)
+        until(lambda d: el(d, "link").text == "live")
+    until(lambda d: el(d, "link").text != "live", 10, "the page did not see the stream drop")
+    with start() as second:
+        seen = driver.execute_script("return window.robodcnConsole.stats.state")
+        until(lambda d: el(d, "link").text == "live", 20, "the page did not reconnect")
+        until(lambda d: d.execute_script("return window.robodcnConsole.stats.state") > seen,
+              10, "no state events after reconnecting")
+        assert second.call("GET", "/healthz")[0] == 200
 
 
 @pytest.mark.parametrize("path", ["/static/app.js", "/static/style.css"])
