@@ -39,7 +39,7 @@ log = logging.getLogger("robodcn.web.events")
 #: Event streams served at once (each holds a connection thread); more get 503.
 MAX_CLIENTS = 8
 #: State events per second while a move is queued or running (the console plots them).
-MOVING_HZ = 30.0
+MOVING_HZ = 40.0
 #: State events per second at rest (each is one bus read).
 IDLE_HZ = 2.0
 #: Seconds between keep-alive comments when nothing else was sent.

@@ -270,10 +270,10 @@ function plotAxes(ctx, w, h, t1, lo, hi, unit) {
   ctx.clearRect(0, 0, w, h);
   ctx.strokeStyle = "#dde1e6"; ctx.fillStyle = "#66707c"; ctx.font = "11px system-ui";
   ctx.lineWidth = 1;
-  ctx.strokeRect(40, 8, w - 50, h - 30);
+  ctx.strokeRect(48, 8, w - 58, h - 30);
   ctx.fillText(`${hi.toFixed(1)}${unit}`, 2, 16); ctx.fillText(`${lo.toFixed(1)}${unit}`, 2, h - 22);
-  ctx.fillText("0 s", 40, h - 8); ctx.fillText(`${t1.toFixed(2)} s`, w - 50, h - 8);
-  return { x: (t) => 40 + (w - 50) * t / t1, y: (v) => 8 + (h - 30) * (hi - v) / (hi - lo || 1) };
+  ctx.fillText("0 s", 48, h - 8); ctx.fillText(`${t1.toFixed(2)} s`, w - 50, h - 8);
+  return { x: (t) => 48 + (w - 58) * t / t1, y: (v) => 8 + (h - 30) * (hi - v) / (hi - lo || 1) };
 }
 
 function series(ctx, xs, ys, sx, sy, color, dash) {
