@@ -296,7 +296,7 @@ function drawPlots() {
     const color = JOINT_COLORS[j % JOINT_COLORS.length];
     if (plan) series(x1, plan.t, plan.joints.map((q) => q[j] / DEG), a.x, a.y, color, [5, 4]);
     if (meas.length) series(x1, meas.map((m) => m.t), meas.map((m) => m.q[j] / DEG), a.x, a.y, color);
-    x1.fillStyle = color; x1.fillText((S.arm ? S.arm.joint_names[j] : "q" + j), 48 + 70 * j, 22);
+    x1.fillStyle = color; x1.fillText((S.arm ? S.arm.joint_names[j] : "q" + j), 56 + 70 * j, 22);
   }
   const c2 = $("plot-error"), x2 = c2.getContext("2d");
   const err = meas.filter((m) => m.err !== null && m.err !== undefined);
