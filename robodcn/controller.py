@@ -10,7 +10,12 @@ Move lifecycle: ``queued`` → ``running`` → ``done`` | ``degraded`` | ``stopp
 outcome (``degraded``: completed with samples skipped); ``fault`` is a bus or servo fault
 after motion began, ``failed`` a refusal before any sample was sent. One move at a time:
 :meth:`ArmController.start_move` raises :class:`~robodcn.errors.BusyError` while another is
-queued or running. The most recent ``history`` moves are kept for :meth:`ArmController.move`.
+queued or running. The most recent ``history`` moves are kept for :meth:`ArmController.move`,
+each with what was measured while it ran (:attr:`MoveRecord.measured`: time and present ticks
+of each progress report, the latest :data:`RECORD_SAMPLES` of them).
+
+Servo admin (:meth:`ArmController.set_torque`, :meth:`ArmController.reboot`) runs on the same
+worker thread through :mod:`robodcn.workflow.admin`, refused (BusyError) while a move runs.
 
 Losing the serial device (unplugged, firmware_sim killed) is a bus fault, never a crash: the
 move ends ``fault`` with a report of what was sent, reads raise CommError (503), and the next
@@ -22,6 +27,7 @@ from __future__ import annotations
 
 import collections
 import contextlib
+import dataclasses
 import itertools
 import logging
 import termios
@@ -41,31 +47,27 @@ from robodcn.config import Arm
 from robodcn.errors import BusError, BusyError, CommError, InputError, RobodcnError
 from robodcn.http.results import MoveStatus, State, StopAnswer, to_json
 from robodcn.planner import Trajectory
-from robodcn.stream import ExecutionReport, Progress, StopSignal, execute
+from robodcn.stream import ExecutionOptions, ExecutionReport, Progress, StopSignal, execute
+from robodcn.workflow import admin
 
 log = logging.getLogger("robodcn.controller")
 
-#: Options the service passes to :func:`robodcn.stream.execute` unless overridden: a move
-#: starts wherever the arm is (the streamer prepends an approach) and the arm holds after.
-DEFAULT_EXECUTE: dict[str, Any] = {"approach": True, "release": False}
+#: Options the service executes with unless overridden: a move starts wherever the arm is
+#: (the streamer prepends an approach if it has moved since planning) and the arm holds after.
+DEFAULT_EXECUTE = ExecutionOptions(approach=True, release=False)
+#: Measured samples kept per move (progress reports come at most every 50 ms: ≥ 50 min).
+RECORD_SAMPLES = 60_000
 #: Seconds :meth:`ArmController.state` waits for an idle bus read.
 STATE_TIMEOUT = 5.0
 #: Exceptions of a lost serial device that dynamixel-sdk/pyserial let through (pyserial's
 #: SerialException is an OSError; termios.error is not).
 DEVICE_ERRORS: tuple[type[BaseException], ...] = (OSError, termios.error)
-_OUTCOMES = ("done", "degraded", "stopped", "fault")
 
 
 def move_status(report: ExecutionReport) -> str:
     """The move status of a finished execution: the report's ``outcome`` ("done" |
-    "degraded" | "stopped" | "fault"), derived from its stop reason and skipped samples
-    when the report predates ``outcome``."""
-    outcome = getattr(report, "outcome", None)
-    if outcome in _OUTCOMES:
-        return outcome
-    if report.stop_reason == "completed":
-        return "degraded" if report.samples_skipped else "done"
-    return "stopped" if report.stop_reason == "stopped" else "fault"
+    "degraded" | "stopped" | "fault", :data:`robodcn.stream.OUTCOMES`)."""
+    return report.outcome
 
 
 def _device_fault(bus: ServoBus, exc: BaseException) -> CommError:
@@ -77,11 +79,12 @@ def _device_fault(bus: ServoBus, exc: BaseException) -> CommError:
 class MoveRecord:
     """One move: its trajectory, status and, once finished, the execution report.
 
-    ``progress`` is the fraction of samples sent (0..1). ``tracking_error`` (rad) is, while
-    the move runs, the largest |present − goal| over the joints at the latest feedback
-    (present read just after that goal was sent), and once it has finished the report's
-    largest tracking error (present − the previous goal, robodcn.stream). Times are Unix
-    seconds.
+    ``progress`` is the fraction of samples sent (0..1). ``tracking_error`` (rad) is the
+    largest over the joints of the streamer's tracking error (robodcn.stream.report
+    ``tracking_error``: one definition for the live readout and the report): while the move
+    runs that of the latest feedback, once it has finished the report's maximum. Times are
+    Unix seconds. ``measured`` holds (seconds since the first write, present ticks) of each
+    progress report with a read, then the final read (the latest RECORD_SAMPLES).
     """
 
     id: str
@@ -100,6 +103,8 @@ class MoveRecord:
     stop_signal: StopSignal = field(default_factory=StopSignal, repr=False)
     done: threading.Event = field(default_factory=threading.Event, repr=False)
     latest: Progress | None = field(default=None, repr=False)
+    measured: collections.deque[tuple[float, tuple[int, ...]]] = field(
+        default_factory=lambda: collections.deque(maxlen=RECORD_SAMPLES), repr=False)
 
     @property
     def active(self) -> bool:
@@ -122,12 +127,12 @@ class ArmController:
     arm : Arm
     bus : an open, verified ServoBus for the arm's servos (the controller does not close it)
     history : how many moves :meth:`move` remembers
-    execute_options : keyword arguments for :func:`robodcn.stream.execute`, over
-        :data:`DEFAULT_EXECUTE`
+    execute_options : :class:`~robodcn.stream.ExecutionOptions`, or a dict of its fields
+        over :data:`DEFAULT_EXECUTE` (``stop`` and ``progress`` are the controller's)
     """
 
     def __init__(self, arm: Arm, bus: ServoBus, *, history: int = 64,
-                 execute_options: dict[str, Any] | None = None) -> None:
+                 execute_options: ExecutionOptions | dict[str, Any] | None = None) -> None:
         if tuple(bus.ids) != arm.servo_ids:
             raise InputError(f"the bus drives servo ids {list(bus.ids)}, arm {arm.name!r} has "
                              f"{list(arm.servo_ids)}", field="bus", value=list(bus.ids))
@@ -137,11 +142,19 @@ class ArmController:
         self.arm = arm
         self.bus = bus
         self.history = history
-        self.execute_options = {**DEFAULT_EXECUTE, **(execute_options or {})}
-        for key in ("stop", "progress"):
-            if key in self.execute_options:
-                raise InputError(f"execute_options may not set {key!r}: the controller owns it",
-                                 field=f"execute_options.{key}", value=None)
+        if isinstance(execute_options, ExecutionOptions):
+            options = execute_options
+        else:
+            given = dict(execute_options or {})
+            for key in ("stop", "progress"):
+                if key in given:
+                    raise InputError(f"execute_options may not set {key!r}: the controller "
+                                     "owns it", field=f"execute_options.{key}", value=None)
+            options = ExecutionOptions.build(DEFAULT_EXECUTE, given)
+        if options.stop is not None or options.progress is not None:
+            raise InputError("execute_options may not set stop or progress: the controller "
+                             "owns them", field="execute_options", value=None)
+        self.execute_options = options
         self._lock = threading.Lock()
         self._moves: collections.OrderedDict[str, MoveRecord] = collections.OrderedDict()
         self._current: MoveRecord | None = None
@@ -149,7 +162,6 @@ class ArmController:
         self._admitting: int | None = None
         self._ids = itertools.count(1)
         self._closed = False
-        self._rad_per_tick = np.array([2.0 * np.pi / s.ticks_per_turn for s in arm.servos])
         #: The newest positions known without a read (feedback, goals, final reads).
         self._last_ticks: tuple[int, ...] | None = None
         #: The last bus operation failed: reopen and re-verify the port before the next.
@@ -272,9 +284,8 @@ class ArmController:
 
     def _on_progress(self, record: MoveRecord, p: Progress) -> None:
         error = None
-        if p.present is not None:
-            diff = np.abs(np.subtract(p.present, p.goals, dtype=np.int64))
-            error = float(np.max(diff * self._rad_per_tick))
+        if p.tracking_error_rad:
+            error = float(np.max(np.abs(p.tracking_error_rad)))
         with self._lock:
             record.latest = p
             self._last_ticks = p.present or p.goals
@@ -282,6 +293,8 @@ class ArmController:
             record.elapsed = p.elapsed_s
             if error is not None:
                 record.tracking_error = error
+            if p.present is not None:
+                record.measured.append((float(p.elapsed_s), tuple(int(v) for v in p.present)))
 
     def _run(self, record: MoveRecord) -> None:
         with self._lock:
@@ -289,9 +302,9 @@ class ArmController:
             record.started = time.time()
         try:
             self._recover()
-            report = execute(record.trajectory, self.bus, stop=record.stop_signal,
-                             progress=lambda p: self._on_progress(record, p),
-                             **self.execute_options)
+            options = dataclasses.replace(self.execute_options, stop=record.stop_signal,
+                                          progress=lambda p: self._on_progress(record, p))
+            report = execute(record.trajectory, self.bus, options)
         except RobodcnError as exc:
             self._suspect = self._suspect or isinstance(exc, BusError)
             log.info("move %s ended: %s", record.id, exc.message)
@@ -380,6 +393,10 @@ class ArmController:
                 final = report.final_positions or report.hold_goals
                 if final is not None:
                     self._last_ticks = tuple(final)
+                if report.final_positions is not None:
+                    last = record.measured[-1][0] if record.measured else 0.0
+                    record.measured.append((max(last, float(report.duration_s)),
+                                            tuple(int(v) for v in report.final_positions)))
                 record.elapsed = report.duration_s
                 if report.completed:
                     record.progress = 1.0
@@ -442,6 +459,44 @@ class ArmController:
             self._check_free()
         ticks = self._on_worker(self._read_ticks, "reading the arm's position")
         return servo_units.ticks_to_radians(ticks[None, :], self.arm.servos)[0]
+
+    def recording(self, move_id: str) -> list[tuple[float, tuple[int, ...]]] | None:
+        """What a move measured so far: (s since its first write, present ticks) pairs, or
+        None for an unknown move (robodcn.workflow.record turns them into JSON or CSV)."""
+        with self._lock:
+            record = self._moves.get(str(move_id))
+            return None if record is None else list(record.measured)
+
+    # -- servo admin ----------------------------------------------------------------------------
+
+    def _admin(self, fn: Any, what: str) -> Any:
+        """Run an admin job on the worker thread, refused (BusyError) while a move runs."""
+        with self._lock:
+            self._check_free()
+
+        def job() -> Any:
+            with self.bus.claim():
+                return fn()
+
+        return self._on_worker(job, what)
+
+    def set_torque(self, on: bool, joint: str | None = None) -> tuple[int, ...]:
+        """Torque on (holding where the arm is) or off, for ``joint`` or every joint
+        (:func:`robodcn.workflow.admin.set_torque`); returns the servo ids written.
+
+        Raises InputError for an unknown joint, BusyError while a move runs, BusError."""
+        if not isinstance(on, bool):
+            raise InputError(f"on must be true or false, got {on!r}", field="on", value=on)
+        admin.joint_ids(self.arm, joint)  # an unknown joint is refused before the bus
+        return self._admin(lambda: admin.set_torque(self.bus, self.arm, on, joint),
+                           "switching torque")
+
+    def reboot(self, joint: str | None = None) -> tuple[int, ...]:
+        """Reboot ``joint``'s servo, or every servo (clears hardware errors; torque is off
+        afterwards, :func:`robodcn.workflow.admin.reboot`); returns the ids rebooted."""
+        admin.joint_ids(self.arm, joint)
+        return self._admin(lambda: admin.reboot(self.bus, self.arm, joint),
+                           "rebooting the servos")
 
     def _read_ticks(self) -> np.ndarray:
         ticks = self.bus.read_positions()

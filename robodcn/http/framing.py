@@ -199,6 +199,16 @@ class RequestReader:
         return Request(method, target, version, headers), length
 
 
+@dataclass
+class Reply:
+    """An answer that is not JSON (a page, a CSV file) or needs its own headers: an
+    operation returns ``(status, Reply(...))`` instead of a JSON-ready object."""
+
+    body: bytes
+    content_type: str = "application/json"
+    headers: dict[str, str] = field(default_factory=dict)
+
+
 def dumps(obj: Any) -> bytes:
     """Compact JSON bytes (UTF-8)."""
     return json.dumps(obj, separators=(",", ":"), ensure_ascii=False,
@@ -221,14 +231,19 @@ def stream_head(status: int = 200, content_type: str = "text/event-stream", *,
 
 
 def response(status: int, body: bytes, *, headers: dict[str, str] | None = None,
-             close: bool = False, head_only: bool = False, server: str = "robodcn") -> bytes:
-    """A complete HTTP/1.1 response with a JSON body (no body bytes for HEAD)."""
+             close: bool = False, head_only: bool = False, server: str = "robodcn",
+             content_type: str = "application/json") -> bytes:
+    """A complete HTTP/1.1 response (no body bytes for HEAD; a 304 has no body headers).
+
+    ``Cache-Control: no-store`` unless ``headers`` set their own."""
     phrase = HTTPStatus(status).phrase if status in HTTPStatus._value2member_map_ else "Error"
-    lines = [f"HTTP/1.1 {status} {phrase}", f"Server: {server}",
-             "Content-Type: application/json", f"Content-Length: {len(body)}",
-             "Cache-Control: no-store"]
+    lines = [f"HTTP/1.1 {status} {phrase}", f"Server: {server}"]
+    if status != 304:
+        lines += [f"Content-Type: {content_type}", f"Content-Length: {len(body)}"]
+    if "Cache-Control" not in (headers or {}):
+        lines.append("Cache-Control: no-store")
     if close:
         lines.append("Connection: close")
     lines += [f"{k}: {v}" for k, v in (headers or {}).items()]
     head = ("\r\n".join(lines) + "\r\n\r\n").encode("latin-1")
-    return head if head_only else head + body
+    return head if head_only or status == 304 else head + body

@@ -9,20 +9,22 @@ object or ready bytes. They raise :class:`~robodcn.http.framing.HTTPError` or a
 from __future__ import annotations
 
 import contextlib
-import dataclasses
 import hmac
 import threading
 from collections.abc import Callable, Iterator
 from typing import TYPE_CHECKING, Any
 
 import robodcn
-from robodcn.errors import InputError, TooLargeError
-from robodcn.http.framing import HTTPError, Request
+from robodcn.errors import InputError, RobodcnError, TooLargeError
+from robodcn.http.framing import HTTPError, Reply, Request, stream_head
 from robodcn.http.jsonbody import decode_json
 from robodcn.http.limits import LARGE_PLAN_SAMPLES, LARGE_PLAN_WAYPOINTS, MAX_RESPONSE
-from robodcn.http.planbody import parse_move, parse_plan
-from robodcn.http.results import ArmInfo, Health, to_json
+from robodcn.http.planbody import parse_move, parse_plan, parse_trajectory_move
+from robodcn.http.results import ArmInfo, Health, RebootAnswer, TorqueAnswer, to_json
 from robodcn.planner import PlanRequest, Trajectory, plan_request
+from robodcn.present import plan_from_present
+from robodcn.web import assets, events
+from robodcn.workflow import files, record
 
 if TYPE_CHECKING:
     from robodcn.http.server import RobodcnHTTPServer
@@ -135,28 +137,136 @@ def op_plan(server: RobodcnHTTPServer, request: Request, params: dict[str, str]
     return 200, body
 
 
+def _given_trajectory(server: RobodcnHTTPServer, body: dict[str, Any]) -> Trajectory:
+    """The ``trajectory`` of a move body (Trajectory or JointTrajectory JSON), checked for
+    the arm; errors name their JSON path under ``trajectory``."""
+    value, rate = parse_trajectory_move(server.arm, body)
+    try:
+        return files.trajectory_from_data(value, server.arm, rate, source="trajectory")
+    except RobodcnError as exc:
+        if exc.field and not exc.field.startswith("trajectory"):
+            exc.field = f"trajectory.{exc.field}"
+        raise
+
+
 def op_start_move(server: RobodcnHTTPServer, request: Request, params: dict[str, str]
                   ) -> tuple[int, Any]:
     controller = _controller(server)
-    req = parse_move(server.arm, read_json(request))
+    body = read_json(request)
+    given = _given_trajectory(server, body) if isinstance(body, dict) and \
+        "trajectory" in body else None
+    req = None if given is not None else parse_move(server.arm, body)
     # Plan from where the arm is (409 at once if it is moving), so an infeasible approach
     # is a 422 now rather than a failed move later, and the record shows what will run.
     with controller.admitting():
         present = controller.present_joints()
-        req = dataclasses.replace(req, start_joints=tuple(float(q) for q in present))
-        with planning_lane(server, req):
-            trajectory = plan_request(req)
-        record = controller.start_move(trajectory)
-    return 202, controller.move_info(record.id)
+        if given is not None:
+            trajectory = files.with_approach(given, server.arm, present)
+        else:
+            with planning_lane(server, req):
+                trajectory = plan_from_present(server.arm, None, req, joints=present)
+        moving = controller.start_move(trajectory)
+    return 202, controller.move_info(moving.id)
+
+
+def _move(server: RobodcnHTTPServer, move_id: str) -> Any:
+    found = _controller(server).move(move_id)
+    if found is None:
+        raise HTTPError(404, "not_found", f"no move {move_id!r} (the service keeps the most "
+                        "recent moves only)", "id")
+    return found
+
+
+def op_move_trajectory(server: RobodcnHTTPServer, request: Request, params: dict[str, str]
+                       ) -> tuple[int, Any]:
+    return 200, _move(server, params["id"]).trajectory.to_json().encode()
+
+
+def op_move_record(server: RobodcnHTTPServer, request: Request, params: dict[str, str]
+                   ) -> tuple[int, Any]:
+    _move(server, params["id"])
+    samples = server.controller.recording(params["id"]) or []
+    if "text/csv" in request.headers.get("accept", "").lower():
+        return 200, Reply(record.recording_csv(server.arm, samples).encode(),
+                          "text/csv; charset=utf-8")
+    return 200, {"move": params["id"], **record.recording(server.arm, samples)}
+
+
+def _admin_body(server: RobodcnHTTPServer, body: Any, fields: tuple[str, ...],
+                what: str) -> dict[str, Any]:
+    """A torque/reboot body: an object of ``fields`` only, ``joint`` one of the arm's."""
+    if not isinstance(body, dict):
+        raise InputError(f"the {what} body must be a JSON object", field="body")
+    extra = sorted(set(body) - set(fields))
+    if extra:
+        raise InputError(f"unknown field {extra[0]!r}: {what} takes "
+                         f"{' and '.join(fields)}", field=extra[0])
+    if "joint" in body and body["joint"] not in server.arm.joint_names:
+        raise InputError(f"joint {body['joint']!r} is not a joint of arm "
+                         f"{server.arm.name!r} (joints: {', '.join(server.arm.joint_names)})",
+                         field="joint")
+    return body
+
+
+def op_torque(server: RobodcnHTTPServer, request: Request, params: dict[str, str]
+              ) -> tuple[int, Any]:
+    controller = _controller(server)
+    body = _admin_body(server, read_json(request), ("on", "joint"), "torque")
+    if not isinstance(body.get("on"), bool):
+        raise InputError(f"on must be true or false, got {body.get('on')!r}"
+                         if "on" in body else "on is missing: true or false", field="on")
+    ids = controller.set_torque(body["on"], body.get("joint"))
+    return 200, to_json(TorqueAnswer(on=body["on"], joint=body.get("joint"),
+                                     servo_ids=list(ids)))
+
+
+def op_reboot(server: RobodcnHTTPServer, request: Request, params: dict[str, str]
+              ) -> tuple[int, Any]:
+    controller = _controller(server)
+    body = read_json(request, required=False) if request.body else {}
+    body = _admin_body(server, {} if body is None else body, ("joint",), "reboot")
+    ids = controller.reboot(body.get("joint"))
+    return 200, to_json(RebootAnswer(joint=body.get("joint"), servo_ids=list(ids)))
+
+
+def op_events(server: RobodcnHTTPServer, request: Request, params: dict[str, str]
+              ) -> tuple[int, Any]:
+    _controller(server)
+    head = stream_head(content_type="text/event-stream; charset=utf-8",
+                       headers=events.STREAM_HEADERS, server=f"robodcn/{robodcn.__version__}")
+    if request.method == "HEAD":
+        request.socket.sendall(head)
+        return 200, b""
+    hub = server.events
+    if not events.serve(request.socket, hub, head, lambda: server.stopping):
+        raise HTTPError(503, "too_many_clients", f"{hub.max_clients} event streams are open "
+                        "already (the limit); close one or retry later", None,
+                        {"Retry-After": "2"})
+    return 200, b""
+
+
+def _asset(request: Request, name: str) -> tuple[int, Any]:
+    found = assets.answer(name, request.headers.get("if-none-match"))
+    if found is None:
+        raise HTTPError(404, "not_found", f"no console file {name!r}", "name")
+    status, body, content_type, headers = found
+    return status, Reply(body, content_type, headers)
+
+
+def op_console(server: RobodcnHTTPServer, request: Request, params: dict[str, str]
+               ) -> tuple[int, Any]:
+    return _asset(request, assets.INDEX)
+
+
+def op_static(server: RobodcnHTTPServer, request: Request, params: dict[str, str]
+              ) -> tuple[int, Any]:
+    return _asset(request, params["name"])
 
 
 def op_get_move(server: RobodcnHTTPServer, request: Request, params: dict[str, str]
                 ) -> tuple[int, Any]:
-    info = _controller(server).move_info(params["id"])
-    if info is None:
-        raise HTTPError(404, "not_found", f"no move {params['id']!r} (the service keeps the "
-                        "most recent moves only)", "id")
-    return 200, info
+    _move(server, params["id"])
+    return 200, server.controller.move_info(params["id"])
 
 
 def op_stop(server: RobodcnHTTPServer, request: Request, params: dict[str, str]

@@ -52,3 +52,64 @@ MOVE_FIELDS = _fields(contract.MOVE_OMIT)
 def parse_plan_body(arm: Arm, body: Any, fields: dict[str, Any] = PLAN_FIELDS) -> PlanRequest:
     """Compatibility: :func:`parse_plan`, or :func:`parse_move` for ``MOVE_FIELDS``."""
     return parse_move(arm, body) if "start_joints" not in fields else parse_plan(arm, body)
+
+
+# -- a move of a given trajectory ---------------------------------------------------------------
+
+#: Fields of a ``POST /v1/moves`` body that plays a trajectory instead of planning one.
+TRAJECTORY_MOVE_FIELDS = ("trajectory", "rate_hz")
+
+
+def joint_trajectory_schema(arm: Arm | None = None) -> dict[str, Any]:
+    """JSON Schema of a ROS ``trajectory_msgs/JointTrajectory`` as JSON (robodcn.workflow.files)."""
+    names: dict[str, Any] = {"type": "string"}
+    if arm is not None:
+        names["enum"] = list(arm.joint_names)
+    stamp = {"type": "object", "additionalProperties": False, "required": ["sec"],
+             "properties": {"sec": {"type": "integer", "minimum": 0},
+                            "nanosec": {"type": "integer", "minimum": 0,
+                                        "maximum": 999_999_999}}}
+    point = {"type": "object", "additionalProperties": False,
+             "required": ["positions", "time_from_start"],
+             "properties": {
+                 "positions": {"type": "array", "items": {"type": "number"},
+                               "description": "rad, in the order of joint_names"},
+                 "velocities": {"description": "rad/s per joint, on every point or none"},
+                 "accelerations": {"description": "rad/s² per joint, on every point or none "
+                                   "(with velocities)"},
+                 "effort": {"description": "ignored"},
+                 "time_from_start": stamp}}
+    return {"type": "object", "required": ["joint_names", "points"],
+            "description": "trajectory_msgs/JointTrajectory as JSON: resampled at rate_hz by "
+                           "piecewise Hermite interpolation, checked against the arm's limits",
+            "properties": {"joint_names": {"type": "array", "items": names},
+                           "points": {"type": "array", "minItems": 2, "items": point}}}
+
+
+def trajectory_move_schema(arm: Arm | None = None) -> dict[str, Any]:
+    """JSON Schema of a ``POST /v1/moves`` body that plays a given trajectory."""
+    rate = contract.field("rate_hz")
+    return {"type": "object", "additionalProperties": False, "required": ["trajectory"],
+            "properties": {
+                "trajectory": {"anyOf": [
+                    {"type": "object", "required": ["t", "ticks"],
+                     "description": "a Trajectory JSON (POST /v1/trajectories, robodcn plan "
+                                    "--format json; #/components/schemas/Trajectory) for this "
+                                    "arm: played as planned"},
+                    joint_trajectory_schema(arm)]},
+                "rate_hz": {**rate.schema, "description": "Stream rate a JointTrajectory is "
+                            "resampled at (a Trajectory keeps its own). Default: the arm's "
+                            "[bus] rate_hz."}}}
+
+
+def parse_trajectory_move(arm: Arm, body: dict[str, Any]) -> tuple[Any, float]:
+    """``{"trajectory": ..., "rate_hz"?}`` → (the trajectory value, the rate), checked
+    (InputError naming the field); the trajectory itself is checked by
+    :func:`robodcn.workflow.files.trajectory_from_data`."""
+    extra = sorted(set(body) - set(TRAJECTORY_MOVE_FIELDS))
+    if extra:
+        raise contract.fail(extra[0], "unknown field: a move of a given trajectory takes "
+                            "trajectory and rate_hz only", body[extra[0]])
+    rate = contract.check_field("rate_hz", body["rate_hz"]) if "rate_hz" in body \
+        else arm.bus.rate_hz
+    return body["trajectory"], float(rate)

@@ -108,8 +108,41 @@ class ArmInfo:
     config: dict[str, Any] = field(metadata=_doc("robodcn.config.Arm.to_dict()"))
 
 
+@dataclass
+class TorqueAnswer:
+    """Torque switched: on or off, for which joint (None: every joint), on which servos."""
+
+    on: bool
+    joint: str | None
+    servo_ids: list[int]
+
+
+@dataclass
+class RebootAnswer:
+    """Servos rebooted (hardware errors cleared; torque is off afterwards)."""
+
+    joint: str | None
+    servo_ids: list[int]
+
+
+@dataclass
+class Recording:
+    """What a move measured (robodcn.workflow.record.recording): per feedback read, the time
+    since the first write (s), the present ticks, joints (rad) and pose (FK, m and rad)."""
+
+    move: str
+    joint_names: list[str]
+    servo_ids: list[int]
+    t: list[float]
+    ticks: list[list[int]]
+    joints: list[list[float]]
+    poses: list[list[float]]
+
+
 RESULTS: dict[str, type] = {"Move": MoveStatus, "State": State, "Stop": StopAnswer,
-                            "Health": Health, "Arm": ArmInfo, "Error": ErrorResponse}
+                            "Health": Health, "Arm": ArmInfo, "Torque": TorqueAnswer,
+                            "Reboot": RebootAnswer, "Record": Recording,
+                            "Error": ErrorResponse}
 
 
 def to_json(result: Any) -> dict[str, Any]:

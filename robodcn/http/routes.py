@@ -13,14 +13,12 @@ request runs in, and ``/openapi.json``.
   threads, exempt from the request deadline once its headers are in; the operation gets
   the socket and writes until the client leaves or the server shuts down.
 
-Adding a streaming endpoint (e.g. ``GET /v1/events``, Server-Sent Events)::
-
-    Route("GET", "/v1/events", "events", "Progress and state as Server-Sent Events", 200,
-          "OpenAPI", pool="stream", media="text/event-stream")
-
-and an operation ``events(server, request, params)`` that writes
-``framing.stream_head()`` then ``data: ...\n\n`` events to ``request.socket`` until the
-client leaves (OSError) or ``server.stopping`` is set, and returns ``(200, b"")``.
+A streaming endpoint (``GET /v1/events``, Server-Sent Events) is a ``pool="stream"`` route
+with ``media="text/event-stream"`` whose operation writes ``framing.stream_head()`` then its
+events to ``request.socket`` until the client leaves (OSError) or ``server.stopping`` is set,
+and returns ``(200, b"")``. A non-JSON answer (the console page, a CSV) is an operation
+returning ``(status, framing.Reply(body, content_type, headers))``; ``media`` and
+``alt_media`` document its content types.
 """
 
 from __future__ import annotations
@@ -48,6 +46,8 @@ class Route:
     errors: tuple[int, ...] = ()
     pool: Pool = "work"
     media: str = "application/json"   # content type of the success answer
+    alt_media: tuple[str, ...] = ()    # other content types it may have (Accept, file kind)
+    body_required: bool = True
     regex: re.Pattern[str] = field(init=False, repr=False, compare=False)
 
     def __post_init__(self) -> None:
@@ -76,10 +76,28 @@ ROUTES: tuple[Route, ...] = (
     Route("GET", "/v1/moves/{id}", "get_move", "Status, progress and report of a move", 200,
           "Move", None, (404,), pool="read"),
     Route("POST", "/v1/stop", "stop", "Stop the running move and hold position", 200,
-          "Stop", "StopBody", (400, 413, 415, 422), pool="control"),
+          "Stop", "StopBody", (400, 413, 415, 422), pool="control", body_required=False),
     Route("GET", "/v1/state", "state", "Present joints, pose, torque and hardware alerts",
           200, "State", pool="read"),
     Route("GET", "/openapi.json", "openapi", "This OpenAPI 3.1 document", 200, "OpenAPI"),
+    Route("GET", "/v1/moves/{id}/trajectory", "move_trajectory", "What a move planned: its "
+          "Trajectory (the approach included)", 200, "Trajectory", None, (404,)),
+    Route("GET", "/v1/moves/{id}/record", "move_record", "What a move measured: time, "
+          "joints, ticks and pose per feedback read (CSV with Accept: text/csv)", 200,
+          "Record", None, (404,), pool="read", alt_media=("text/csv",)),
+    Route("POST", "/v1/torque", "torque", "Switch torque on (holding where the arm is) or "
+          "off, for one joint or all", 200, "Torque", "TorqueBody", (*BODY_ERRORS, 409)),
+    Route("POST", "/v1/reboot", "reboot", "Reboot one servo or all (clears hardware "
+          "errors; torque is off afterwards)", 200, "Reboot", "RebootBody",
+          (*BODY_ERRORS, 409), body_required=False),
+    Route("GET", "/v1/events", "events", "Server-Sent Events: state (≥ 20 Hz while moving, "
+          "≥ 1 Hz at rest), move status changes, alerts", 200, "Events", None, (503,),
+          pool="stream", media="text/event-stream"),
+    Route("GET", "/", "console", "The web console (HTML page)", 200, "Page", None, (304,),
+          pool="read", media="text/html"),
+    Route("GET", "/static/{name}", "static", "A file of the web console (JS, CSS)", 200,
+          "Page", None, (304, 404), pool="read", media="text/javascript",
+          alt_media=("text/css", "text/html", "image/png", "image/svg+xml")),
 )
 
 

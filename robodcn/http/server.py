@@ -43,10 +43,19 @@ import robodcn
 from robodcn.config import Arm
 from robodcn.errors import BusError, InputError, RobodcnError
 from robodcn.http import limits
-from robodcn.http.framing import HTTPError, Request, RequestReader, dumps, error_body, response
+from robodcn.http.framing import (
+    HTTPError,
+    Reply,
+    Request,
+    RequestReader,
+    dumps,
+    error_body,
+    response,
+)
 from robodcn.http.openapi import openapi
 from robodcn.http.ops import OPERATIONS, Operation, authorize
 from robodcn.http.routes import ROUTES, Route, match
+from robodcn.web.events import EventHub
 
 log = logging.getLogger("robodcn.http")
 
@@ -121,6 +130,8 @@ class RobodcnHTTPServer:
         self.plan_lock = threading.Lock()
         self.large_plan_lock = threading.Lock()
         self.openapi_bytes = dumps(openapi(arm, token=token is not None, routes=routes))
+        #: The console's ``GET /v1/events`` streams: one shared sampler of the controller.
+        self.events = EventHub(controller)
         host, port = address
         family = socket.AF_INET6 if ":" in host else socket.AF_INET
         self.socket = socket.socket(family, socket.SOCK_STREAM)
@@ -202,8 +213,10 @@ class RobodcnHTTPServer:
         self._stopped.wait()
 
     def server_close(self) -> None:
-        """Close every socket and stop the pools (workers in flight finish on their own)."""
+        """End the event streams, close every socket and stop the pools (workers in flight
+        finish on their own)."""
         self._stop.set()
+        self.events.close()
         with self._lock:
             conns = list(self._conns.values())
             self._conns.clear()
@@ -411,32 +424,37 @@ class RobodcnHTTPServer:
         return True
 
     def _answer(self, route: Route, request: Request, params: dict[str, str]
-                ) -> tuple[int, bytes, dict[str, str]]:
+                ) -> tuple[int, Reply]:
         """Run the operation; every failure becomes its JSON error, never a traceback."""
         try:
             authorize(self, request)
             status, payload = self.operations[route.name](self, request, params)
+            if isinstance(payload, Reply):
+                return status, payload
             headers = {}
             if route.name == "start_move":
                 headers["Location"] = f"/v1/moves/{payload['id']}"
-            return status, payload if isinstance(payload, bytes) else dumps(payload), headers
+            return status, Reply(payload if isinstance(payload, bytes) else dumps(payload),
+                                 headers=headers)
         except HTTPError as exc:
-            return exc.status, dumps({"error": exc.body}), exc.headers
+            return exc.status, Reply(dumps({"error": exc.body}), headers=exc.headers)
         except RobodcnError as exc:
             if isinstance(exc, BusError):
                 log.warning("bus fault: %s", exc.message)
-            return exc.http_status, dumps({"error": exc.to_dict()}), {}
+            return exc.http_status, Reply(dumps({"error": exc.to_dict()}))
         except Exception as exc:  # a bug: answer 500, keep the traceback in the log
             log.exception("internal error on %s %s", request.method, request.path)
-            return 500, error_body(500, "internal", f"internal error: {type(exc).__name__}"), {}
+            return 500, Reply(error_body(500, "internal",
+                                         f"internal error: {type(exc).__name__}"))
 
     def _run(self, conn: Connection, request: Request, route: Route, params: dict[str, str],
              started: float) -> None:
         try:
-            status, body, headers = self._answer(route, request, params)
+            status, reply = self._answer(route, request, params)
             keep = request.keep_alive and not self._stop.is_set()
-            data = response(status, body, headers=headers, close=not keep,
-                            head_only=request.method == "HEAD", server=_SERVER)
+            data = response(status, reply.body, headers=reply.headers, close=not keep,
+                            head_only=request.method == "HEAD", server=_SERVER,
+                            content_type=reply.content_type)
             try:
                 conn.sock.setblocking(True)
                 conn.sock.settimeout(limits.WRITE_TIMEOUT)
@@ -464,11 +482,13 @@ class RobodcnHTTPServer:
             conn.sock.setblocking(True)
             conn.sock.settimeout(limits.WRITE_TIMEOUT)
             request.socket = conn.sock
-            status, body, headers = self._answer(route, request, params)
-            if body:  # a refusal (or a plain answer) instead of a stream
+            status, reply = self._answer(route, request, params)
+            if reply.body:  # a refusal (or a plain answer) instead of a stream
                 with contextlib.suppress(OSError):
-                    conn.sock.sendall(response(status, body, headers=headers, close=True,
-                                               server=_SERVER))
+                    conn.sock.sendall(response(status, reply.body, headers=reply.headers,
+                                               close=True, server=_SERVER,
+                                               content_type=reply.content_type,
+                                               head_only=request.method == "HEAD"))
             self._log(request, status, started)
         finally:
             self._stream_slots.release()

@@ -5,7 +5,7 @@ build step, nothing fetched from elsewhere); :mod:`robodcn.web.events` publishes
 state, move status changes and alerts as Server-Sent Events from one shared sampler.
 """
 
-from robodcn.web.assets import asset, serve_asset
+from robodcn.web.assets import answer, asset
 from robodcn.web.events import EventHub, serve
 
-__all__ = ["EventHub", "asset", "serve", "serve_asset"]
+__all__ = ["EventHub", "answer", "asset", "serve"]

@@ -9,7 +9,6 @@ from __future__ import annotations
 import functools
 import hashlib
 from importlib import resources
-from typing import Any
 
 #: Content types by file suffix; anything else is not served.
 CONTENT_TYPES = {
@@ -47,30 +46,27 @@ def etag(path: str) -> str | None:
     return None if found is None else found[2]
 
 
-def serve_asset(handler: Any, path: str) -> bool:
-    """Answer ``handler``'s GET/HEAD with the asset ``path``; False (nothing sent) if unknown.
+#: Headers of the page itself: everything it loads comes from this server.
+PAGE_HEADERS = {"Content-Security-Policy": "default-src 'self'; img-src 'self' data:; "
+                                           "object-src 'none'; frame-ancestors 'none'"}
+
+
+def answer(path: str, if_none_match: str | None = None
+           ) -> tuple[int, bytes, str, dict[str, str]] | None:
+    """(status, body, content type, headers) of a GET of the asset ``path``, or None if
+    there is no such asset.
 
     ``Cache-Control: no-cache`` with an ETag: the browser revalidates on every load and gets a
     body-less 304 while the file is unchanged, so an upgraded package is never served stale.
     """
     found = _files().get(path.strip("/") or INDEX)
     if found is None:
-        return False
+        return None
     data, ctype, tag = found
-    not_modified = tag in (handler.headers.get("If-None-Match") or "")
-    handler.send_response(304 if not_modified else 200)
-    handler.send_header("ETag", tag)
-    handler.send_header("Cache-Control", "no-cache")
-    if not not_modified:
-        handler.send_header("Content-Type", ctype)
-        handler.send_header("Content-Length", str(len(data)))
-        handler.send_header("X-Content-Type-Options", "nosniff")
-        if ctype.startswith("text/html"):
-            # Everything the page loads comes from this server.
-            handler.send_header("Content-Security-Policy", "default-src 'self'; "
-                                "img-src 'self' data:; object-src 'none'; "
-                                "frame-ancestors 'none'")
-    handler.end_headers()
-    if not not_modified and handler.command != "HEAD":
-        handler.wfile.write(data)
-    return True
+    headers = {"ETag": tag, "Cache-Control": "no-cache"}
+    if tag in (if_none_match or ""):
+        return 304, b"", ctype, headers
+    headers["X-Content-Type-Options"] = "nosniff"
+    if ctype.startswith("text/html"):
+        headers.update(PAGE_HEADERS)
+    return 200, data, ctype, headers

@@ -16,20 +16,21 @@ named events (``data:`` is one JSON object):
     servos' hardware alerts or the state read's failure change.
 
 Between events a ``: keep-alive`` comment goes out every :data:`KEEPALIVE_S` s. Each client is
-served in its connection's own thread (:func:`serve`), which ends as soon as the client
-closes its socket or stops reading; past :data:`MAX_CLIENTS` a client gets 503 at once.
+served in its connection's own thread (:func:`serve`, from the HTTP server's ``stream`` pool),
+which ends as soon as the client closes its socket or stops reading, or the server shuts down;
+past :data:`MAX_CLIENTS` a client gets 503 at once.
 """
 
 from __future__ import annotations
 
 import collections
-import contextlib
 import json
 import logging
 import select
 import socket
 import threading
 import time
+from collections.abc import Callable
 from typing import Any
 
 from robodcn.errors import RobodcnError
@@ -44,8 +45,6 @@ MOVING_HZ = 40.0
 IDLE_HZ = 2.0
 #: Seconds between keep-alive comments when nothing else was sent.
 KEEPALIVE_S = 10.0
-#: Seconds a write to a client that stopped reading may block before its stream ends.
-WRITE_TIMEOUT = 5.0
 #: Events queued per client; a client further behind loses its oldest ones.
 QUEUE_LENGTH = 256
 #: Longest wait between checks that the client is still connected (s).
@@ -222,18 +221,6 @@ class EventHub:
 
 # -- one client's stream --------------------------------------------------------------------
 
-def exempt_from_request_timeout(handler: Any) -> None:
-    """Let ``handler``'s connection stay open as long as the client listens.
-
-    The server's request timeout closes connections that go silent mid-request; an event
-    stream is silent from the client by design and never reads. Only its writes can block
-    (a client that stopped reading): those get :data:`WRITE_TIMEOUT`, after which the
-    stream ends. ``handler.long_lived`` tells other deadlines to leave it alone.
-    """
-    handler.long_lived = True
-    handler.connection.settimeout(WRITE_TIMEOUT)
-
-
 def _client_gone(sock: socket.socket) -> bool:
     """The peer has closed (or reset) the connection: readable with nothing to read."""
     try:
@@ -245,59 +232,41 @@ def _client_gone(sock: socket.socket) -> bool:
         return True
 
 
-def refuse(handler: Any, status: int, code: str, message: str) -> None:
-    """A JSON error in the service's shape, closing the connection."""
-    body = json.dumps({"error": {"code": code, "message": message, "field": None}}).encode()
-    handler.close_connection = True
-    with contextlib.suppress(OSError):
-        handler.send_response(status)
-        handler.send_header("Content-Type", "application/json")
-        handler.send_header("Content-Length", str(len(body)))
-        handler.send_header("Cache-Control", "no-store")
-        handler.send_header("Connection", "close")
-        if status == 503:
-            handler.send_header("Retry-After", "2")
-        handler.end_headers()
-        handler.wfile.write(body)
+#: Headers of an event stream besides those of :func:`robodcn.http.framing.stream_head`.
+STREAM_HEADERS = {"X-Accel-Buffering": "no"}
 
 
-def serve(handler: Any, hub: EventHub) -> None:
-    """Stream ``hub``'s events to ``handler``'s client until it goes or the hub closes.
+def serve(sock: socket.socket, hub: EventHub, head: bytes,
+          stopping: Callable[[], bool] = lambda: False) -> bool:
+    """Stream ``hub``'s events on the connected ``sock`` until the client goes, the hub
+    closes or ``stopping()``; False (nothing written) when the hub is full or closed.
 
-    Writes the status line and headers itself (200 ``text/event-stream``, or a 503 JSON
-    error past the client cap) and returns when the stream is over; the connection is then
-    closed (an event stream has no length, so it cannot be followed by another request).
+    Writes ``head`` (the status line and headers, :func:`robodcn.http.framing.stream_head`)
+    first. ``sock`` is blocking with a write timeout (the server's), so a client that stops
+    reading ends its stream instead of holding the slot; an event stream has no length, so
+    the connection closes after it.
     """
     client = hub.subscribe()
     if client is None:
-        refuse(handler, 503, "too_many_clients", f"{hub.max_clients} event streams are "
-               "open already (the limit); close one or retry later")
-        return
+        return False
     try:
-        exempt_from_request_timeout(handler)
-        handler.close_connection = True
-        handler.send_response(200)
-        handler.send_header("Content-Type", "text/event-stream; charset=utf-8")
-        handler.send_header("Cache-Control", "no-store")
-        handler.send_header("Connection", "close")
-        handler.send_header("X-Accel-Buffering", "no")
-        handler.end_headers()
         # retry: how long the browser's EventSource waits before reconnecting by itself.
-        handler.wfile.write(b"retry: 1000\n\n")
+        sock.sendall(head + b"retry: 1000\n\n")
         quiet_since = time.monotonic()
-        while not _client_gone(handler.connection):
+        while not stopping() and not _client_gone(sock):
             messages = client.take(_POLL_S)
             if messages is None:
                 break
             if messages:
-                handler.wfile.write(b"".join(messages))
+                sock.sendall(b"".join(messages))
                 quiet_since = time.monotonic()
             elif time.monotonic() - quiet_since >= hub.keepalive_s:
-                handler.wfile.write(b": keep-alive\n\n")
+                sock.sendall(b": keep-alive\n\n")
                 quiet_since = time.monotonic()
     except (OSError, ValueError):
         # BrokenPipe, ConnectionReset, a write timeout, or a socket already closed: the
         # client went away, which is how every stream ends.
-        log.debug("event stream to %s ended", handler.client_address, exc_info=True)
+        log.debug("event stream ended", exc_info=True)
     finally:
         hub.unsubscribe(client)
+    return True
