@@ -35,7 +35,7 @@ test-browser: $(STAMP)
 	$(PY) -m pytest -q tests_browser
 
 lint: $(STAMP)
-	$(VENV)/bin/ruff check robodcn firmware_sim tests bench
+	$(VENV)/bin/ruff check robodcn firmware_sim tests bench tests_browser
 
 # The showcase: three waypoints, KenLERP β = 0.5, auto duration, on a simulated arm.
 demo: $(STAMP)

@@ -224,7 +224,7 @@ def op_reboot(server: RobodcnHTTPServer, request: Request, params: dict[str, str
               ) -> tuple[int, Any]:
     controller = _controller(server)
     body = read_json(request, required=False) if request.body else {}
-    body = _admin_body(server, {} if body is None else body, ("joint",), "reboot")
+    body = _admin_body(server, body, ("joint",), "reboot")
     ids = controller.reboot(body.get("joint"))
     return 200, to_json(RebootAnswer(joint=body.get("joint"), servo_ids=list(ids)))
 
