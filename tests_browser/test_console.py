@@ -20,6 +20,9 @@ import pytest
 ROOT = Path(__file__).resolve().parent.parent
 REACHABLE = (0.12, 0.24, 60.0)   # metres, metres, degrees
 UNREACHABLE = (0.5, 0.5, 0.0)
+#: A move that ran to its end: "degraded" when a loaded machine made the stream skip samples
+#: (the status says so; the arm still reached the goal).
+FINISHED = ("done", "degraded")
 
 
 def el(driver: Any, testid: str) -> Any:
@@ -149,9 +152,9 @@ def test_move_runs_to_done(driver: Any, until: Any, service: Any, tmp_path: Path
     assert shot.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
     if os.environ.get("ROBODCN_SCREENSHOT"):  # docs/console.png is made this way
         shutil.copy(shot, os.environ["ROBODCN_SCREENSHOT"])
-    until(lambda d: el(d, "move-status").text == "done", 20)
+    until(lambda d: el(d, "move-status").text in FINISHED, 20)
     status, info = service.call("GET", f"/v1/moves/{move_id}")
-    assert status == 200 and info["status"] == "done"
+    assert status == 200 and info["status"] in FINISHED
     # The arm moved, and the page shows where it is now.
     end = present_degrees(service)
     assert max(abs(a - b) for a, b in zip(start, end, strict=True)) > 5
@@ -243,7 +246,7 @@ def test_events_arrive_at_20_hz_while_moving(driver: Any, until: Any, service: A
     stamps = driver.execute_script("return window.robodcnConsole.stats.stamps")
     window = [t for t in stamps if t0 + 250 <= t < t0 + 1250]
     assert len(window) >= 20, len(window)
-    until(lambda d: el(d, "move-status").text == "done", 20)
+    until(lambda d: el(d, "move-status").text in FINISHED, 20)
 
 
 def test_the_page_works_with_a_token(driver: Any, until: Any, token_service: Any) -> None:
@@ -258,7 +261,7 @@ def test_the_page_works_with_a_token(driver: Any, until: Any, token_service: Any
     el(driver, "token").send_keys(token_service.token + "\n")
     el(driver, "move").click()
     until(lambda d: token_service.move_count() == 1, 10, "the move with the token was refused")
-    until(lambda d: el(d, "move-status").text == "done", 20)
+    until(lambda d: el(d, "move-status").text in FINISHED, 20)
     # Kept for this tab's session only.
     assert driver.execute_script("return sessionStorage.getItem('robodcn-token')") == \
         token_service.token
@@ -277,7 +280,7 @@ def test_keyboard_jog_moves_the_tool(driver: Any, until: Any, service: Any) -> N
     ActionChains(driver).send_keys(Keys.ARROW_RIGHT).perform()  # +x by the 1 cm step
     until(lambda d: service.move_count() == before + 1, 10, "the key started no move")
     until(lambda d: el(d, "move-status").get_attribute("data-move-id") == str(before + 1))
-    until(lambda d: el(d, "move-status").text == "done", 20)
+    until(lambda d: el(d, "move-status").text in FINISHED, 20)
     _, after = service.call("GET", "/v1/state")
     assert abs(after["pose"][0] - state["pose"][0] - 0.01) < 0.002, (state["pose"], after["pose"])
     assert abs(after["pose"][1] - state["pose"][1]) < 0.002
@@ -290,8 +293,8 @@ def test_the_page_drives_serve_device_on_firmware_sim(driver: Any, until: Any,
     start = present_degrees(device_service)
     type_target(driver, REACHABLE)
     move_id = click_move_and_wait_running(driver, until, device_service)
-    until(lambda d: el(d, "move-status").text == "done", 30)
-    assert device_service.call("GET", f"/v1/moves/{move_id}")[1]["status"] == "done"
+    until(lambda d: el(d, "move-status").text in FINISHED, 30)
+    assert device_service.call("GET", f"/v1/moves/{move_id}")[1]["status"] in FINISHED
     _, state = device_service.call("GET", "/v1/state")
     assert math.hypot(state["pose"][0] - REACHABLE[0], state["pose"][1] - REACHABLE[1]) < 0.005
     end = present_degrees(device_service)
@@ -322,3 +325,22 @@ def test_assets_are_served(driver: Any, service: Any, path: str) -> None:
     assert status == 200
     driver.get(service.url + path)
     assert len(driver.find_element("tag name", "body").text) > 100
+
+
+def test_torque_buttons_switch_the_servos(driver: Any, until: Any, service: Any) -> None:
+    """The console offers torque once the service documents POST /v1/torque, and its
+    buttons switch the servos (the pill follows the state events)."""
+    service.wait_idle()
+    open_console(driver, until, service)
+    assert el(driver, "torque-off").is_displayed()
+    try:
+        el(driver, "torque-off").click()
+        until(lambda d: service.call("GET", "/v1/state")[1]["torque"] is False, 10,
+              "torque did not go off")
+        until(lambda d: d.find_element("id", "torque-state").text == "torque off", 10)
+        el(driver, "torque-on").click()
+        until(lambda d: service.call("GET", "/v1/state")[1]["torque"] is True, 10,
+              "torque did not come back on")
+        until(lambda d: d.find_element("id", "torque-state").text == "torque on", 10)
+    finally:
+        service.call("POST", "/v1/torque", {"on": True})
