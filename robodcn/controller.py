@@ -45,7 +45,7 @@ from robodcn import kinematics, servo_units
 from robodcn.bus import ServoBus, describe_hardware_error
 from robodcn.config import Arm
 from robodcn.errors import BusError, BusyError, CommError, InputError, RobodcnError
-from robodcn.http.results import MoveStatus, State, StopAnswer, to_json
+from robodcn.http.results import ApproachInfo, MoveStatus, State, StopAnswer, to_json
 from robodcn.planner import Trajectory
 from robodcn.stream import ExecutionOptions, ExecutionReport, Progress, StopSignal, execute
 from robodcn.workflow import admin
@@ -115,8 +115,17 @@ class MoveRecord:
         return to_json(MoveStatus(
             id=self.id, status=self.status, progress=self.progress, elapsed=self.elapsed,
             duration=self.trajectory.duration, samples=len(self.trajectory.t),
-            tracking_error=self.tracking_error, created=self.created, started=self.started,
-            finished=self.finished, report=report, error=None)) | {"error": self.error}
+            tracking_error=self.tracking_error, approach=self.approach(), created=self.created,
+            started=self.started, finished=self.finished, report=report,
+            error=None)) | {"error": self.error}
+
+    def approach(self) -> ApproachInfo | None:
+        """The approach the streamer inserted, else the one the trajectory opens with."""
+        inserted = None if self.report is None else self.report.approach
+        if inserted is not None and inserted.samples:
+            return ApproachInfo(inserted.samples, inserted.duration_s)
+        n = int(getattr(self.trajectory, "approach_samples", 0) or 0)
+        return ApproachInfo(n, n / self.trajectory.rate_hz) if n else None
 
 
 class ArmController:

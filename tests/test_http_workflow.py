@@ -99,9 +99,11 @@ def test_reboot_clears_hardware_errors(arm_server: Any) -> None:
 
 def test_admin_is_refused_while_a_move_runs(arm_server: Any) -> None:
     server, _ = arm_server
-    status, _, move = call(server, "POST", "/v1/moves", {"waypoints": [HOME, TARGET],
+    status, _, move = call(server, "POST", "/v1/moves", {"waypoints": [TARGET, HOME],
                                                          "duration": 3.0})
     assert status == 202, move
+    # The arm is not at the first waypoint: the plan opens with an approach, reported.
+    assert move["approach"]["samples"] > 0, move
     try:
         for path, body in (("/v1/torque", {"on": False}), ("/v1/reboot", {})):
             status, _, answer = call(server, "POST", path, body)
@@ -176,6 +178,11 @@ def test_a_joint_trajectory_plays_after_an_approach(arm_server: Any) -> None:
     assert played["rate_hz"] == 100
     assert np.allclose(played["joints"][0], here, atol=1e-9)  # approach from the present
     assert np.allclose(played["joints"][-1], goal, atol=1e-9)
+    # The approach is reported with its duration, and is the start of what was played.
+    approach = done["approach"]
+    assert approach["samples"] > 0 and approach["duration_s"] == approach["samples"] / 100
+    assert played["approach_samples"] == approach["samples"]
+    assert np.allclose(played["joints"][approach["samples"]], middle, atol=1e-9)
     assert np.allclose(present_joints(sa), goal, atol=0.01)
 
 

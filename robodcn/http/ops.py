@@ -162,6 +162,8 @@ def op_start_move(server: RobodcnHTTPServer, request: Request, params: dict[str,
         present = controller.present_joints()
         if given is not None:
             trajectory = files.with_approach(given, server.arm, present)
+            if trajectory is not given:  # the samples prepended are the approach
+                trajectory.approach_samples = len(trajectory.t) - len(given.t)
         else:
             with planning_lane(server, req):
                 trajectory = plan_from_present(server.arm, None, req, joints=present)

@@ -41,6 +41,15 @@ class ErrorResponse:
 
 
 @dataclass
+class ApproachInfo:
+    """A joint-space approach from where the arm was to the start of the path: the first
+    ``samples`` sample periods, ``duration_s`` seconds."""
+
+    samples: int
+    duration_s: float
+
+
+@dataclass
 class MoveStatus:
     """A move: status, progress (fraction of samples sent) and, once finished, its report
     (robodcn.stream.ExecutionReport.to_dict(), as is). Times are Unix seconds."""
@@ -53,7 +62,11 @@ class MoveStatus:
     duration: float = 0.0
     samples: int = 0
     tracking_error: float | None = field(default=None, metadata=_doc(
-        "rad; live |present − goal| while running, the report's maximum once finished"))
+        "rad, largest over the joints (robodcn.stream tracking error: present outside the "
+        "last commanded step); the latest while running, the report's maximum once finished"))
+    approach: ApproachInfo | None = field(default=None, metadata=_doc(
+        "the joint-space approach that opens the move (planned from the present joints, or "
+        "inserted by the streamer), or null"))
     created: float = 0.0
     started: float | None = None
     finished: float | None = None
