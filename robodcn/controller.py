@@ -55,8 +55,9 @@ log = logging.getLogger("robodcn.controller")
 #: Options the service executes with unless overridden: a move starts wherever the arm is
 #: (the streamer prepends an approach if it has moved since planning) and the arm holds after.
 DEFAULT_EXECUTE = ExecutionOptions(approach=True, release=False)
-#: Measured samples kept per move (progress reports come at most every 50 ms: ≥ 50 min).
-RECORD_SAMPLES = 60_000
+#: Measured samples kept per move, the latest (progress reports come at most every 50 ms:
+#: the last 10 minutes or more); with ``history`` moves this bounds the service's memory.
+RECORD_SAMPLES = 12_000
 #: Seconds :meth:`ArmController.state` waits for an idle bus read.
 STATE_TIMEOUT = 5.0
 #: Exceptions of a lost serial device that dynamixel-sdk/pyserial let through (pyserial's

@@ -275,6 +275,19 @@ def test_a_move_keeps_what_it_measured(rig: Any) -> None:
     assert controller.recording("nope") is None
 
 
+def test_what_a_move_keeps_is_bounded(rig: Any, monkeypatch: Any) -> None:
+    """A long move keeps its latest RECORD_SAMPLES measurements, the final read last."""
+    import robodcn.controller
+
+    monkeypatch.setattr(robodcn.controller, "RECORD_SAMPLES", 4)
+    _, controller = rig
+    record = controller.start_move(short_move())
+    controller.wait(record.id, 10)
+    samples = controller.recording(record.id)
+    assert len(samples) == 4
+    assert list(samples[-1][1]) == list(record.report.final_positions)
+
+
 def test_a_lost_device_is_a_comm_error_and_the_next_read_reopens(rig: Any,
                                                                   monkeypatch: Any) -> None:
     """A SerialException/termios error from the SDK used to escape as a 500."""
