@@ -5,7 +5,7 @@ VENV   := .venv
 PY     := $(VENV)/bin/python
 STAMP  := $(VENV)/.installed-stamp
 
-.PHONY: venv test demo bench lint clean
+.PHONY: venv test test-browser demo bench lint clean
 
 venv: $(STAMP)
 
@@ -18,8 +18,24 @@ $(STAMP): pyproject.toml
 test: $(STAMP)
 	$(PY) -m pytest -q -n 2 --dist loadfile
 
+# The web console in headless Chromium (tests_browser/, not part of `make test`). Installs
+# what is missing: the Debian packages chromium and chromium-driver (when root), and the
+# `browser` extra (selenium) into .venv.
+test-browser: $(STAMP)
+	@if ! command -v chromium >/dev/null 2>&1 || ! command -v chromedriver >/dev/null 2>&1; then \
+	    if [ "$$(id -u)" = 0 ]; then \
+	        apt-get update -qq && DEBIAN_FRONTEND=noninteractive apt-get install -y -qq \
+	            chromium chromium-driver; \
+	    else \
+	        echo "test-browser needs chromium and chromium-driver: run as root, or" \
+	             "sudo apt-get install -y chromium chromium-driver" >&2; exit 1; \
+	    fi; \
+	fi
+	$(PY) -c 'import selenium' 2>/dev/null || $(PY) -m pip install --quiet -e '.[dev,plot,browser]'
+	$(PY) -m pytest -q tests_browser
+
 lint: $(STAMP)
-	$(VENV)/bin/ruff check robodcn firmware_sim tests bench
+	$(VENV)/bin/ruff check robodcn firmware_sim tests bench tests_browser
 
 # The showcase: three waypoints, KenLERP β = 0.5, auto duration, on a simulated arm.
 demo: $(STAMP)

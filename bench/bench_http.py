@@ -100,7 +100,8 @@ def run() -> str:
         "",
         f"{CLIENTS} concurrent keep-alive clients (threads of the bench process), each posting "
         f"a 2 s, 100 Hz plan for the 3R arm ({int(m['samples'])} samples, full Trajectory JSON "
-        f"back) for {SECONDS:g} s; the server (stdlib ThreadingHTTPServer) in its own process.",
+        f"back) for {SECONDS:g} s; the server (robodcn.http: a selector thread frames requests, a "
+        f"worker pool answers them) in its own process.",
         "",
         "| measure | value | target |",
         "|---|---|---|",

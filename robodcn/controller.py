@@ -5,18 +5,32 @@ move is :func:`robodcn.stream.execute` on that thread, and an idle state read is
 queued to it. Other threads only start moves, read records, request stops and read the
 streamer's latest feedback, all under one lock that is never held across I/O.
 
-Move lifecycle: ``queued`` → ``running`` → ``done`` | ``stopped`` | ``failed``. One move at a
-time: :meth:`ArmController.start_move` raises :class:`~robodcn.errors.BusyError` while
-another is queued or running. The most recent ``history`` moves are kept for
-:meth:`ArmController.move`.
+Move lifecycle: ``queued`` → ``running`` → ``done`` | ``degraded`` | ``stopped`` | ``fault``
+| ``failed`` (:data:`robodcn.http.results.MoveState`): the finished status is the report's
+outcome (``degraded``: completed with samples skipped); ``fault`` is a bus or servo fault
+after motion began, ``failed`` a refusal before any sample was sent. One move at a time:
+:meth:`ArmController.start_move` raises :class:`~robodcn.errors.BusyError` while another is
+queued or running. The most recent ``history`` moves are kept for :meth:`ArmController.move`,
+each with what was measured while it ran (:attr:`MoveRecord.measured`: time and present ticks
+of each progress report, the latest :data:`RECORD_SAMPLES` of them).
+
+Servo admin (:meth:`ArmController.set_torque`, :meth:`ArmController.reboot`) runs on the same
+worker thread through :mod:`robodcn.workflow.admin`, refused (BusyError) while a move runs.
+
+Losing the serial device (unplugged, firmware_sim killed) is a bus fault, never a crash: the
+move ends ``fault`` with a report of what was sent, reads raise CommError (503), and the next
+request after a fault reopens and re-verifies the port, so the service recovers by itself
+once the device is back.
 """
 
 from __future__ import annotations
 
 import collections
 import contextlib
+import dataclasses
 import itertools
 import logging
+import termios
 import threading
 import time
 from collections.abc import Iterator
@@ -30,29 +44,48 @@ import numpy as np
 from robodcn import kinematics, servo_units
 from robodcn.bus import ServoBus, describe_hardware_error
 from robodcn.config import Arm
-from robodcn.errors import BusyError, CommError, InputError, RobodcnError
+from robodcn.errors import BusError, BusyError, CommError, InputError, RobodcnError
+from robodcn.http.results import ApproachInfo, MoveStatus, State, StopAnswer, to_json
 from robodcn.planner import Trajectory
-from robodcn.stream import ExecutionReport, Progress, StopSignal, execute
+from robodcn.stream import ExecutionOptions, ExecutionReport, Progress, StopSignal, execute
+from robodcn.workflow import admin
 
 log = logging.getLogger("robodcn.controller")
 
-#: Options the service passes to :func:`robodcn.stream.execute` unless overridden: a move
-#: starts wherever the arm is (the streamer prepends an approach) and the arm holds after.
-DEFAULT_EXECUTE: dict[str, Any] = {"approach": True, "release": False}
+#: Options the service executes with unless overridden: a move starts wherever the arm is
+#: (the streamer prepends an approach if it has moved since planning) and the arm holds after.
+DEFAULT_EXECUTE = ExecutionOptions(approach=True, release=False)
+#: Measured samples kept per move, the latest (progress reports come at most every 50 ms:
+#: the last 10 minutes or more); with ``history`` moves this bounds the service's memory.
+RECORD_SAMPLES = 12_000
 #: Seconds :meth:`ArmController.state` waits for an idle bus read.
 STATE_TIMEOUT = 5.0
-_STATUS = {"completed": "done", "stopped": "stopped"}
+#: Exceptions of a lost serial device that dynamixel-sdk/pyserial let through (pyserial's
+#: SerialException is an OSError; termios.error is not).
+DEVICE_ERRORS: tuple[type[BaseException], ...] = (OSError, termios.error)
+
+
+def move_status(report: ExecutionReport) -> str:
+    """The move status of a finished execution: the report's ``outcome`` ("done" |
+    "degraded" | "stopped" | "fault", :data:`robodcn.stream.OUTCOMES`)."""
+    return report.outcome
+
+
+def _device_fault(bus: ServoBus, exc: BaseException) -> CommError:
+    return CommError(f"the serial device {bus.port} failed ({type(exc).__name__}: {exc}); "
+                     "it is reopened on the next request", field="bus", value=bus.port)
 
 
 @dataclass
 class MoveRecord:
     """One move: its trajectory, status and, once finished, the execution report.
 
-    ``progress`` is the fraction of samples sent (0..1). ``tracking_error`` (rad) is, while
-    the move runs, the largest |present − goal| over the joints at the latest feedback
-    (present read just after that goal was sent), and once it has finished the report's
-    largest tracking error (present − the previous goal, robodcn.stream). Times are Unix
-    seconds.
+    ``progress`` is the fraction of samples sent (0..1). ``tracking_error`` (rad) is the
+    largest over the joints of the streamer's tracking error (robodcn.stream.report
+    ``tracking_error``: one definition for the live readout and the report): while the move
+    runs that of the latest feedback, once it has finished the report's maximum. Times are
+    Unix seconds. ``measured`` holds (seconds since the first write, present ticks) of each
+    progress report with a read, then the final read (the latest RECORD_SAMPLES).
     """
 
     id: str
@@ -66,21 +99,34 @@ class MoveRecord:
     tracking_error: float | None = None
     report: ExecutionReport | None = None
     error: dict[str, Any] | None = None
+    #: The report as JSON when execute() raised (a lost device): what the controller saw.
+    fault_report: dict[str, Any] | None = None
     stop_signal: StopSignal = field(default_factory=StopSignal, repr=False)
     done: threading.Event = field(default_factory=threading.Event, repr=False)
     latest: Progress | None = field(default=None, repr=False)
+    measured: collections.deque[tuple[float, tuple[int, ...]]] = field(
+        default_factory=lambda: collections.deque(maxlen=RECORD_SAMPLES), repr=False)
 
     @property
     def active(self) -> bool:
         return self.status in ("queued", "running")
 
     def to_dict(self) -> dict[str, Any]:
-        return {"id": self.id, "status": self.status, "progress": self.progress,
-                "elapsed": self.elapsed, "duration": self.trajectory.duration,
-                "samples": len(self.trajectory.t), "tracking_error": self.tracking_error,
-                "created": self.created, "started": self.started, "finished": self.finished,
-                "report": None if self.report is None else self.report.to_dict(),
-                "error": self.error}
+        report = self.fault_report if self.report is None else self.report.to_dict()
+        return to_json(MoveStatus(
+            id=self.id, status=self.status, progress=self.progress, elapsed=self.elapsed,
+            duration=self.trajectory.duration, samples=len(self.trajectory.t),
+            tracking_error=self.tracking_error, approach=self.approach(), created=self.created,
+            started=self.started, finished=self.finished, report=report,
+            error=None)) | {"error": self.error}
+
+    def approach(self) -> ApproachInfo | None:
+        """The approach the streamer inserted, else the one the trajectory opens with."""
+        inserted = None if self.report is None else self.report.approach
+        if inserted is not None and inserted.samples:
+            return ApproachInfo(inserted.samples, inserted.duration_s)
+        n = int(getattr(self.trajectory, "approach_samples", 0) or 0)
+        return ApproachInfo(n, n / self.trajectory.rate_hz) if n else None
 
 
 class ArmController:
@@ -91,12 +137,12 @@ class ArmController:
     arm : Arm
     bus : an open, verified ServoBus for the arm's servos (the controller does not close it)
     history : how many moves :meth:`move` remembers
-    execute_options : keyword arguments for :func:`robodcn.stream.execute`, over
-        :data:`DEFAULT_EXECUTE`
+    execute_options : :class:`~robodcn.stream.ExecutionOptions`, or a dict of its fields
+        over :data:`DEFAULT_EXECUTE` (``stop`` and ``progress`` are the controller's)
     """
 
     def __init__(self, arm: Arm, bus: ServoBus, *, history: int = 64,
-                 execute_options: dict[str, Any] | None = None) -> None:
+                 execute_options: ExecutionOptions | dict[str, Any] | None = None) -> None:
         if tuple(bus.ids) != arm.servo_ids:
             raise InputError(f"the bus drives servo ids {list(bus.ids)}, arm {arm.name!r} has "
                              f"{list(arm.servo_ids)}", field="bus", value=list(bus.ids))
@@ -106,11 +152,19 @@ class ArmController:
         self.arm = arm
         self.bus = bus
         self.history = history
-        self.execute_options = {**DEFAULT_EXECUTE, **(execute_options or {})}
-        for key in ("stop", "progress"):
-            if key in self.execute_options:
-                raise InputError(f"execute_options may not set {key!r}: the controller owns it",
-                                 field=f"execute_options.{key}", value=None)
+        if isinstance(execute_options, ExecutionOptions):
+            options = execute_options
+        else:
+            given = dict(execute_options or {})
+            for key in ("stop", "progress"):
+                if key in given:
+                    raise InputError(f"execute_options may not set {key!r}: the controller "
+                                     "owns it", field=f"execute_options.{key}", value=None)
+            options = ExecutionOptions.build(DEFAULT_EXECUTE, given)
+        if options.stop is not None or options.progress is not None:
+            raise InputError("execute_options may not set stop or progress: the controller "
+                             "owns them", field="execute_options", value=None)
+        self.execute_options = options
         self._lock = threading.Lock()
         self._moves: collections.OrderedDict[str, MoveRecord] = collections.OrderedDict()
         self._current: MoveRecord | None = None
@@ -118,9 +172,10 @@ class ArmController:
         self._admitting: int | None = None
         self._ids = itertools.count(1)
         self._closed = False
-        self._rad_per_tick = np.array([2.0 * np.pi / s.ticks_per_turn for s in arm.servos])
         #: The newest positions known without a read (feedback, goals, final reads).
         self._last_ticks: tuple[int, ...] | None = None
+        #: The last bus operation failed: reopen and re-verify the port before the next.
+        self._suspect = False
         self._worker = ThreadPoolExecutor(max_workers=1, thread_name_prefix="robodcn-arm")
 
     # -- moves --------------------------------------------------------------------------------
@@ -215,27 +270,32 @@ class ArmController:
         record.done.wait(timeout)
         return record
 
+    def request_stop(self, reason: str = "stop requested") -> None:
+        """Signal the current move to stop, without a lock or a wait (signal handlers)."""
+        record = self._current
+        if record is not None:
+            record.stop_signal.request(reason)
+
     def stop(self, *, wait: float = 1.0) -> dict[str, Any]:
         """Stop the current move, if any; the streamer holds the arm where it is.
 
         Thread-safe; sets the move's stop signal (acted on within one sample period) and
-        waits up to ``wait`` seconds for the hold to be written. Returns ``{"stopped": bool,
-        "move": id | None, "status": ...}``.
+        waits up to ``wait`` seconds for the hold to be written. Returns a
+        :class:`~robodcn.http.results.StopAnswer` as JSON.
         """
         with self._lock:
             record = self._current
         if record is None:
-            return {"stopped": False, "move": None, "status": None}
+            return to_json(StopAnswer(stopped=False, move=None, status=None))
         record.stop_signal.request("stop requested")
         record.done.wait(wait)
         with self._lock:
-            return {"stopped": True, "move": record.id, "status": record.status}
+            return to_json(StopAnswer(stopped=True, move=record.id, status=record.status))
 
     def _on_progress(self, record: MoveRecord, p: Progress) -> None:
         error = None
-        if p.present is not None:
-            diff = np.abs(np.subtract(p.present, p.goals, dtype=np.int64))
-            error = float(np.max(diff * self._rad_per_tick))
+        if p.tracking_error_rad:
+            error = float(np.max(np.abs(p.tracking_error_rad)))
         with self._lock:
             record.latest = p
             self._last_ticks = p.present or p.goals
@@ -243,28 +303,92 @@ class ArmController:
             record.elapsed = p.elapsed_s
             if error is not None:
                 record.tracking_error = error
+            if p.present is not None:
+                record.measured.append((float(p.elapsed_s), tuple(int(v) for v in p.present)))
 
     def _run(self, record: MoveRecord) -> None:
         with self._lock:
             record.status = "running"
             record.started = time.time()
         try:
-            report = execute(record.trajectory, self.bus, stop=record.stop_signal,
-                             progress=lambda p: self._on_progress(record, p),
-                             **self.execute_options)
+            self._recover()
+            options = dataclasses.replace(self.execute_options, stop=record.stop_signal,
+                                          progress=lambda p: self._on_progress(record, p))
+            report = execute(record.trajectory, self.bus, options)
         except RobodcnError as exc:
-            log.info("move %s refused: %s", record.id, exc.message)
-            self._finish(record, "failed", None, exc.to_dict())
+            self._suspect = self._suspect or isinstance(exc, BusError)
+            log.info("move %s ended: %s", record.id, exc.message)
+            self._finish(record, self._failed_or_fault(record), None, exc.to_dict())
+        except DEVICE_ERRORS as exc:
+            self._suspect = True
+            fault = _device_fault(self.bus, exc)
+            log.warning("move %s: %s", record.id, fault.message)
+            self._finish(record, self._failed_or_fault(record), None, fault.to_dict())
         except Exception as exc:  # a bug: keep the service up, say what happened
             log.exception("move %s crashed", record.id)
-            self._finish(record, "failed", None, {"code": "internal", "message":
-                                                  f"{type(exc).__name__}: {exc}",
-                                                  "field": None})
+            self._finish(record, self._failed_or_fault(record), None, {
+                "code": "internal", "message": f"{type(exc).__name__}: {exc}", "field": None})
         else:
-            status = _STATUS.get(report.stop_reason, "failed")
-            error = None if status != "failed" else {
+            status = move_status(report)
+            self._suspect = status == "fault"
+            error = None if status != "fault" else {
                 "code": report.stop_reason, "message": report.message, "field": None}
             self._finish(record, status, report, error)
+
+    @staticmethod
+    def _failed_or_fault(record: MoveRecord) -> str:
+        """``fault`` once a sample went out (the arm moved), ``failed`` before."""
+        return "failed" if record.latest is None else "fault"
+
+    def _fault_report(self, record: MoveRecord, error: dict[str, Any]) -> dict[str, Any]:
+        """What is known of a move that execute() could not report on (a lost device)."""
+        p = record.latest
+        return {"outcome": "fault", "stop_reason": error["code"], "message": error["message"],
+                "samples_total": len(record.trajectory.t),
+                "samples_sent": 0 if p is None else p.sample + 1,
+                "duration_s": record.elapsed, "last_goals": None if p is None else
+                list(p.goals), "last_present": None if p is None or p.present is None else
+                list(p.present)}
+
+    def _recover(self) -> None:
+        """After a bus fault: reopen and re-verify the port (worker thread only).
+
+        Raises CommError saying the device is still unavailable."""
+        if not self._suspect:
+            return
+        with self.bus.claim():
+            try:
+                self.bus.close()
+                self.bus.open()
+                self.bus.verify()
+            except (RobodcnError, *DEVICE_ERRORS) as exc:
+                message = exc.message if isinstance(exc, RobodcnError) else str(exc)
+                raise CommError(f"the servo bus on {self.bus.port} is unavailable ({message});"
+                                " the service retries on each request until it is back",
+                                field="bus", value=self.bus.port) from None
+        log.info("servo bus on %s reopened", self.bus.port)
+        self._suspect = False
+
+    def _on_worker(self, fn: Any, what: str) -> Any:
+        """Run ``fn`` on the worker thread (recovering the bus first); bus faults and lost
+        devices become CommError/BusError, a slow read CommError after STATE_TIMEOUT."""
+        def job() -> Any:
+            self._recover()
+            try:
+                return fn()
+            except BusError:
+                self._suspect = True
+                raise
+            except DEVICE_ERRORS as exc:
+                self._suspect = True
+                raise _device_fault(self.bus, exc) from None
+
+        future = self._worker.submit(job)
+        try:
+            return future.result(STATE_TIMEOUT)
+        except FutureTimeout:
+            raise CommError(f"{what} took over {STATE_TIMEOUT:g} s", field="bus",
+                            value=None) from None
 
     def _finish(self, record: MoveRecord, status: str, report: ExecutionReport | None,
                 error: dict[str, Any] | None) -> None:
@@ -272,11 +396,17 @@ class ArmController:
             record.status = status
             record.report = report
             record.error = error
+            if report is None and status == "fault" and error is not None:
+                record.fault_report = self._fault_report(record, error)
             record.finished = time.time()
             if report is not None:
                 final = report.final_positions or report.hold_goals
                 if final is not None:
                     self._last_ticks = tuple(final)
+                if report.final_positions is not None:
+                    last = record.measured[-1][0] if record.measured else 0.0
+                    record.measured.append((max(last, float(report.duration_s)),
+                                            tuple(int(v) for v in report.final_positions)))
                 record.elapsed = report.duration_s
                 if report.completed:
                     record.progress = 1.0
@@ -294,10 +424,11 @@ class ArmController:
         ticks = np.asarray(ticks, dtype=np.int64)
         joints = servo_units.ticks_to_radians(ticks[None, :], self.arm.servos)[0]
         pose = kinematics.fk(self.arm.links, joints[None, :])[0]
-        return {"joints": joints.tolist(), "pose": pose.tolist(), "ticks": ticks.tolist(),
-                "joint_names": list(self.arm.joint_names), "torque": torque,
-                "alerts": {str(i): describe_hardware_error(e) for i, e in alerts.items() if e},
-                "moving": move is not None, "move": move, "source": source}
+        return to_json(State(
+            joints=joints.tolist(), pose=pose.tolist(), ticks=ticks.tolist(),
+            joint_names=list(self.arm.joint_names), torque=torque,
+            alerts={str(i): describe_hardware_error(e) for i, e in alerts.items() if e},
+            moving=move is not None, move=move, source=source))
 
     def _read_state(self) -> dict[str, Any]:
         with self.bus.claim():
@@ -326,12 +457,7 @@ class ArmController:
         if record is not None:
             return self._state_from(ticks, torque=True, alerts={}, source="stream",
                                     move=record.id)
-        future = self._worker.submit(self._read_state)
-        try:
-            return future.result(STATE_TIMEOUT)
-        except FutureTimeout:
-            raise CommError(f"reading the arm's state took over {STATE_TIMEOUT:g} s",
-                            field="bus", value=None) from None
+        return self._on_worker(self._read_state, "reading the arm's state")
 
     def present_joints(self) -> np.ndarray:
         """The arm's present joint angles (k,) rad, read on the worker thread.
@@ -341,13 +467,46 @@ class ArmController:
         """
         with self._lock:
             self._check_free()
-        future = self._worker.submit(self._read_ticks)
-        try:
-            ticks = future.result(STATE_TIMEOUT)
-        except FutureTimeout:
-            raise CommError(f"reading the arm's position took over {STATE_TIMEOUT:g} s",
-                            field="bus", value=None) from None
+        ticks = self._on_worker(self._read_ticks, "reading the arm's position")
         return servo_units.ticks_to_radians(ticks[None, :], self.arm.servos)[0]
+
+    def recording(self, move_id: str) -> list[tuple[float, tuple[int, ...]]] | None:
+        """What a move measured so far: (s since its first write, present ticks) pairs, or
+        None for an unknown move (robodcn.workflow.record turns them into JSON or CSV)."""
+        with self._lock:
+            record = self._moves.get(str(move_id))
+            return None if record is None else list(record.measured)
+
+    # -- servo admin ----------------------------------------------------------------------------
+
+    def _admin(self, fn: Any, what: str) -> Any:
+        """Run an admin job on the worker thread, refused (BusyError) while a move runs."""
+        with self._lock:
+            self._check_free()
+
+        def job() -> Any:
+            with self.bus.claim():
+                return fn()
+
+        return self._on_worker(job, what)
+
+    def set_torque(self, on: bool, joint: str | None = None) -> tuple[int, ...]:
+        """Torque on (holding where the arm is) or off, for ``joint`` or every joint
+        (:func:`robodcn.workflow.admin.set_torque`); returns the servo ids written.
+
+        Raises InputError for an unknown joint, BusyError while a move runs, BusError."""
+        if not isinstance(on, bool):
+            raise InputError(f"on must be true or false, got {on!r}", field="on", value=on)
+        admin.joint_ids(self.arm, joint)  # an unknown joint is refused before the bus
+        return self._admin(lambda: admin.set_torque(self.bus, self.arm, on, joint),
+                           "switching torque")
+
+    def reboot(self, joint: str | None = None) -> tuple[int, ...]:
+        """Reboot ``joint``'s servo, or every servo (clears hardware errors; torque is off
+        afterwards, :func:`robodcn.workflow.admin.reboot`); returns the ids rebooted."""
+        admin.joint_ids(self.arm, joint)
+        return self._admin(lambda: admin.reboot(self.bus, self.arm, joint),
+                           "rebooting the servos")
 
     def _read_ticks(self) -> np.ndarray:
         ticks = self.bus.read_positions()

@@ -164,8 +164,8 @@ def test_infeasible_sample_is_named(planner_server: Any) -> None:
     ({"waypoints": [HOME, TARGET], "blend": "yes"}, "blend"),
     ({"waypoints": [HOME, TARGET], "beta": "half"}, "beta"),
     ({"waypoints": [HOME, [0.2, 0.1]]}, "waypoints[1]"),
-    ({"waypoints": [HOME, TARGET, [0.2, "x", 0]]}, "waypoints[2]"),
-    ({"waypoints": [HOME, TARGET, [0.2, 1e400, 0]]}, "waypoints[2]"),
+    ({"waypoints": [HOME, TARGET, [0.2, "x", 0]]}, "waypoints[2][1]"),
+    ({"waypoints": [HOME, TARGET, [0.2, 1e400, 0]]}, "waypoints[2][1]"),
     ({"waypoints": [HOME]}, "waypoints"),
     ({"method": "sclerp"}, "waypoints"),
     ([HOME, TARGET], "body"),
@@ -258,7 +258,7 @@ def test_unknown_path_and_method(planner_server: Any) -> None:
     status, headers, data = call(planner_server, "DELETE", "/v1/trajectories")
     assert status == 405 and headers["Allow"] == "POST"
     status, headers, _ = call(planner_server, "POST", "/v1/arm", {})
-    assert status == 405 and headers["Allow"] == "GET"
+    assert status == 405 and headers["Allow"] == "GET, HEAD"
 
 
 def test_move_endpoints_without_an_arm_are_503(planner_server: Any) -> None:
@@ -295,35 +295,28 @@ def test_slow_client_does_not_block_others_and_times_out(planner_server: Any) ->
         status, _, _ = call(planner_server, "POST", "/v1/trajectories", BODY)
         assert status == 200
         assert time.monotonic() - t0 < 0.9  # answered before the stalled ones time out
-        # The server's 1 s socket timeout frees both threads: the sockets get closed.
-        for sock in (slow, silent):
+        # The 1 s request deadline: the stalled request gets 408, the silent one is closed.
+        for sock, want in ((slow, b"HTTP/1.1 408"), (silent, b"")):
             sock.settimeout(4)
             t1 = time.monotonic()
-            assert _read_all(sock) == b""
+            assert _read_all(sock)[:len(want)] == want
             assert time.monotonic() - t1 < 3
 
 
-def test_connections_beyond_the_cap_get_503_at_once() -> None:
+def test_connections_beyond_the_cap_close_the_oldest_waiting_one() -> None:
     with running(make_server(ARM, None, request_timeout=5.0, max_connections=2)) as server:
         idle = [socket.create_connection(address(server), timeout=5) for _ in range(2)]
         try:
-            # Both idle sockets hold a slot once accepted; the next connection is refused.
-            deadline = time.monotonic() + 5
-            while True:
-                status, headers, data = call(server, "GET", "/healthz")
-                if status == 503 or time.monotonic() > deadline:
-                    break
-                time.sleep(0.02)
-            assert status == 503 and error_of(data)["code"] == "too_many_connections"
-            assert headers["Retry-After"] == "1"
+            time.sleep(0.2)  # both accepted
+            # A newcomer is served; the oldest connection still waiting is closed with 503.
+            status, _, _ = call(server, "GET", "/healthz")
+            assert status == 200
+            head, _, payload = _read_all(idle[0]).partition(b"\r\n\r\n")
+            assert head.startswith(b"HTTP/1.1 503")
+            assert json.loads(payload)["error"]["code"] == "too_many_connections"
         finally:
-            idle[0].close()
-        # Closing one frees its slot (the handler sees EOF), well before the 5 s timeout.
-        t0 = time.monotonic()
-        while call(server, "GET", "/healthz")[0] != 200:
-            assert time.monotonic() - t0 < 3
-            time.sleep(0.02)
-        idle[1].close()
+            for sock in idle:
+                sock.close()
 
 
 # -- any body: a clean answer, never a crash -------------------------------------------------------
@@ -394,10 +387,18 @@ def test_openapi_matches_the_routes_answered(planner_server: Any) -> None:
                   for method in ops}
     assert documented == {(r.path, r.method) for r in ROUTES}
     for path, ops in doc["paths"].items():
-        concrete = path.replace("{id}", "1")
+        concrete = path.replace("{id}", "1").replace("{name}", "app.js")
         for method in ("GET", "POST", "PUT", "DELETE", "PATCH"):
             body = {} if method in ("POST", "PUT", "PATCH") else None
-            status, _, _ = call(planner_server, method, concrete, body)
+            if method == "GET" and "application/json" not in ops.get("get", {}).get(
+                    "responses", {}).get("200", {}).get("content", {"application/json": 0}):
+                # The console's page and files are not JSON: check the route only.
+                conn = http.client.HTTPConnection(*address(planner_server), timeout=10)
+                conn.request("GET", concrete)
+                status = conn.getresponse().status
+                conn.close()
+            else:
+                status, _, _ = call(planner_server, method, concrete, body)
             if method.lower() in ops:
                 assert status not in (404, 405), (method, path)
             else:
@@ -407,8 +408,17 @@ def test_openapi_matches_the_routes_answered(planner_server: Any) -> None:
             declared = {p["name"] for p in op.get("parameters", []) if p["in"] == "path"}
             assert declared == set(re.findall(r"\{(\w+)\}", path)), path
             for code, response in op["responses"].items():
-                ref = response["content"]["application/json"]["schema"]["$ref"]
-                assert ref.split("/")[-1] in doc["components"]["schemas"], (path, code)
+                if code == "304":  # revalidated console file: no body
+                    assert "content" not in response, path
+                    continue
+                content = response["content"]
+                # JSON answers name their component; a page, a stream or a CSV is a string.
+                for media, body in content.items():
+                    if media == "application/json":
+                        ref = body["schema"]["$ref"]
+                        assert ref.split("/")[-1] in doc["components"]["schemas"], (path, code)
+                    else:
+                        assert body["schema"] == {"type": "string"}, (path, code, media)
     ids = [op["operationId"] for ops in doc["paths"].values() for op in ops.values()]
     assert len(ids) == len(set(ids))
 
@@ -420,12 +430,14 @@ def test_openapi_body_schema_is_what_the_parser_accepts(planner_server: Any) -> 
     # Every documented field is accepted (a valid value of each, all at once).
     body = {"waypoints": [HOME, TARGET], "method": "seplerp", "beta": 1.0, "turn": "ccw",
             "duration": 1.5, "profile": "trapezoid", "rate_hz": 50, "blend": False,
-            "start_joints": None}
+            "start_joints": None, "elbow": None}
     assert set(body) == set(props)
     status, _, data = call(planner_server, "POST", "/v1/trajectories", body)
     assert status == 200, data
-    move_props = doc["components"]["schemas"]["MoveBody"]["properties"]
-    assert set(move_props) == set(props) - {"start_joints"}
+    # A move body: the plan's fields but start_joints, or a trajectory to play.
+    planned, given = doc["components"]["schemas"]["MoveBody"]["anyOf"]
+    assert set(planned["properties"]) == set(props) - {"start_joints"}
+    assert set(given["properties"]) == {"trajectory", "rate_hz"}
 
 
 # -- token ------------------------------------------------------------------------------------
@@ -505,7 +517,9 @@ def test_move_executes_and_reports(arm_server: Any) -> None:
                 start_joints=start)
     assert body["samples"] == len(want.t) and body["duration"] == want.duration
     done = poll_move(server, body["id"], lambda b: b["status"] not in ("queued", "running"))
-    assert done["status"] == "done" and done["progress"] == 1.0, done
+    # "degraded" when the loaded test machine made the streamer skip samples.
+    assert done["status"] in ("done", "degraded") and done["progress"] == 1.0, done
+    assert (done["status"] == "degraded") == (done["report"]["samples_skipped"] > 0)
     assert done["report"]["stop_reason"] == "completed"
     assert done["report"]["samples_sent"] + done["report"]["samples_skipped"] == \
         done["report"]["samples_total"]
@@ -547,7 +561,7 @@ def test_two_concurrent_moves_one_is_409(arm_server: Any) -> None:
     _, _, health = call(server, "GET", "/healthz")
     assert health["moving"] is True
     final = poll_move(server, accepted["id"], lambda b: b["status"] not in ("queued", "running"))
-    assert final["status"] == "done", final["error"]
+    assert final["status"] in ("done", "degraded"), final["error"]
     assert call(server, "GET", "/healthz")[2]["moving"] is False
 
 

@@ -17,13 +17,15 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         "serve", help="run the HTTP trajectory service",
         description="Serve the HTTP API (GET /openapi.json lists it). Binds 127.0.0.1 by "
                     "default; any other address needs --token (or ROBODCN_TOKEN), and every "
-                    "POST must then carry 'Authorization: Bearer TOKEN'.")
+                    "POST must then carry 'Authorization: Bearer TOKEN'. Logs one line per "
+                    "request. Exits 6 when the address cannot be bound (e.g. in use).")
     options.add_arm_option(p)
     p.add_argument("--host", default="127.0.0.1", help="address to bind (default 127.0.0.1)")
     p.add_argument("--port", type=options.tcp_port, default=8080,
                    help="TCP port (default 8080; 0 = any)")
     p.add_argument("--token", default=os.environ.get("ROBODCN_TOKEN"),
-                   help="bearer token for POST requests (default: $ROBODCN_TOKEN)")
+                   help="bearer token for POST requests, 1-256 visible ASCII characters "
+                        "(default: $ROBODCN_TOKEN)")
     target = p.add_mutually_exclusive_group()
     target.add_argument("--sim", action="store_true", help="serve a simulated arm")
     target.add_argument("--device", metavar="DEV",
@@ -33,7 +35,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
 
 
 def _cmd_serve(args: argparse.Namespace) -> int:
-    from robodcn.http_server import serve
+    from robodcn.http import serve
 
     arm = options.load_arm(args)
     serve(arm, host=args.host, port=args.port, token=args.token, sim=args.sim,

@@ -1,0 +1,53 @@
+"""The HTTP trajectory service: JSON in and out, SI units.
+
+Endpoints (one route table, :data:`~robodcn.http.routes.ROUTES`, drives dispatch, the worker
+pool of each request and ``/openapi.json``)::
+
+    GET  /healthz            liveness, arm name, whether a move runs
+    GET  /v1/arm             the arm configuration (SI units)
+    POST /v1/trajectories    plan only → 200 Trajectory JSON
+    POST /v1/moves           plan and execute → 202 Move; 409 while a move runs
+    GET  /v1/moves/{id}      status (done | degraded | stopped | fault | …), progress, report
+    POST /v1/stop            stop and hold
+    GET  /v1/state           present joints, pose, torque, alerts
+    GET  /openapi.json       OpenAPI 3.1 document of all of the above
+    GET  /v1/moves/{id}/trajectory   what a move planned (Trajectory JSON)
+    GET  /v1/moves/{id}/record       what it measured (JSON, or CSV by Accept: text/csv)
+    POST /v1/torque          torque on (holding) or off, one joint or all
+    POST /v1/reboot          reboot one servo or all
+    GET  /v1/events          Server-Sent Events: live state, move status, alerts
+    GET  /                   the web console (robodcn.web); its files under /static/{name}
+
+``POST /v1/moves`` takes waypoints (planned from the present joints,
+:func:`robodcn.present.plan_from_present`) or ``{"trajectory": Trajectory JSON |
+JointTrajectory JSON}`` (:func:`robodcn.workflow.files.trajectory_from_data`, then
+:func:`~robodcn.workflow.files.with_approach` from the present joints).
+
+Errors are ``{"error": {"code", "message", "field", ...}}`` with the status of the
+:mod:`robodcn.errors` class (``http_status``: 422 input/plan, 413 too large, 409 busy, 503
+bus fault) or of the HTTP check that failed: 400 malformed request or JSON (not UTF-8, too
+deep), 401 missing/wrong bearer token, 404 unknown path or move, 405 method not served
+(with ``Allow``), 408 request not complete within its deadline, 411 no Content-Length, 413
+body over 1 MiB, 414/431 request line/head too long, 415 not JSON, 505 not HTTP/1.x, 503
+server full; a console file unchanged since its ETag is 304.
+
+Modules: :mod:`~robodcn.http.limits` (every limit), :mod:`~robodcn.http.framing` (request
+reader, responses), :mod:`~robodcn.http.jsonbody`, :mod:`~robodcn.http.routes`,
+:mod:`~robodcn.http.results` (result dataclasses and their schemas),
+:mod:`~robodcn.http.planbody`, :mod:`~robodcn.http.openapi`, :mod:`~robodcn.http.ops` (the
+operations), :mod:`~robodcn.http.server` (selector loop, caps, pools),
+:mod:`~robodcn.http.service` (``serve``).
+"""
+
+from robodcn.http.framing import HTTPError
+from robodcn.http.limits import MAX_BODY, MAX_CONNECTIONS, MAX_PER_CLIENT, REQUEST_TIMEOUT
+from robodcn.http.openapi import openapi, schemas
+from robodcn.http.planbody import MOVE_FIELDS, PLAN_FIELDS, parse_plan_body
+from robodcn.http.routes import ROUTES, Route
+from robodcn.http.server import TOKEN_ENV, ListenError, RobodcnHTTPServer, make_server
+from robodcn.http.service import serve
+
+__all__ = ["MAX_BODY", "MAX_CONNECTIONS", "MAX_PER_CLIENT", "MOVE_FIELDS", "PLAN_FIELDS",
+           "REQUEST_TIMEOUT", "ROUTES", "TOKEN_ENV", "HTTPError", "ListenError",
+           "RobodcnHTTPServer", "Route", "make_server", "openapi", "parse_plan_body", "schemas",
+           "serve"]

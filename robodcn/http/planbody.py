@@ -1,0 +1,115 @@
+"""Plan and move bodies, from :mod:`robodcn.contract` (the one definition of the request).
+
+The parsing is :func:`robodcn.contract.parse_request` and the schema
+:func:`robodcn.contract.request_schema`; a move body omits
+:data:`robodcn.contract.MOVE_OMIT` (a move starts from the arm's present joints).
+:data:`PLAN_FIELDS`, :data:`MOVE_FIELDS` and :func:`parse_plan_body` are kept for the old
+``robodcn.http_server`` import path, derived from the contract.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+from robodcn import contract
+from robodcn.config import Arm
+from robodcn.planner import PlanRequest
+
+
+def plan_body_schema(arm: Arm | None = None) -> dict[str, Any]:
+    """JSON Schema of a ``POST /v1/trajectories`` body."""
+    return contract.request_schema(arm)
+
+
+def move_body_schema(arm: Arm | None = None) -> dict[str, Any]:
+    """JSON Schema of a ``POST /v1/moves`` body."""
+    return contract.request_schema(arm, omit=contract.MOVE_OMIT)
+
+
+def parse_plan(arm: Arm, body: Any) -> PlanRequest:
+    """A decoded ``/v1/trajectories`` body → a validated PlanRequest (InputError naming the
+    JSON path of the bad value; TooLargeError for the caps, all before planning)."""
+    return contract.parse_request(body, arm)
+
+
+def parse_move(arm: Arm, body: Any) -> PlanRequest:
+    """A decoded ``/v1/moves`` body → a validated PlanRequest without start_joints."""
+    return contract.parse_request(body, arm, omit=contract.MOVE_OMIT)
+
+
+def _fields(omit: tuple[str, ...] = ()) -> dict[str, tuple[dict[str, Any], str]]:
+    props = contract.request_schema(omit=omit)["properties"]
+    return {name: ({k: v for k, v in s.items() if k != "description"}, s["description"])
+            for name, s in props.items()}
+
+
+#: name → (JSON schema, description) of a plan body (derived from the contract).
+PLAN_FIELDS = _fields()
+#: The same for a move body.
+MOVE_FIELDS = _fields(contract.MOVE_OMIT)
+
+
+def parse_plan_body(arm: Arm, body: Any, fields: dict[str, Any] = PLAN_FIELDS) -> PlanRequest:
+    """Compatibility: :func:`parse_plan`, or :func:`parse_move` for ``MOVE_FIELDS``."""
+    return parse_move(arm, body) if "start_joints" not in fields else parse_plan(arm, body)
+
+
+# -- a move of a given trajectory ---------------------------------------------------------------
+
+#: Fields of a ``POST /v1/moves`` body that plays a trajectory instead of planning one.
+TRAJECTORY_MOVE_FIELDS = ("trajectory", "rate_hz")
+
+
+def joint_trajectory_schema(arm: Arm | None = None) -> dict[str, Any]:
+    """JSON Schema of a ROS ``trajectory_msgs/JointTrajectory`` as JSON (robodcn.workflow.files)."""
+    names: dict[str, Any] = {"type": "string"}
+    if arm is not None:
+        names["enum"] = list(arm.joint_names)
+    stamp = {"type": "object", "additionalProperties": False, "required": ["sec"],
+             "properties": {"sec": {"type": "integer", "minimum": 0},
+                            "nanosec": {"type": "integer", "minimum": 0,
+                                        "maximum": 999_999_999}}}
+    point = {"type": "object", "additionalProperties": False,
+             "required": ["positions", "time_from_start"],
+             "properties": {
+                 "positions": {"type": "array", "items": {"type": "number"},
+                               "description": "rad, in the order of joint_names"},
+                 "velocities": {"description": "rad/s per joint, on every point or none"},
+                 "accelerations": {"description": "rad/s² per joint, on every point or none "
+                                   "(with velocities)"},
+                 "effort": {"description": "ignored"},
+                 "time_from_start": stamp}}
+    return {"type": "object", "required": ["joint_names", "points"],
+            "description": "trajectory_msgs/JointTrajectory as JSON: resampled at rate_hz by "
+                           "piecewise Hermite interpolation, checked against the arm's limits",
+            "properties": {"joint_names": {"type": "array", "items": names},
+                           "points": {"type": "array", "minItems": 2, "items": point}}}
+
+
+def trajectory_move_schema(arm: Arm | None = None) -> dict[str, Any]:
+    """JSON Schema of a ``POST /v1/moves`` body that plays a given trajectory."""
+    rate = contract.field("rate_hz")
+    return {"type": "object", "additionalProperties": False, "required": ["trajectory"],
+            "properties": {
+                "trajectory": {"anyOf": [
+                    {"type": "object", "required": ["t", "ticks"],
+                     "description": "a Trajectory JSON (POST /v1/trajectories, robodcn plan "
+                                    "--format json; #/components/schemas/Trajectory) for this "
+                                    "arm: played as planned"},
+                    joint_trajectory_schema(arm)]},
+                "rate_hz": {**rate.schema, "description": "Stream rate a JointTrajectory is "
+                            "resampled at (a Trajectory keeps its own). Default: the arm's "
+                            "[bus] rate_hz."}}}
+
+
+def parse_trajectory_move(arm: Arm, body: dict[str, Any]) -> tuple[Any, float]:
+    """``{"trajectory": ..., "rate_hz"?}`` → (the trajectory value, the rate), checked
+    (InputError naming the field); the trajectory itself is checked by
+    :func:`robodcn.workflow.files.trajectory_from_data`."""
+    extra = sorted(set(body) - set(TRAJECTORY_MOVE_FIELDS))
+    if extra:
+        raise contract.fail(extra[0], "unknown field: a move of a given trajectory takes "
+                            "trajectory and rate_hz only", body[extra[0]])
+    rate = contract.check_field("rate_hz", body["rate_hz"]) if "rate_hz" in body \
+        else arm.bus.rate_hz
+    return body["trajectory"], float(rate)

@@ -1,0 +1,87 @@
+"""``robodcn serve``: the service with its arm (simulated or on a device) until a signal."""
+
+from __future__ import annotations
+
+import contextlib
+import logging
+import os
+import signal
+import threading
+from collections.abc import Callable, Iterator
+from typing import Any
+
+from robodcn.config import Arm
+from robodcn.http.server import TOKEN_ENV, RobodcnHTTPServer, check_token, make_server
+
+#: Seconds a signal waits for the running move to hold before the server shuts down.
+STOP_WAIT = 2.0
+
+
+@contextlib.contextmanager
+def signals_stop(server: RobodcnHTTPServer, controller: Any = None) -> Iterator[None]:
+    """SIGINT/SIGTERM: first stop the motion (the arm holds), then shut the server down.
+
+    Main thread only (others cannot set handlers). The handler hands the work to a thread:
+    ``shutdown()`` waits for ``serve_forever()``, which runs in this very thread.
+    """
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+
+    def stop_then_shutdown() -> None:
+        if controller is not None:
+            controller.stop(wait=STOP_WAIT)
+        server.shutdown()
+
+    def handler(signum: int, frame: Any) -> None:
+        if controller is not None:
+            controller.request_stop("the service is shutting down")  # no lock, no wait
+        threading.Thread(target=stop_then_shutdown, name="robodcn-http-shutdown").start()
+
+    previous = {sig: signal.signal(sig, handler) for sig in (signal.SIGINT, signal.SIGTERM)}
+    try:
+        yield
+    finally:
+        for sig, old in previous.items():
+            signal.signal(sig, old)
+
+
+def serve(arm: Arm, *, host: str = "127.0.0.1", port: int = 8080, token: str | None = None,
+          sim: bool = False, device: str | None = None, baud: int | None = None,
+          ready: Callable[[str], None] | None = None) -> None:
+    """Run the service until SIGINT/SIGTERM or ``server.shutdown()``, then clean up.
+
+    With ``sim=True`` the arm is :func:`robodcn.simulated.simulated_arm` in realistic
+    timing; otherwise ``device`` (default: the arm's bus port) is opened at ``baud`` (default:
+    the arm's) and verified against the arm's servos (BusError when they do not answer).
+    ``token`` defaults to ``$ROBODCN_TOKEN`` (visible ASCII, checked first); ``ready(url)``
+    is called once the socket listens. Raises ListenError (exit 6) when the address is busy.
+    """
+    from robodcn.controller import ArmController  # the bus stack only when serving
+
+    if token is None:
+        token = os.environ.get(TOKEN_ENV) or None
+    check_token(token)
+    # Warnings of a request (e.g. a beta that the method ignores) go to the log, not stderr.
+    logging.captureWarnings(True)
+    with contextlib.ExitStack() as stack:
+        if sim:
+            from robodcn.simulated import simulated_arm
+
+            bus = stack.enter_context(simulated_arm(arm, timing="realistic")).bus
+        else:
+            from robodcn.bus import ServoBus
+
+            bus = ServoBus(device or arm.bus.port, baud or arm.bus.baud, servos=arm.servos)
+            stack.callback(bus.close)
+            bus.open()
+            # Torque stays as it is until the first move (the streamer configures then).
+            bus.verify()
+        controller = ArmController(arm, bus)
+        stack.callback(controller.close)
+        server = make_server(arm, controller, host=host, port=port, token=token)
+        stack.callback(server.server_close)
+        stack.enter_context(signals_stop(server, controller))
+        if ready is not None:
+            ready(server.url)
+        server.serve_forever(poll_interval=0.2)

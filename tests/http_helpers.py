@@ -1,0 +1,105 @@
+"""Shared helpers for the HTTP service tests: a server in a thread, one-shot requests and
+raw-socket exchanges."""
+
+from __future__ import annotations
+
+import contextlib
+import http.client
+import json
+import socket
+import threading
+import time
+from collections.abc import Iterator
+from pathlib import Path
+from typing import Any
+
+from robodcn.config import load_arm
+
+ROOT = Path(__file__).resolve().parent.parent
+ARM = load_arm(ROOT / "configs" / "arm3r.toml")
+HOME = list(ARM.home)
+TARGET = [0.18, 0.12, 0.6]
+BODY = {"waypoints": [HOME, TARGET], "duration": 0.6, "rate_hz": 100}
+#: The simulator shares the process with the tests: a stall of the streaming thread past the
+#: default 100 ms Bus Watchdog would stop a move for reasons these tests are not about.
+LOADED_MACHINE = {"watchdog_ms": 1000}
+
+
+@contextlib.contextmanager
+def running(server: Any) -> Iterator[Any]:
+    thread = threading.Thread(target=server.serve_forever, kwargs={"poll_interval": 0.05},
+                              daemon=True)
+    thread.start()
+    try:
+        yield server
+    finally:
+        server.shutdown()
+        server.server_close()
+        thread.join(5)
+
+
+def address(server: Any) -> tuple[str, int]:
+    host, port = server.server_address[:2]
+    return ("127.0.0.1" if host == "0.0.0.0" else host), port
+
+
+def call(server: Any, method: str, path: str, body: Any = None, *,
+         headers: dict[str, str] | None = None, raw: bytes | None = None,
+         timeout: float = 10.0) -> tuple[int, dict[str, str], Any]:
+    """One request on a fresh connection; the JSON body decoded (None for HEAD)."""
+    conn = http.client.HTTPConnection(*address(server), timeout=timeout)
+    try:
+        data = raw if raw is not None else (None if body is None else json.dumps(body).encode())
+        hdrs = {"Content-Type": "application/json"} if data is not None else {}
+        hdrs.update(headers or {})
+        conn.request(method, path, body=data, headers=hdrs)
+        resp = conn.getresponse()
+        payload = resp.read()
+        assert resp.getheader("Content-Type") == "application/json"
+        return resp.status, dict(resp.getheaders()), json.loads(payload) if payload else None
+    finally:
+        conn.close()
+
+
+def error_of(body: Any) -> dict[str, Any]:
+    assert set(body) == {"error"}
+    assert {"code", "message", "field"} <= set(body["error"])
+    assert body["error"]["message"]
+    return body["error"]
+
+
+def read_all(sock: socket.socket) -> bytes:
+    chunks = []
+    while True:
+        try:
+            chunk = sock.recv(65536)
+        except (ConnectionResetError, TimeoutError):
+            break
+        if not chunk:
+            break
+        chunks.append(chunk)
+    return b"".join(chunks)
+
+
+def exchange(server: Any, data: bytes, timeout: float = 5.0) -> tuple[bytes, Any]:
+    """Send raw bytes, read until the server closes: (status line, JSON body)."""
+    with socket.create_connection(address(server), timeout=timeout) as sock:
+        sock.sendall(data)
+        reply = read_all(sock)
+    head, _, payload = reply.partition(b"\r\n\r\n")
+    return head.split(b"\r\n", 1)[0], json.loads(payload) if payload else None
+
+
+def poll_move(server: Any, move_id: str, until: Any, timeout: float = 10.0) -> dict[str, Any]:
+    deadline = time.monotonic() + timeout
+    while True:
+        status, _, body = call(server, "GET", f"/v1/moves/{move_id}")
+        assert status == 200, body
+        if until(body):
+            return body
+        assert time.monotonic() < deadline, body
+        time.sleep(0.01)
+
+
+def finished(body: dict[str, Any]) -> bool:
+    return body["status"] not in ("queued", "running")
