@@ -129,8 +129,21 @@ def parser() -> argparse.ArgumentParser:
     return p
 
 
+def _check_targets(p: argparse.ArgumentParser, args: argparse.Namespace) -> None:
+    """Every fault flag names a servo on the bus (or ``bus``): checked before serving, so a
+    typo is an error at startup rather than a crash when the fault fires."""
+    ids = set(args.ids)
+    for kind in _FAULT_KEYS:
+        for servo_id, _ in getattr(args, kind):
+            if servo_id is not None and servo_id not in ids:
+                p.error(f"--{kind.replace('_', '-')} {servo_id}: no servo {servo_id} on the bus "
+                        f"(--ids {','.join(map(str, args.ids))})")
+
+
 def main(argv: list[str] | None = None) -> int:
-    args = parser().parse_args(argv)
+    p = parser()
+    args = p.parse_args(argv)
+    _check_targets(p, args)
     model = _per_id(args.model, "--model")
     fw_text = _per_id(args.firmware, "--firmware")
     try:
