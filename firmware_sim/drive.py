@@ -95,6 +95,7 @@ class Drive:
         self.duty = 0.0             # [-1, 1], actual frame
         self.overload_s = 0.0
         self.error = 0.0            # last position error, pulses
+        self.omega_seen = 0.0       # shaft speed the last step's current was computed at
 
     def reset_controllers(self) -> None:
         self.position.reset()
@@ -110,6 +111,7 @@ class Drive:
         """(τ₀, c) of the output torque τ = τ₀ − c·ω over the step [t, t + dt]."""
         s = self.settings
         m = self.motor
+        self.omega_seen = omega
         if s is None or not s.torque_on:
             self.duty = 0.0
             self.current = 0.0              # torque off: the bridge is open (coasting)
@@ -169,10 +171,10 @@ class Drive:
     def steady(self, t: float) -> bool:
         """Nothing in the drive changes while the shaft stays still (lets the plant skip)."""
         s = self.settings
+        if self.omega_seen != 0.0:
+            return False            # the readings are from a moving shaft: step once more
         if s is None or not s.torque_on:
             return True
-        if abs(self.current) >= OVERLOAD_FRACTION * self.max_current():
-            return False
         mode = s.mode
         if mode in _POSITION_MODES:
             return not s.profile.ongoing(t) and (s.kpi == 0.0 or self.error == 0.0)
@@ -183,7 +185,17 @@ class Drive:
     def skip(self, dt: float) -> None:
         """Advance heat and the overload timer by ``dt`` of steady state (exactly)."""
         self.thermal.advance(self.current * self.current * self.motor.resistance, dt)
-        self.overload_s = max(0.0, self.overload_s - dt)
+        if self._over():
+            self.overload_s += dt
+        else:
+            self.overload_s = max(0.0, self.overload_s - dt)
+
+    def _over(self) -> bool:
+        return abs(self.current) >= OVERLOAD_FRACTION * self.max_current()
+
+    def time_to_overload(self) -> float:
+        """Seconds of the present current until the overload error (inf if below)."""
+        return max(0.0, OVERLOAD_TIME_S - self.overload_s) if self._over() else math.inf
 
     def time_to_overheat(self) -> float:
         s = self.settings

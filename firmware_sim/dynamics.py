@@ -139,10 +139,11 @@ class Plant:
 
     def _skip(self, dt: float) -> None:
         """Stay still for ``dt``: heat and timers advance exactly; time moves on. Stops at
-        a temperature crossing so the next step reports it."""
+        a temperature limit or the overload time so that the next step reports it."""
         if dt <= 0:
             return
-        until = min([dt] + [d.time_to_overheat() for d in self.drives])
+        until = min([dt] + [d.time_to_overheat() for d in self.drives]
+                    + [d.time_to_overload() for d in self.drives])
         until = math.floor(until / self.step) * self.step
         for d in self.drives:
             d.skip(until)

@@ -460,6 +460,8 @@ class Servo:
         if bits & table.get(ct.SHUTDOWN) and table.data[ct.TORQUE_ENABLE]:
             table.set(ct.TORQUE_ENABLE, 0)
             self._hold_here(t)
+            if self._drive is not None:       # the bridge opens at once
+                self._drive.current = self._drive.duty = 0.0
         if self._drive is not None:
             self._configure_drive()
 
