@@ -52,7 +52,7 @@ def test_close_is_prompt_and_idempotent():
     bus.close()
     assert time.perf_counter() - t0 < 0.2
     bus.close()
-    assert not Path(bus.port_path).exists() or bus._master is None
+    assert not Path(bus.port_path).exists() or bus._port.closed
 
 
 def test_link_symlink_created_and_removed(tmp_path):
