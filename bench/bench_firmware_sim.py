@@ -46,7 +46,9 @@ def _samples(fn: Callable[[], int], n: int) -> tuple[list[float], int]:
             out.append(dt)
         else:
             failed += 1
-            if failed > n // 10:
+            # timeouts under machine load are counted in the table; this many means a
+            # broken bus, not a busy machine
+            if failed > n:
                 raise RuntimeError(f"bench call failed {failed} times: "
                                    f"{PH.getTxRxResult(result)}")
     return out, failed

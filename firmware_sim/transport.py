@@ -91,6 +91,7 @@ class PtyPort:
         none came within ``timeout_s``. Other OSErrors than "no client" propagate."""
         master = self._master
         if master is None:
+            time.sleep(timeout_s)
             return None
         try:
             t_wait = time.perf_counter()
