@@ -1,0 +1,133 @@
+"""The pseudo-terminal a client opens as its USB serial adapter.
+
+The sim keeps both ends: it reads and writes the master, and holding the slave open
+keeps the pty alive between clients and lets it read the baud rate the client set
+(the slave's termios), which decides which servos hear the client.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import errno
+import os
+import select
+import termios
+import time
+import tty
+
+#: Bytes that were already waiting when ``select`` was called arrived no later than then.
+_ALREADY_WAITING_S = 50e-6
+
+
+def _termios_rates() -> dict[int, int]:
+    rates = {}
+    for name in dir(termios):
+        if name.startswith("B") and name[1:].isdigit():
+            rates[getattr(termios, name)] = int(name[1:])
+    return rates
+
+
+_TERMIOS_RATES = _termios_rates()
+
+
+class PtyPort:
+    """One pty: :attr:`path` for the client, the master end for the sim.
+
+    Parameters
+    ----------
+    link : str, optional
+        Path of a symlink to the slave, made on :meth:`open` and removed on :meth:`close`.
+    """
+
+    def __init__(self, link: str | None = None) -> None:
+        self.link = link
+        self.path = ""
+        self._master: int | None = None
+        self._slave: int | None = None
+        self._link_made = False
+
+    @property
+    def closed(self) -> bool:
+        return self._master is None
+
+    def open(self) -> None:
+        master, slave = os.openpty()
+        try:
+            tty.setraw(slave)       # nothing echoed or line-buffered before the client opens it
+            os.set_blocking(master, False)
+            self.path = os.ttyname(slave)
+            if self.link:
+                os.symlink(self.path, self.link)
+                self._link_made = True
+        except BaseException:
+            os.close(master)
+            os.close(slave)
+            raise
+        self._master, self._slave = master, slave
+
+    def close(self) -> None:
+        """Release the pty and the link (idempotent)."""
+        for fd in (self._master, self._slave):
+            if fd is not None:
+                os.close(fd)
+        self._master = self._slave = None
+        if self._link_made and self.link:
+            with contextlib.suppress(FileNotFoundError):
+                os.unlink(self.link)
+            self._link_made = False
+
+    def rate(self) -> int | None:
+        """Bits/s the client set on the port (slave termios), None if not a known rate."""
+        if self._slave is None:
+            return None
+        try:
+            speed = termios.tcgetattr(self._slave)[5]
+        except termios.error:
+            return None
+        return _TERMIOS_RATES.get(speed)
+
+    def receive(self, timeout_s: float) -> tuple[bytes, float] | None:
+        """Bytes the client sent and the ``perf_counter`` time they arrived by, or None if
+        none came within ``timeout_s``. Other OSErrors than "no client" propagate."""
+        master = self._master
+        if master is None:
+            time.sleep(timeout_s)
+            return None
+        try:
+            t_wait = time.perf_counter()
+            ready, _, _ = select.select([master], [], [], timeout_s)
+            if not ready:
+                return None
+            data = os.read(master, 4096)
+        except BlockingIOError:
+            return None
+        except OSError as exc:
+            if exc.errno != errno.EIO:
+                raise
+            time.sleep(timeout_s)      # no slave open (we keep one, but be safe)
+            return None
+        now = time.perf_counter()
+        if now - t_wait < _ALREADY_WAITING_S:
+            # the bytes were there before we looked (the thread was busy): they arrived
+            # no later than t_wait. Using it keeps a busy thread from seeing a false
+            # 1.5 ms inter-byte gap, and dates the instruction closer to its arrival.
+            now = t_wait
+        return data, now
+
+    def write(self, data: bytes) -> None:
+        """Put ``data`` on the port for the client; what it never collects is lost."""
+        master = self._master
+        if master is None:
+            return
+        view = memoryview(data)
+        flushed = False
+        while view:
+            try:
+                n = os.write(master, view)
+                view = view[n:]
+            except BlockingIOError:
+                if flushed or self._slave is None:
+                    return            # nobody reads the port: the bytes are lost, as on a wire
+                # the client is not reading: drop what it never collected, as a wire would
+                termios.tcflush(self._slave, termios.TCIFLUSH)
+                flushed = True
