@@ -12,6 +12,11 @@ Fault flags take ``TARGET[:key=value,...]`` where TARGET is a servo ID or ``bus`
     --truncate-fast bus:keep=1,n=0   cut every fast-read chain after one block
     --split bus:pieces=3,gap_ms=0.5  write every reply in three pieces
     --trip 2:bits=32,at=1.5          overload servo 2 1.5 s after start
+
+Physics (default): the firmware's controller drives a DC motor, gearbox and load;
+``--dynamics off`` gives the kinematic model (Present Position = the profile).
+``--arm configs/arm3r.toml`` makes the servos drive that arm's rigid bodies;
+``--control PATH`` serves "move ID TICKS", "push ID NM", "obstacle ID DEG" on a UNIX socket.
 """
 
 from __future__ import annotations
@@ -24,6 +29,7 @@ import time
 from collections.abc import Callable
 
 from firmware_sim.bus import SimBus
+from firmware_sim.control_socket import ControlServer
 from firmware_sim.faults import FaultInjector
 
 
@@ -123,14 +129,34 @@ def parser() -> argparse.ArgumentParser:
     p.add_argument("--timing", choices=("realistic", "fast"), default="realistic")
     p.add_argument("--log", metavar="FILE", help="append a packet log to FILE")
     p.add_argument("--seed", type=int, help="seed for probabilistic faults")
+    p.add_argument("--dynamics", choices=("on", "off"), default="on",
+                   help="physics model (on, default) or the kinematic model (off)")
+    p.add_argument("--arm", metavar="TOML", help="arm file whose rigid bodies the servos drive")
+    p.add_argument("--supply", type=float, default=12.0, metavar="V",
+                   help="supply voltage, V (default 12)")
+    p.add_argument("--control", metavar="PATH",
+                   help="UNIX socket for move/push/obstacle commands")
     for kind in _FAULT_KEYS:
         p.add_argument(f"--{kind.replace('_', '-')}", action="append", type=_spec, default=[],
                        metavar="TARGET[:k=v,...]")
     return p
 
 
+def _check_targets(p: argparse.ArgumentParser, args: argparse.Namespace,
+                   bus_ids: list[int]) -> None:
+    """Every fault flag names a servo on the bus (or ``bus``): checked before serving, so a
+    typo is an error at startup rather than a crash when the fault fires."""
+    ids = set(bus_ids)
+    for kind in _FAULT_KEYS:
+        for servo_id, _ in getattr(args, kind):
+            if servo_id is not None and servo_id not in ids:
+                p.error(f"--{kind.replace('_', '-')} {servo_id}: no servo {servo_id} on the bus "
+                        f"(ids {','.join(map(str, bus_ids))})")
+
+
 def main(argv: list[str] | None = None) -> int:
-    args = parser().parse_args(argv)
+    p = parser()
+    args = p.parse_args(argv)
     model = _per_id(args.model, "--model")
     fw_text = _per_id(args.firmware, "--firmware")
     try:
@@ -139,11 +165,19 @@ def main(argv: list[str] | None = None) -> int:
     except ValueError:
         raise SystemExit(f"firmware_sim: --firmware must be integers, got {args.firmware!r}")\
             from None
+    if args.arm and args.dynamics == "off":
+        p.error("--arm needs the physics model; drop --dynamics off")
+    ids = args.ids
+    if args.arm and "--ids" not in (argv if argv is not None else sys.argv[1:]):
+        ids = None                          # the arm file's servo ids
     try:
-        bus = SimBus(args.ids, model, baud=args.baud, timing=args.timing, firmware=firmware,
-                     link=args.link, log=False, log_file=args.log, fault_seed=args.seed)
+        bus = SimBus(ids, model, baud=args.baud, timing=args.timing, firmware=firmware,
+                     link=args.link, log=False, log_file=args.log, fault_seed=args.seed,
+                     dynamics=args.dynamics == "on", arm=args.arm,
+                     supply_voltage=args.supply)
     except ValueError as exc:
-        raise SystemExit(f"firmware_sim: {exc}") from None
+        p.error(str(exc))
+    _check_targets(p, args, [s.id for s in bus.servos])
     trips: list[tuple[float, Callable[[], None]]] = []
     for kind in _FAULT_KEYS:
         for servo_id, opts in getattr(args, kind):
@@ -159,7 +193,13 @@ def main(argv: list[str] | None = None) -> int:
 
     signal.signal(signal.SIGINT, on_signal)
     signal.signal(signal.SIGTERM, on_signal)
+    control = None
     with bus:
+        if args.control:
+            try:
+                control = ControlServer(bus, args.control)
+            except OSError as exc:
+                p.error(f"--control {args.control}: {exc.strerror}")
         print(bus.port_path, flush=True)
         t0 = time.monotonic()
         while not stop.is_set():
@@ -168,6 +208,8 @@ def main(argv: list[str] | None = None) -> int:
                 continue
             wait = trips[0][0] - (time.monotonic() - t0) if trips else 1.0
             stop.wait(max(0.0, min(wait, 1.0)))
+        if control is not None:
+            control.close()
     return 0
 
 

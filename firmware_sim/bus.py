@@ -39,6 +39,7 @@ from collections.abc import Callable, Iterable, Mapping
 from dataclasses import dataclass, field
 from typing import IO, ClassVar
 
+from firmware_sim.arm_model import load_arm
 from firmware_sim.clock import Clock
 from firmware_sim.control_table import (
     BAUD_RATES,
@@ -48,6 +49,7 @@ from firmware_sim.control_table import (
     MODELS,
 )
 from firmware_sim.faults import FaultInjector, FaultKind
+from firmware_sim.motor import DEFAULT_SUPPLY_V
 from firmware_sim.protocol import (
     BROADCAST_ID,
     MAX_ID,
@@ -59,7 +61,7 @@ from firmware_sim.protocol import (
     fast_status_length,
     instruction_name,
 )
-from firmware_sim.servo import Servo
+from firmware_sim.servo import Servo, couple_arm
 
 #: Firmware version from which X430 servos answer Fast Sync/Bulk Read (e-manual).
 FAST_READ_MIN_FIRMWARE = 45
@@ -189,6 +191,17 @@ class SimBus:
     goal_limit : int
         Goal history kept per servo (:meth:`goal_history`); older goals are dropped, so a
         long-running ``serve --sim`` does not grow without bound.
+    dynamics : bool
+        False (default): the kinematic model, Present Position = the profile. True: the
+        physics model (:mod:`firmware_sim.drive`, :mod:`firmware_sim.dynamics`).
+    arm : path or mapping, optional
+        An arm TOML file (or its parsed dict): its servos drive the arm's rigid-body
+        dynamics (:mod:`firmware_sim.arm_model`); needs ``dynamics=True``. ``ids`` defaults
+        to the arm's servo ids and each arm servo starts at its zero_offset.
+    positions : mapping id -> int, optional
+        Initial Present Position per servo (default 2048).
+    supply_voltage : float
+        Supply of every servo, V (physics model).
     fast_chain_stops : bool
         What later servos of a Fast Sync/Bulk Read do when an earlier one stays silent
         (undocumented): False, they append their blocks anyway; True, the chain ends.
@@ -205,14 +218,24 @@ class SimBus:
     _switch_saved = 0.0
     _switch_lock = threading.Lock()
 
-    def __init__(self, ids: Iterable[int] = (1,), model: str | Mapping[int, str] = "xm430-w350",
-                 *, baud: int = 1_000_000, timing: str = "fast",
+    def __init__(self, ids: Iterable[int] | None = None,
+                 model: str | Mapping[int, str] = "xm430-w350", *, baud: int = 1_000_000,
+                 timing: str = "fast",
                  firmware: int | Mapping[int, int] = 46, clock: Clock | None = None,
                  link: str | None = None, log: bool = True, log_file: str | None = None,
                  turnaround_s: float = 30e-6, fault_seed: int | None = None,
                  log_limit: int = 100_000, goal_limit: int = 1_000_000,
                  fast_chain_stops: bool = False,
-                 switch_interval: float | None = 1e-4) -> None:
+                 switch_interval: float | None = 1e-4, dynamics: bool = False,
+                 arm: str | os.PathLike[str] | Mapping[str, object] | None = None,
+                 positions: Mapping[int, int] | None = None,
+                 supply_voltage: float = DEFAULT_SUPPLY_V) -> None:
+        arm_model = load_arm(arm) if arm is not None else None     # ArmConfigError: ValueError
+        if arm_model is not None and not dynamics:
+            raise ValueError("an arm load needs the physics model: pass dynamics=True")
+        arm_ids = [jm.servo_id for jm in arm_model.joints] if arm_model is not None else []
+        if ids is None:
+            ids = arm_ids or (1,)
         id_list = [int(i) for i in ids]
         if not id_list:
             raise ValueError("SimBus needs at least one servo id")
@@ -230,6 +253,19 @@ class SimBus:
         if turnaround_s < 0:
             raise ValueError(f"turnaround_s must be >= 0, got {turnaround_s}")
         models = model if isinstance(model, Mapping) else dict.fromkeys(id_list, model)
+        if arm_model is not None:
+            missing = [i for i in arm_ids if i not in id_list]
+            if missing:
+                raise ValueError(f"arm servo ids {missing} are not among the bus ids {id_list}")
+            if not isinstance(model, Mapping):      # the arm file names its servos' models
+                models = {**models, **{jm.servo_id: jm.model for jm in arm_model.joints}}
+        start = dict(positions or {})
+        for i in start:
+            if i not in id_list:
+                raise ValueError(f"positions: no servo {i} on the bus (ids {id_list})")
+        if arm_model is not None:
+            for jm in arm_model.joints:
+                start.setdefault(jm.servo_id, jm.zero_offset)
         firmwares = firmware if isinstance(firmware, Mapping) else dict.fromkeys(id_list, firmware)
         for i in id_list:
             if i not in models:
@@ -243,8 +279,16 @@ class SimBus:
         self.fast_chain_stops = bool(fast_chain_stops)
         self.link = link
         self.clock = clock
+        self.dynamics = bool(dynamics)
+        self.arm = arm_model
+        arm_lock = threading.RLock()
         self._servos = [Servo(i, models[i], firmware=int(firmwares.get(i, 46)),
-                              baud_index=baud_index, clock=clock) for i in id_list]
+                              baud_index=baud_index, clock=clock,
+                              position=int(start.get(i, 2048)), dynamics=self.dynamics,
+                              supply_voltage=supply_voltage,
+                              lock=arm_lock if i in arm_ids else None) for i in id_list]
+        if arm_model is not None:
+            couple_arm(arm_model, [self._servo_by_id(i) for i in arm_ids])
         self._goals: dict[int, deque[int]] = {id(s): deque(maxlen=int(goal_limit))
                                               for s in self._servos}
         self._registered: dict[int, tuple[int, int]] = {}
@@ -351,6 +395,9 @@ class SimBus:
     def servos(self) -> list[Servo]:
         """All servos, in construction order."""
         return list(self._servos)
+
+    def _servo_by_id(self, servo_id: int) -> Servo:
+        return next(s for s in self._servos if s.id == servo_id)
 
     def servo(self, servo_id: int) -> Servo:
         """The servo whose ID item is currently ``servo_id``."""

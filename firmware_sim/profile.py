@@ -104,6 +104,22 @@ class Profile:
                 return seg.at(t)
         return self.final, 0.0
 
+    def kinematics(self, t: float) -> tuple[float, float, float]:
+        """(position pulses, velocity pulse/s, acceleration pulse/s²) at time ``t``."""
+        if self.endless and self.segments:
+            last = self.segments[-1]
+            if t >= last.t0:
+                tau = t - last.t0
+                return (last.p0 + last.v0 * tau + 0.5 * last.a * tau * tau,
+                        last.v0 + last.a * tau, last.a)
+        elif t >= self.end:
+            return self.final, 0.0, 0.0
+        for seg in self.segments:
+            if t < seg.t0 + seg.dur:
+                p, v = seg.at(t)
+                return p, v, seg.a
+        return self.final, 0.0, 0.0
+
     def ongoing(self, t: float) -> bool:
         """Profile still running at ``t`` (for an endless profile: still accelerating)."""
         return t < self.end

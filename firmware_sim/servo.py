@@ -26,6 +26,7 @@ import struct
 import threading
 
 from firmware_sim import control_table as ct
+from firmware_sim.arm_model import ArmModel
 from firmware_sim.clock import Clock, RealClock
 from firmware_sim.control_table import (
     ALERT_BIT,
@@ -41,6 +42,9 @@ from firmware_sim.control_table import (
     Item,
     indirect_data_slot,
 )
+from firmware_sim.drive import PULSES_PER_RAD, Drive, DriveSettings
+from firmware_sim.dynamics import Plant
+from firmware_sim.motor import CURRENT_UNIT_A, DEFAULT_SUPPLY_V, MOTORS, PWM_FULL
 from firmware_sim.profile import (
     ACCELERATION_UNIT,
     VELOCITY_UNIT,
@@ -81,7 +85,26 @@ _TICK_MOVING = struct.Struct("<HBB")
 _VEL_POS_TRAJ = struct.Struct("<iiii")
 _S8 = struct.Struct("<b")
 _S32 = struct.Struct("<i")
+_S16 = struct.Struct("<h")
+_U16 = struct.Struct("<H")
 _U32 = struct.Struct("<I")
+
+
+def couple_arm(arm: ArmModel, servos: list[Servo]) -> Plant:
+    """Put ``servos`` (in the arm's joint order, physics model, one shared lock) on one
+    plant carrying the arm's rigid bodies; returns it."""
+    t0 = servos[0].clock.now()
+    drives = []
+    for s in servos:
+        if s._drive is None:
+            raise ValueError(f"servo {s.id}: an arm needs the physics model (dynamics=True)")
+        drives.append(s._drive)
+    plant = Plant(drives, [s._plant.theta[0] for s in servos], t0, arm=arm)  # type: ignore[union-attr]
+    plant.owners = list(servos)
+    for j, s in enumerate(servos):
+        s._plant = plant
+        s._joint = j
+    return plant
 
 
 def _round(x: float) -> int:
@@ -117,6 +140,15 @@ class Servo:
         Initial Present Position, pulse (actual position with Homing Offset 0).
     boot_delay_s : float
         How long :meth:`booting` stays true after a reboot.
+    dynamics : bool
+        False: the kinematic model (Present Position is the profile position). True: the
+        physics model: the firmware's controller drives a DC motor, gearbox and load
+        (:mod:`firmware_sim.drive`, :mod:`firmware_sim.dynamics`), and Present Velocity,
+        Current, PWM, Load, Input Voltage and Temperature follow it.
+    supply_voltage : float
+        Supply, V (physics model; Present Input Voltage reads it).
+    lock : threading.RLock, optional
+        Shared with the other servos of one arm (their shafts are coupled).
 
     Notes
     -----
@@ -126,7 +158,9 @@ class Servo:
 
     def __init__(self, servo_id: int, model: str = "xm430-w350", *, firmware: int = 46,
                  baud_index: int = 3, clock: Clock | None = None, position: int = 2048,
-                 boot_delay_s: float = BOOT_DELAY_S) -> None:
+                 boot_delay_s: float = BOOT_DELAY_S, dynamics: bool = False,
+                 supply_voltage: float = DEFAULT_SUPPLY_V,
+                 lock: threading.RLock | None = None) -> None:
         if model not in MODELS:
             raise ValueError(f"model {model!r} unknown; known: {sorted(MODELS)}")
         spec = MODELS[model]
@@ -146,7 +180,9 @@ class Servo:
         self.clock: Clock = clock if clock is not None else RealClock()
         self.boot_delay_s = float(boot_delay_s)
         self.table = ControlTable(spec)
-        self._lock = threading.RLock()
+        self._lock = lock if lock is not None else threading.RLock()
+        if not (math.isfinite(supply_voltage) and 0 < supply_voltage <= 30):
+            raise ValueError(f"supply_voltage must be in (0, 30] V, got {supply_voltage!r}")
         self._firmware = int(firmware)
         self.table.set(ct.FIRMWARE_VERSION, self._firmware)
         self.table.set(ct.ID, int(servo_id))
@@ -155,6 +191,13 @@ class Servo:
         self._boot_time = now
         self._boot_until = now        # constructed servos are up at once
         self._profile: Profile = hold(now, float(position))
+        self._drive: Drive | None = None
+        self._plant: Plant | None = None
+        self._joint = 0
+        if dynamics:
+            self._drive = Drive(MOTORS[model], self._physical_fault, supply_voltage)
+            self._plant = Plant([self._drive], [float(position) / PULSES_PER_RAD], now)
+            self._plant.owners = [self]
         self._last_instruction = now
         self._watchdog_tripped = False
         self._watchdog_armed_at = now
@@ -275,8 +318,24 @@ class Servo:
         """Advance the watchdog and the live items (Present *, Moving, tick...) to now."""
         with self._lock:
             now = self.clock.now()
+            plant = self._plant
+            if plant is not None:
+                deadline = self._watchdog_deadline()
+                if deadline is not None and deadline <= now:
+                    plant.advance(deadline)      # the stop happens at the deadline
+                self._check_watchdog(now)
+                plant.advance(now)
+                self._refresh_physics(now)
+                return
             self._check_watchdog(now)
             self._refresh(now)
+
+    def _watchdog_deadline(self) -> float | None:
+        data = self.table.data
+        wd = _S8.unpack_from(data, ct.BUS_WATCHDOG)[0]
+        if self._watchdog_tripped or wd <= 0 or not data[ct.TORQUE_ENABLE]:
+            return None
+        return max(self._last_instruction, self._watchdog_armed_at) + wd * WATCHDOG_UNIT_S
 
     def _check_watchdog(self, now: float) -> None:
         data = self.table.data
@@ -316,7 +375,127 @@ class Servo:
         data[ct.REGISTERED_INSTRUCTION] = int(self._registered is not None)
         data[ct.BACKUP_READY] = int(self._backup is not None)
 
+    def _refresh_physics(self, now: float) -> None:
+        """Live items from the plant (position, velocity) and the drive (PWM, current,
+        voltage, temperature); the trajectory items from the profile."""
+        data = self.table.data
+        drive = self._drive
+        plant = self._plant
+        assert drive is not None and plant is not None
+        j = self._joint
+        sign = -1 if data[ct.DRIVE_MODE] & ct.DRIVE_REVERSE else 1
+        homing = _S32.unpack_from(data, ct.HOMING_OFFSET)[0]
+        actual = plant.theta[j] * PULSES_PER_RAD - drive.turns
+        pos = _wrap32(_round(sign * actual + homing))
+        vel = _wrap32(_round(sign * plant.omega[j] * PULSES_PER_RAD / VELOCITY_UNIT))
+        prof = self._profile
+        p_d, v_d = prof.state(now)
+        ongoing = prof.ongoing(now)
+        threshold = _U32.unpack_from(data, ct.MOVING_THRESHOLD)[0]
+        moving = ongoing or abs(vel) > threshold
+        status = prof.kind
+        if ongoing:
+            status |= ct.MS_PROFILE_ONGOING
+        elif (data[ct.TORQUE_ENABLE] and data[ct.OPERATING_MODE] in _POSITION_MODES
+              and abs(pos - _S32.unpack_from(data, ct.GOAL_POSITION)[0]) <= threshold):
+            # inference: "in position" within the Moving Threshold of the goal
+            status |= ct.MS_IN_POSITION
+        tick = math.floor((now - self._boot_time) * 1000.0 + 1e-6) % 32768
+        _TICK_MOVING.pack_into(data, ct.REALTIME_TICK, tick, int(moving), status)
+        _VEL_POS_TRAJ.pack_into(data, ct.PRESENT_VELOCITY, vel, pos,
+                                _wrap32(_round(v_d / VELOCITY_UNIT)), _wrap32(_round(p_d)))
+        _S16.pack_into(data, ct.PRESENT_PWM, max(-PWM_FULL, min(PWM_FULL, _round(
+            sign * drive.duty * PWM_FULL))))
+        if self.spec.has_current:
+            present_current = _round(sign * drive.current / CURRENT_UNIT_A)
+        else:          # Present Load: 0.1 % of the rated stall current
+            present_current = _round(sign * 1000.0 * drive.current / drive.motor.stall_current)
+        _S16.pack_into(data, ct.PRESENT_CURRENT, max(-32768, min(32767, present_current)))
+        volts = _round(drive.supply_voltage / 0.1)
+        _U16.pack_into(data, ct.PRESENT_INPUT_VOLTAGE, volts)
+        data[ct.PRESENT_TEMPERATURE] = max(0, min(255, _round(drive.thermal.temperature)))
+        data[ct.REGISTERED_INSTRUCTION] = int(self._registered is not None)
+        data[ct.BACKUP_READY] = int(self._backup is not None)
+        lo = _U16.unpack_from(data, ct.MIN_VOLTAGE_LIMIT)[0]
+        hi = _U16.unpack_from(data, ct.MAX_VOLTAGE_LIMIT)[0]
+        if not lo <= volts <= hi and not data[ct.HARDWARE_ERROR_STATUS] & ct.HW_INPUT_VOLTAGE:
+            self._physical_fault(ct.HW_INPUT_VOLTAGE, now)
+
+    def _configure_drive(self) -> None:
+        """Snapshot what the drive reads from the control table (before plant steps)."""
+        drive = self._drive
+        assert drive is not None
+        t = self.table
+        xm = self.spec.has_current
+        stall = drive.supply_voltage / drive.motor.resistance
+        drive.settings = DriveSettings(
+            torque_on=bool(t.data[ct.TORQUE_ENABLE]),
+            mode=t.get(ct.OPERATING_MODE),
+            sign=self._sign(),
+            homing=t.get(ct.HOMING_OFFSET),
+            kpp=t.get(ct.POSITION_P_GAIN) / 128.0,
+            kpi=t.get(ct.POSITION_I_GAIN) / 65536.0,
+            kpd=t.get(ct.POSITION_D_GAIN) / 16.0,
+            kff1=t.get(ct.FEEDFORWARD_1ST_GAIN) / 4.0,
+            kff2=t.get(ct.FEEDFORWARD_2ND_GAIN) / 4.0,
+            kvp=t.get(ct.VELOCITY_P_GAIN) / 128.0,
+            kvi=t.get(ct.VELOCITY_I_GAIN) / 65536.0,
+            pwm_limit=float(abs(t.get(ct.GOAL_PWM))),
+            goal_pwm=float(t.get(ct.GOAL_PWM)),
+            goal_current=(t.get(ct.GOAL_CURRENT) * CURRENT_UNIT_A if xm else stall),
+            current_limit=(t.get(ct.CURRENT_LIMIT) * CURRENT_UNIT_A if xm else stall),
+            profile=self._profile,
+            temperature_limit=float(t.get(ct.TEMPERATURE_LIMIT)),
+            voltage_ok=True,
+        )
+
+    def _physical_fault(self, bits: int, t: float) -> None:
+        """A fault with a physical cause (overload, overheating, voltage) at time ``t``:
+        Hardware Error Status gets ``bits``; Shutdown (63) bits turn the torque off."""
+        table = self.table
+        old = table.get(ct.HARDWARE_ERROR_STATUS)
+        if old & bits == bits and not table.data[ct.TORQUE_ENABLE]:
+            return
+        table.set(ct.HARDWARE_ERROR_STATUS, old | bits)
+        if bits & table.get(ct.SHUTDOWN) and table.data[ct.TORQUE_ENABLE]:
+            table.set(ct.TORQUE_ENABLE, 0)
+            self._hold_here(t)
+            if self._drive is not None:       # the bridge opens at once
+                self._drive.current = self._drive.duty = 0.0
+        if self._drive is not None:
+            self._configure_drive()
+
     # ---- frames ---------------------------------------------------------------------
+    def _actual_now(self, now: float) -> float:
+        """The motor's multi-turn position counter (actual frame), pulses."""
+        if self._plant is None:
+            return self._actual(self._profile.state(now)[0])
+        assert self._drive is not None
+        return self._plant.theta[self._joint] * PULSES_PER_RAD - self._drive.turns
+
+    def _present_now(self, now: float) -> float:
+        """Present Position as a float (present frame), pulses."""
+        if self._plant is None:
+            return self._profile.state(now)[0]
+        return self._present(self._actual_now(now))
+
+    def _set_actual(self, now: float, actual: float) -> None:
+        """Make the counter read ``actual`` (the shaft stays put); the profile holds there."""
+        if self._plant is not None:
+            assert self._drive is not None
+            self._drive.turns = self._plant.theta[self._joint] * PULSES_PER_RAD - actual
+            self._drive.reset_controllers()
+        self._profile = hold(now, self._present(actual))
+
+    def _hold_here(self, now: float) -> float:
+        """The profile stops where the servo is (kinematic: the profile's own position);
+        returns that position."""
+        p = self._present_now(now)
+        self._profile = hold(now, p)
+        if self._drive is not None:
+            self._drive.reset_controllers()
+        return p
+
     def _sign(self) -> int:
         return -1 if self.table.get(ct.DRIVE_MODE) & ct.DRIVE_REVERSE else 1
 
@@ -428,12 +607,12 @@ class Servo:
         now = self.clock.now()
         written = {it.address for it in values}
         old_torque = t.get(ct.TORQUE_ENABLE)
-        actual = self._actual(self._profile.state(now)[0])
+        actual = self._actual_now(now)
         old_mode = t.get(ct.OPERATING_MODE)
         for it in sorted(values, key=lambda it: it.address):
             t.set(it.address, values[it])
         if written & {ct.HOMING_OFFSET, ct.DRIVE_MODE}:
-            self._profile = hold(now, self._present(actual))
+            self._set_actual(now, actual)
         if ct.OPERATING_MODE in written and t.get(ct.OPERATING_MODE) != old_mode:
             # e-manual: a mode change resets the profile and the goal PWM/current; entering
             # (extended) position control re-reads the absolute encoder (one turn)
@@ -448,7 +627,7 @@ class Servo:
             if new_torque and not old_torque:
                 self._torque_on(now, keep_goal=ct.GOAL_POSITION in written)
             elif old_torque and not new_torque:
-                self._profile = hold(now, self._profile.state(now)[0])
+                self._hold_here(now)
         if ct.BUS_WATCHDOG in written:
             if t.get(ct.BUS_WATCHDOG) == 0:
                 self._watchdog_tripped = False
@@ -460,16 +639,14 @@ class Servo:
 
     def _single_turn(self, now: float) -> None:
         """Present Position back to the absolute encoder's one-turn value (plus offset)."""
-        actual = self._actual(self._profile.state(now)[0]) % PULSES_PER_REV
-        self._profile = hold(now, self._present(actual))
+        self._set_actual(now, self._actual_now(now) % PULSES_PER_REV)
 
     def _torque_on(self, now: float, keep_goal: bool) -> None:
         # the servo holds where it is; the goal follows the present position. In
         # position control mode torque-on re-reads the absolute encoder (e-manual note)
         if self.table.get(ct.OPERATING_MODE) == ct.MODE_POSITION:
             self._single_turn(now)
-        p = self._profile.state(now)[0]
-        self._profile = hold(now, p)
+        p = self._hold_here(now)
         if not keep_goal:
             self.table.set(ct.GOAL_POSITION, _round(p))
         self._watchdog_armed_at = now
@@ -513,7 +690,7 @@ class Servo:
         if self.spec.has_current and ct.GOAL_CURRENT not in keep:
             t.set(ct.GOAL_CURRENT, t.get(ct.CURRENT_LIMIT))
         if ct.GOAL_POSITION not in keep:
-            t.set(ct.GOAL_POSITION, _round(self._profile.state(self.clock.now())[0]))
+            t.set(ct.GOAL_POSITION, _round(self._present_now(self.clock.now())))
 
     # ---- registered write -------------------------------------------------------------
     def reg_write(self, address: int, data: bytes) -> int:
@@ -558,7 +735,7 @@ class Servo:
             if int(bits) & t.get(ct.SHUTDOWN) and t.get(ct.TORQUE_ENABLE):
                 now = self.clock.now()
                 t.set(ct.TORQUE_ENABLE, 0)
-                self._profile = hold(now, self._profile.state(now)[0])
+                self._hold_here(now)
             self._refresh(self.clock.now())
 
     # ---- reboot, reset, clear, backup -------------------------------------------------
@@ -570,11 +747,11 @@ class Servo:
             self._reboot(self.clock.now())
 
     def _reboot(self, now: float) -> None:
-        actual = self._actual(self._profile.state(now)[0]) % PULSES_PER_REV
+        actual = self._actual_now(now) % PULSES_PER_REV
         self.table.reset(lambda it: not it.eeprom)
         self._registered = None
         self._watchdog_tripped = False
-        self._profile = hold(now, self._present(actual))
+        self._set_actual(now, actual)
         self._reset_goals()
         self._boot_time = now
         self._boot_until = now + self.boot_delay_s
@@ -600,7 +777,7 @@ class Servo:
             if option not in (RESET_ALL, RESET_KEEP_ID, RESET_KEEP_ID_BAUD):
                 return ERR_DATA_RANGE
             now = self.clock.now()
-            actual = self._actual(self._profile.state(now)[0])
+            actual = self._actual_now(now)
             keep = {ct.MODEL_NUMBER, ct.FIRMWARE_VERSION}
             if option in (RESET_KEEP_ID, RESET_KEEP_ID_BAUD):
                 keep.add(ct.ID)
@@ -608,7 +785,7 @@ class Servo:
                 keep.add(ct.BAUD_RATE)
             self.table.reset(lambda it: it.address not in keep)
             self.table.set(ct.FIRMWARE_VERSION, self._firmware)
-            self._profile = hold(now, self._present(actual))
+            self._set_actual(now, actual)
             self._reboot(now)
             return 0
 
@@ -625,8 +802,8 @@ class Servo:
             now = self.clock.now()
             if self.table.get(ct.MOVING) or self._profile.ongoing(now):
                 return ERR_RESULT_FAIL
-            actual = self._actual(self._profile.state(now)[0]) % PULSES_PER_REV
-            self._profile = hold(now, self._present(actual))
+            actual = self._actual_now(now) % PULSES_PER_REV
+            self._set_actual(now, actual)
             if self.table.get(ct.TORQUE_ENABLE):
                 self.table.set(ct.GOAL_POSITION, _round(self._present(actual)))
             self._refresh(now)
@@ -656,13 +833,96 @@ class Servo:
                 return 0
             if self._backup is None:
                 return ERR_RESULT_FAIL
-            actual = self._actual(self._profile.state(now)[0])
+            actual = self._actual_now(now)
             self.table.restore(self._backup)
-            self._profile = hold(now, self._present(actual))
+            self._set_actual(now, actual)
             self._reboot(now)
             self.table.restore(self._ram_part(self._backup))
             self._refresh(now)
             return 0
+
+    # ---- the outside world (physics) -----------------------------------------------------
+    @property
+    def dynamics(self) -> bool:
+        """True when the physics model drives this servo."""
+        return self._plant is not None
+
+    @property
+    def supply_voltage(self) -> float:
+        """Supply voltage, V (physics model)."""
+        return self._drive.supply_voltage if self._drive is not None else DEFAULT_SUPPLY_V
+
+    @supply_voltage.setter
+    def supply_voltage(self, volts: float) -> None:
+        if not (math.isfinite(volts) and 0 < volts <= 30):
+            raise ValueError(f"supply_voltage must be in (0, 30] V, got {volts!r}")
+        with self._lock:
+            self.update()
+            if self._drive is None:
+                raise RuntimeError("supply_voltage needs the physics model (dynamics=True)")
+            self._drive.supply_voltage = float(volts)
+
+    @property
+    def temperature(self) -> float:
+        """Winding temperature, °C (physics model; the kinematic model reads the table)."""
+        with self._lock:
+            self.update()
+            if self._drive is None:
+                return float(self.table.get(ct.PRESENT_TEMPERATURE))
+            return self._drive.thermal.temperature
+
+    @property
+    def current_a(self) -> float:
+        """Motor current, A, in the present frame's sign (0 in the kinematic model)."""
+        with self._lock:
+            self.update()
+            return 0.0 if self._drive is None else self._sign() * self._drive.current
+
+    def backdrive(self, ticks: int) -> None:
+        """Move the output shaft by hand so Present Position reads ``ticks`` (torque off).
+
+        Raises
+        ------
+        RuntimeError
+            While torque is on (the servo would fight the hand).
+        """
+        with self._lock:
+            self.update()
+            if self.table.data[ct.TORQUE_ENABLE]:
+                raise RuntimeError(f"servo {self.id}: torque is on; turn it off before "
+                                   "moving the shaft by hand")
+            if not -(1 << 31) <= int(ticks) < (1 << 31):
+                raise ValueError(f"ticks must fit Present Position (int32), got {ticks!r}")
+            now = self.clock.now()
+            if self._plant is not None:
+                assert self._drive is not None
+                actual = self._actual(int(ticks))
+                self._plant.theta[self._joint] = (actual + self._drive.turns) / PULSES_PER_RAD
+                self._plant.omega[self._joint] = 0.0
+            self._profile = hold(now, float(int(ticks)))
+            self.update()
+
+    def push(self, torque_nm: float) -> None:
+        """Apply an external torque to the output shaft, N·m (0 releases it). It acts with
+        torque on or off, in the present frame's positive direction."""
+        if not math.isfinite(torque_nm):
+            raise ValueError(f"torque_nm must be finite, got {torque_nm!r}")
+        with self._lock:
+            self.update()
+            if self._drive is None:
+                raise RuntimeError("push needs the physics model (dynamics=True)")
+            self._drive.external_torque = self._sign() * float(torque_nm)
+
+    def set_obstacle(self, degrees: float | None) -> None:
+        """Block the joint beyond ``degrees`` (joint angle: tick 2048 = 0° unless an arm
+        file maps it), on the far side from where it is now; None removes the obstacle."""
+        if degrees is not None and not math.isfinite(degrees):
+            raise ValueError(f"obstacle angle must be finite degrees, got {degrees!r}")
+        with self._lock:
+            self.update()
+            if self._plant is None:
+                raise RuntimeError("obstacles need the physics model (dynamics=True)")
+            self._plant.set_obstacle(self._joint, degrees)
 
     def __repr__(self) -> str:
         return (f"Servo(id={self.id}, model={self.model!r}, firmware={self.firmware_version}, "

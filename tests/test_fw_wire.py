@@ -228,3 +228,15 @@ def test_log_limit_keeps_newest_and_switch_interval_restored():
         assert [e.direction for e in bus.log] == ["rx", "tx", "rx", "tx"]
         assert bus.rx_packets == 5
     assert sys.getswitchinterval() == before
+
+
+@pytest.mark.parametrize(("flag", "spec"), [("--trip", "9:bits=32,at=0"), ("--drop", "9:n=1"),
+                                           ("--delay", "9:ms=5")])
+def test_cli_rejects_fault_target_not_on_the_bus(flag, spec):
+    """A fault aimed at a servo the bus lacks is refused at startup (exit 2), naming the flag
+    and the id; before the fix ``--trip 9:bits=32`` crashed with a KeyError after start."""
+    out = subprocess.run([sys.executable, "-m", "firmware_sim", "--ids", "1,2", flag,
+                          spec], cwd=ROOT, capture_output=True, text=True, timeout=20)
+    assert out.returncode == 2, out.stderr
+    assert f"{flag} 9: no servo 9 on the bus" in out.stderr
+    assert out.stdout == ""          # no device path: nothing was served

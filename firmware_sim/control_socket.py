@@ -1,0 +1,113 @@
+"""``--control PATH``: move the simulated arm "by hand" over a UNIX stream socket.
+
+One command a line, one answer a line (``ok`` or ``error <reason>``)::
+
+    move ID TICKS      backdrive servo ID so Present Position reads TICKS (torque off)
+    push ID NM         external torque on servo ID's output shaft, N·m (0 releases)
+    obstacle ID DEG    block servo ID's joint beyond DEG degrees (``obstacle ID off`` clears)
+    voltage ID V       supply voltage of servo ID
+    get ID             answers ``ok POSITION VELOCITY CURRENT TEMPERATURE`` (table units)
+
+A client may keep the connection open and send many lines; several clients may connect.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import logging
+import os
+import socket
+import threading
+from collections.abc import Callable
+
+from firmware_sim import control_table as ct
+from firmware_sim.bus import SimBus
+
+log = logging.getLogger(__name__)
+
+
+def execute(bus: SimBus, line: str) -> str:
+    """Run one command line against ``bus``; the answer line (without newline)."""
+    words = line.split()
+    if not words:
+        return "error empty command"
+    verb, args = words[0].lower(), words[1:]
+    commands: dict[str, tuple[int, Callable[..., str]]] = {
+        "move": (2, lambda s, a: _do(lambda: s.backdrive(int(a)))),
+        "push": (2, lambda s, a: _do(lambda: s.push(float(a)))),
+        "obstacle": (2, lambda s, a: _do(lambda: s.set_obstacle(
+            None if a.lower() == "off" else float(a)))),
+        "voltage": (2, lambda s, a: _do(lambda: setattr(s, "supply_voltage", float(a)))),
+        "get": (1, lambda s: "ok " + " ".join(str(s.get(a)) for a in (
+            ct.PRESENT_POSITION, ct.PRESENT_VELOCITY, ct.PRESENT_CURRENT,
+            ct.PRESENT_TEMPERATURE))),
+    }
+    if verb not in commands:
+        return f"error unknown command {verb!r}; known: {', '.join(sorted(commands))}"
+    arity, run = commands[verb]
+    if len(args) != arity:
+        return f"error {verb} takes {arity} argument(s), got {len(args)}"
+    try:
+        servo_id = int(args[0])
+    except ValueError:
+        return f"error servo id {args[0]!r} is not an integer"
+    try:
+        servo = bus.servo(servo_id)
+    except KeyError:
+        return f"error no servo {servo_id} on the bus"
+    try:
+        return run(servo, *args[1:])
+    except ValueError as exc:
+        return f"error {exc}"
+
+
+def _do(action: Callable[[], object]) -> str:
+    try:
+        action()
+    except RuntimeError as exc:
+        return f"error {exc}"
+    return "ok"
+
+
+class ControlServer:
+    """Serve :func:`execute` on a UNIX socket at ``path`` in a daemon thread."""
+
+    def __init__(self, bus: SimBus, path: str) -> None:
+        self.bus = bus
+        self.path = path
+        self._sock = socket.socket(socket.AF_UNIX, socket.SOCK_STREAM)
+        self._sock.bind(path)
+        self._sock.listen(4)
+        self._sock.settimeout(0.2)
+        self._stop = threading.Event()
+        self._thread = threading.Thread(target=self._serve, name="firmware_sim control",
+                                        daemon=True)
+        self._thread.start()
+
+    def _serve(self) -> None:
+        while not self._stop.is_set():
+            try:
+                conn, _ = self._sock.accept()
+            except TimeoutError:
+                continue
+            except OSError:
+                return
+            threading.Thread(target=self._client, args=(conn,), daemon=True).start()
+
+    def _client(self, conn: socket.socket) -> None:
+        with conn, conn.makefile("rw", encoding="utf-8", newline="\n") as f:
+            for line in f:
+                answer = execute(self.bus, line)
+                log.info("control %r -> %s", line.strip(), answer)
+                try:
+                    f.write(answer + "\n")
+                    f.flush()
+                except OSError:
+                    return
+
+    def close(self) -> None:
+        self._stop.set()
+        self._sock.close()
+        self._thread.join(timeout=2)
+        with contextlib.suppress(FileNotFoundError):
+            os.unlink(self.path)

@@ -1,0 +1,237 @@
+"""The mechanics the servos drive: shafts (and an arm's rigid bodies), integrated lazily.
+
+A :class:`Plant` owns the output-shaft angles θ (rad, continuous) and velocities ω of a
+set of servos. Nothing ticks: whenever one of its servos is read or written, the plant
+advances in fixed steps of ``PHYSICS_STEP_S`` up to that time. Each step solves, for the
+shafts' velocities, the semi-implicit (backward in the damping) Euler equation::
+
+    (A + h·C)·ω⁺ = A·ω + h·(τ₀ − b − τ_f),     θ⁺ = θ + h·ω⁺
+
+A = diag(J_rotor·N²) + the arm's mass matrix in shaft coordinates, C = diag(c) the motors'
+back-EMF and viscous damping (:mod:`firmware_sim.drive`), b the arm's Coriolis/centrifugal
+and gravity torques (:mod:`firmware_sim.arm_model`), τ_f Coulomb friction with stiction: a
+shaft slower than ``STICTION_RAD_S`` whose net torque is within ±τ_c stays stuck (ω⁺ = 0).
+An obstacle clamps a shaft at its angle and stops it (an inelastic stop).
+
+Joint i of an arm relates to its servo's shaft by θ = θ₀ + ρ·q with ρ = direction·
+ticks_per_turn/4096 (θ₀ from zero_offset), so M_θ = R⁻¹·M_q·R⁻¹ and b_θ = R⁻¹·b_q, R = diag(ρ).
+
+When every shaft is still and every drive is steady (:meth:`Drive.steady`) the plant skips
+ahead in one call instead of stepping, so an idle bus costs nothing.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+
+from firmware_sim.arm_model import ArmModel
+from firmware_sim.drive import PULSES_PER_RAD, Drive
+
+#: Integration step, s (the motors' mechanical time constants are 15-17 ms).
+PHYSICS_STEP_S = 0.0005
+#: Below this shaft speed, rad/s, static friction may hold the shaft.
+STICTION_RAD_S = 1e-3
+
+
+def _solve(a: list[list[float]], b: list[float]) -> list[float]:
+    """x with a·x = b by Gaussian elimination with partial pivoting (n ≤ 6; a, b consumed)."""
+    n = len(b)
+    for col in range(n):
+        piv = max(range(col, n), key=lambda r: abs(a[r][col]))
+        if piv != col:
+            a[col], a[piv] = a[piv], a[col]
+            b[col], b[piv] = b[piv], b[col]
+        inv = 1.0 / a[col][col]
+        for r in range(col + 1, n):
+            f = a[r][col] * inv
+            if f:
+                row, prow = a[r], a[col]
+                for k in range(col, n):
+                    row[k] -= f * prow[k]
+                b[r] -= f * b[col]
+    x = [0.0] * n
+    for r in range(n - 1, -1, -1):
+        acc = b[r]
+        row = a[r]
+        for k in range(r + 1, n):
+            acc -= row[k] * x[k]
+        x[r] = acc / row[r]
+    return x
+
+
+class Plant:
+    """Shafts driven by servos, optionally coupled through an arm.
+
+    Parameters
+    ----------
+    drives : sequence of Drive
+        One per shaft.
+    theta : sequence of float
+        Initial shaft angles, rad.
+    t0 : float
+        Plant time, s.
+    arm : ArmModel, optional
+        Couples the shafts (in the arm's joint order, which ``drives`` must follow).
+    step : float
+        Integration step, s.
+    """
+
+    def __init__(self, drives: Sequence[Drive], theta: Sequence[float], t0: float,
+                 arm: ArmModel | None = None, step: float = PHYSICS_STEP_S) -> None:
+        if arm is not None and arm.dof != len(drives):
+            raise ValueError(f"arm has {arm.dof} joints but {len(drives)} servos were given")
+        self.drives = list(drives)
+        self.n = len(self.drives)
+        self.theta = [float(x) for x in theta]
+        self.omega = [0.0] * self.n
+        self.t = float(t0)
+        self.step = float(step)
+        self.arm = arm
+        self.inertia = [d.motor.inertia for d in self.drives]
+        if arm is not None:
+            self.rho = [jm.direction * jm.ticks_per_turn / 4096 for jm in arm.joints]
+            self.theta0 = [jm.zero_offset / PULSES_PER_RAD for jm in arm.joints]
+        else:
+            self.rho = [1.0] * self.n
+            self.theta0 = [2048 / PULSES_PER_RAD] * self.n
+        #: Per shaft: None or (angle rad, side): side +1 blocks θ above it, -1 below.
+        self.obstacles: list[tuple[float, int] | None] = [None] * self.n
+        #: The servos whose shafts these are (they snapshot their settings before a step).
+        self.owners: list = []
+        self.steps_taken = 0
+
+    # ---- joints ---------------------------------------------------------------------
+    def joint_angle(self, j: int) -> float:
+        """Joint angle q_j, rad (θ = θ₀ + ρ·q)."""
+        return (self.theta[j] - self.theta0[j]) / self.rho[j]
+
+    def shaft_angle(self, j: int, q: float) -> float:
+        return self.theta0[j] + self.rho[j] * q
+
+    def set_obstacle(self, j: int, q_deg: float | None) -> None:
+        """Block joint ``j`` beyond ``q_deg`` degrees, on the far side from where it is now
+        (None removes it)."""
+        if q_deg is None:
+            self.obstacles[j] = None
+            return
+        wall = self.shaft_angle(j, math.radians(q_deg))
+        side = 1 if wall >= self.theta[j] else -1
+        self.obstacles[j] = (wall, side)
+
+    # ---- time -----------------------------------------------------------------------
+    def advance(self, t: float) -> None:
+        """Step up to time ``t`` (the last partial step waits for the next call); the
+        owners snapshot their control tables first (``_configure_drive``)."""
+        h = self.step
+        steps = int((t - self.t) / h + 1e-9)
+        if steps <= 0:
+            return
+        for owner in self.owners:
+            owner._configure_drive()
+        omega = self.omega
+        drives = self.drives
+        for k in range(steps):
+            self._step()
+            if not any(omega) and all(d.steady(self.t) for d in drives):
+                self._skip((steps - k - 1) * h)
+                return
+
+    def _skip(self, dt: float) -> None:
+        """Stay still for ``dt``: heat and timers advance exactly; time moves on. Stops at
+        a temperature limit or the overload time so that the next step reports it."""
+        if dt <= 0:
+            return
+        until = min([dt] + [d.time_to_overheat() for d in self.drives]
+                    + [d.time_to_overload() for d in self.drives])
+        until = math.floor(until / self.step) * self.step
+        for d in self.drives:
+            d.skip(until)
+        self.t += until
+        if until < dt:
+            self.advance(self.t + (dt - until))
+
+    def _step(self) -> None:
+        h = self.step
+        t = self.t
+        n = self.n
+        theta, omega = self.theta, self.omega
+        drives = self.drives
+        if n == 1:
+            d = drives[0]
+            tau0, c = d.torque(t, theta[0], omega[0], h)
+            tc = d.motor.coulomb
+            w = omega[0]
+            j = self.inertia[0]
+            if -STICTION_RAD_S < w < STICTION_RAD_S and -tc <= tau0 <= tc:
+                w_new = 0.0
+            else:
+                fric = math.copysign(tc, w if abs(w) >= STICTION_RAD_S else tau0)
+                w_new = (j * w + h * (tau0 - fric)) / (j + h * c)
+                if w * w_new < 0.0 and -tc <= tau0 <= tc:
+                    w_new = 0.0
+            th = theta[0] + h * w_new
+            obstacle = self.obstacles[0]
+            if obstacle is not None:
+                wall, side = obstacle
+                if (th - wall) * side > 0:
+                    th = wall
+                    if w_new * side > 0:
+                        w_new = 0.0
+            theta[0] = th
+            omega[0] = w_new
+        else:
+            self._step_coupled(t, h)
+        self.t = t + h
+        self.steps_taken += 1
+
+    def _step_coupled(self, t: float, h: float) -> None:
+        n = self.n
+        theta, omega, drives = self.theta, self.omega, self.drives
+        tau0 = [0.0] * n
+        damp = [0.0] * n
+        for j, d in enumerate(drives):
+            tau0[j], damp[j] = d.torque(t, theta[j], omega[j], h)
+        a = [[0.0] * n for _ in range(n)]
+        rhs = list(tau0)
+        if self.arm is not None:
+            rho = self.rho
+            q = [(theta[j] - self.theta0[j]) / rho[j] for j in range(n)]
+            qd = [omega[j] / rho[j] for j in range(n)]
+            m, bias = self.arm.dynamics(q, qd)
+            for i in range(n):
+                for j in range(n):
+                    a[i][j] = m[i][j] / (rho[i] * rho[j])
+                rhs[i] -= bias[i] / rho[i]
+        for j in range(n):
+            a[j][j] += self.inertia[j]
+        free = []
+        for j, d in enumerate(drives):
+            tc = d.motor.coulomb
+            w = omega[j]
+            if abs(w) < STICTION_RAD_S:
+                if abs(rhs[j]) <= tc:
+                    continue                      # stuck
+                rhs[j] -= math.copysign(tc, rhs[j])
+            else:
+                rhs[j] -= math.copysign(tc, w)
+            free.append(j)
+        new = [0.0] * n
+        if free:
+            af = [[a[i][j] + (h * damp[i] if i == j else 0.0) for j in free] for i in free]
+            bf = [sum(a[i][k] * omega[k] for k in range(n)) + h * rhs[i] for i in free]
+            for i, w in zip(free, _solve(af, bf), strict=True):
+                if omega[i] * w < 0.0 and abs(tau0[i]) <= drives[i].motor.coulomb:
+                    w = 0.0
+                new[i] = w
+        for j in range(n):
+            th = theta[j] + h * new[j]
+            obstacle = self.obstacles[j]
+            if obstacle is not None:
+                wall, side = obstacle
+                if (th - wall) * side > 0:
+                    th = wall
+                    if new[j] * side > 0:
+                        new[j] = 0.0
+            theta[j] = th
+            omega[j] = new[j]
