@@ -23,7 +23,7 @@ from __future__ import annotations
 
 import math
 import tomllib
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
@@ -63,6 +63,9 @@ class JointSpec:
     max_velocity: float
     max_acceleration: float
     servo: ServoSpec
+    #: Collision-stop current threshold, A (``collision_current_a``); None: derived from the
+    #: plan (:func:`robodcn.stream.collision.thresholds`).
+    collision_current: float | None = None
 
 
 @dataclass(frozen=True)
@@ -91,6 +94,9 @@ class Arm:
     elbow: str
     bus: BusSpec
     source: str
+    #: The optional ``[dynamics]`` table as written (link_masses, link_com, link_inertias,
+    #: payload_kg, gravity); read by the servo simulator and the current prediction.
+    dynamics: dict[str, Any] = field(default_factory=dict)
 
     @property
     def dof(self) -> int:
@@ -126,8 +132,11 @@ class Arm:
                            "ticks_per_turn": j.servo.ticks_per_turn,
                            "zero_offset": j.servo.zero_offset,
                            "direction": j.servo.direction, "min_tick": j.servo.min_tick,
-                           "max_tick": j.servo.max_tick}}
+                           "max_tick": j.servo.max_tick},
+                 **({} if j.collision_current is None
+                    else {"collision_current_a": j.collision_current})}
                 for j in self.joints],
+            **({"dynamics": dict(self.dynamics)} if self.dynamics else {}),
         }
 
 
@@ -252,7 +261,7 @@ def _servo(r: _Reader) -> ServoSpec:
 
 def _joint(r: _Reader) -> JointSpec:
     r.only({"name", "min", "min_deg", "max", "max_deg", "max_velocity", "max_velocity_deg_s",
-            "max_acceleration", "max_acceleration_deg_s2", "servo"})
+            "max_acceleration", "max_acceleration_deg_s2", "servo", "collision_current_a"})
     name = r.string("name")
     lo = r.angle("min", "min_deg")
     hi = r.angle("max", "max_deg")
@@ -268,7 +277,10 @@ def _joint(r: _Reader) -> JointSpec:
     if acc <= 0.0:
         key = "max_acceleration_deg_s2" if r.has("max_acceleration_deg_s2") else "max_acceleration"
         raise r.fail(key, "must be positive", r.table[key])
-    return JointSpec(name, lo, hi, vel, acc, _servo(r.sub("servo")))
+    collision = r.number("collision_current_a") if r.has("collision_current_a") else None
+    if collision is not None and collision <= 0.0:
+        raise r.fail("collision_current_a", "must be positive (amperes)", collision)
+    return JointSpec(name, lo, hi, vel, acc, _servo(r.sub("servo")), collision)
 
 
 def _bus(r: _Reader) -> BusSpec:
@@ -297,7 +309,7 @@ def arm_from_dict(data: Any, source: str = "<dict>") -> Arm:
         names or ids, a home pose out of reach.
     """
     top = _Reader(source, data, "")
-    top.only({"arm", "bus", "joints"})
+    top.only({"arm", "bus", "joints", "dynamics"})
     a = top.sub("arm")
     a.only({"name", "links", "elbow", "home"})
     name = a.string("name")
@@ -342,9 +354,47 @@ def arm_from_dict(data: Any, source: str = "<dict>") -> Arm:
         seen_names[joint.name] = i
         seen_ids[joint.servo.id] = i
 
-    arm = Arm(name, links, joints, home, elbow, bus, source)
+    arm = Arm(name, links, joints, home, elbow, bus, source,
+              _dynamics(top.sub("dynamics", {}), len(links)))
     _check_home(arm)
     return arm
+
+
+_DYNAMICS_PER_LINK = ("link_masses", "link_com", "link_inertias")
+
+
+def _dynamics(r: _Reader, n: int) -> dict[str, Any]:
+    """The ``[dynamics]`` table, checked: per-link lists of n numbers ≥ 0 (masses > 0),
+    ``payload_kg`` ≥ 0, ``gravity`` [gx, gy] m/s² or true/false."""
+    r.only({*_DYNAMICS_PER_LINK, "payload_kg", "gravity"})
+    out: dict[str, Any] = {}
+    for key in _DYNAMICS_PER_LINK:
+        if not r.has(key):
+            continue
+        raw = r.table[key]
+        if not isinstance(raw, list) or len(raw) != n:
+            raise r.fail(key, f"must be a list of {n} numbers (one per link)", raw)
+        values = [_Reader(r.source, {f"{key}[{i}]": v}, r.prefix).number(f"{key}[{i}]")
+                  for i, v in enumerate(raw)]
+        if any(v < 0 or (key == "link_masses" and v == 0) for v in values):
+            raise r.fail(key, "must be positive" if key == "link_masses"
+                         else "must be non-negative", raw)
+        out[key] = values
+    if r.has("payload_kg"):
+        payload = r.number("payload_kg")
+        if payload < 0:
+            raise r.fail("payload_kg", "must be non-negative (kg)", payload)
+        out["payload_kg"] = payload
+    if r.has("gravity"):
+        raw = r.table["gravity"]
+        if isinstance(raw, bool):
+            out["gravity"] = [0.0, -9.81] if raw else [0.0, 0.0]
+        elif isinstance(raw, list) and len(raw) == 2:
+            out["gravity"] = [_Reader(r.source, {"gravity": v}, r.prefix).number("gravity")
+                              for v in raw]
+        else:
+            raise r.fail("gravity", "must be [gx, gy] in m/s² (or true for [0, -9.81])", raw)
+    return out
 
 
 def _check_home(arm: Arm) -> None:
