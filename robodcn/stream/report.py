@@ -16,10 +16,11 @@ from numpy.typing import NDArray
 
 from robodcn.present import Approach
 
-STOP_REASONS = ("completed", "stopped", "comm_failure", "hardware_alert", "tracking_error")
+STOP_REASONS = ("completed", "stopped", "comm_failure", "hardware_alert", "tracking_error",
+                "collision")
 #: ``ExecutionReport.outcome``: every sample sent / completed with samples left out / stopped
 #: on request / stopped by a bus, servo or tracking fault.
-OUTCOMES = ("done", "degraded", "stopped", "fault")
+OUTCOMES = ("done", "degraded", "stopped", "fault", "collision")
 
 
 def tracking_error(present: NDArray[np.int64], previous_goal: NDArray[np.int64] | None,
@@ -54,7 +55,9 @@ def outcome_of(stop_reason: str, skipped: int) -> str:
     """``"done"``, ``"degraded"``, ``"stopped"`` or ``"fault"`` (see :data:`OUTCOMES`)."""
     if stop_reason == "completed":
         return "done" if skipped == 0 else "degraded"
-    return "stopped" if stop_reason == "stopped" else "fault"
+    if stop_reason in ("stopped", "collision"):
+        return stop_reason
+    return "fault"
 
 
 @dataclass
@@ -113,6 +116,23 @@ class ExecutionReport:
     realtime: bool = False
     stop_latency_s: float | None = None
     warnings: tuple[dict[str, str], ...] = ()
+    #: Per joint over the feedback reads (None without the feedback map): peak |velocity|
+    #: (rad/s), peak |current| (A) and the servo's current limit (A).
+    velocity_peak_rad_s: tuple[float, ...] | None = None
+    current_peak_a: tuple[float, ...] | None = None
+    current_limit_a: tuple[float, ...] | None = None
+    #: Per joint: the plan's predicted peak |current| and the collision thresholds (A).
+    predicted_current_peak_a: tuple[float, ...] | None = None
+    collision_threshold_a: tuple[float, ...] | None = None
+    #: Where a collision stopped the move: joint, servo_id, current_a, threshold_a,
+    #: sample, time_s, pose [x, y, θ] (m, m, rad).
+    collision: dict[str, Any] | None = None
+    #: Servos rebooted by the overload recovery (``recover=True``).
+    recovered: tuple[dict[str, Any], ...] = ()
+    #: True when the goals sent were the tracking-compensated ones.
+    compensation: bool = False
+    #: The tracking-error stop limit, rad (None: no stop).
+    tracking_limit_rad: float | None = None
 
     @property
     def outcome(self) -> str:
@@ -138,11 +158,33 @@ class ExecutionReport:
             return f"completed with {self.skipped} of {total} samples skipped"
         return f"{self.outcome} after {self.samples_sent} of {total} samples: {self.message}"
 
+    def near_limits(self, share: float = 0.9) -> list[dict[str, Any]]:
+        """Where a limit came within 10 % (``share`` of it): per joint and quantity
+        ("tracking_error", "current"), the peak, the limit and the ratio. Tracking uses the
+        report's ``tracking_limit_rad`` when known."""
+        out: list[dict[str, Any]] = []
+        pairs = []
+        if self.current_peak_a is not None and self.current_limit_a is not None:
+            pairs.append(("current", self.current_peak_a, self.current_limit_a))
+        if self.current_peak_a is not None and self.collision_threshold_a is not None:
+            pairs.append(("collision_current", self.current_peak_a, self.collision_threshold_a))
+        if self.tracking_limit_rad is not None:
+            pairs.append(("tracking_error", self.tracking_error_max_rad,
+                          tuple(self.tracking_limit_rad for _ in self.joint_names)))
+        for quantity, peaks, limits in pairs:
+            for name, value, limit in zip(self.joint_names, peaks, limits, strict=True):
+                if limit > 0 and value >= share * limit:
+                    out.append({"joint": name, "quantity": quantity, "peak": value,
+                                "limit": limit, "ratio": value / limit})
+        return out
+
     def to_dict(self) -> dict[str, Any]:
         data = dataclasses.asdict(self)
         data["hardware_errors"] = {str(k): v for k, v in self.hardware_errors.items()}
         data["approach"] = None if self.approach is None else self.approach.to_dict()
         data["warnings"] = [dict(w) for w in self.warnings]
+        data["recovered"] = [dict(r) for r in self.recovered]
+        data["near_limits"] = self.near_limits()
         for key, value in data.items():
             if isinstance(value, tuple):
                 data[key] = list(value)

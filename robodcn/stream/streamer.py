@@ -91,7 +91,13 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from robodcn.bus import ServoBus, describe_hardware_error
+from robodcn.bus import (
+    ADDR_GOAL_POSITION,
+    ADDR_PRESENT_POSITION,
+    ADDR_TORQUE_ENABLE,
+    ServoBus,
+    describe_hardware_error,
+)
 from robodcn.errors import (
     BusError,
     CommError,
@@ -103,6 +109,7 @@ from robodcn.errors import (
 from robodcn.planner import Trajectory
 from robodcn.present import Approach, approach_of, plan_from_present
 from robodcn.servo_units import ticks_to_radians
+from robodcn.stream.collision import predicted_currents, thresholds
 from robodcn.stream.options import ExecutionOptions
 from robodcn.stream.rate import check_rate
 from robodcn.stream.realtime import SPIN_REALTIME_S, SPIN_S, realtime_priority, timer_slack
@@ -112,6 +119,8 @@ from robodcn.stream.source import PlannedSamples
 
 log = logging.getLogger("robodcn.stream")
 
+#: Hardware Error Status bit of an overload (what ``recover=True`` acts on).
+OVERLOAD_BIT = 0x20
 #: Minimum time between progress callbacks (s).
 PROGRESS_INTERVAL_S = 0.05
 
@@ -212,10 +221,12 @@ def execute(trajectory: Trajectory, bus: ServoBus, options: ExecutionOptions | N
             warnings.warn(rate, stacklevel=2)
             issued.append(rate.to_dict())
 
-        streamer = _Streamer(PlannedSamples(trajectory, bus), bus, opts)
         # -- configure (first writes) and stream --------------------------------------------
         if not bus.configured or not all(bus.torque_enabled().values()):
             bus.configure(opts.profile)
+        source = PlannedSamples(trajectory, bus, compensation=opts.compensation)
+        streamer = _Streamer(source, bus, opts)
+        streamer.plan_limits(trajectory, opts)
         period = 1.0 / trajectory.rate_hz
         watchdog_ms = opts.watchdog_ms
         if watchdog_ms is None:
@@ -292,6 +303,36 @@ class _Streamer:
         self.t_start = 0.0
         self.t_end = 0.0
         self._last_progress = -math.inf
+        # Richer feedback (one Fast Sync Read of the Indirect Data block), collision stop.
+        self.velocities: list[NDArray[np.float64]] = []
+        self.currents: list[NDArray[np.float64]] = []
+        self.feedback_samples: list[int] = []
+        self.collision_on = opts.collision
+        self.collision_cycles = opts.collision_cycles
+        self.collision_given = opts.collision_current
+        self.threshold: NDArray[np.float64] | None = None
+        self.predicted: NDArray[np.float64] | None = None
+        self.over = np.zeros(len(bus.ids), dtype=np.int64)
+        self.collision: dict[str, Any] | None = None
+        self.recover = opts.recover
+        self.recovered: list[dict[str, Any]] = []
+        self.poses = source.trajectory.poses
+        self.times = source.trajectory.t
+
+    def plan_limits(self, trajectory: Trajectory, opts: ExecutionOptions) -> None:
+        """Predicted currents along the plan and the collision thresholds (A per joint)."""
+        request = trajectory.request
+        arm = None if request is None else request.arm
+        self.predicted = predicted_currents(trajectory.joints, self.period, self.bus.servos, arm)
+        limits = self.bus.current_limits or tuple(2.3 for _ in self.bus.ids)
+        if opts.collision_current is not None:
+            if len(opts.collision_current) != len(self.bus.ids):
+                raise InputError(f"collision_current needs {len(self.bus.ids)} currents (A), "
+                                 f"got {list(opts.collision_current)}",
+                                 field="collision_current", value=opts.collision_current)
+            self.threshold = np.asarray(opts.collision_current, dtype=np.float64)
+        else:
+            self.threshold = thresholds(self.predicted, limits, arm)
 
     # -- waiting --------------------------------------------------------------------------
 
@@ -332,17 +373,32 @@ class _Streamer:
         raise _Stop("hardware_alert", f"hardware alert on servo(s) {described or list(ids)}")
 
     def _feedback(self, sample: int, goal: NDArray[np.int64]) -> None:
-        """The one place feedback is read (present positions) and checked."""
+        """The one place feedback is read and checked: present positions and, with the
+        feedback map (:meth:`ServoBus.read_feedback`), velocities, currents and hardware
+        errors from the same packet; tracking error against the plan; the collision stop."""
         try:
-            present = self.bus.read_positions()
+            if self.bus.feedback_mapped:
+                fb = self.bus.read_feedback()
+                present = fb.positions
+            else:
+                fb = None
+                present = self.bus.read_positions()
         except CommError as exc:
             self._failed(exc)
             return
         self.consecutive_failures = 0
         self.feedback_reads += 1
         self.last_present = present
-        if self.bus.last_alert_ids:
-            self._alert(self.bus.last_alert_ids)
+        if fb is not None:
+            self.velocities.append(np.abs(fb.velocities))
+            self.currents.append(np.abs(fb.currents))
+            self.feedback_samples.append(sample)
+        if self.bus.last_alert_ids or (fb is not None and fb.hardware_errors.any()):
+            self._alert(self.bus.last_alert_ids
+                        or [i for i, e in zip(self.bus.ids, fb.hardware_errors, strict=True)
+                            if e])
+        if fb is not None and self.collision_on and self.threshold is not None:
+            self._collision(sample, np.abs(fb.currents))
         error = tracking_error(present, self.previous_goal, goal)
         self.last_error = error
         self.errors.append(error)
@@ -355,6 +411,27 @@ class _Streamer:
                             f"({int(error[j])} ticks) at joint "
                             f"{self.joint_names[j]!r}, sample {sample}, limit "
                             f"{self.tracking_limit:.3f} rad")
+
+    def _collision(self, sample: int, current: NDArray[np.float64]) -> None:
+        """Stop when a joint's |current| stayed above its threshold for N reads in a row."""
+        assert self.threshold is not None
+        above = current > self.threshold
+        self.over = np.where(above, self.over + 1, 0)
+        hit = self.over >= self.collision_cycles
+        if hit.any():
+            j = int(np.argmax(hit))
+            pose = self.poses[sample]
+            self.collision = {
+                "joint": self.joint_names[j], "servo_id": int(self.bus.ids[j]),
+                "current_a": float(current[j]), "threshold_a": float(self.threshold[j]),
+                "sample": int(sample), "time_s": float(self.times[sample]),
+                "pose": [float(pose[0]), float(pose[1]), float(pose[2])]}
+            raise _Stop("collision",
+                        f"collision at joint {self.joint_names[j]!r}: current "
+                        f"{current[j]:.2f} A above {self.threshold[j]:.2f} A for "
+                        f"{self.collision_cycles} cycles at sample {sample} "
+                        f"(t = {self.times[sample]:.3f} s, pose x {pose[0]:.3f} m, "
+                        f"y {pose[1]:.3f} m, θ {math.degrees(pose[2]):.1f}°)")
 
     def _health(self) -> None:
         self.health_polls += 1
@@ -476,6 +553,8 @@ class _Streamer:
             bus.disarm_watchdog()
         except BusError:
             pass  # a dead link cannot be disarmed; the hold below may still get through
+        if self.recover and self.reason == "hardware_alert" and not bus.lost:
+            self._recover()
         if hold and not bus.lost:
             try:
                 goals = bus.read_positions()
@@ -497,6 +576,33 @@ class _Streamer:
                 self.released = True
             except BusError:
                 pass
+
+    def _recover(self) -> None:
+        """Overload recovery: reboot each servo reporting overload, hold it where it is
+        (goal := present position), torque on again; report it. Never resumes the motion."""
+        overloaded = [i for i, e in self.hardware.items() if e > 0 and e & OVERLOAD_BIT]
+        if not overloaded:
+            return
+        bus = self.bus
+        for servo_id in overloaded:
+            entry: dict[str, Any] = {"servo_id": servo_id,
+                                     "hardware_error": int(self.hardware[servo_id])}
+            try:
+                bus.reboot([servo_id])
+                present = int.from_bytes(bus.read(servo_id, ADDR_PRESENT_POSITION, 4),
+                                         "little", signed=True)
+                bus.write(servo_id, ADDR_GOAL_POSITION, list(present.to_bytes(4, "little",
+                                                                              signed=True)))
+                bus.write(servo_id, ADDR_TORQUE_ENABLE, [1])
+                entry.update(recovered=True, position=present)
+            except BusError as exc:
+                entry.update(recovered=False, error=exc.message)
+            log.warning("overload recovery of servo %d: %s", servo_id, entry)
+            self.recovered.append(entry)
+        try:
+            bus.configure()   # the rebooted servos came back at RAM defaults
+        except BusError:
+            pass
 
     def _final(self, settle: float, target: NDArray[np.int64] | None) -> None:
         deadline = time.perf_counter() + settle
@@ -531,6 +637,10 @@ class _Streamer:
             final_error = tuple(int(v) for v in self.final - target)
         skipped = self.skipped_late + self.failed_writes
         message = self.message
+
+        def peak(rows: list[NDArray[np.float64]]) -> tuple[float, ...] | None:
+            return None if not rows else tuple(float(v) for v in np.max(rows, axis=0))
+
         if self.reason == "completed" and skipped:
             message = (f"completed with {skipped} of {self.n} samples skipped "
                        f"({self.skipped_late} late, {self.failed_writes} failed writes)")
@@ -558,4 +668,14 @@ class _Streamer:
                                                                   for v in self.hold_goals),
             hardware_errors=dict(self.hardware), approach=approach, released=self.released,
             fast_read=bool(self.bus.fast_read), realtime=self.realtime,
-            stop_latency_s=self.stop_latency, warnings=issued)
+            stop_latency_s=self.stop_latency, warnings=issued,
+            velocity_peak_rad_s=peak(self.velocities),
+            current_peak_a=peak(self.currents),
+            current_limit_a=(None if self.bus.current_limits is None
+                             else tuple(float(v) for v in self.bus.current_limits)),
+            predicted_current_peak_a=(None if self.predicted is None else tuple(
+                float(v) for v in np.abs(self.predicted).max(axis=0))),
+            collision_threshold_a=(None if self.threshold is None
+                                   else tuple(float(v) for v in self.threshold)),
+            collision=self.collision, recovered=tuple(self.recovered),
+            compensation=self.source.compensated, tracking_limit_rad=self.tracking_limit)
