@@ -37,8 +37,13 @@ Feedback and health
     present positions are read after the write on every ``feedback_every``-th sample and on
     the last one (0: only at the end), in one place (``_Streamer._feedback``). Tracking
     error (:func:`robodcn.stream.report.tracking_error`, the same for Progress and the
-    report) of joint j is how far the present position lies outside the last commanded
-    step, [previous goal, goal just sent]. Fast Sync Read
+    report) of joint j is how far the present position lies outside the last planned
+    step, [previous planned goal, the plan at the end of the read] (the plan, not the
+    compensated goals actually sent: :mod:`robodcn.stream.compensation`). With the
+    feedback map (:meth:`ServoBus.read_feedback`) the same packet brings velocities,
+    currents and hardware errors: peaks per joint in the report and the collision stop
+    ("collision": |current| above its threshold for ``collision_cycles`` reads, reported
+    with joint, current, sample, time and pose; :mod:`robodcn.stream.collision`). Fast Sync Read
     hides a servo's Alert bit in the SDK, so the bus decodes the per-servo ERR bytes
     itself, and every ``health_interval`` seconds the streamer polls Hardware Error Status
     (70) and Bus Watchdog (98) in turn. A cycle reads at most once: a health poll takes the
@@ -279,7 +284,7 @@ class _Streamer:
         self.sent_at = [0.0] * self.n
         self.due_at = [0.0] * self.n
         self.work = [0.0] * self.n
-        self.errors: list[NDArray[np.int64]] = []
+        self.errors: list[NDArray[np.float64]] = []
         self.sent = 0
         self.skipped_late = 0
         self.failed_writes = 0
@@ -291,7 +296,7 @@ class _Streamer:
         self.last_goal: NDArray[np.int64] | None = None
         self.previous_goal: NDArray[np.int64] | None = None
         self.last_present: NDArray[np.int64] | None = None
-        self.last_error: NDArray[np.int64] | None = None
+        self.last_error: NDArray[np.float64] | None = None
         self.hardware: dict[int, int] = {}
         self.reason = "completed"
         self.message = "all samples sent"
@@ -399,7 +404,7 @@ class _Streamer:
                             if e])
         if fb is not None and self.collision_on and self.threshold is not None:
             self._collision(sample, np.abs(fb.currents))
-        error = tracking_error(present, self.previous_goal, goal)
+        error = tracking_error(present, self.previous_goal, self._plan_at_read(sample, goal))
         self.last_error = error
         self.errors.append(error)
         if self.tick_limit is not None:
@@ -411,6 +416,19 @@ class _Streamer:
                             f"({int(error[j])} ticks) at joint "
                             f"{self.joint_names[j]!r}, sample {sample}, limit "
                             f"{self.tracking_limit:.3f} rad")
+
+    def _plan_at_read(self, sample: int, goal: NDArray[np.int64]) -> NDArray[np.float64]:
+        """The plan where it is at the end of this read (ticks, linear between samples):
+        a read that lands late on a loaded host compares with where the plan is by then,
+        so host lateness does not pass for servo lag (never earlier than ``goal``)."""
+        s = (self.clock() - self.t_start) / self.period
+        if s <= sample:
+            return goal.astype(np.float64)
+        ticks = self.source.ticks
+        s = min(s, self.n - 1)
+        lo = int(s)
+        hi = min(lo + 1, self.n - 1)
+        return ticks[lo] + (s - lo) * (ticks[hi] - ticks[lo]).astype(np.float64)
 
     def _collision(self, sample: int, current: NDArray[np.float64]) -> None:
         """Stop when a joint's |current| stayed above its threshold for N reads in a row."""
@@ -660,7 +678,7 @@ class _Streamer:
             servo_ids=tuple(self.bus.ids),
             tracking_error_max_rad=tuple(float(v) for v in max_ticks * self.rad_per_tick),
             tracking_error_rms_rad=tuple(float(v) for v in rms_ticks * self.rad_per_tick),
-            tracking_error_max_ticks=tuple(int(v) for v in max_ticks),
+            tracking_error_max_ticks=tuple(round(float(v)) for v in max_ticks),
             tracking_error_rms_ticks=tuple(float(v) for v in rms_ticks),
             final_positions=None if self.final is None else tuple(int(v) for v in self.final),
             final_error_ticks=final_error,
