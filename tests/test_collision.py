@@ -1,0 +1,65 @@
+"""Collision stop and overload recovery (issue 11 §4) on the physics sim."""
+
+from __future__ import annotations
+
+import math
+import threading
+
+import numpy as np
+from conftest import ARM3R
+
+from robodcn.planner import plan
+from robodcn.simulated import simulated_arm
+from robodcn.stream import execute
+
+MOVE = [(0.25, 0.10, 0.0), (0.12, 0.24, math.radians(60))]
+
+
+def test_an_obstacle_stops_the_move_with_a_collision_report():
+    traj = plan(ARM3R, MOVE, method="sclerp", duration=2.0)
+    q0, q1 = np.degrees(traj.joints[0, 0]), np.degrees(traj.joints[-1, 0])
+    block = q0 + 0.4 * (q1 - q0)
+    with simulated_arm(ARM3R, timing="fast", start_joints=traj.joints[0]) as sa:
+        sa.sim.servo(1).set_obstacle(float(block))
+        report = execute(traj, sa.bus, tracking_limit=None)
+        held = sa.bus.read_positions()
+    assert report.stop_reason == "collision", report.message
+    assert report.outcome == "collision"
+    hit = report.collision
+    assert hit is not None and hit["joint"] == "shoulder" and hit["servo_id"] == 1
+    assert hit["current_a"] > hit["threshold_a"] == report.collision_threshold_a[0]
+    # Where on the path: the sample's time and pose, past the obstacle's share of the path.
+    assert hit["time_s"] == traj.t[hit["sample"]]
+    assert np.allclose(hit["pose"], traj.poses[hit["sample"]])
+    assert report.samples_sent < report.samples_total
+    assert report.hold_goals is not None
+    assert np.abs(held - np.array(report.hold_goals)).max() <= 5
+    assert report.to_dict()["outcome"] == "collision"
+
+
+def test_the_same_move_without_obstacle_is_not_a_collision():
+    traj = plan(ARM3R, MOVE, method="sclerp", duration=2.0)
+    with simulated_arm(ARM3R, timing="fast", start_joints=traj.joints[0]) as sa:
+        report = execute(traj, sa.bus, tracking_limit=None)
+    assert report.stop_reason == "completed", report.message
+    assert report.collision is None
+    assert all(p < t for p, t in zip(report.current_peak_a, report.collision_threshold_a,
+                                      strict=True))
+
+
+def test_overload_recovery_reboots_holds_and_does_not_resume():
+    traj = plan(ARM3R, MOVE, method="sclerp", duration=2.0)
+    with simulated_arm(ARM3R, timing="fast", start_joints=traj.joints[0]) as sa:
+        timer = threading.Timer(0.5, sa.sim.servo(2).trip, args=(0x20,))
+        timer.start()
+        try:
+            report = execute(traj, sa.bus, tracking_limit=None, recover=True)
+        finally:
+            timer.cancel()
+        servo = sa.sim.servo(2)
+        assert servo.hardware_error == 0 and servo.torque_enabled
+        assert abs(servo.goal_position - servo.present_position) <= 5
+    assert report.stop_reason == "hardware_alert", report.message
+    assert [r["servo_id"] for r in report.recovered] == [2]
+    assert report.recovered[0]["recovered"] is True
+    assert report.samples_sent < report.samples_total
