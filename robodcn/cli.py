@@ -40,7 +40,7 @@ from robodcn.errors import InputError, RobodcnError
 #: Default arm when neither --arm nor $ROBODCN_ARM is given.
 DEFAULT_ARM = Path("configs") / "arm3r.toml"
 EXIT_BY_STOP_REASON = {"completed": 0, "stopped": 130, "comm_failure": 4,
-                       "hardware_alert": 4, "tracking_error": 4}
+                       "hardware_alert": 4, "tracking_error": 4, "collision": 4}
 
 
 def _id_list(text: str) -> list[int]:
@@ -283,6 +283,12 @@ def _add_execution_options(p: argparse.ArgumentParser) -> None:
     g.add_argument("--realtime", action="store_true",
                    help="stream from a real-time (SCHED_FIFO) thread; Linux, needs "
                         "CAP_SYS_NICE or root (warns and carries on otherwise)")
+    g.add_argument("--compensation", choices=("on", "off"), default="on",
+                   help="lead the goals by the servos' position-loop lag so they follow the "
+                        "plan (default on)")
+    g.add_argument("--recover", action="store_true",
+                   help="on an overload alert reboot that servo and hold it (the move stays "
+                        "stopped)")
     g.add_argument("--json", action="store_true", help="print the report as JSON")
 
 
@@ -311,6 +317,9 @@ def _add_sim(subparsers: argparse._SubParsersAction) -> None:
                                       "arm approaches it first")
     p.add_argument("--timing", choices=("realistic", "fast"), default="realistic",
                    help="simulated wire timing (default realistic)")
+    p.add_argument("--dynamics", choices=("on", "off"), default="on",
+                   help="servo physics with the arm's masses (on, default) or the kinematic "
+                        "model whose servos reach each goal at once (off)")
     p.add_argument("--plot", metavar="FILE.png",
                    help="draw planned vs measured path and joint angles (needs matplotlib)")
     _add_execution_options(p)
@@ -384,6 +393,23 @@ def _report_text(report) -> str:
                                   strict=True):
         lines.append(f"  tracking {name:<10} max {math.degrees(mx):6.3f}° ({mxt} ticks), rms "
                      f"{math.degrees(rms):6.3f}°")
+    peaks = r.get("current_peak_a")
+    if peaks is not None:
+        for j, name in enumerate(r["joint_names"]):
+            lines.append(f"  {name:<10} peak {math.degrees(r['velocity_peak_rad_s'][j]):6.1f}°/s,"
+                         f" current {peaks[j]:.2f} A (limit {r['current_limit_a'][j]:.2f} A, "
+                         f"predicted {r['predicted_current_peak_a'][j]:.2f} A, collision "
+                         f"stop {r['collision_threshold_a'][j]:.2f} A)")
+    for near in r.get("near_limits", []):
+        lines.append(f"  near limit: {near['joint']} {near['quantity']} at "
+                     f"{100 * near['ratio']:.0f} % of its limit")
+    if r.get("collision"):
+        c = r["collision"]
+        lines.append(f"  collision at {c['joint']}: {c['current_a']:.2f} A at sample "
+                     f"{c['sample']} (t {c['time_s']:.3f} s)")
+    for rec in r.get("recovered", []):
+        lines.append(f"  overload recovery of servo {rec['servo_id']}: "
+                     f"{'rebooted and holding' if rec.get('recovered') else rec.get('error')}")
     if r.get("final_error_ticks") is not None:
         lines.append(f"  final error (ticks) {list(r['final_error_ticks'])}")
     if r.get("hardware_errors"):
@@ -409,7 +435,8 @@ def _execute(args: argparse.Namespace, arm, bus) -> tuple[Any, Any, _LiveProgres
         try:
             report = execute(traj, bus, feedback_every=args.feedback_every,
                              tracking_limit=math.radians(args.tracking_limit), stop=stop,
-                             progress=live, release=args.release, realtime=args.realtime)
+                             progress=live, release=args.release, realtime=args.realtime,
+                             compensation=args.compensation == "on", recover=args.recover)
         finally:
             live.finish()
     return traj, report, live
@@ -440,7 +467,7 @@ def _cmd_sim(args: argparse.Namespace) -> int:
     arm = _load_arm(args)
     if args.plot:
         _require_matplotlib()
-    with simulated_arm(arm, timing=args.timing) as sim:
+    with simulated_arm(arm, timing=args.timing, dynamics=args.dynamics == "on") as sim:
         traj, report, live = _execute(args, arm, sim.bus)
     code = _finish(args, report)
     if args.plot:
