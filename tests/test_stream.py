@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import dataclasses
+import functools
 import json
 import math
 import os
@@ -40,9 +41,13 @@ from robodcn.stream import (
     RateWarning,
     StopSignal,
     check_rate,
-    execute,
     tracking_error,
 )
+from robodcn.stream import execute as _execute
+
+# These are protocol tests on the kinematic model (goals sent = goals planned): the
+# tracking compensation, on by default, is tested on the physics sim in test_compensation.
+execute = functools.partial(_execute, compensation=False)
 
 ARM = ARM3R
 IDS = ARM.servo_ids
@@ -444,7 +449,7 @@ def test_no_thread_or_fd_leak_after_100_executions(sim):
 
 def test_stop_reasons_are_the_documented_ones():
     assert STOP_REASONS == ("completed", "stopped", "comm_failure", "hardware_alert",
-                            "tracking_error")
+                            "tracking_error", "collision")
 
 
 def test_realtime_priority_is_restored_or_warned(sim):
