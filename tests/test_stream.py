@@ -22,7 +22,7 @@ from conftest import ARM2R, ARM3R, ROOT
 import robodcn
 from firmware_sim.bus import SimBus
 from robodcn import cli, servo_units
-from robodcn.bus import ServoBus, cycle_wire_time
+from robodcn.bus import ADDR_FEEDBACK, ADDR_PRESENT_POSITION, ServoBus, cycle_wire_time
 from robodcn.errors import (
     CommError,
     HardwareAlertError,
@@ -158,10 +158,13 @@ def test_feedback_every_k_samples_and_at_the_end(sim):
     n = len(TRAJ.ticks)
     expected = sum(1 for i in range(n) if i % 4 == 0 or i == n - 1)
     assert report.completed and report.feedback_reads == expected
-    reads = [e for e in sim.packets("rx", "FAST_SYNC_READ")
-             if int.from_bytes(e.params[:2], "little") == 132]
-    # The pre-flight read, the streaming reads, the final read.
-    assert len(reads) == expected + 2
+    def reads_at(address: int) -> int:
+        return sum(1 for e in sim.packets("rx", "FAST_SYNC_READ")
+                   if int.from_bytes(e.params[:2], "little") == address)
+    # The streaming reads are one Fast Sync Read each of the feedback block (positions,
+    # velocities, currents, hardware errors); the pre-flight and final reads are positions.
+    assert reads_at(ADDR_FEEDBACK) == expected
+    assert reads_at(ADDR_PRESENT_POSITION) == 2
     assert len(sim.packets("rx", "SYNC_WRITE")) == n
 
 
