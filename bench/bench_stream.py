@@ -71,10 +71,10 @@ class _Sim:
     """``python -m firmware_sim`` in a child process; the pty path is its first stdout line."""
 
     def __init__(self, timing: str = "realistic", realtime: bool = False,
-                 log: str | None = None) -> None:
+                 log: str | None = None, baud: int = BAUD) -> None:
         self.proc = subprocess.Popen(
             [sys.executable, "-m", "firmware_sim", "--ids", ",".join(map(str, range(1, N + 1))),
-             "--baud", str(BAUD), "--timing", timing, *(["--log", log] if log else [])],
+             "--baud", str(baud), "--timing", timing, *(["--log", log] if log else [])],
             cwd=ROOT, stdout=subprocess.PIPE, text=True,
             preexec_fn=_sim_priority if realtime else None)
         assert self.proc.stdout is not None
@@ -110,8 +110,20 @@ def _trajectory(rate: float):
     return arm, robodcn.plan(arm, waypoints, duration=SECONDS, rate_hz=rate)
 
 
-def _run(rate: float, feedback_every: int, fast_read: bool, realtime: bool = False):
+def _seat(bus, ticks, timeout: float = 5.0) -> None:
+    """Goal := ``ticks`` and wait (≤ ``timeout`` s) until the servos stand there (the
+    physics model takes a while and may rest a friction dead band short: ≤ 10 ticks)."""
+    import time
+
     import numpy as np
+
+    bus.write_goals(ticks)
+    deadline = time.monotonic() + timeout
+    while np.abs(bus.read_positions() - ticks).max() > 10 and time.monotonic() < deadline:
+        time.sleep(0.01)
+
+
+def _run(rate: float, feedback_every: int, fast_read: bool, realtime: bool = False):
 
     from robodcn.bus import ServoBus
     from robodcn.stream import ExecutionOptions, execute
@@ -122,11 +134,8 @@ def _run(rate: float, feedback_every: int, fast_read: bool, realtime: bool = Fal
                      fast_read=fast_read) as bus:
         bus.verify()
         bus.configure()
-        bus.write_goals(traj.ticks[0])
         # Let the simulated arm settle on the first sample before timing starts.
-        for _ in range(500):
-            if np.abs(bus.read_positions() - traj.ticks[0]).max() <= 1:
-                break
+        _seat(bus, traj.ticks[0])
         report = execute(traj, bus, ExecutionOptions(feedback_every=feedback_every,
                                                      realtime=realtime))
     return report
@@ -392,6 +401,77 @@ def run() -> str:
     ])
 
 
+def _feedback_stream(baud: int, rate: float, realtime: bool):
+    """execute() at ``rate`` with one Fast Sync Read of the feedback block every sample."""
+
+    from robodcn.bus import ServoBus
+    from robodcn.stream import execute
+
+    arm, traj = _trajectory(rate)
+    with _Sim(realtime=realtime, baud=baud) as sim, \
+            ServoBus(sim.path, baud, servos=arm.servos, rx_timeout_ms=10) as bus:
+        bus.verify()
+        bus.configure()
+        _seat(bus, traj.ticks[0])
+        report = execute(traj, bus, feedback_every=1, realtime=realtime,
+                         tracking_limit=None, start_tolerance=0.2)
+        mapped = bus.feedback_mapped
+    return report, mapped
+
+
+def _feedback_back_to_back(baud: int, realtime: bool, cycles: int = 2000) -> float:
+    """Median seconds of Sync Write + Fast Sync Read of the feedback block, no schedule."""
+    import time
+
+    import numpy as np
+
+    from robodcn.bus import ServoBus
+    from robodcn.stream import realtime_priority
+
+    arm, traj = _trajectory(100.0)
+    with _Sim(realtime=realtime, baud=baud) as sim, \
+            ServoBus(sim.path, baud, servos=arm.servos, rx_timeout_ms=10) as bus:
+        bus.verify()
+        bus.configure()
+        rows = bus.encode_goals(np.repeat(traj.ticks[:1], cycles, axis=0))
+        times = np.empty(cycles)
+        with realtime_priority(realtime):
+            for i, row in enumerate(rows):
+                start = time.perf_counter()
+                bus.write_encoded(row)
+                bus.read_feedback()
+                times[i] = time.perf_counter() - start
+    return float(np.median(times))
+
+
+def feedback() -> str:
+    """Issue 11 §2: write + one Fast Sync Read of the feedback block (position, velocity,
+    current, hardware error; 11 bytes a servo), 3 servos: 1 kHz at 2 Mbps (rate within 1 %,
+    overruns) and the achievable rate at 1 Mbps (back-to-back cycles)."""
+    from robodcn.bus import FEEDBACK_LENGTH
+
+    realtime = _realtime_allowed()
+    priority = "SCHED_FIFO" if realtime else "normal"
+    lines = ["## Feedback in one packet (write + Fast Sync Read of the Indirect Data block)", "",
+             f"3 × XM430 on `python -m firmware_sim --timing realistic`, {SECONDS:g} s, "
+             f"{priority} priority, load {_load()}.", "",
+             "| baud | rate asked (Hz) | achieved (Hz) | within 1 % | overruns | skipped | "
+             "wire µs/cycle | mapped |", "|---|---|---|---|---|---|---|---|"]
+    for baud, rate in ((2_000_000, 1000.0),):
+        report, mapped = _feedback_stream(baud, rate, realtime)
+        wire = cycle_wire_time(N, baud, feedback="fast", item_bytes=FEEDBACK_LENGTH) * 1e6
+        ok = abs(report.achieved_rate_hz - rate) <= 0.01 * rate
+        lines.append(f"| {baud} | {rate:.0f} | {report.achieved_rate_hz:.1f} | "
+                     f"{'yes' if ok else 'no'} | {report.overruns} | {report.skipped} | "
+                     f"{wire:.0f} | {mapped} |")
+    cycle = _feedback_back_to_back(1_000_000, realtime)
+    wire = cycle_wire_time(N, 1_000_000, feedback="fast", item_bytes=FEEDBACK_LENGTH)
+    lines += ["", f"At 1 Mbps back to back: median cycle {cycle * 1e6:.0f} µs → "
+              f"{1 / cycle:.0f} Hz achievable (wire floor {wire * 1e6:.0f} µs, "
+              f"{1 / wire:.0f} Hz)."]
+    return "\n".join(lines)
+
+
 def compensation() -> str:
     """Tracking compensation (issue 11 §3): RMS/max tracking error with and without it, on
     the physics sim with the arm's default masses, for the `make demo` move and an auto sweep."""
@@ -423,4 +503,9 @@ def compensation() -> str:
 if __name__ == "__main__":
     import sys as _sys
 
-    print(compensation() if "--compensation" in _sys.argv else run())
+    if "--compensation" in _sys.argv:
+        print(compensation())
+    elif "--feedback" in _sys.argv:
+        print(feedback())
+    else:
+        print("\n\n".join([run(), feedback(), compensation()]))

@@ -100,6 +100,7 @@ from robodcn.bus import (
     ADDR_GOAL_POSITION,
     ADDR_PRESENT_POSITION,
     ADDR_TORQUE_ENABLE,
+    FEEDBACK_LENGTH,
     ServoBus,
     describe_hardware_error,
 )
@@ -220,7 +221,7 @@ def execute(trajectory: Trajectory, bus: ServoBus, options: ExecutionOptions | N
         profile_rdt = 0 if opts.profile is None else opts.profile.return_delay_us
         rate = check_rate(trajectory.rate_hz, len(bus.ids), bus.baud,
                           feedback_every=opts.feedback_every, fast_read=bus.fast_read,
-                          return_delay_us=profile_rdt)
+                          return_delay_us=profile_rdt, item_bytes=FEEDBACK_LENGTH)
         if rate is not None:
             log.warning("%s", rate.info.message)
             warnings.warn(rate, stacklevel=2)
