@@ -401,8 +401,8 @@ def _report_text(report) -> str:
                          f"predicted {r['predicted_current_peak_a'][j]:.2f} A, collision "
                          f"stop {r['collision_threshold_a'][j]:.2f} A)")
     for near in r.get("near_limits", []):
-        lines.append(f"  near limit: {near['joint']} {near['quantity']} at "
-                     f"{100 * near['ratio']:.0f} % of its limit")
+        lines.append(f"  near limit: {near['joint']} {near['quantity']} peak "
+                     f"{near['peak']:.3g} of {near['limit']:.3g} (from t {near['time_s']:.3f} s)")
     if r.get("collision"):
         c = r["collision"]
         lines.append(f"  collision at {c['joint']}: {c['current_a']:.2f} A at sample "
@@ -471,7 +471,7 @@ def _cmd_sim(args: argparse.Namespace) -> int:
         traj, report, live = _execute(args, arm, sim.bus)
     code = _finish(args, report)
     if args.plot:
-        _plot(args.plot, arm, traj, live.samples)
+        _plot(args.plot, arm, traj, live.samples, report.near_limits)
         print(f"plot: {args.plot}")
     return code
 
@@ -484,8 +484,10 @@ def _require_matplotlib() -> None:
                          field="plot") from None
 
 
-def _plot(path: str, arm, traj, samples: list[tuple[float, tuple[int, ...]]]) -> None:
-    """Planned vs measured end-effector path (left) and joint angles over time (right)."""
+def _plot(path: str, arm, traj, samples: list[tuple[float, tuple[int, ...]]],
+          near: list[dict] | tuple = ()) -> None:
+    """Planned vs measured end-effector path (left) and joint angles over time (right);
+    ``near`` (report ``near_limits``) marks where a limit came within 10 %."""
     import matplotlib
 
     matplotlib.use("Agg")
@@ -509,6 +511,18 @@ def _plot(path: str, arm, traj, samples: list[tuple[float, tuple[int, ...]]]) ->
         if samples:
             ax_joints.plot(t_meas, np.degrees(q_meas[:, k]), ".", ms=3, color=line.get_color(),
                            label=f"{name} measured")
+    for k, mark in enumerate(near):
+        i = min(int(mark["sample"]), len(traj.t) - 1)
+        j = list(traj.joint_names).index(mark["joint"])
+        label = "limit within 10 %" if k == 0 else None
+        ax_joints.plot(traj.t[i], np.degrees(traj.joints[i, j]), "x", color="tab:red", ms=9,
+                       label=label)
+        ax_joints.annotate(mark["quantity"], (traj.t[i], np.degrees(traj.joints[i, j])),
+                           fontsize="x-small", color="tab:red")
+        ax_path.plot(traj.poses[i, 0], traj.poses[i, 1], "x", color="tab:red", ms=9,
+                     label=label)
+    if near:
+        ax_path.legend()
     ax_joints.set(xlabel="t [s]", ylabel="angle [°]", title="joint angles")
     ax_joints.legend(fontsize="small")
     fig.tight_layout()

@@ -41,7 +41,7 @@ log = logging.getLogger("robodcn.controller")
 DEFAULT_EXECUTE: dict[str, Any] = {"approach": True, "release": False}
 #: Seconds :meth:`ArmController.state` waits for an idle bus read.
 STATE_TIMEOUT = 5.0
-_STATUS = {"completed": "done", "stopped": "stopped"}
+_STATUS = {"completed": "done", "stopped": "stopped", "collision": "collision"}
 
 
 @dataclass

@@ -201,7 +201,7 @@ def _number_array(depth: int = 1) -> dict[str, Any]:
     return schema
 
 
-_MOVE_STATUSES = ["queued", "running", "done", "stopped", "failed"]
+_MOVE_STATUSES = ["queued", "running", "done", "stopped", "collision", "failed"]
 SCHEMAS: dict[str, dict[str, Any]] = {
     "PlanBody": {"type": "object", "required": ["waypoints"], "additionalProperties": False,
                  "properties": {k: {**s, "description": d}

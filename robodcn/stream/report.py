@@ -51,6 +51,35 @@ class Progress:
     tracking_error_rad: tuple[float, ...] | None = None
 
 
+#: A limit counts as approached at this share of it (within 10 %).
+NEAR_SHARE = 0.9
+
+
+def near_limits(joint_names: tuple[str, ...], samples: NDArray[np.int64],
+                times: NDArray[np.float64],
+                series: dict[str, tuple[NDArray[np.float64], NDArray[np.float64]]],
+                share: float = NEAR_SHARE) -> tuple[dict[str, Any], ...]:
+    """Where each joint's quantity first came within 10 % of its limit, and its peak.
+
+    ``series`` maps a quantity ("tracking_error" rad, "current" A, "collision_current" A)
+    to (|values| (m, k) per feedback read, limits (k,)); ``samples`` (m,) are the reads'
+    sample indices, ``times`` their planned times. One entry per joint and quantity with
+    value ≥ share·limit: joint, quantity, sample, time_s, value (there), peak, limit.
+    """
+    out = []
+    for quantity, (values, limits) in series.items():
+        if not len(values):
+            continue
+        near = values >= share * np.asarray(limits)[None, :]
+        for j in np.nonzero(near.any(axis=0))[0]:
+            first = int(np.argmax(near[:, j]))
+            out.append({"joint": joint_names[j], "quantity": quantity,
+                        "sample": int(samples[first]), "time_s": float(times[first]),
+                        "value": float(values[first, j]), "peak": float(values[:, j].max()),
+                        "limit": float(limits[j])})
+    return tuple(out)
+
+
 def outcome_of(stop_reason: str, skipped: int) -> str:
     """``"done"``, ``"degraded"``, ``"stopped"`` or ``"fault"`` (see :data:`OUTCOMES`)."""
     if stop_reason == "completed":
@@ -133,6 +162,8 @@ class ExecutionReport:
     compensation: bool = False
     #: The tracking-error stop limit, rad (None: no stop).
     tracking_limit_rad: float | None = None
+    #: Where a limit came within 10 % (:func:`near_limits`), for the dry run's plot.
+    near_limits: tuple[dict[str, Any], ...] = ()
 
     @property
     def outcome(self) -> str:
@@ -158,33 +189,13 @@ class ExecutionReport:
             return f"completed with {self.skipped} of {total} samples skipped"
         return f"{self.outcome} after {self.samples_sent} of {total} samples: {self.message}"
 
-    def near_limits(self, share: float = 0.9) -> list[dict[str, Any]]:
-        """Where a limit came within 10 % (``share`` of it): per joint and quantity
-        ("tracking_error", "current"), the peak, the limit and the ratio. Tracking uses the
-        report's ``tracking_limit_rad`` when known."""
-        out: list[dict[str, Any]] = []
-        pairs = []
-        if self.current_peak_a is not None and self.current_limit_a is not None:
-            pairs.append(("current", self.current_peak_a, self.current_limit_a))
-        if self.current_peak_a is not None and self.collision_threshold_a is not None:
-            pairs.append(("collision_current", self.current_peak_a, self.collision_threshold_a))
-        if self.tracking_limit_rad is not None:
-            pairs.append(("tracking_error", self.tracking_error_max_rad,
-                          tuple(self.tracking_limit_rad for _ in self.joint_names)))
-        for quantity, peaks, limits in pairs:
-            for name, value, limit in zip(self.joint_names, peaks, limits, strict=True):
-                if limit > 0 and value >= share * limit:
-                    out.append({"joint": name, "quantity": quantity, "peak": value,
-                                "limit": limit, "ratio": value / limit})
-        return out
-
     def to_dict(self) -> dict[str, Any]:
         data = dataclasses.asdict(self)
         data["hardware_errors"] = {str(k): v for k, v in self.hardware_errors.items()}
         data["approach"] = None if self.approach is None else self.approach.to_dict()
         data["warnings"] = [dict(w) for w in self.warnings]
         data["recovered"] = [dict(r) for r in self.recovered]
-        data["near_limits"] = self.near_limits()
+        data["near_limits"] = [dict(n) for n in self.near_limits]
         for key, value in data.items():
             if isinstance(value, tuple):
                 data[key] = list(value)
@@ -193,5 +204,5 @@ class ExecutionReport:
         return data
 
 
-__all__ = ["OUTCOMES", "STOP_REASONS", "ExecutionReport", "Progress", "outcome_of",
-           "tracking_error"]
+__all__ = ["NEAR_SHARE", "OUTCOMES", "STOP_REASONS", "ExecutionReport", "Progress",
+           "near_limits", "outcome_of", "tracking_error"]

@@ -119,7 +119,7 @@ from robodcn.stream.collision import predicted_currents, thresholds
 from robodcn.stream.options import ExecutionOptions
 from robodcn.stream.rate import check_rate
 from robodcn.stream.realtime import SPIN_REALTIME_S, SPIN_S, realtime_priority, timer_slack
-from robodcn.stream.report import ExecutionReport, Progress, tracking_error
+from robodcn.stream.report import ExecutionReport, Progress, near_limits, tracking_error
 from robodcn.stream.signal import Waitable
 from robodcn.stream.source import PlannedSamples
 
@@ -313,6 +313,7 @@ class _Streamer:
         self.velocities: list[NDArray[np.float64]] = []
         self.currents: list[NDArray[np.float64]] = []
         self.feedback_samples: list[int] = []
+        self.read_samples: list[int] = []
         self.collision_on = opts.collision
         self.collision_cycles = opts.collision_cycles
         self.collision_given = opts.collision_current
@@ -408,6 +409,7 @@ class _Streamer:
         error = tracking_error(present, self.previous_goal, self._plan_at_read(sample, goal))
         self.last_error = error
         self.errors.append(error)
+        self.read_samples.append(sample)
         if self.tick_limit is not None:
             over = np.abs(error) > self.tick_limit
             if over.any():
@@ -635,6 +637,29 @@ class _Streamer:
                 return
             time.sleep(0.005)
 
+    def _near_limits(self) -> tuple[dict[str, Any], ...]:
+        """Where a limit came within 10 % (:func:`robodcn.stream.report.near_limits`)."""
+        k = len(self.bus.ids)
+        reads = np.array(self.read_samples, dtype=np.int64)
+        series: dict[str, tuple[NDArray[np.float64], NDArray[np.float64]]] = {}
+        if self.tracking_limit is not None and self.errors:
+            series["tracking_error"] = (np.abs(np.array(self.errors)) * self.rad_per_tick,
+                                        np.full(k, self.tracking_limit))
+        fb = np.array(self.feedback_samples, dtype=np.int64)
+        if self.currents and self.bus.current_limits is not None:
+            series["current"] = (np.array(self.currents), np.array(self.bus.current_limits))
+        out = near_limits(tuple(self.joint_names), reads, self.times[reads],
+                          {q: v for q, v in series.items() if q == "tracking_error"})
+        if self.currents:
+            currents = np.array(self.currents)
+            more = {}
+            if "current" in series:
+                more["current"] = series["current"]
+            if self.threshold is not None:
+                more["collision_current"] = (currents, self.threshold)
+            out += near_limits(tuple(self.joint_names), fb, self.times[fb], more)
+        return out
+
     def report(self, approach: Approach | None,
                issued: tuple[dict[str, Any], ...]) -> ExecutionReport:
         sent = self.sent
@@ -697,4 +722,5 @@ class _Streamer:
             collision_threshold_a=(None if self.threshold is None
                                    else tuple(float(v) for v in self.threshold)),
             collision=self.collision, recovered=tuple(self.recovered),
-            compensation=self.source.compensated, tracking_limit_rad=self.tracking_limit)
+            compensation=self.source.compensated, tracking_limit_rad=self.tracking_limit,
+            near_limits=self._near_limits())
