@@ -63,3 +63,22 @@ def test_overload_recovery_reboots_holds_and_does_not_resume():
     assert [r["servo_id"] for r in report.recovered] == [2]
     assert report.recovered[0]["recovered"] is True
     assert report.samples_sent < report.samples_total
+
+
+def test_a_collision_is_the_move_status_collision_in_the_controller():
+    from robodcn.controller import ArmController
+
+    traj = plan(ARM3R, [ARM3R.home, (0.12, 0.24, math.radians(60))], method="sclerp",
+                duration=2.0)
+    q0, q1 = np.degrees(traj.joints[0, 0]), np.degrees(traj.joints[-1, 0])
+    with simulated_arm(ARM3R, timing="fast") as sa:
+        sa.sim.servo(1).set_obstacle(float(q0 + 0.4 * (q1 - q0)))
+        controller = ArmController(ARM3R, sa.bus, execute_options={"watchdog_ms": 1000,
+                                                                   "tracking_limit": None})
+        try:
+            record = controller.wait(controller.start_move(traj).id, timeout=10)
+        finally:
+            controller.close()
+    assert record.status == "collision", record.error
+    assert record.report is not None and record.report.collision["joint"] == "shoulder"
+    assert record.to_dict()["status"] == "collision"

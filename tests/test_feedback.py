@@ -50,3 +50,54 @@ def test_plain_sync_read_fallback_decodes_the_same_block():
             assert np.allclose(fb.velocities, 0.0, atol=0.05)
             raw = bus.sync_read(ADDR_FEEDBACK, FEEDBACK_LENGTH)
             assert len(raw) == 3 and all(len(b) == FEEDBACK_LENGTH for b in raw)
+
+
+def test_wire_model_counts_the_feedback_block():
+    from robodcn.bus import cycle_wire_time
+    from robodcn.bus.wire import read_bytes, write_bytes
+    from robodcn.stream import check_rate
+
+    n = 3
+    # Fast Sync Read reply: header 8 + per servo ERR, ID, L data, CRC 2 (L + 4).
+    assert read_bytes(n, "fast", FEEDBACK_LENGTH) == 14 + n + 8 + (FEEDBACK_LENGTH + 4) * n
+    assert read_bytes(n, "sync", FEEDBACK_LENGTH) == 14 + n + (11 + FEEDBACK_LENGTH) * n
+    assert read_bytes(n, "fast") == read_bytes(n, "fast", 4) == 14 + n + 8 + 8 * n
+    at_2m = cycle_wire_time(n, 2_000_000, feedback="fast", item_bytes=FEEDBACK_LENGTH)
+    assert at_2m == 10 * (write_bytes(n) + read_bytes(n, "fast", FEEDBACK_LENGTH)) / 2e6
+    assert at_2m < 1e-3                     # 1 kHz fits at 2 Mbps
+    assert check_rate(1000, n, 2_000_000, item_bytes=FEEDBACK_LENGTH) is None
+    # At 1 Mbps the block needs ~1 ms: a 1.1 kHz stream is more than the wire carries.
+    assert check_rate(1100, n, 1_000_000, item_bytes=FEEDBACK_LENGTH) is not None
+
+
+def test_near_limits_names_joint_quantity_and_where():
+    from robodcn.stream.report import near_limits
+
+    values = np.array([[0.1, 0.5], [0.95, 0.6], [0.5, 0.91]])
+    out = near_limits(("a", "b"), np.array([0, 5, 9]), np.array([0.0, 0.05, 0.09]),
+                      {"current": (values, np.array([1.0, 1.0]))})
+    assert [(o["joint"], o["sample"], o["time_s"]) for o in out] == [("a", 5, 0.05),
+                                                                     ("b", 9, 0.09)]
+    assert out[0]["peak"] == 0.95 and out[1]["limit"] == 1.0
+    assert near_limits(("a", "b"), np.array([0]), np.array([0.0]),
+                       {"current": (values[:1], np.array([1.0, 1.0]))}) == ()
+
+
+def test_the_reports_near_limit_marks_agree_with_its_peaks():
+    traj = plan(ARM3R, [(0.25, 0.10, 0.0), (0.12, 0.24, math.radians(60))], duration="auto")
+    with simulated_arm(ARM3R, timing="fast", start_joints=traj.joints[0]) as sa:
+        # Every mark must agree with the peaks the report states (none is invented or lost).
+        report = execute(traj, sa.bus, compensation=False, tracking_limit=math.radians(30),
+                         collision=False)
+    assert report.stop_reason == "completed", report.message
+    marks = report.to_dict()["near_limits"]
+    for mark in marks:
+        assert mark["peak"] >= mark["value"] >= 0.9 * mark["limit"]
+        assert 0 <= mark["sample"] < len(traj.t) and mark["time_s"] == traj.t[mark["sample"]]
+    for j, name in enumerate(report.joint_names):
+        near_tracking = report.tracking_error_max_rad[j] >= 0.9 * math.radians(30)
+        assert near_tracking == any(m["joint"] == name and m["quantity"] == "tracking_error"
+                                    for m in marks)
+        near_threshold = report.current_peak_a[j] >= 0.9 * report.collision_threshold_a[j]
+        assert near_threshold == any(m["joint"] == name and m["quantity"] ==
+                                     "collision_current" for m in marks)
