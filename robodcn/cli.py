@@ -39,6 +39,9 @@ from robodcn.errors import InputError, RobodcnError
 
 #: Default arm when neither --arm nor $ROBODCN_ARM is given.
 DEFAULT_ARM = Path("configs") / "arm3r.toml"
+#: Seconds the final read may wait for the arm to come to rest (a real servo, or the
+#: physics sim, is still moving when the last goal goes out).
+SETTLE_S = 0.5
 EXIT_BY_STOP_REASON = {"completed": 0, "stopped": 130, "comm_failure": 4,
                        "hardware_alert": 4, "tracking_error": 4, "collision": 4}
 
@@ -374,6 +377,10 @@ class _LiveProgress:
             self.stream.flush()
 
 
+def _amps(value: float | None) -> str:
+    return "off" if value is None else f"{value:.2f} A"
+
+
 def _report_text(report) -> str:
     r = report.to_dict()
     lines = [f"{r['stop_reason']}: {r['message']}" if r.get("message") else r["stop_reason"],
@@ -399,7 +406,7 @@ def _report_text(report) -> str:
             lines.append(f"  {name:<10} peak {math.degrees(r['velocity_peak_rad_s'][j]):6.1f}°/s,"
                          f" current {peaks[j]:.2f} A (limit {r['current_limit_a'][j]:.2f} A, "
                          f"predicted {r['predicted_current_peak_a'][j]:.2f} A, collision "
-                         f"stop {r['collision_threshold_a'][j]:.2f} A)")
+                         f"stop {_amps(r['collision_threshold_a'][j])})")
     for near in r.get("near_limits", []):
         lines.append(f"  near limit: {near['joint']} {near['quantity']} peak "
                      f"{near['peak']:.3g} of {near['limit']:.3g} (from t {near['time_s']:.3f} s)")
@@ -436,7 +443,8 @@ def _execute(args: argparse.Namespace, arm, bus) -> tuple[Any, Any, _LiveProgres
             report = execute(traj, bus, feedback_every=args.feedback_every,
                              tracking_limit=math.radians(args.tracking_limit), stop=stop,
                              progress=live, release=args.release, realtime=args.realtime,
-                             compensation=args.compensation == "on", recover=args.recover)
+                             compensation=args.compensation == "on", recover=args.recover,
+                             settle=SETTLE_S)
         finally:
             live.finish()
     return traj, report, live

@@ -62,7 +62,8 @@ def test_sim_json_report_sends_every_sample(extra):
     report = json.loads(out.stdout)
     assert report["stop_reason"] == "completed"
     assert report["samples_sent"] + report["samples_skipped"] == report["samples_total"] > 10
-    assert report["final_error_ticks"] == [0, 0, 0]
+    # The physics sim (the default) settles to within the streamer's one-tick settle band.
+    assert max(abs(e) for e in report["final_error_ticks"]) <= 1
 
 
 def test_move_and_scan_against_firmware_sim(firmware):

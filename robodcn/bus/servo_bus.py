@@ -64,6 +64,7 @@ from robodcn.bus.control_table import (
     ADDR_MAX_POSITION_LIMIT,
     ADDR_MIN_POSITION_LIMIT,
     ADDR_OPERATING_MODE,
+    ADDR_POSITION_D_GAIN,
     ADDR_POSITION_P_GAIN,
     ADDR_PRESENT_POSITION,
     ADDR_PROFILE_ACCELERATION,
@@ -177,9 +178,10 @@ class ServoBus:
         self.configured = False
         #: True once :meth:`configure` mapped the feedback items (:meth:`read_feedback`).
         self.feedback_mapped = False
-        #: Per servo, read by :meth:`configure`: Position P Gain, Current Limit (A; the
-        #: stall current where the model has no such item).
+        #: Per servo, read by :meth:`configure`: Position P and D Gains, Current Limit (A;
+        #: the stall current where the model has no such item).
         self.position_p_gains: tuple[int, ...] | None = None
+        self.position_d_gains: tuple[int, ...] | None = None
         self.current_limits: tuple[float, ...] | None = None
         self.watchdog_ms = 0
         #: Position limits (ticks) read from each servo by :meth:`verify`, else the spec's.
@@ -512,15 +514,17 @@ class ServoBus:
     def _map_feedback(self) -> None:
         """Indirect Address 29.. → the feedback items (:mod:`robodcn.bus.feedback`); read the
         P gains and current limits. A servo that refuses the map leaves the plain reads."""
-        gains, limits = [], []
+        gains, d_gains, limits = [], [], []
         for spec in self.servos:
             gains.append(self._read_int(spec.id, ADDR_POSITION_P_GAIN, 2))
+            d_gains.append(self._read_int(spec.id, ADDR_POSITION_D_GAIN, 2))
             if spec.model == "xm430-w350":
                 limits.append(self._read_int(spec.id, ADDR_CURRENT_LIMIT, 2)
                               * CURRENT_UNIT_A[spec.model])
             else:
                 limits.append(STALL_CURRENT_A.get(spec.model, 1.4))
         self.position_p_gains = tuple(gains)
+        self.position_d_gains = tuple(d_gains)
         self.current_limits = tuple(limits)
         payload = indirect_map()
         try:

@@ -150,9 +150,10 @@ class ExecutionReport:
     velocity_peak_rad_s: tuple[float, ...] | None = None
     current_peak_a: tuple[float, ...] | None = None
     current_limit_a: tuple[float, ...] | None = None
-    #: Per joint: the plan's predicted peak |current| and the collision thresholds (A).
+    #: Per joint: the plan's predicted peak |current| and the collision thresholds (A;
+    #: None for a joint whose stop is off, :mod:`robodcn.stream.collision`).
     predicted_current_peak_a: tuple[float, ...] | None = None
-    collision_threshold_a: tuple[float, ...] | None = None
+    collision_threshold_a: tuple[float | None, ...] | None = None
     #: Where a collision stopped the move: joint, servo_id, current_a, threshold_a,
     #: sample, time_s, pose [x, y, θ] (m, m, rad).
     collision: dict[str, Any] | None = None

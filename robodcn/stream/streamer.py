@@ -251,7 +251,7 @@ def execute(trajectory: Trajectory, bus: ServoBus, options: ExecutionOptions | N
             raise
         streamer.finish(hold=streamer.reason != "completed", release=opts.release,
                         settle=opts.settle)
-        report = streamer.report(approach, tuple(issued))
+        report = streamer.report(approach, tuple(issued) + tuple(streamer.warnings))
         log.info("%s", report.headline)
         return report
 
@@ -323,6 +323,8 @@ class _Streamer:
         self.collision: dict[str, Any] | None = None
         self.recover = opts.recover
         self.recovered: list[dict[str, Any]] = []
+        #: Warnings found when the stream was set up (added to the report's ``warnings``).
+        self.warnings: list[dict[str, Any]] = []
         self.poses = source.trajectory.poses
         self.times = source.trajectory.t
 
@@ -339,7 +341,14 @@ class _Streamer:
                                  field="collision_current", value=opts.collision_current)
             self.threshold = np.asarray(opts.collision_current, dtype=np.float64)
         else:
-            self.threshold = thresholds(self.predicted, limits, arm)
+            self.threshold = thresholds(self.predicted, limits, arm, self.bus.position_d_gains)
+        off = [self.joint_names[j] for j in np.nonzero(np.isinf(self.threshold))[0]]
+        if off and opts.collision:
+            message = (f"collision stop off for joint(s) {off}: their servos have a Position "
+                       "D Gain, whose kick on each streamed goal step reads as current at the "
+                       "limit; set collision_current_a per joint to use one")
+            log.warning("%s", message)
+            self.warnings.append({"code": "collision_stop_off", "message": message})
 
     # -- waiting --------------------------------------------------------------------------
 
@@ -719,8 +728,8 @@ class _Streamer:
                              else tuple(float(v) for v in self.bus.current_limits)),
             predicted_current_peak_a=(None if self.predicted is None else tuple(
                 float(v) for v in np.abs(self.predicted).max(axis=0))),
-            collision_threshold_a=(None if self.threshold is None
-                                   else tuple(float(v) for v in self.threshold)),
+            collision_threshold_a=(None if self.threshold is None else tuple(
+                float(v) if math.isfinite(v) else None for v in self.threshold)),
             collision=self.collision, recovered=tuple(self.recovered),
             compensation=self.source.compensated, tracking_limit_rad=self.tracking_limit,
             near_limits=self._near_limits())
