@@ -82,3 +82,25 @@ def test_a_collision_is_the_move_status_collision_in_the_controller():
     assert record.status == "collision", record.error
     assert record.report is not None and record.report.collision["joint"] == "shoulder"
     assert record.to_dict()["status"] == "collision"
+
+
+def test_servos_with_a_d_gain_get_no_default_collision_stop_and_a_warning():
+    from conftest import ARM2R
+
+    from robodcn.config import arm_from_dict
+
+    traj = plan(ARM2R, [(0.18, 0.08, 0.0), (0.02, 0.20, 0.0)], duration="auto")
+    with simulated_arm(ARM2R, timing="fast", start_joints=traj.joints[0]) as sa:
+        assert all(d > 0 for d in sa.bus.position_d_gains)     # XL430 factory D gain
+        report = execute(traj, sa.bus, tracking_limit=None)
+    assert report.stop_reason == "completed", report.message
+    assert report.collision_threshold_a == (None, None)
+    assert [w["code"] for w in report.warnings] == ["collision_stop_off"]
+    # A configured threshold still applies.
+    data = ARM2R.to_dict()
+    data["joints"][0]["collision_current_a"] = 2.0
+    arm = arm_from_dict(data)
+    traj = plan(arm, [(0.18, 0.08, 0.0), (0.02, 0.20, 0.0)], duration="auto")
+    with simulated_arm(arm, timing="fast", start_joints=traj.joints[0]) as sa:
+        report = execute(traj, sa.bus, tracking_limit=None)
+    assert report.collision_threshold_a == (2.0, None)

@@ -21,6 +21,12 @@ toward each streamed goal, which adds its own lag. The lead gives the same PWM a
 velocity + acceleration feedforward (FF1 ≈ 4·885/ω_no-load), with friction and load terms
 on top, and no extra writes per cycle.
 
+The model assumes the position loop is P only (I = D = 0, FF = 0: the XM430's factory gains;
+the P gain is read from each servo). A Position D Gain (the XL430-W250's factory 4000) kicks
+every goal step, and the PWM limit clips the kicks while the damping between steps is not
+clipped, which adds lag this model does not predict: on the XL430 the lead still helps
+(about 2.5× on the 2R example arm) but falls short of the XM430's figures.
+
 Goals stay inside the servo's position limits (a lead past a limit is cut there: the servo
 refuses it otherwise; the plan itself was checked against the limits before).
 """
