@@ -104,3 +104,24 @@ def test_servos_with_a_d_gain_get_no_default_collision_stop_and_a_warning():
     with simulated_arm(arm, timing="fast", start_joints=traj.joints[0]) as sa:
         report = execute(traj, sa.bus, tracking_limit=None)
     assert report.collision_threshold_a == (2.0, None)
+
+
+def test_bad_collision_options_are_refused_before_any_write():
+    import pytest
+
+    from robodcn.errors import InputError
+    from robodcn.stream import ExecutionOptions
+
+    with pytest.raises(InputError) as err:
+        ExecutionOptions(collision_current=(1.0, -1.0, 1.0))
+    assert err.value.field == "collision_current[1]"
+    with pytest.raises(InputError) as err:
+        ExecutionOptions(collision_cycles=0)
+    assert err.value.field == "collision_cycles"
+    traj = plan(ARM3R, MOVE, method="sclerp", duration=1.0)
+    with simulated_arm(ARM3R, timing="fast", start_joints=traj.joints[0]) as sa:
+        before = [len(sa.sim.goal_history(i)) for i in ARM3R.servo_ids]
+        with pytest.raises(InputError) as err:
+            execute(traj, sa.bus, collision_current=(1.0, 1.0))
+        assert [len(sa.sim.goal_history(i)) for i in ARM3R.servo_ids] == before
+    assert err.value.field == "collision_current"

@@ -190,6 +190,10 @@ def execute(trajectory: Trajectory, bus: ServoBus, options: ExecutionOptions | N
             f"{list(bus.ids)} (same ids in the same order needed)", field="servo_ids",
             value=list(trajectory.servo_ids))
 
+    if opts.collision_current is not None and len(opts.collision_current) != len(bus.ids):
+        raise InputError(f"collision_current needs {len(bus.ids)} currents (A, one per "
+                         f"joint), got {list(opts.collision_current)}",
+                         field="collision_current", value=list(opts.collision_current))
     with bus.claim():
         # -- refusals: nothing has been written yet ---------------------------------------
         bus.verify()
@@ -334,11 +338,7 @@ class _Streamer:
         arm = None if request is None else request.arm
         self.predicted = predicted_currents(trajectory.joints, self.period, self.bus.servos, arm)
         limits = self.bus.current_limits or tuple(2.3 for _ in self.bus.ids)
-        if opts.collision_current is not None:
-            if len(opts.collision_current) != len(self.bus.ids):
-                raise InputError(f"collision_current needs {len(self.bus.ids)} currents (A), "
-                                 f"got {list(opts.collision_current)}",
-                                 field="collision_current", value=opts.collision_current)
+        if opts.collision_current is not None:     # its length was checked by execute
             self.threshold = np.asarray(opts.collision_current, dtype=np.float64)
         else:
             self.threshold = thresholds(self.predicted, limits, arm, self.bus.position_d_gains)
