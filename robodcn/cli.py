@@ -286,9 +286,10 @@ def _add_execution_options(p: argparse.ArgumentParser) -> None:
     g.add_argument("--realtime", action="store_true",
                    help="stream from a real-time (SCHED_FIFO) thread; Linux, needs "
                         "CAP_SYS_NICE or root (warns and carries on otherwise)")
-    g.add_argument("--compensation", choices=("on", "off"), default="on",
+    g.add_argument("--compensation", choices=("on", "off"),
                    help="lead the goals by the servos' position-loop lag so they follow the "
-                        "plan (default on)")
+                        "plan (default on; off with sim --dynamics off, whose servos do not "
+                        "lag)")
     g.add_argument("--recover", action="store_true",
                    help="on an overload alert reboot that servo and hold it (the move stays "
                         "stopped)")
@@ -424,6 +425,12 @@ def _report_text(report) -> str:
     return "\n".join(lines)
 
 
+def _compensation(args: argparse.Namespace) -> bool:
+    if args.compensation is not None:
+        return args.compensation == "on"
+    return getattr(args, "dynamics", "on") == "on"
+
+
 def _execute(args: argparse.Namespace, arm, bus) -> tuple[Any, Any, _LiveProgress]:
     """Read the present pose, plan from it, stream; returns (trajectory, report, progress)."""
     from robodcn import kinematics, servo_units
@@ -443,7 +450,7 @@ def _execute(args: argparse.Namespace, arm, bus) -> tuple[Any, Any, _LiveProgres
             report = execute(traj, bus, feedback_every=args.feedback_every,
                              tracking_limit=math.radians(args.tracking_limit), stop=stop,
                              progress=live, release=args.release, realtime=args.realtime,
-                             compensation=args.compensation == "on", recover=args.recover,
+                             compensation=_compensation(args), recover=args.recover,
                              settle=SETTLE_S)
         finally:
             live.finish()

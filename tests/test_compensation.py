@@ -52,3 +52,22 @@ def test_compensated_goals_lead_the_plan_and_stay_inside_the_limits():
     moving = np.abs(np.gradient(traj.ticks.astype(float), axis=0)) > 5
     assert (lead[moving] > 0).all()                      # ahead of the plan while moving
     assert ((goals >= limits[:, 0]) & (goals <= limits[:, 1])).all()
+
+
+def test_cli_sim_switches_physics_and_compensation(capsys):
+    import json
+
+    from robodcn import cli
+
+    move = ["sim", "--arm", str(ARM3R.source), "--from", "0.25,0.10,0", "--to",
+            "0.12,0.24,60", "--timing", "fast", "--json"]
+    assert cli.main([*move, "--dynamics", "off"]) == 0         # compensation off with it
+    kinematic = json.loads(capsys.readouterr().out)
+    assert kinematic["compensation"] is False
+    assert max(kinematic["tracking_error_max_ticks"]) == 0     # each goal reached at once
+    assert cli.main([*move, "--compensation", "off"]) == 0
+    physics = json.loads(capsys.readouterr().out)
+    assert max(physics["tracking_error_max_ticks"]) > 10       # the motor lags
+    assert physics["current_peak_a"][0] > 0
+    assert cli.main(move) == 0
+    assert json.loads(capsys.readouterr().out)["compensation"] is True
