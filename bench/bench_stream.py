@@ -6,8 +6,14 @@ simulator's thread does not share a GIL with the streaming loop, as a real U2D2 
 planned with robodcn.plan on configs/arm3r.toml.
 
 Rows: write-only streaming at 1 kHz (Sync Write every sample, health poll every 50 ms),
-write + Fast Sync Read of Present Position at 500 Hz, and, for comparison, write + plain
-Sync Read at 500 Hz. Targets: period jitter p99 < 0.5 ms and zero overruns over 10 s.
+write + Fast Sync Read at 500 Hz, and, for comparison, write + plain Sync Read at 500 Hz.
+Targets: period jitter p99 < 0.5 ms and zero overruns over 10 s. Since issue 11 a streaming
+read is the 11-byte feedback block (position, velocity, current, hardware error).
+
+Issue 11 rows (``feedback()``): write + Fast Sync Read of the feedback block, 3 servos at
+2 Mbps at 1 kHz (rate within 1 %, overruns; SCHED_FIFO when permitted) and the rate
+achievable at 1 Mbps; ``compensation()``: max/RMS tracking error with and without the
+tracking compensation on the physics sim (``--feedback`` / ``--compensation`` run one).
 
 Wire times follow design.md §5 (10 bits a byte, 4-byte items, RDT 0): Sync Write 14 + 5N
 bytes, (Fast) Sync Read instruction 14 + N, Fast Sync Read reply 8 + 8N, Sync Read replies
@@ -22,7 +28,7 @@ import subprocess
 import sys
 from pathlib import Path
 
-from robodcn.bus import cycle_wire_time
+from robodcn.bus import FEEDBACK_LENGTH, cycle_wire_time
 
 ROOT = Path(__file__).resolve().parent.parent
 N = 3
@@ -37,8 +43,11 @@ def _wire_us(nbytes: int) -> float:
 
 # Wire times from the one model (robodcn.bus.wire, dynamixel-notes §5), in µs.
 WIRE_WRITE = 1e6 * cycle_wire_time(N, BAUD, feedback="none")
-WIRE_FAST = 1e6 * cycle_wire_time(N, BAUD, feedback="fast") - WIRE_WRITE
-WIRE_SYNC = 1e6 * cycle_wire_time(N, BAUD, feedback="sync") - WIRE_WRITE
+# A streaming read is the feedback block (robodcn.bus.feedback, FEEDBACK_LENGTH bytes a servo).
+WIRE_FAST = 1e6 * cycle_wire_time(N, BAUD, feedback="fast", item_bytes=FEEDBACK_LENGTH) \
+    - WIRE_WRITE
+WIRE_SYNC = 1e6 * cycle_wire_time(N, BAUD, feedback="sync", item_bytes=FEEDBACK_LENGTH) \
+    - WIRE_WRITE
 # A 1-byte health read (Fast Sync Read of one byte): outside the 4-byte-item model.
 WIRE_HEALTH = _wire_us(14 + N + 8 + 5 * N)
 
@@ -162,7 +171,7 @@ def _back_to_back(fast_read: bool, realtime: bool, cycles: int = 2000) -> tuple[
             for i, row in enumerate(rows):
                 start = time.perf_counter()
                 bus.write_encoded(row)
-                bus.read_positions()
+                bus.read_feedback()
                 times[i] = time.perf_counter() - start
     return float(np.median(times)) * 1e6, float(np.percentile(times, 99)) * 1e6
 
@@ -295,7 +304,8 @@ def _row(name: str, rate: float, report, wire_us: float, reply_us: float, load: 
             f"{overhead:.0f} | {load} | {'yes' if ok else '**no**'} |")
 
 
-def run() -> str:
+def streaming() -> str:
+    """The issue-5 rows: write only, write + (Fast) Sync Read of positions."""
     modes = [
         ("write only, health poll / 50 ms", 1000.0, 0, True, WIRE_WRITE, 0.0),
         ("write + Fast Sync Read", 500.0, 1, True, WIRE_WRITE + WIRE_FAST, WIRE_FAST + 30.0),
@@ -472,6 +482,11 @@ def feedback() -> str:
     return "\n".join(lines)
 
 
+def run() -> str:
+    """Every section: streaming rows, the one-packet feedback rows, tracking compensation."""
+    return "\n\n".join([streaming(), feedback(), compensation()])
+
+
 def compensation() -> str:
     """Tracking compensation (issue 11 §3): RMS/max tracking error with and without it, on
     the physics sim with the arm's default masses, for the `make demo` move and an auto sweep."""
@@ -508,4 +523,4 @@ if __name__ == "__main__":
     elif "--feedback" in _sys.argv:
         print(feedback())
     else:
-        print("\n\n".join([run(), feedback(), compensation()]))
+        print(run())
