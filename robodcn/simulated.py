@@ -2,8 +2,11 @@
 
 The dry-run back end shared by ``robodcn sim``, ``robodcn serve --sim``, the demo and the
 tests. Everything above the pty is the real stack (dynamixel-sdk, robodcn.bus,
-robodcn.stream), so a dry-run exercises exactly the code that drives hardware. This module
-and the tests are the only places robodcn imports firmware_sim.
+robodcn.stream), so a dry-run exercises exactly the code that drives hardware. By default
+the servos run firmware_sim's physics model driving the arm's rigid-body dynamics (its own
+``[dynamics]`` masses), so a dry run shows the tracking lag, velocities and currents the
+real arm will have; ``dynamics=False`` keeps the kinematic model. This module and the tests
+are the only places robodcn imports firmware_sim.
 """
 
 from __future__ import annotations
