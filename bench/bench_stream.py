@@ -126,9 +126,16 @@ def _seat(bus, ticks, timeout: float = 5.0) -> None:
 
     import numpy as np
 
+    from robodcn.errors import CommError
+
     bus.write_goals(ticks)
     deadline = time.monotonic() + timeout
-    while np.abs(bus.read_positions() - ticks).max() > 10 and time.monotonic() < deadline:
+    while time.monotonic() < deadline:
+        try:
+            if np.abs(bus.read_positions() - ticks).max() <= 10:
+                return
+        except CommError:
+            pass        # a reply lost on a loaded machine: not what is being measured here
         time.sleep(0.01)
 
 
