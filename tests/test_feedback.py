@@ -101,3 +101,27 @@ def test_the_reports_near_limit_marks_agree_with_its_peaks():
         near_threshold = report.current_peak_a[j] >= 0.9 * report.collision_threshold_a[j]
         assert near_threshold == any(m["joint"] == name and m["quantity"] ==
                                      "collision_current" for m in marks)
+
+
+def test_decode_feedback_signed_items_and_units():
+    from robodcn.bus.feedback import (
+        VELOCITY_UNIT_RAD_S,
+        current_units,
+        decode_feedback,
+        indirect_map,
+    )
+
+    def block(pos: int, vel: int, cur: int, err: int) -> bytes:
+        return (pos.to_bytes(4, "little", signed=True) + vel.to_bytes(4, "little", signed=True)
+                + cur.to_bytes(2, "little", signed=True) + bytes([err]))
+
+    fb = decode_feedback([block(-70000, -12, -300, 0), block(4095, 7, 1000, 0x20)],
+                         current_units(["xm430-w350", "xl430-w250"]))
+    assert fb.positions.tolist() == [-70000, 4095]
+    assert np.allclose(fb.velocities, [-12 * VELOCITY_UNIT_RAD_S, 7 * VELOCITY_UNIT_RAD_S])
+    assert np.allclose(fb.currents, [-300 * 2.69e-3, 1000 * 1.4e-3])   # XL: 0.1 % of 1.4 A
+    assert fb.hardware_errors.tolist() == [0, 0x20]
+    # The map names each feedback byte's source address, little-endian, 2 bytes an entry.
+    addresses = [int.from_bytes(bytes(indirect_map()[i:i + 2]), "little")
+                 for i in range(0, 2 * FEEDBACK_LENGTH, 2)]
+    assert addresses == [132, 133, 134, 135, 128, 129, 130, 131, 126, 127, 70]

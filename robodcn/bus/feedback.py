@@ -49,17 +49,25 @@ class Feedback:
     hardware_errors: NDArray[np.int64]
 
 
-def decode_feedback(blocks: Sequence[bytes], models: Sequence[str]) -> Feedback:
-    """The ``FEEDBACK_LENGTH``-byte block of each servo → :class:`Feedback` (vectorised)."""
-    raw = np.frombuffer(b"".join(blocks), dtype=np.uint8).reshape(len(blocks), FEEDBACK_LENGTH)
-    position = raw[:, 0:4].copy().view("<i4")[:, 0].astype(np.int64)
-    velocity = raw[:, 4:8].copy().view("<i4")[:, 0].astype(np.float64)
-    current = raw[:, 8:10].copy().view("<i2")[:, 0].astype(np.float64)
-    units = np.array([CURRENT_UNIT_A.get(m, 2.69e-3) for m in models])
-    return Feedback(position, velocity * VELOCITY_UNIT_RAD_S, current * units,
-                    raw[:, 10].astype(np.int64))
+#: The block as a numpy record (little-endian, packed): one decode for all servos.
+FEEDBACK_DTYPE = np.dtype([("position", "<i4"), ("velocity", "<i4"), ("current", "<i2"),
+                           ("error", "u1")])
 
 
-__all__ = ["ADDR_FEEDBACK", "ADDR_INDIRECT_ADDRESS_29", "CURRENT_UNIT_A", "FEEDBACK_ITEMS",
-           "FEEDBACK_LENGTH", "VELOCITY_UNIT_RAD_S", "Feedback", "decode_feedback",
-           "indirect_map"]
+def current_units(models: Sequence[str]) -> NDArray[np.float64]:
+    """Amperes per Present Current (or Present Load) unit of each servo model."""
+    return np.array([CURRENT_UNIT_A.get(m, CURRENT_UNIT_A["xm430-w350"]) for m in models])
+
+
+def decode_feedback(blocks: Sequence[bytes], units: NDArray[np.float64]) -> Feedback:
+    """The ``FEEDBACK_LENGTH``-byte block of each servo → :class:`Feedback` (vectorised);
+    ``units`` from :func:`current_units`."""
+    rec = np.frombuffer(b"".join(blocks), dtype=FEEDBACK_DTYPE)
+    return Feedback(rec["position"].astype(np.int64),
+                    rec["velocity"] * VELOCITY_UNIT_RAD_S, rec["current"] * units,
+                    rec["error"].astype(np.int64))
+
+
+__all__ = ["ADDR_FEEDBACK", "ADDR_INDIRECT_ADDRESS_29", "CURRENT_UNIT_A", "FEEDBACK_DTYPE",
+           "FEEDBACK_ITEMS", "FEEDBACK_LENGTH", "VELOCITY_UNIT_RAD_S", "Feedback",
+           "current_units", "decode_feedback", "indirect_map"]

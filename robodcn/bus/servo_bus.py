@@ -87,6 +87,7 @@ from robodcn.bus.feedback import (
     CURRENT_UNIT_A,
     FEEDBACK_LENGTH,
     Feedback,
+    current_units,
     decode_feedback,
     indirect_map,
 )
@@ -182,6 +183,7 @@ class ServoBus:
         #: the stall current where the model has no such item).
         self.position_p_gains: tuple[int, ...] | None = None
         self.position_d_gains: tuple[int, ...] | None = None
+        self._current_units = current_units([s.model for s in self.servos])
         self.current_limits: tuple[float, ...] | None = None
         self.watchdog_ms = 0
         #: Position limits (ticks) read from each servo by :meth:`verify`, else the spec's.
@@ -543,7 +545,7 @@ class ServoBus:
             raise BusError("read_feedback needs configure() first (the feedback map)",
                            field="bus", value=self.port)
         return decode_feedback(self.sync_read(ADDR_FEEDBACK, FEEDBACK_LENGTH),
-                               [s.model for s in self.servos])
+                               self._current_units)
 
     def torque_enabled(self) -> dict[int, bool]:
         """Torque Enable (address 64) per servo id."""
