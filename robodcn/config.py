@@ -28,7 +28,7 @@ from __future__ import annotations
 
 import math
 import tomllib
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
@@ -101,6 +101,9 @@ class JointSpec:
     max_acceleration: float
     servo: ServoSpec
     max_jerk: float | None = None
+    #: Collision-stop current threshold, A (``collision_current_a``); None: derived from the
+    #: plan (:func:`robodcn.stream.collision.thresholds`).
+    collision_current: float | None = None
 
 
 @dataclass(frozen=True)
@@ -129,6 +132,9 @@ class Arm:
     elbow: str
     bus: BusSpec
     source: str
+    #: The optional ``[dynamics]`` table as written (link_masses, link_com, link_inertias,
+    #: payload_kg, gravity); read by the servo simulator and the current prediction.
+    dynamics: dict[str, Any] = field(default_factory=dict)
 
     @property
     def dof(self) -> int:
@@ -165,8 +171,11 @@ class Arm:
                            "ticks_per_turn": j.servo.ticks_per_turn,
                            "zero_offset": j.servo.zero_offset,
                            "direction": j.servo.direction, "min_tick": j.servo.min_tick,
-                           "max_tick": j.servo.max_tick}}
+                           "max_tick": j.servo.max_tick},
+                 **({} if j.collision_current is None
+                    else {"collision_current_a": j.collision_current})}
                 for j in self.joints],
+            **({"dynamics": dict(self.dynamics)} if self.dynamics else {}),
         }
 
 
@@ -310,7 +319,7 @@ def _servo(r: _Reader) -> ServoSpec:
 def _joint(r: _Reader) -> JointSpec:
     r.only({"name", "min", "min_deg", "max", "max_deg", "max_velocity", "max_velocity_deg_s",
             "max_acceleration", "max_acceleration_deg_s2", "max_jerk", "max_jerk_deg_s3",
-            "servo"})
+            "servo", "collision_current_a"})
     name = r.string("name")
     servo = _servo(r.sub("servo"))
     model = SERVO_SPECS[servo.model]
@@ -357,7 +366,11 @@ def _joint(r: _Reader) -> JointSpec:
         if x > cap * (1.0 + 1e-9):
             raise r.fail(key, f"must be at most {in_deg(si, deg, cap, unit)} ({why})",
                          r.table[key])
-    return JointSpec(name, lo, hi, vel, acc, servo, jerk)
+    collision = r.number("collision_current_a") if r.has("collision_current_a") else None
+    if collision is not None and not 0.0 < collision <= 100.0:
+        raise r.fail("collision_current_a", "must be a current in amperes within 0..100",
+                     collision)
+    return JointSpec(name, lo, hi, vel, acc, servo, jerk, collision)
 
 
 def _bus(r: _Reader) -> BusSpec:
@@ -386,7 +399,7 @@ def arm_from_dict(data: Any, source: str = "<dict>") -> Arm:
         names or ids, a home pose out of reach.
     """
     top = _Reader(source, data, "")
-    top.only({"arm", "bus", "joints"})
+    top.only({"arm", "bus", "joints", "dynamics"})
     a = top.sub("arm")
     a.only({"name", "links", "elbow", "home"})
     name = a.string("name")
@@ -432,9 +445,47 @@ def arm_from_dict(data: Any, source: str = "<dict>") -> Arm:
         seen_names[joint.name] = i
         seen_ids[joint.servo.id] = i
 
-    arm = Arm(name, links, joints, home, elbow, bus, source)
+    arm = Arm(name, links, joints, home, elbow, bus, source,
+              _dynamics(top.sub("dynamics", {}), len(links)))
     _check_home(arm)
     return arm
+
+
+_DYNAMICS_PER_LINK = ("link_masses", "link_com", "link_inertias")
+
+
+def _dynamics(r: _Reader, n: int) -> dict[str, Any]:
+    """The ``[dynamics]`` table, checked: per-link lists of n numbers ≥ 0 (masses > 0),
+    ``payload_kg`` ≥ 0, ``gravity`` [gx, gy] m/s² or true/false."""
+    r.only({*_DYNAMICS_PER_LINK, "payload_kg", "gravity"})
+    out: dict[str, Any] = {}
+    for key in _DYNAMICS_PER_LINK:
+        if not r.has(key):
+            continue
+        raw = r.table[key]
+        if not isinstance(raw, list) or len(raw) != n:
+            raise r.fail(key, f"must be a list of {n} numbers (one per link)", raw)
+        values = [_Reader(r.source, {f"{key}[{i}]": v}, r.prefix).number(f"{key}[{i}]")
+                  for i, v in enumerate(raw)]
+        if any(v < 0 or (key == "link_masses" and v == 0) for v in values):
+            raise r.fail(key, "must be positive" if key == "link_masses"
+                         else "must be non-negative", raw)
+        out[key] = values
+    if r.has("payload_kg"):
+        payload = r.number("payload_kg")
+        if payload < 0:
+            raise r.fail("payload_kg", "must be non-negative (kg)", payload)
+        out["payload_kg"] = payload
+    if r.has("gravity"):
+        raw = r.table["gravity"]
+        if isinstance(raw, bool):
+            out["gravity"] = [0.0, -9.81] if raw else [0.0, 0.0]
+        elif isinstance(raw, list) and len(raw) == 2:
+            out["gravity"] = [_Reader(r.source, {"gravity": v}, r.prefix).number("gravity")
+                              for v in raw]
+        else:
+            raise r.fail("gravity", "must be [gx, gy] in m/s² (or true for [0, -9.81])", raw)
+    return out
 
 
 def _check_home(arm: Arm) -> None:

@@ -2,8 +2,11 @@
 
 The dry-run back end shared by ``robodcn sim``, ``robodcn serve --sim``, the demo and the
 tests. Everything above the pty is the real stack (dynamixel-sdk, robodcn.bus,
-robodcn.stream), so a dry-run exercises exactly the code that drives hardware. This module
-and the tests are the only places robodcn imports firmware_sim.
+robodcn.stream), so a dry-run exercises exactly the code that drives hardware. By default
+the servos run firmware_sim's physics model driving the arm's rigid-body dynamics (its own
+``[dynamics]`` masses), so a dry run shows the tracking lag, velocities and currents the
+real arm will have; ``dynamics=False`` keeps the kinematic model. This module and the tests
+are the only places robodcn imports firmware_sim.
 """
 
 from __future__ import annotations
@@ -12,13 +15,14 @@ import contextlib
 import math
 from collections.abc import Iterator, Sequence
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from firmware_sim.bus import SimBus
 from robodcn import kinematics, servo_units
-from robodcn.bus import ADDR_GOAL_POSITION, ADDR_TORQUE_ENABLE, ServoBus
+from robodcn.bus import ServoBus
 from robodcn.config import Arm
 from robodcn.errors import InputError
 
@@ -30,6 +34,8 @@ RX_TIMEOUT_MS = 50.0
 #: Extra attempts per read: a lost reply here means the simulator thread was starved of CPU
 #: (a loaded machine), never a wire fault, so be patient (injected faults still surface).
 RETRIES = 5
+#: A seated servo reads its start tick to within this (the physics model's rounding).
+PLACE_TOLERANCE_TICKS = 1
 
 
 @dataclass(frozen=True)
@@ -69,31 +75,29 @@ def start_ticks(arm: Arm, start_joints: ArrayLike | None = None) -> NDArray[np.i
     return servo_units.radians_to_ticks(q[None, :], arm.servos)[0]
 
 
-def _place(sim: SimBus, ids: Sequence[int], ticks: Sequence[int]) -> None:
-    """Put each simulated servo at rest at its start tick, before any client talks to it.
+def _check_placed(sim: SimBus, ids: Sequence[int], ticks: Sequence[int]) -> None:
+    """Each simulated servo must rest at its start tick (seated through ``positions=``).
 
-    Through the servo's own control table: torque on, Goal Position (with the factory
-    Profile Velocity 0 the goal is a step, taken at once), torque off again as at power-up.
-    """
+    The physics model seats the shaft (and the arm's joint angle) directly, like the
+    kinematic one, so a fresh servo reads its start tick exactly; a model that did not
+    would make every later start check fail obscurely, so say it here."""
     with sim.lock:
         for servo_id, tick in zip(ids, ticks, strict=True):
-            servo = sim.servo(servo_id)
-            for address, data in ((ADDR_TORQUE_ENABLE, b"\x01"),
-                                  (ADDR_GOAL_POSITION, int(tick).to_bytes(4, "little",
-                                                                          signed=True)),
-                                  (ADDR_TORQUE_ENABLE, b"\x00")):
-                code = servo.write(address, data)
-                if code:
-                    raise InputError(f"servo {servo_id} refused start tick {int(tick)} "
-                                     f"(error {code})", field="start_joints", value=int(tick))
-            if servo.present_position != int(tick):
+            present = sim.servo(servo_id).present_position
+            if abs(present - int(tick)) > PLACE_TOLERANCE_TICKS:
                 raise RuntimeError(f"simulated servo {servo_id} did not take its start tick "
-                                   f"{int(tick)} (at {servo.present_position})")
+                                   f"{int(tick)} (at {present})")
+
+
+def sim_arm_document(arm: Arm) -> dict[str, Any]:
+    """The arm as the servo simulator reads an arm file: links, joint→servo maps and the
+    optional ``[dynamics]`` table (firmware_sim parses it itself, it never imports robodcn)."""
+    return arm.to_dict()
 
 
 @contextlib.contextmanager
 def simulated_arm(arm: Arm, *, timing: str = "realistic", start_joints: ArrayLike | None = None,
-                  firmware: int = 46) -> Iterator[SimulatedArm]:
+                  firmware: int = 46, dynamics: bool = True) -> Iterator[SimulatedArm]:
     """A started firmware_sim bus with ``arm``'s servos and a ServoBus ready to stream.
 
     Parameters
@@ -103,6 +107,10 @@ def simulated_arm(arm: Arm, *, timing: str = "realistic", start_joints: ArrayLik
     start_joints : (k,) radians the servos start at; default the IK of ``arm.home`` on
         ``arm.elbow``
     firmware : firmware version of every servo (≥ 45: Fast Sync Read)
+    dynamics : True (default): the servo physics model driving the arm's rigid-body
+        dynamics from its ``[dynamics]`` table (masses default in firmware_sim), so the
+        run shows real tracking lag and current; False: the kinematic model (each goal
+        reached at once), for protocol tests.
 
     The bus runs at the arm's baud rate and is opened, verified against the arm's servos
     and configured (position mode, Return Delay Time 0, torque on, holding). On exit the
@@ -111,15 +119,20 @@ def simulated_arm(arm: Arm, *, timing: str = "realistic", start_joints: ArrayLik
     if timing not in TIMINGS:
         raise InputError(f"timing must be one of {', '.join(map(repr, TIMINGS))}, got "
                          f"{timing!r}", field="timing", value=timing)
+    if not isinstance(dynamics, bool):
+        raise InputError(f"dynamics must be true or false, got {dynamics!r}", field="dynamics",
+                         value=dynamics)
     if isinstance(firmware, bool) or not isinstance(firmware, int) or not 0 <= firmware <= 255:
         raise InputError(f"firmware must be a version number 0..255, got {firmware!r}",
                          field="firmware", value=firmware)
     ticks = start_ticks(arm, start_joints)
     models = {s.id: s.model for s in arm.servos}
     with contextlib.ExitStack() as stack:
+        positions = {i: int(t) for i, t in zip(arm.servo_ids, ticks, strict=True)}
         sim = SimBus(arm.servo_ids, models, baud=arm.bus.baud, timing=timing,
-                     firmware=firmware, log=False)
-        _place(sim, arm.servo_ids, ticks)
+                     firmware=firmware, log=False, dynamics=dynamics,
+                     arm=sim_arm_document(arm) if dynamics else None, positions=positions)
+        _check_placed(sim, arm.servo_ids, ticks)
         sim.start()
         stack.callback(sim.close)
         bus = ServoBus(sim.port_path, arm.bus.baud, servos=arm.servos, retries=RETRIES,

@@ -67,7 +67,8 @@ def test_sim_json_report_sends_every_sample(extra):
     assert report["outcome"] == ("done" if out.returncode == 0 else "degraded")
     assert (report["samples_skipped"] > 0) == (out.returncode == 5)
     assert report["samples_sent"] + report["samples_skipped"] == report["samples_total"] > 10
-    assert report["final_error_ticks"] == [0, 0, 0]
+    # The physics sim (the default) settles to within the streamer's one-tick settle band.
+    assert max(abs(e) for e in report["final_error_ticks"]) <= 1
 
 
 def test_move_and_scan_against_firmware_sim(firmware):

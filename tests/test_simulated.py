@@ -80,3 +80,62 @@ def test_bad_arguments_name_the_field(kwargs, field) -> None:
         pass
     assert exc.value.field == field
     assert set(threading.enumerate()) == threads
+
+
+def test_physics_is_the_default_and_dynamics_false_keeps_the_kinematic_model() -> None:
+    q = servo_units.ticks_to_radians(
+        servo_units.radians_to_ticks(kinematics.ik(ARM3.links, [ARM3.home], ARM3.elbow),
+                                     ARM3.servos), ARM3.servos)[0]
+    goal = servo_units.radians_to_ticks((q + 0.5)[None], ARM3.servos)[0]
+    lags = {}
+    for dynamics in (True, False):
+        with simulated_arm(ARM3, timing="fast", dynamics=dynamics) as sa:
+            assert sa.sim.dynamics is dynamics
+            assert all(sa.sim.servo(i).dynamics is dynamics for i in ARM3.servo_ids)
+            sa.bus.write_goals(goal)
+            lags[dynamics] = np.abs(sa.bus.read_positions() - goal).max()
+    assert lags[False] == 0          # the kinematic servo takes a step goal at once
+    assert lags[True] > 100          # a motor needs time for 0.5 rad (≈ 326 ticks)
+
+
+def test_the_arm_dynamics_table_reaches_the_simulator() -> None:
+    from robodcn.config import arm_from_dict
+
+    data = ARM3.to_dict()
+    data["dynamics"] = {"link_masses": [0.3, 0.2, 0.1], "payload_kg": 0.05}
+    arm = arm_from_dict(data)
+    with simulated_arm(arm, timing="fast") as sa:
+        assert sa.sim.arm.masses == (0.3, 0.2, 0.1) and sa.sim.arm.payload == 0.05
+
+
+@pytest.mark.parametrize("dynamics,field", [
+    ({"link_mass": [0.1, 0.1, 0.1]}, "dynamics.link_mass"),
+    ({"link_masses": [0.1, 0.1]}, "dynamics.link_masses"),
+    ({"link_masses": [0.1, 0.0, 0.1]}, "dynamics.link_masses"),
+    ({"payload_kg": -1.0}, "dynamics.payload_kg"),
+    ({"gravity": [0.0]}, "dynamics.gravity"),
+])
+def test_a_bad_dynamics_table_is_a_config_error_naming_the_key(dynamics, field) -> None:
+    from robodcn.config import arm_from_dict
+    from robodcn.errors import ConfigError
+
+    data = ARM3.to_dict()
+    data["dynamics"] = dynamics
+    with pytest.raises(ConfigError) as err:
+        arm_from_dict(data)
+    assert err.value.key == field
+
+
+def test_collision_current_key_per_joint_round_trips_and_is_checked() -> None:
+    from robodcn.config import arm_from_dict
+    from robodcn.errors import ConfigError
+
+    data = ARM3.to_dict()
+    data["joints"][1]["collision_current_a"] = 1.2
+    arm = arm_from_dict(data)
+    assert [j.collision_current for j in arm.joints] == [None, 1.2, None]
+    assert arm_from_dict(arm.to_dict()) == arm
+    data["joints"][1]["collision_current_a"] = 0
+    with pytest.raises(ConfigError) as err:
+        arm_from_dict(data)
+    assert err.value.key == "joints[1].collision_current_a"

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import dataclasses
+import functools
 import json
 import math
 import os
@@ -21,7 +22,7 @@ from conftest import ARM2R, ARM3R, ROOT
 import robodcn
 from firmware_sim.bus import SimBus
 from robodcn import cli, servo_units
-from robodcn.bus import ServoBus, cycle_wire_time
+from robodcn.bus import ADDR_FEEDBACK, ADDR_PRESENT_POSITION, ServoBus, cycle_wire_time
 from robodcn.errors import (
     CommError,
     HardwareAlertError,
@@ -40,9 +41,13 @@ from robodcn.stream import (
     RateWarning,
     StopSignal,
     check_rate,
-    execute,
     tracking_error,
 )
+from robodcn.stream import execute as _execute
+
+# These are protocol tests on the kinematic model (goals sent = goals planned): the
+# tracking compensation, on by default, is tested on the physics sim in test_compensation.
+execute = functools.partial(_execute, compensation=False)
 
 ARM = ARM3R
 IDS = ARM.servo_ids
@@ -153,10 +158,13 @@ def test_feedback_every_k_samples_and_at_the_end(sim):
     n = len(TRAJ.ticks)
     expected = sum(1 for i in range(n) if i % 4 == 0 or i == n - 1)
     assert report.completed and report.feedback_reads == expected
-    reads = [e for e in sim.packets("rx", "FAST_SYNC_READ")
-             if int.from_bytes(e.params[:2], "little") == 132]
-    # The pre-flight read, the streaming reads, the final read.
-    assert len(reads) == expected + 2
+    def reads_at(address: int) -> int:
+        return sum(1 for e in sim.packets("rx", "FAST_SYNC_READ")
+                   if int.from_bytes(e.params[:2], "little") == address)
+    # The streaming reads are one Fast Sync Read each of the feedback block (positions,
+    # velocities, currents, hardware errors); the pre-flight and final reads are positions.
+    assert reads_at(ADDR_FEEDBACK) == expected
+    assert reads_at(ADDR_PRESENT_POSITION) == 2
     assert len(sim.packets("rx", "SYNC_WRITE")) == n
 
 
@@ -444,7 +452,7 @@ def test_no_thread_or_fd_leak_after_100_executions(sim):
 
 def test_stop_reasons_are_the_documented_ones():
     assert STOP_REASONS == ("completed", "stopped", "comm_failure", "hardware_alert",
-                            "tracking_error")
+                            "tracking_error", "collision")
 
 
 def test_realtime_priority_is_restored_or_warned(sim):
@@ -464,8 +472,12 @@ def test_realtime_priority_is_restored_or_warned(sim):
 
 def test_scan_and_execute_against_python_m_firmware_sim(capsys):
     """The acceptance path: a separate ``python -m firmware_sim`` process on its pty."""
+    # About the protocol path (scan, verify, stream, settle), not the physics: the kinematic
+    # model, whose servos reach each goal, so the final position is the last goal to a tick.
+    # The physics default is exercised by tests/test_compensation.py and test_collision.py.
     proc = subprocess.Popen([sys.executable, "-m", "firmware_sim", "--ids", "1,2,3",
-                             "--timing", "fast"], cwd=ROOT, stdout=subprocess.PIPE, text=True)
+                             "--timing", "fast", "--dynamics", "off"], cwd=ROOT,
+                            stdout=subprocess.PIPE, text=True)
     try:
         assert proc.stdout is not None
         port = proc.stdout.readline().strip()

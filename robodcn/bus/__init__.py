@@ -38,6 +38,7 @@ from robodcn.bus.control_table import (
     WATCHDOG_UNIT_MS,
     describe_hardware_error,
 )
+from robodcn.bus.feedback import ADDR_FEEDBACK, FEEDBACK_LENGTH, Feedback, decode_feedback
 from robodcn.bus.latency import (
     SYSFS_USB_SERIAL,
     LatencyResult,
@@ -67,4 +68,5 @@ __all__ = [
     "WATCHDOG_UNIT_MS", "LatencyResult", "LatencyTimerWarning", "ServoBus", "ServoInfo",
     "StreamProfile", "check_latency_timer", "cycle_wire_time", "describe_hardware_error",
     "latency_timer_ms", "lower_latency_timer", "mean_cycle_wire_time", "scan",
+    "ADDR_FEEDBACK", "FEEDBACK_LENGTH", "Feedback", "decode_feedback",
 ]

@@ -13,6 +13,9 @@ ADDR_RETURN_DELAY_TIME = 9     # 1 byte, EEPROM, 2 µs a unit
 ADDR_OPERATING_MODE = 11       # 1 byte, EEPROM
 ADDR_MAX_POSITION_LIMIT = 48   # 4 bytes, EEPROM
 ADDR_MIN_POSITION_LIMIT = 52   # 4 bytes, EEPROM
+ADDR_CURRENT_LIMIT = 38        # 2 bytes, EEPROM, 2.69 mA a unit (XM430 only)
+ADDR_POSITION_D_GAIN = 80      # 2 bytes, RAM
+ADDR_POSITION_P_GAIN = 84      # 2 bytes, RAM
 ADDR_TORQUE_ENABLE = 64        # 1 byte, RAM; 1 locks the EEPROM area
 ADDR_HARDWARE_ERROR = 70       # 1 byte, R
 ADDR_BUS_WATCHDOG = 98         # 1 byte, RAM, 20 ms a unit, -1 (0xFF) once tripped
@@ -22,6 +25,8 @@ ADDR_GOAL_POSITION = 116       # 4 bytes, RAM
 ADDR_PRESENT_POSITION = 132    # 4 bytes, R, signed
 
 OPERATING_MODE_POSITION = 3
+#: Datasheet stall current at 12 V, A (the current limit of models without the item).
+STALL_CURRENT_A: dict[str, float] = {"xm430-w350": 2.3, "xl430-w250": 1.4}
 ALERT_BIT = 0x80
 WATCHDOG_UNIT_MS = 20
 WATCHDOG_MAX = 127

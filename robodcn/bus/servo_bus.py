@@ -57,12 +57,15 @@ from numpy.typing import ArrayLike, NDArray
 
 from robodcn.bus.control_table import (
     ADDR_BUS_WATCHDOG,
+    ADDR_CURRENT_LIMIT,
     ADDR_FIRMWARE_VERSION,
     ADDR_GOAL_POSITION,
     ADDR_HARDWARE_ERROR,
     ADDR_MAX_POSITION_LIMIT,
     ADDR_MIN_POSITION_LIMIT,
     ADDR_OPERATING_MODE,
+    ADDR_POSITION_D_GAIN,
+    ADDR_POSITION_P_GAIN,
     ADDR_PRESENT_POSITION,
     ADDR_PROFILE_ACCELERATION,
     ADDR_PROFILE_VELOCITY,
@@ -74,8 +77,19 @@ from robodcn.bus.control_table import (
     MODEL_NAMES,
     MODEL_NUMBERS,
     OPERATING_MODE_POSITION,
+    STALL_CURRENT_A,
     WATCHDOG_MAX,
     WATCHDOG_UNIT_MS,
+)
+from robodcn.bus.feedback import (
+    ADDR_FEEDBACK,
+    ADDR_INDIRECT_ADDRESS_29,
+    CURRENT_UNIT_A,
+    FEEDBACK_LENGTH,
+    Feedback,
+    current_units,
+    decode_feedback,
+    indirect_map,
 )
 from robodcn.bus.groups import check_ticks, encode_rows, fast_sync_read_blocks
 from robodcn.bus.port import SERIAL_ERRORS, close_handler, open_handler
@@ -163,6 +177,14 @@ class ServoBus:
         #: Ids whose last status packet carried the Alert bit (hardware error present).
         self.last_alert_ids: tuple[int, ...] = ()
         self.configured = False
+        #: True once :meth:`configure` mapped the feedback items (:meth:`read_feedback`).
+        self.feedback_mapped = False
+        #: Per servo, read by :meth:`configure`: Position P and D Gains, Current Limit (A;
+        #: the stall current where the model has no such item).
+        self.position_p_gains: tuple[int, ...] | None = None
+        self.position_d_gains: tuple[int, ...] | None = None
+        self._current_units = current_units([s.model for s in self.servos])
+        self.current_limits: tuple[float, ...] | None = None
         self.watchdog_ms = 0
         #: Position limits (ticks) read from each servo by :meth:`verify`, else the spec's.
         self.limits = np.array([[s.min_tick, s.max_tick] for s in self.servos], dtype=np.int64)
@@ -224,6 +246,7 @@ class ServoBus:
                                      field="port", value=port)
                 self.port = port
             self.configured = False
+            self.feedback_mapped = False
             self.watchdog_ms = 0
             return self.open()
 
@@ -486,8 +509,43 @@ class ServoBus:
             for servo_id in self.ids:
                 present = self._read_int(servo_id, ADDR_PRESENT_POSITION, 4, signed=True)
                 self._write_int(servo_id, ADDR_GOAL_POSITION, present, 4)
+            self._map_feedback()
             self._write_all(ADDR_TORQUE_ENABLE, 1, 1)
             self.configured = True
+
+    def _map_feedback(self) -> None:
+        """Indirect Address 29.. → the feedback items (:mod:`robodcn.bus.feedback`); read the
+        P gains and current limits. A servo that refuses the map leaves the plain reads."""
+        gains, d_gains, limits = [], [], []
+        for spec in self.servos:
+            gains.append(self._read_int(spec.id, ADDR_POSITION_P_GAIN, 2))
+            d_gains.append(self._read_int(spec.id, ADDR_POSITION_D_GAIN, 2))
+            if spec.model == "xm430-w350":
+                limits.append(self._read_int(spec.id, ADDR_CURRENT_LIMIT, 2)
+                              * CURRENT_UNIT_A[spec.model])
+            else:
+                limits.append(STALL_CURRENT_A.get(spec.model, 1.4))
+        self.position_p_gains = tuple(gains)
+        self.position_d_gains = tuple(d_gains)
+        self.current_limits = tuple(limits)
+        payload = indirect_map()
+        try:
+            for servo_id in self.ids:
+                self.write(servo_id, ADDR_INDIRECT_ADDRESS_29, payload)
+        except CommError as exc:
+            log.warning("feedback map refused (%s); reading positions only", exc.message)
+            self.feedback_mapped = False
+            return
+        self.feedback_mapped = True
+
+    def read_feedback(self) -> Feedback:
+        """Present Position, Velocity, Current and Hardware Error Status of every servo in
+        one (Fast) Sync Read of the Indirect Data block (needs :meth:`configure`)."""
+        if not self.feedback_mapped:
+            raise BusError("read_feedback needs configure() first (the feedback map)",
+                           field="bus", value=self.port)
+        return decode_feedback(self.sync_read(ADDR_FEEDBACK, FEEDBACK_LENGTH),
+                               self._current_units)
 
     def torque_enabled(self) -> dict[int, bool]:
         """Torque Enable (address 64) per servo id."""
@@ -525,6 +583,7 @@ class ServoBus:
                 result, error = self._packet.reboot(port, servo_id)
                 self._status(servo_id, "reboot", result, error)
             self.configured = False
+            self.feedback_mapped = False
             deadline = time.monotonic() + timeout
             for servo_id in ids:
                 while True:

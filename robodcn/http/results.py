@@ -12,7 +12,8 @@ from typing import Any, Literal
 #: Move lifecycle. ``done``: every sample sent; ``degraded``: completed with samples skipped;
 #: ``stopped``: stopped by a request (the arm holds); ``fault``: a bus or servo fault ended
 #: it after motion began; ``failed``: refused before any sample was sent.
-MoveState = Literal["queued", "running", "done", "degraded", "stopped", "fault", "failed"]
+MoveState = Literal["queued", "running", "done", "degraded", "stopped", "collision", "fault",
+                    "failed"]
 
 
 def _doc(text: str, **schema: Any) -> dict[str, Any]:

@@ -4,7 +4,9 @@ One concept a module: ``options`` (:class:`ExecutionOptions`), ``signal``
 (:class:`StopSignal`), ``source`` (the loop's sample source), ``streamer`` (the loop and
 :func:`execute`; its docstring has the rules), ``report`` (:class:`Progress`,
 :class:`ExecutionReport`, the one tracking-error definition), ``rate`` (the bus-capacity
-warning) and ``realtime`` (timer slack, SCHED_FIFO). Moving from the present pose lives in
+warning), ``realtime`` (timer slack, SCHED_FIFO), ``servo_model`` (arm inverse dynamics and
+the DC-motor model), ``compensation`` (the goals that make a servo follow the plan) and
+``collision`` (predicted currents, collision thresholds). Moving from the present pose lives in
 :mod:`robodcn.present`. Every public name is importable from ``robodcn.stream``.
 """
 
@@ -12,6 +14,8 @@ from __future__ import annotations
 
 import logging
 
+from robodcn.stream.collision import predicted_currents, thresholds
+from robodcn.stream.compensation import compensated_ticks
 from robodcn.stream.options import ExecutionOptions
 from robodcn.stream.rate import RateCheck, RateWarning, check_rate
 from robodcn.stream.realtime import (
@@ -26,6 +30,7 @@ from robodcn.stream.report import (
     STOP_REASONS,
     ExecutionReport,
     Progress,
+    near_limits,
     outcome_of,
     tracking_error,
 )
@@ -38,8 +43,27 @@ from robodcn.stream.streamer import PROGRESS_INTERVAL_S, execute
 logging.getLogger("robodcn.stream").addHandler(logging.NullHandler())
 
 __all__ = [
-    "OUTCOMES", "PROGRESS_INTERVAL_S", "REALTIME_PRIORITY", "SPIN_REALTIME_S", "SPIN_S",
-    "STOP_REASONS", "ExecutionOptions", "ExecutionReport", "PlannedSamples", "Progress",
-    "RateCheck", "RateWarning", "StopSignal", "check_rate", "execute", "outcome_of",
-    "realtime_priority", "timer_slack", "tracking_error",
+    "OUTCOMES",
+    "PROGRESS_INTERVAL_S",
+    "REALTIME_PRIORITY",
+    "SPIN_REALTIME_S",
+    "SPIN_S",
+    "STOP_REASONS",
+    "ExecutionOptions",
+    "ExecutionReport",
+    "PlannedSamples",
+    "Progress",
+    "RateCheck",
+    "RateWarning",
+    "StopSignal",
+    "check_rate",
+    "compensated_ticks",
+    "execute",
+    "near_limits",
+    "outcome_of",
+    "predicted_currents",
+    "realtime_priority",
+    "thresholds",
+    "timer_slack",
+    "tracking_error",
 ]

@@ -61,6 +61,13 @@ class ExecutionOptions:
     skip_late : skip samples whose slot has passed (True) or send them late (False).
     realtime : run the calling thread under SCHED_FIFO while streaming.
     clock : monotonic clock in seconds (real time: the waits sleep on it).
+    compensation : send the goals the servos need to follow the plan (a lead by the
+        position loop's lag, :mod:`robodcn.stream.compensation`) instead of the plan itself.
+    collision_current : per-joint collision-stop thresholds, A (None: from the plan,
+        :func:`robodcn.stream.collision.thresholds`); ``collision_cycles`` consecutive feedback
+        reads above it stop the move. ``collision=False`` disables the stop.
+    recover : on an overload alert, reboot that servo, hold it where it is, re-enable
+        torque and report it (the move stays stopped).
     """
 
     feedback_every: int = 1
@@ -78,6 +85,11 @@ class ExecutionOptions:
     skip_late: bool = True
     realtime: bool = False
     clock: Callable[[], float] = time.perf_counter
+    compensation: bool = True
+    collision: bool = True
+    collision_current: tuple[float, ...] | None = None
+    collision_cycles: int = 3
+    recover: bool = False
 
     def __post_init__(self) -> None:
         _integer("feedback_every", self.feedback_every, 0)
@@ -87,7 +99,16 @@ class ExecutionOptions:
         _number("health_interval", self.health_interval)
         _number("watchdog_ms", self.watchdog_ms, allow_low=True, allow_none=True)
         _number("settle", self.settle, allow_low=True)
-        for name in ("approach", "release", "skip_late", "realtime"):
+        _integer("collision_cycles", self.collision_cycles, 1)
+        if self.collision_current is not None:
+            values = self.collision_current
+            if not isinstance(values, tuple | list) or not values:
+                raise InputError(f"collision_current must be a list of currents (A), got "
+                                 f"{values!r}", field="collision_current", value=values)
+            for j, value in enumerate(values):
+                _number(f"collision_current[{j}]", value)
+        for name in ("approach", "release", "skip_late", "realtime", "compensation",
+                     "collision", "recover"):
             _flag(name, getattr(self, name))
         if self.stop is not None and not (hasattr(self.stop, "is_set")
                                           and hasattr(self.stop, "wait")):

@@ -64,19 +64,20 @@ class RateCheck:
 
 
 def check_rate(rate_hz: float, n_servos: int, baud: int, *, feedback_every: int = 1,
-               fast_read: bool | None = True, return_delay_us: float = 0.0
-               ) -> RateWarning | None:
+               fast_read: bool | None = True, return_delay_us: float = 0.0,
+               item_bytes: int = 4) -> RateWarning | None:
     """A :class:`RateWarning` when ``rate_hz`` exceeds what the bus carries, else None.
 
     The average wire time per sample (robodcn.bus.wire: one Sync Write each sample, one
     (Fast) Sync Read every ``feedback_every``-th) must fit in the period 1/rate_hz.
     ``fast_read`` None (unknown before :meth:`ServoBus.verify`) assumes Fast Sync Read,
     the cheaper read, so the warning only fires when no configuration could keep up.
+    ``item_bytes``: bytes read from each servo (4: positions; 11: the feedback block).
     """
     feedback = "none" if not feedback_every else ("sync" if fast_read is False else "fast")
     wire = mean_cycle_wire_time(n_servos, baud, feedback=feedback,
                                 feedback_every=feedback_every,
-                                return_delay_us=return_delay_us)
+                                return_delay_us=return_delay_us, item_bytes=item_bytes)
     check = RateCheck(float(rate_hz), wire, int(baud), int(n_servos), feedback,
                       int(feedback_every))
     return RateWarning(check) if check.exceeded else None

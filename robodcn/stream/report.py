@@ -16,10 +16,11 @@ from numpy.typing import NDArray
 
 from robodcn.present import Approach
 
-STOP_REASONS = ("completed", "stopped", "comm_failure", "hardware_alert", "tracking_error")
+STOP_REASONS = ("completed", "stopped", "comm_failure", "hardware_alert", "tracking_error",
+                "collision")
 #: ``ExecutionReport.outcome``: every sample sent / completed with samples left out / stopped
 #: on request / stopped by a bus, servo or tracking fault.
-OUTCOMES = ("done", "degraded", "stopped", "fault")
+OUTCOMES = ("done", "degraded", "stopped", "fault", "collision")
 
 
 def tracking_error(present: NDArray[np.int64], previous_goal: NDArray[np.int64] | None,
@@ -50,11 +51,42 @@ class Progress:
     tracking_error_rad: tuple[float, ...] | None = None
 
 
+#: A limit counts as approached at this share of it (within 10 %).
+NEAR_SHARE = 0.9
+
+
+def near_limits(joint_names: tuple[str, ...], samples: NDArray[np.int64],
+                times: NDArray[np.float64],
+                series: dict[str, tuple[NDArray[np.float64], NDArray[np.float64]]],
+                share: float = NEAR_SHARE) -> tuple[dict[str, Any], ...]:
+    """Where each joint's quantity first came within 10 % of its limit, and its peak.
+
+    ``series`` maps a quantity ("tracking_error" rad, "current" A, "collision_current" A)
+    to (|values| (m, k) per feedback read, limits (k,)); ``samples`` (m,) are the reads'
+    sample indices, ``times`` their planned times. One entry per joint and quantity with
+    value ≥ share·limit: joint, quantity, sample, time_s, value (there), peak, limit.
+    """
+    out = []
+    for quantity, (values, limits) in series.items():
+        if not len(values):
+            continue
+        near = values >= share * np.asarray(limits)[None, :]
+        for j in np.nonzero(near.any(axis=0))[0]:
+            first = int(np.argmax(near[:, j]))
+            out.append({"joint": joint_names[j], "quantity": quantity,
+                        "sample": int(samples[first]), "time_s": float(times[first]),
+                        "value": float(values[first, j]), "peak": float(values[:, j].max()),
+                        "limit": float(limits[j])})
+    return tuple(out)
+
+
 def outcome_of(stop_reason: str, skipped: int) -> str:
     """``"done"``, ``"degraded"``, ``"stopped"`` or ``"fault"`` (see :data:`OUTCOMES`)."""
     if stop_reason == "completed":
         return "done" if skipped == 0 else "degraded"
-    return "stopped" if stop_reason == "stopped" else "fault"
+    if stop_reason in ("stopped", "collision"):
+        return stop_reason
+    return "fault"
 
 
 @dataclass
@@ -113,6 +145,26 @@ class ExecutionReport:
     realtime: bool = False
     stop_latency_s: float | None = None
     warnings: tuple[dict[str, str], ...] = ()
+    #: Per joint over the feedback reads (None without the feedback map): peak |velocity|
+    #: (rad/s), peak |current| (A) and the servo's current limit (A).
+    velocity_peak_rad_s: tuple[float, ...] | None = None
+    current_peak_a: tuple[float, ...] | None = None
+    current_limit_a: tuple[float, ...] | None = None
+    #: Per joint: the plan's predicted peak |current| and the collision thresholds (A;
+    #: None for a joint whose stop is off, :mod:`robodcn.stream.collision`).
+    predicted_current_peak_a: tuple[float, ...] | None = None
+    collision_threshold_a: tuple[float | None, ...] | None = None
+    #: Where a collision stopped the move: joint, servo_id, current_a, threshold_a,
+    #: sample, time_s, pose [x, y, θ] (m, m, rad).
+    collision: dict[str, Any] | None = None
+    #: Servos rebooted by the overload recovery (``recover=True``).
+    recovered: tuple[dict[str, Any], ...] = ()
+    #: True when the goals sent were the tracking-compensated ones.
+    compensation: bool = False
+    #: The tracking-error stop limit, rad (None: no stop).
+    tracking_limit_rad: float | None = None
+    #: Where a limit came within 10 % (:func:`near_limits`), for the dry run's plot.
+    near_limits: tuple[dict[str, Any], ...] = ()
 
     @property
     def outcome(self) -> str:
@@ -143,6 +195,8 @@ class ExecutionReport:
         data["hardware_errors"] = {str(k): v for k, v in self.hardware_errors.items()}
         data["approach"] = None if self.approach is None else self.approach.to_dict()
         data["warnings"] = [dict(w) for w in self.warnings]
+        data["recovered"] = [dict(r) for r in self.recovered]
+        data["near_limits"] = [dict(n) for n in self.near_limits]
         for key, value in data.items():
             if isinstance(value, tuple):
                 data[key] = list(value)
@@ -151,5 +205,5 @@ class ExecutionReport:
         return data
 
 
-__all__ = ["OUTCOMES", "STOP_REASONS", "ExecutionReport", "Progress", "outcome_of",
-           "tracking_error"]
+__all__ = ["NEAR_SHARE", "OUTCOMES", "STOP_REASONS", "ExecutionReport", "Progress",
+           "near_limits", "outcome_of", "tracking_error"]

@@ -17,18 +17,32 @@ from numpy.typing import NDArray
 
 from robodcn.bus import ServoBus
 from robodcn.planner import Trajectory
+from robodcn.stream.compensation import compensated_ticks
 
 
 class PlannedSamples:
-    """A planned trajectory as a sample source: goals encoded once, vectorised, up front."""
+    """A planned trajectory as a sample source: goals encoded once, vectorised, up front.
 
-    def __init__(self, trajectory: Trajectory, bus: ServoBus) -> None:
+    ``goal(i)`` is the plan (what tracking error is measured against); what is sent,
+    ``commanded`` (encoded), is the plan itself or, with ``compensation``, the goals the
+    servos need to follow it (:func:`robodcn.stream.compensation.compensated_ticks`).
+    """
+
+    def __init__(self, trajectory: Trajectory, bus: ServoBus, *,
+                 compensation: bool = False) -> None:
         self.trajectory = trajectory
         self.ticks: NDArray[np.int64] = trajectory.ticks
         self.rate_hz = trajectory.rate_hz
         self.period = 1.0 / trajectory.rate_hz
         self.joint_names = tuple(trajectory.joint_names)
-        self._encoded = bus.encode_goals(trajectory.ticks)
+        self.compensated = bool(compensation)
+        self.commanded: NDArray[np.int64] = trajectory.ticks
+        if compensation:
+            request = trajectory.request
+            self.commanded = compensated_ticks(
+                trajectory.joints, self.period, bus.servos, bus.limits,
+                arm=None if request is None else request.arm, p_gains=bus.position_p_gains)
+        self._encoded = bus.encode_goals(self.commanded)
 
     def __len__(self) -> int:
         return len(self.ticks)

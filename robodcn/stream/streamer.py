@@ -37,8 +37,13 @@ Feedback and health
     present positions are read after the write on every ``feedback_every``-th sample and on
     the last one (0: only at the end), in one place (``_Streamer._feedback``). Tracking
     error (:func:`robodcn.stream.report.tracking_error`, the same for Progress and the
-    report) of joint j is how far the present position lies outside the last commanded
-    step, [previous goal, goal just sent]. Fast Sync Read
+    report) of joint j is how far the present position lies outside the last planned
+    step, [previous planned goal, the plan at the end of the read] (the plan, not the
+    compensated goals actually sent: :mod:`robodcn.stream.compensation`). With the
+    feedback map (:meth:`ServoBus.read_feedback`) the same packet brings velocities,
+    currents and hardware errors: peaks per joint in the report and the collision stop
+    ("collision": |current| above its threshold for ``collision_cycles`` reads, reported
+    with joint, current, sample, time and pose; :mod:`robodcn.stream.collision`). Fast Sync Read
     hides a servo's Alert bit in the SDK, so the bus decodes the per-servo ERR bytes
     itself, and every ``health_interval`` seconds the streamer polls Hardware Error Status
     (70) and Bus Watchdog (98) in turn. A cycle reads at most once: a health poll takes the
@@ -91,7 +96,14 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from robodcn.bus import ServoBus, describe_hardware_error
+from robodcn.bus import (
+    ADDR_GOAL_POSITION,
+    ADDR_PRESENT_POSITION,
+    ADDR_TORQUE_ENABLE,
+    FEEDBACK_LENGTH,
+    ServoBus,
+    describe_hardware_error,
+)
 from robodcn.errors import (
     BusError,
     CommError,
@@ -103,15 +115,18 @@ from robodcn.errors import (
 from robodcn.planner import Trajectory
 from robodcn.present import Approach, approach_of, plan_from_present
 from robodcn.servo_units import ticks_to_radians
+from robodcn.stream.collision import predicted_currents, thresholds
 from robodcn.stream.options import ExecutionOptions
 from robodcn.stream.rate import check_rate
 from robodcn.stream.realtime import SPIN_REALTIME_S, SPIN_S, realtime_priority, timer_slack
-from robodcn.stream.report import ExecutionReport, Progress, tracking_error
+from robodcn.stream.report import ExecutionReport, Progress, near_limits, tracking_error
 from robodcn.stream.signal import Waitable
 from robodcn.stream.source import PlannedSamples
 
 log = logging.getLogger("robodcn.stream")
 
+#: Hardware Error Status bit of an overload (what ``recover=True`` acts on).
+OVERLOAD_BIT = 0x20
 #: Minimum time between progress callbacks (s).
 PROGRESS_INTERVAL_S = 0.05
 
@@ -175,6 +190,10 @@ def execute(trajectory: Trajectory, bus: ServoBus, options: ExecutionOptions | N
             f"{list(bus.ids)} (same ids in the same order needed)", field="servo_ids",
             value=list(trajectory.servo_ids))
 
+    if opts.collision_current is not None and len(opts.collision_current) != len(bus.ids):
+        raise InputError(f"collision_current needs {len(bus.ids)} currents (A, one per "
+                         f"joint), got {list(opts.collision_current)}",
+                         field="collision_current", value=list(opts.collision_current))
     with bus.claim():
         # -- refusals: nothing has been written yet ---------------------------------------
         bus.verify()
@@ -206,16 +225,18 @@ def execute(trajectory: Trajectory, bus: ServoBus, options: ExecutionOptions | N
         profile_rdt = 0 if opts.profile is None else opts.profile.return_delay_us
         rate = check_rate(trajectory.rate_hz, len(bus.ids), bus.baud,
                           feedback_every=opts.feedback_every, fast_read=bus.fast_read,
-                          return_delay_us=profile_rdt)
+                          return_delay_us=profile_rdt, item_bytes=FEEDBACK_LENGTH)
         if rate is not None:
             log.warning("%s", rate.info.message)
             warnings.warn(rate, stacklevel=2)
             issued.append(rate.to_dict())
 
-        streamer = _Streamer(PlannedSamples(trajectory, bus), bus, opts)
         # -- configure (first writes) and stream --------------------------------------------
         if not bus.configured or not all(bus.torque_enabled().values()):
             bus.configure(opts.profile)
+        source = PlannedSamples(trajectory, bus, compensation=opts.compensation)
+        streamer = _Streamer(source, bus, opts)
+        streamer.plan_limits(trajectory, opts)
         period = 1.0 / trajectory.rate_hz
         watchdog_ms = opts.watchdog_ms
         if watchdog_ms is None:
@@ -234,7 +255,7 @@ def execute(trajectory: Trajectory, bus: ServoBus, options: ExecutionOptions | N
             raise
         streamer.finish(hold=streamer.reason != "completed", release=opts.release,
                         settle=opts.settle)
-        report = streamer.report(approach, tuple(issued))
+        report = streamer.report(approach, tuple(issued) + tuple(streamer.warnings))
         log.info("%s", report.headline)
         return report
 
@@ -268,7 +289,7 @@ class _Streamer:
         self.sent_at = [0.0] * self.n
         self.due_at = [0.0] * self.n
         self.work = [0.0] * self.n
-        self.errors: list[NDArray[np.int64]] = []
+        self.errors: list[NDArray[np.float64]] = []
         self.sent = 0
         self.skipped_late = 0
         self.failed_writes = 0
@@ -280,7 +301,7 @@ class _Streamer:
         self.last_goal: NDArray[np.int64] | None = None
         self.previous_goal: NDArray[np.int64] | None = None
         self.last_present: NDArray[np.int64] | None = None
-        self.last_error: NDArray[np.int64] | None = None
+        self.last_error: NDArray[np.float64] | None = None
         self.hardware: dict[int, int] = {}
         self.reason = "completed"
         self.message = "all samples sent"
@@ -292,6 +313,42 @@ class _Streamer:
         self.t_start = 0.0
         self.t_end = 0.0
         self._last_progress = -math.inf
+        # Richer feedback (one Fast Sync Read of the Indirect Data block), collision stop.
+        self.velocities: list[NDArray[np.float64]] = []
+        self.currents: list[NDArray[np.float64]] = []
+        self.feedback_samples: list[int] = []
+        self.read_samples: list[int] = []
+        self.collision_on = opts.collision
+        self.collision_cycles = opts.collision_cycles
+        self.collision_given = opts.collision_current
+        self.threshold: NDArray[np.float64] | None = None
+        self.predicted: NDArray[np.float64] | None = None
+        self.over = np.zeros(len(bus.ids), dtype=np.int64)
+        self.collision: dict[str, Any] | None = None
+        self.recover = opts.recover
+        self.recovered: list[dict[str, Any]] = []
+        #: Warnings found when the stream was set up (added to the report's ``warnings``).
+        self.warnings: list[dict[str, Any]] = []
+        self.poses = source.trajectory.poses
+        self.times = source.trajectory.t
+
+    def plan_limits(self, trajectory: Trajectory, opts: ExecutionOptions) -> None:
+        """Predicted currents along the plan and the collision thresholds (A per joint)."""
+        request = trajectory.request
+        arm = None if request is None else request.arm
+        self.predicted = predicted_currents(trajectory.joints, self.period, self.bus.servos, arm)
+        limits = self.bus.current_limits or tuple(2.3 for _ in self.bus.ids)
+        if opts.collision_current is not None:     # its length was checked by execute
+            self.threshold = np.asarray(opts.collision_current, dtype=np.float64)
+        else:
+            self.threshold = thresholds(self.predicted, limits, arm, self.bus.position_d_gains)
+        off = [self.joint_names[j] for j in np.nonzero(np.isinf(self.threshold))[0]]
+        if off and opts.collision:
+            message = (f"collision stop off for joint(s) {off}: their servos have a Position "
+                       "D Gain, whose kick on each streamed goal step reads as current at the "
+                       "limit; set collision_current_a per joint to use one")
+            log.warning("%s", message)
+            self.warnings.append({"code": "collision_stop_off", "message": message})
 
     # -- waiting --------------------------------------------------------------------------
 
@@ -332,20 +389,36 @@ class _Streamer:
         raise _Stop("hardware_alert", f"hardware alert on servo(s) {described or list(ids)}")
 
     def _feedback(self, sample: int, goal: NDArray[np.int64]) -> None:
-        """The one place feedback is read (present positions) and checked."""
+        """The one place feedback is read and checked: present positions and, with the
+        feedback map (:meth:`ServoBus.read_feedback`), velocities, currents and hardware
+        errors from the same packet; tracking error against the plan; the collision stop."""
         try:
-            present = self.bus.read_positions()
+            if self.bus.feedback_mapped:
+                fb = self.bus.read_feedback()
+                present = fb.positions
+            else:
+                fb = None
+                present = self.bus.read_positions()
         except CommError as exc:
             self._failed(exc)
             return
         self.consecutive_failures = 0
         self.feedback_reads += 1
         self.last_present = present
-        if self.bus.last_alert_ids:
-            self._alert(self.bus.last_alert_ids)
-        error = tracking_error(present, self.previous_goal, goal)
+        if fb is not None:
+            self.velocities.append(np.abs(fb.velocities))
+            self.currents.append(np.abs(fb.currents))
+            self.feedback_samples.append(sample)
+        if self.bus.last_alert_ids or (fb is not None and fb.hardware_errors.any()):
+            self._alert(self.bus.last_alert_ids
+                        or [i for i, e in zip(self.bus.ids, fb.hardware_errors, strict=True)
+                            if e])
+        if fb is not None and self.collision_on and self.threshold is not None:
+            self._collision(sample, np.abs(fb.currents))
+        error = tracking_error(present, self.previous_goal, self._plan_at_read(sample, goal))
         self.last_error = error
         self.errors.append(error)
+        self.read_samples.append(sample)
         if self.tick_limit is not None:
             over = np.abs(error) > self.tick_limit
             if over.any():
@@ -355,6 +428,40 @@ class _Streamer:
                             f"({int(error[j])} ticks) at joint "
                             f"{self.joint_names[j]!r}, sample {sample}, limit "
                             f"{self.tracking_limit:.3f} rad")
+
+    def _plan_at_read(self, sample: int, goal: NDArray[np.int64]) -> NDArray[np.float64]:
+        """The plan where it is at the end of this read (ticks, linear between samples):
+        a read that lands late on a loaded host compares with where the plan is by then,
+        so host lateness does not pass for servo lag (never earlier than ``goal``)."""
+        s = (self.clock() - self.t_start) / self.period
+        if s <= sample:
+            return goal.astype(np.float64)
+        ticks = self.source.ticks
+        s = min(s, self.n - 1)
+        lo = int(s)
+        hi = min(lo + 1, self.n - 1)
+        return ticks[lo] + (s - lo) * (ticks[hi] - ticks[lo]).astype(np.float64)
+
+    def _collision(self, sample: int, current: NDArray[np.float64]) -> None:
+        """Stop when a joint's |current| stayed above its threshold for N reads in a row."""
+        assert self.threshold is not None
+        above = current > self.threshold
+        self.over = np.where(above, self.over + 1, 0)
+        hit = self.over >= self.collision_cycles
+        if hit.any():
+            j = int(np.argmax(hit))
+            pose = self.poses[sample]
+            self.collision = {
+                "joint": self.joint_names[j], "servo_id": int(self.bus.ids[j]),
+                "current_a": float(current[j]), "threshold_a": float(self.threshold[j]),
+                "sample": int(sample), "time_s": float(self.times[sample]),
+                "pose": [float(pose[0]), float(pose[1]), float(pose[2])]}
+            raise _Stop("collision",
+                        f"collision at joint {self.joint_names[j]!r}: current "
+                        f"{current[j]:.2f} A above {self.threshold[j]:.2f} A for "
+                        f"{self.collision_cycles} cycles at sample {sample} "
+                        f"(t = {self.times[sample]:.3f} s, pose x {pose[0]:.3f} m, "
+                        f"y {pose[1]:.3f} m, θ {math.degrees(pose[2]):.1f}°)")
 
     def _health(self) -> None:
         self.health_polls += 1
@@ -476,6 +583,8 @@ class _Streamer:
             bus.disarm_watchdog()
         except BusError:
             pass  # a dead link cannot be disarmed; the hold below may still get through
+        if self.recover and self.reason == "hardware_alert" and not bus.lost:
+            self._recover()
         if hold and not bus.lost:
             try:
                 goals = bus.read_positions()
@@ -498,6 +607,33 @@ class _Streamer:
             except BusError:
                 pass
 
+    def _recover(self) -> None:
+        """Overload recovery: reboot each servo reporting overload, hold it where it is
+        (goal := present position), torque on again; report it. Never resumes the motion."""
+        overloaded = [i for i, e in self.hardware.items() if e > 0 and e & OVERLOAD_BIT]
+        if not overloaded:
+            return
+        bus = self.bus
+        for servo_id in overloaded:
+            entry: dict[str, Any] = {"servo_id": servo_id,
+                                     "hardware_error": int(self.hardware[servo_id])}
+            try:
+                bus.reboot([servo_id])
+                present = int.from_bytes(bus.read(servo_id, ADDR_PRESENT_POSITION, 4),
+                                         "little", signed=True)
+                bus.write(servo_id, ADDR_GOAL_POSITION, list(present.to_bytes(4, "little",
+                                                                              signed=True)))
+                bus.write(servo_id, ADDR_TORQUE_ENABLE, [1])
+                entry.update(recovered=True, position=present)
+            except BusError as exc:
+                entry.update(recovered=False, error=exc.message)
+            log.warning("overload recovery of servo %d: %s", servo_id, entry)
+            self.recovered.append(entry)
+        try:
+            bus.configure()   # the rebooted servos came back at RAM defaults
+        except BusError:
+            pass
+
     def _final(self, settle: float, target: NDArray[np.int64] | None) -> None:
         deadline = time.perf_counter() + settle
         while True:
@@ -509,6 +645,29 @@ class _Streamer:
                     or time.perf_counter() >= deadline:
                 return
             time.sleep(0.005)
+
+    def _near_limits(self) -> tuple[dict[str, Any], ...]:
+        """Where a limit came within 10 % (:func:`robodcn.stream.report.near_limits`)."""
+        k = len(self.bus.ids)
+        reads = np.array(self.read_samples, dtype=np.int64)
+        series: dict[str, tuple[NDArray[np.float64], NDArray[np.float64]]] = {}
+        if self.tracking_limit is not None and self.errors:
+            series["tracking_error"] = (np.abs(np.array(self.errors)) * self.rad_per_tick,
+                                        np.full(k, self.tracking_limit))
+        fb = np.array(self.feedback_samples, dtype=np.int64)
+        if self.currents and self.bus.current_limits is not None:
+            series["current"] = (np.array(self.currents), np.array(self.bus.current_limits))
+        out = near_limits(tuple(self.joint_names), reads, self.times[reads],
+                          {q: v for q, v in series.items() if q == "tracking_error"})
+        if self.currents:
+            currents = np.array(self.currents)
+            more = {}
+            if "current" in series:
+                more["current"] = series["current"]
+            if self.threshold is not None:
+                more["collision_current"] = (currents, self.threshold)
+            out += near_limits(tuple(self.joint_names), fb, self.times[fb], more)
+        return out
 
     def report(self, approach: Approach | None,
                issued: tuple[dict[str, Any], ...]) -> ExecutionReport:
@@ -531,6 +690,10 @@ class _Streamer:
             final_error = tuple(int(v) for v in self.final - target)
         skipped = self.skipped_late + self.failed_writes
         message = self.message
+
+        def peak(rows: list[NDArray[np.float64]]) -> tuple[float, ...] | None:
+            return None if not rows else tuple(float(v) for v in np.max(rows, axis=0))
+
         if self.reason == "completed" and skipped:
             message = (f"completed with {skipped} of {self.n} samples skipped "
                        f"({self.skipped_late} late, {self.failed_writes} failed writes)")
@@ -550,7 +713,7 @@ class _Streamer:
             servo_ids=tuple(self.bus.ids),
             tracking_error_max_rad=tuple(float(v) for v in max_ticks * self.rad_per_tick),
             tracking_error_rms_rad=tuple(float(v) for v in rms_ticks * self.rad_per_tick),
-            tracking_error_max_ticks=tuple(int(v) for v in max_ticks),
+            tracking_error_max_ticks=tuple(round(float(v)) for v in max_ticks),
             tracking_error_rms_ticks=tuple(float(v) for v in rms_ticks),
             final_positions=None if self.final is None else tuple(int(v) for v in self.final),
             final_error_ticks=final_error,
@@ -558,4 +721,15 @@ class _Streamer:
                                                                   for v in self.hold_goals),
             hardware_errors=dict(self.hardware), approach=approach, released=self.released,
             fast_read=bool(self.bus.fast_read), realtime=self.realtime,
-            stop_latency_s=self.stop_latency, warnings=issued)
+            stop_latency_s=self.stop_latency, warnings=issued,
+            velocity_peak_rad_s=peak(self.velocities),
+            current_peak_a=peak(self.currents),
+            current_limit_a=(None if self.bus.current_limits is None
+                             else tuple(float(v) for v in self.bus.current_limits)),
+            predicted_current_peak_a=(None if self.predicted is None else tuple(
+                float(v) for v in np.abs(self.predicted).max(axis=0))),
+            collision_threshold_a=(None if self.threshold is None else tuple(
+                float(v) if math.isfinite(v) else None for v in self.threshold)),
+            collision=self.collision, recovered=tuple(self.recovered),
+            compensation=self.source.compensated, tracking_limit_rad=self.tracking_limit,
+            near_limits=self._near_limits())
