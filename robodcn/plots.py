@@ -3,7 +3,8 @@
 :func:`plot_motion` is the one plot behind ``plan``/``sim``/``move``/``run --plot``: on the
 left the plane with the arm drawn at the start, at each via point and at the end, the
 waypoints marked, orientation ticks along the tool path, the approach segment dashed, the
-measured path and where a stop happened; on the right the joint velocities and accelerations
+measured path, where a stop happened and where a limit came within 10 % (the report's
+``near_limits``); on the right the joint velocities and accelerations
 (finite differences at the sample rate, as the planner checks them) against ±their limits.
 :func:`plot_workspace` draws what ``check-config --plot`` shows. Planning never imports this
 module's matplotlib: the import happens inside the functions.
@@ -83,6 +84,7 @@ def waypoint_samples(traj, waypoints: NDArray[np.float64] | None) -> list[int]:
 def plot_motion(path: str, arm: Arm, traj, *,
                 samples: Sequence[tuple[float, Sequence[int]]] | None = None,
                 waypoints: ArrayLike | None = None, stop: dict[str, Any] | None = None,
+                near_limits: Sequence[dict[str, Any]] = (),
                 title: str | None = None) -> None:
     """Draw ``traj`` for ``arm`` into the PNG ``path`` (module docstring).
 
@@ -93,6 +95,8 @@ def plot_motion(path: str, arm: Arm, traj, *,
     waypoints : (m, 3) poses to mark; default the trajectory request's waypoints
     stop : where a stop happened: {"t": seconds, "reason": text}; marks the last measured
         pose (or the planned one at t) and a vertical line on the right-hand plots
+    near_limits : the execution report's ``near_limits`` (joint, quantity, sample, ...):
+        each is marked where it began, on the path and on that joint's velocity curve
     """
     plt = _pyplot()
     if waypoints is None and getattr(traj, "request", None) is not None:
@@ -135,6 +139,14 @@ def plot_motion(path: str, arm: Arm, traj, *,
             where = traj.poses[min(len(traj.t) - 1, round(stop["t"] * traj.rate_hz))]
         ax.plot(where[0], where[1], "X", color="crimson", ms=14,
                 label=f"stop: {stop.get('reason', 'stopped')}")
+    names = [spec.name for spec in arm.joints]
+    for k, mark in enumerate(near_limits):
+        i = min(max(int(mark["sample"]), 0), len(traj.t) - 1)
+        ax.plot(traj.poses[i, 0], traj.poses[i, 1], "x", color="tab:red", ms=9,
+                label="limit within 10 %" if k == 0 else None)
+        ax.annotate(f"{mark['joint']} {mark['quantity'].replace('_', ' ')}",
+                    traj.poses[i, :2], fontsize="x-small", color="tab:red",
+                    textcoords="offset points", xytext=(4, -10))
     ax.set(xlabel="x [m]", ylabel="y [m]", title=title or "tool path", aspect="equal")
     ax.grid(alpha=0.3)
     ax.legend(fontsize="small", loc="best")
@@ -152,6 +164,11 @@ def plot_motion(path: str, arm: Arm, traj, *,
         ax_a.plot(traj.t, np.degrees(acc[:, j]), color=c, label=spec.name)
         ax_a.axhline(math.degrees(spec.max_acceleration), color=c, ls=":", lw=1)
         ax_a.axhline(-math.degrees(spec.max_acceleration), color=c, ls=":", lw=1)
+    for mark in near_limits:
+        i = min(max(int(mark["sample"]), 0), len(traj.t) - 1)
+        j = names.index(mark["joint"]) if mark["joint"] in names else None
+        if j is not None:
+            ax_v.plot(traj.t[i], np.degrees(vel[i, j]), "x", color="tab:red", ms=9)
     for axis in (ax_v, ax_a):
         if first > 0:
             axis.axvspan(0, traj.t[first], color="tab:gray", alpha=0.15, lw=0)

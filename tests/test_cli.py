@@ -293,6 +293,17 @@ def test_exit_code_table_is_the_documented_one():
     assert {int(c) for c in Exit} == set(EXIT_CODES) == {0, 2, 3, 4, 5, 6, 130}
 
 
+def test_every_run_outcome_has_its_exit_code():
+    from types import SimpleNamespace
+
+    from robodcn.cli.exit_codes import EXIT_BY_OUTCOME, exit_for_report
+    from robodcn.stream import OUTCOMES
+
+    assert set(EXIT_BY_OUTCOME) == set(OUTCOMES)
+    assert exit_for_report(SimpleNamespace(outcome="collision")) == Exit.FAULT == 4
+    assert "collision" in EXIT_CODES[Exit.FAULT]
+
+
 def test_long_messages_are_cut_in_the_middle_keeping_what_is_wrong(capsys, tmp_path):
     big = "{" + ", ".join(f"k{i} = {i}" for i in range(200)) + "}"
     arm = tmp_path / "big.toml"

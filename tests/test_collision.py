@@ -125,3 +125,42 @@ def test_bad_collision_options_are_refused_before_any_write():
             execute(traj, sa.bus, collision_current=(1.0, 1.0))
         assert [len(sa.sim.goal_history(i)) for i in ARM3R.servo_ids] == before
     assert err.value.field == "collision_current"
+
+
+def test_cli_sim_collision_exits_4_and_reports_where(monkeypatch, capsys, tmp_path):
+    import contextlib
+
+    import robodcn.plots
+    import robodcn.simulated
+    from robodcn import cli
+
+    to = (0.12, 0.24, math.radians(60))
+    traj = plan(ARM3R, [ARM3R.home, to], method="sclerp", duration=2.0)
+    q0, q1 = np.degrees(traj.joints[0, 0]), np.degrees(traj.joints[-1, 0])
+    real = robodcn.simulated.simulated_arm
+
+    @contextlib.contextmanager
+    def with_obstacle(*args, **kwargs):
+        with real(*args, **kwargs) as sa:
+            sa.sim.servo(1).set_obstacle(float(q0 + 0.4 * (q1 - q0)))
+            yield sa
+
+    drawn = {}
+    monkeypatch.setattr(robodcn.simulated, "simulated_arm", with_obstacle)
+    monkeypatch.setattr(robodcn.plots, "plot_motion",
+                        lambda path, arm, traj, **kw: drawn.update(kw))
+    code = cli.main(["sim", "--arm", str(ARM3R.source), "--to", "0.12,0.24,60",
+                     "--method", "sclerp", "--duration", "2", "--timing", "fast",
+                     "--tracking-limit", "90", "--plot", str(tmp_path / "hit.png")])
+    out = capsys.readouterr().out
+    assert code == 4, out
+    assert out.startswith("collision after "), out
+    assert "  collision at shoulder: " in out
+    shoulder = next(line for line in out.splitlines() if line.startswith("  shoulder "))
+    assert "°/s, current " in shoulder and "predicted " in shoulder
+    assert "collision stop " in shoulder and "collision stop off" not in shoulder
+    assert "near limit: shoulder current vs the collision stop" in out
+    marks = drawn["near_limits"]
+    assert any(m["joint"] == "shoulder" and m["quantity"] == "collision_current"
+               for m in marks)
+    assert drawn["stop"]["reason"] == "collision"

@@ -63,3 +63,23 @@ def test_planning_and_the_plots_module_do_not_import_matplotlib():
                          timeout=60)
     assert out.returncode == 0, out.stderr
     assert out.stdout.strip() == "False"
+
+
+def test_plot_motion_marks_where_a_limit_came_near(tmp_path, monkeypatch):
+    import matplotlib.pyplot as plt
+
+    figures = []
+    monkeypatch.setattr(plt, "close", figures.append)
+    traj = plan(ARM, WAYPOINTS[:2])
+    i = len(traj.t) // 3
+    near = [{"joint": "elbow", "quantity": "current", "sample": i, "time_s": float(traj.t[i]),
+             "value": 1.0, "peak": 1.1, "limit": 1.2}]
+    plot_motion(str(tmp_path / "near.png"), ARM, traj, near_limits=near)
+    path_ax, vel_ax = figures[0].axes[:2]
+    marked = [line for line in path_ax.lines if line.get_label() == "limit within 10 %"]
+    assert len(marked) == 1
+    assert np.allclose(np.ravel(marked[0].get_xydata()), traj.poses[i, :2])
+    assert [list(line.get_xdata()) for line in vel_ax.lines
+            if line.get_marker() == "x"] == [[traj.t[i]]]
+    monkeypatch.undo()
+    plt.close(figures[0])

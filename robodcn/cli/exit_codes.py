@@ -35,7 +35,7 @@ EXIT_CODES: dict[int, str] = {
     Exit.DONE: "done",
     Exit.USAGE: "bad usage or input (nothing moved)",
     Exit.INFEASIBLE: "plan infeasible (nothing moved)",
-    Exit.FAULT: "servo or bus fault (including: scan found no servo)",
+    Exit.FAULT: "servo or bus fault, or a collision stop (including: scan found no servo)",
     Exit.DEGRADED: "completed with samples skipped",
     Exit.CANNOT_SERVE: "cannot serve (TCP address in use or not available)",
     Exit.STOPPED: "stopped by the user (Ctrl-C)",
@@ -50,9 +50,11 @@ EXIT_BY_ERROR: tuple[tuple[type[RobodcnError], Exit], ...] = (
     (StoppedError, Exit.STOPPED),
 )
 
-#: ExecutionReport outcome → exit code.
+#: ExecutionReport outcome (:data:`robodcn.stream.OUTCOMES`) → exit code; a collision stop
+#: is a fault of the move (the arm met something), 4 like the others.
 EXIT_BY_OUTCOME: dict[str, Exit] = {"done": Exit.DONE, "degraded": Exit.DEGRADED,
-                                    "stopped": Exit.STOPPED, "fault": Exit.FAULT}
+                                    "stopped": Exit.STOPPED, "fault": Exit.FAULT,
+                                    "collision": Exit.FAULT}
 
 
 def exit_for_error(exc: RobodcnError) -> Exit:

@@ -2,7 +2,8 @@
 
 Both check every option and output path, read the present pose, plan from it (a
 joint-space approach first when --from is elsewhere), stream, print the report and exit
-with the outcome's code: 0 done, 5 completed with samples skipped, 4 fault, 130 stopped.
+with the outcome's code: 0 done, 5 completed with samples skipped, 4 fault or collision,
+130 stopped.
 :func:`stream` and :func:`finish` are the execute / report / plot path every command that
 moves the arm shares (``robodcn run`` too).
 """
@@ -26,6 +27,10 @@ from robodcn.cli.output import emit
 from robodcn.cli.report_text import approach_seconds, report_dict, report_text
 from robodcn.errors import BusError
 
+#: Seconds the final read may wait for the arm to come to rest (a real servo, or the
+#: physics sim, is still moving when the last goal goes out).
+SETTLE_S = 0.5
+
 
 def add_execution_options(p: argparse.ArgumentParser) -> None:
     g = p.add_argument_group("execution")
@@ -40,6 +45,13 @@ def add_execution_options(p: argparse.ArgumentParser) -> None:
     g.add_argument("--realtime", action="store_true",
                    help="stream from a real-time (SCHED_FIFO) thread; Linux, needs "
                         "CAP_SYS_NICE or root (warns and carries on otherwise)")
+    g.add_argument("--compensation", choices=("on", "off"),
+                   help="lead the goals by the servos' position-loop lag so they follow the "
+                        "plan (default on; off with sim --dynamics off, whose servos do not "
+                        "lag)")
+    g.add_argument("--recover", action="store_true",
+                   help="on an overload alert reboot that servo and hold it (the move stays "
+                        "stopped)")
     g.add_argument("--json", action="store_true", help="print the report as JSON")
     add_plot_option(g)
 
@@ -69,7 +81,9 @@ def plot(path: str | None, arm, traj, *, samples=(), report=None, waypoints=None
 
     stop = None if report is None or report.stop_reason == "completed" else {
         "t": report.duration_s, "reason": report.stop_reason}
-    plot_motion(path, arm, traj, samples=list(samples), stop=stop, waypoints=waypoints)
+    near = () if report is None else report.near_limits
+    plot_motion(path, arm, traj, samples=list(samples), stop=stop, waypoints=waypoints,
+                near_limits=near)
     print(f"plot: {path}", file=sys.stderr, flush=True)
 
 
@@ -89,12 +103,18 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     p = subparsers.add_parser(
         "sim", help="dry-run a move against a simulated servo bus",
         description="The same as move, against an in-process firmware_sim bus (realistic "
-                    "wire timing) whose servos start at the arm's home pose. Prints the "
-                    "report; --plot draws planned vs measured motion.")
+                    "wire timing) whose servos start at the arm's home pose and, by default, "
+                    "follow the servo physics driving the arm's masses. Prints the report "
+                    "(tracking error, peak velocity and current per joint, where a limit "
+                    "came within 10 %); --plot draws planned vs measured motion.")
     planning.add_motion_options(p, start_help="start pose (default: the home pose); the "
                                               "simulated arm approaches it first")
     p.add_argument("--timing", choices=("realistic", "fast"), default="realistic",
                    help="simulated wire timing (default realistic)")
+    p.add_argument("--dynamics", choices=("on", "off"), default="on",
+                   help="servo physics with the arm's masses (on, default: the report shows "
+                        "the lag and currents to expect) or the kinematic model whose servos "
+                        "reach each goal at once (off)")
     add_execution_options(p)
     p.set_defaults(func=run_sim)
 
@@ -145,9 +165,18 @@ class _LiveProgress:
             self.stream.flush()
 
 
+def compensation(args: argparse.Namespace) -> bool:
+    """--compensation as given; by default on, except against kinematic simulated servos
+    (``sim --dynamics off``), which reach each goal at once and need no lead."""
+    if getattr(args, "compensation", None) is not None:
+        return args.compensation == "on"
+    return getattr(args, "dynamics", "on") == "on"
+
+
 def stream(args: argparse.Namespace, traj, arm, bus) -> tuple[Any, _LiveProgress]:
-    """Stream ``traj`` with the execution options (Ctrl-C stops and holds); returns (report,
-    the live progress with the measured samples)."""
+    """Stream ``traj`` with the execution options (Ctrl-C stops and holds; the final read
+    waits up to :data:`SETTLE_S` for the arm to come to rest); returns (report, the live
+    progress with the measured samples)."""
     from robodcn.stream import StopSignal, execute
 
     stop = StopSignal()
@@ -156,7 +185,9 @@ def stream(args: argparse.Namespace, traj, arm, bus) -> tuple[Any, _LiveProgress
         try:
             report = execute(traj, bus, feedback_every=args.feedback_every,
                              tracking_limit=math.radians(args.tracking_limit), stop=stop,
-                             progress=live, release=args.release, realtime=args.realtime)
+                             progress=live, release=args.release, realtime=args.realtime,
+                             compensation=compensation(args), recover=args.recover,
+                             settle=SETTLE_S)
         finally:
             live.finish()
     return report, live
@@ -207,7 +238,7 @@ def run_sim(args: argparse.Namespace) -> int:
     check_plot(args.plot)
     arm = options.load_arm(args)
     request = planning.motion_request(args, arm)
-    with simulated_arm(arm, timing=args.timing) as sim:
+    with simulated_arm(arm, timing=args.timing, dynamics=args.dynamics == "on") as sim:
         traj = planning.plan_from_present(request, arm, sim.bus)
         report, live = stream(args, traj, arm, sim.bus)
     return finish(args, arm, traj, report, live)

@@ -1,7 +1,10 @@
 """What the command line prints about a plan and a run, in degrees and deg/s.
 
 ``report_text`` never says more than happened: the headline comes from the run's outcome
-("done" | "degraded" | "stopped" | "fault"), so a run that skipped samples says how many.
+("done" | "degraded" | "stopped" | "fault" | "collision"), so a run that skipped samples says
+how many. Per joint it gives the tracking error (max, RMS) and, with the servos' feedback
+block, the peak velocity and current against the current limit, the plan's predicted current
+and the collision-stop threshold; then where a limit came within 10 %.
 """
 
 from __future__ import annotations
@@ -37,6 +40,24 @@ def headline(report: Any) -> str:
     return report.headline
 
 
+#: How a near-limit quantity is shown: (label, unit, factor from the report's SI value).
+_NEAR_UNITS = {"tracking_error": ("tracking error", "°", math.degrees(1.0)),
+               "current": ("current", " A", 1.0),
+               "collision_current": ("current vs the collision stop", " A", 1.0)}
+
+
+def _amps(value: float | None) -> str:
+    return "off" if value is None else f"{value:.2f} A"
+
+
+def near_limit_line(near: dict[str, Any]) -> str:
+    """One ``near_limits`` entry in the user's units (degrees, A)."""
+    label, unit, factor = _NEAR_UNITS.get(near["quantity"],
+                                          (near["quantity"].replace("_", " "), "", 1.0))
+    return (f"  near limit: {near['joint']} {label} peak {factor * near['peak']:.3g}{unit} of "
+            f"{factor * near['limit']:.3g}{unit} (from t {near['time_s']:.3f} s)")
+
+
 def report_text(report: Any, approach_s: float = 0.0) -> str:
     """The execution report, a headline and indented detail lines."""
     r = report.to_dict()
@@ -56,12 +77,31 @@ def report_text(report: Any, approach_s: float = 0.0) -> str:
             for k, v in jitter.items()))
     lines.append(f"  overruns {r['overruns']}, skipped {report.skipped}, retries "
                  f"{r['retries']}, comm failures {r['comm_failures']}, fast read "
-                 f"{'yes' if r.get('fast_read') else 'no'}")
+                 f"{'yes' if r.get('fast_read') else 'no'}, compensation "
+                 f"{'on' if r.get('compensation') else 'off'}")
     for name, mx, rms, mxt in zip(r["joint_names"], r["tracking_error_max_rad"],
                                   r["tracking_error_rms_rad"], r["tracking_error_max_ticks"],
                                   strict=True):
         lines.append(f"  tracking {name:<10} max {math.degrees(mx):6.3f}° ({mxt} ticks), rms "
                      f"{math.degrees(rms):6.3f}°")
+    peaks = r.get("current_peak_a")
+    if peaks is not None:
+        predicted = r.get("predicted_current_peak_a") or [None] * len(peaks)
+        thresholds = r.get("collision_threshold_a") or [None] * len(peaks)
+        for j, name in enumerate(r["joint_names"]):
+            expected = "" if predicted[j] is None else f", predicted {predicted[j]:.2f} A"
+            lines.append(f"  {name:<10} peak {math.degrees(r['velocity_peak_rad_s'][j]):6.1f}"
+                         f"°/s, current {peaks[j]:.2f} A (limit {r['current_limit_a'][j]:.2f} "
+                         f"A{expected}, collision stop {_amps(thresholds[j])})")
+    for near in r.get("near_limits", []):
+        lines.append(near_limit_line(near))
+    if r.get("collision"):
+        c = r["collision"]
+        lines.append(f"  collision at {c['joint']}: {c['current_a']:.2f} A above "
+                     f"{c['threshold_a']:.2f} A at sample {c['sample']} (t {c['time_s']:.3f} s)")
+    for rec in r.get("recovered", []):
+        done = "rebooted and holding" if rec.get("recovered") else rec.get("error")
+        lines.append(f"  overload recovery of servo {rec['servo_id']}: {done}")
     if r.get("final_error_ticks") is not None:
         lines.append("  final error (ticks) " + ", ".join(map(str, r["final_error_ticks"])))
     if r.get("hardware_errors"):
@@ -116,5 +156,5 @@ def plan_table(traj: Any) -> str:
     return "\n".join(lines) + "\n"
 
 
-__all__ = ["approach_seconds", "headline", "plan_summary", "plan_table",
+__all__ = ["approach_seconds", "headline", "near_limit_line", "plan_summary", "plan_table",
            "report_dict", "report_text"]
