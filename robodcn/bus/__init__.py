@@ -58,15 +58,15 @@ from robodcn.bus.wire import cycle_wire_time, mean_cycle_wire_time
 logging.getLogger("robodcn.bus").addHandler(logging.NullHandler())
 
 __all__ = [
-    "ADDR_BAUD_RATE", "ADDR_BUS_WATCHDOG", "ADDR_FIRMWARE_VERSION", "ADDR_GOAL_POSITION",
-    "ADDR_HARDWARE_ERROR", "ADDR_MAX_POSITION_LIMIT", "ADDR_MIN_POSITION_LIMIT",
-    "ADDR_MODEL_NUMBER", "ADDR_OPERATING_MODE", "ADDR_PRESENT_POSITION",
-    "ADDR_PROFILE_ACCELERATION", "ADDR_PROFILE_VELOCITY", "ADDR_RETURN_DELAY_TIME",
-    "ADDR_TORQUE_ENABLE", "ALERT_BIT", "BAUD_INDEX", "FAST_SYNC_READ_MIN_FIRMWARE",
-    "HARDWARE_ERROR_BITS", "MODEL_NAMES", "MODEL_NUMBERS", "OPERATING_MODE_POSITION",
-    "READ_POLL_S", "SERIAL_ERRORS", "STRAGGLER_S", "SYSFS_USB_SERIAL", "WATCHDOG_MAX",
-    "WATCHDOG_UNIT_MS", "LatencyResult", "LatencyTimerWarning", "ServoBus", "ServoInfo",
-    "StreamProfile", "check_latency_timer", "cycle_wire_time", "describe_hardware_error",
-    "latency_timer_ms", "lower_latency_timer", "mean_cycle_wire_time", "scan",
-    "ADDR_FEEDBACK", "FEEDBACK_LENGTH", "Feedback", "decode_feedback",
+    "ADDR_BAUD_RATE", "ADDR_BUS_WATCHDOG", "ADDR_FEEDBACK", "ADDR_FIRMWARE_VERSION",
+    "ADDR_GOAL_POSITION", "ADDR_HARDWARE_ERROR", "ADDR_MAX_POSITION_LIMIT",
+    "ADDR_MIN_POSITION_LIMIT", "ADDR_MODEL_NUMBER", "ADDR_OPERATING_MODE",
+    "ADDR_PRESENT_POSITION", "ADDR_PROFILE_ACCELERATION", "ADDR_PROFILE_VELOCITY",
+    "ADDR_RETURN_DELAY_TIME", "ADDR_TORQUE_ENABLE", "ALERT_BIT", "BAUD_INDEX",
+    "FAST_SYNC_READ_MIN_FIRMWARE", "FEEDBACK_LENGTH", "HARDWARE_ERROR_BITS", "MODEL_NAMES",
+    "MODEL_NUMBERS", "OPERATING_MODE_POSITION", "READ_POLL_S", "SERIAL_ERRORS", "STRAGGLER_S",
+    "SYSFS_USB_SERIAL", "WATCHDOG_MAX", "WATCHDOG_UNIT_MS", "Feedback", "LatencyResult",
+    "LatencyTimerWarning", "ServoBus", "ServoInfo", "StreamProfile", "check_latency_timer",
+    "cycle_wire_time", "decode_feedback", "describe_hardware_error", "latency_timer_ms",
+    "lower_latency_timer", "mean_cycle_wire_time", "scan",
 ]
