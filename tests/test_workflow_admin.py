@@ -9,14 +9,14 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from workflow_helpers import ARM3R, NO_DEVICE, run_cli
+from workflow_helpers import ARM3R, NO_DEVICE, backdrive, run_cli
 
 from firmware_sim.bus import SimBus
 from robodcn import kinematics, servo_units
 from robodcn.bus import lower_latency_timer
 from robodcn.config import load_arm
 
-pytest_plugins = ["workflow_fixtures"]     # fixtures: sim, backdrive
+pytest_plugins = ["workflow_fixtures"]     # fixtures: sim
 ARM = load_arm(ARM3R)
 
 
@@ -24,7 +24,7 @@ def _cli(monkeypatch, sim, *argv, steps=()):
     return run_cli(monkeypatch, [*argv, "--arm", ARM3R, "--device", sim.port_path], steps)
 
 
-def test_pose_prints_joints_ticks_and_fk(sim, backdrive, monkeypatch, capsys):
+def test_pose_prints_joints_ticks_and_fk(sim, monkeypatch, capsys):
     ticks = {1: 2400, 2: 1500, 3: 2100}
     backdrive(sim, ticks)
     assert _cli(monkeypatch, sim, "pose", "--json") == 0
@@ -38,13 +38,13 @@ def test_pose_prints_joints_ticks_and_fk(sim, backdrive, monkeypatch, capsys):
     assert f"shoulder {math.degrees(q[0]):8.2f}°" in line and "ticks 2400,1500,2100" in line
 
 
-def test_pose_watch_refreshes(sim, backdrive, monkeypatch, capsys):
+def test_pose_watch_refreshes(sim, monkeypatch, capsys):
     assert _cli(monkeypatch, sim, "pose", "--watch", "--count", "3", "--interval",
                 "0.01") == 0
     assert len(capsys.readouterr().out.splitlines()) == 3
 
 
-def test_torque_per_joint_and_all(sim, backdrive, monkeypatch, capsys):
+def test_torque_per_joint_and_all(sim, monkeypatch, capsys):
     backdrive(sim, {1: 2200, 2: 1800, 3: 2000})
     assert _cli(monkeypatch, sim, "torque", "on", "--joint", "elbow") == 0
     assert [s.torque_enabled for s in sim.servos] == [False, True, False]

@@ -9,18 +9,18 @@ import tomllib
 from pathlib import Path
 
 import numpy as np
-from workflow_helpers import ARM3R, NO_DEVICE, run_cli, settle
+from workflow_helpers import ARM3R, NO_DEVICE, backdrive, run_cli, settle
 
 from robodcn.config import load_arm
 from robodcn.workflow.calibrate import Calibration, JointCalibration, updated_toml
 
 #: Where the "real" arm's joint angles are 0, and which way each joint turns.
 TRUE_ZERO = {1: 2100, 2: 1900, 3: 2300}
-pytest_plugins = ["workflow_fixtures"]     # fixtures: sim, backdrive
+pytest_plugins = ["workflow_fixtures"]     # fixtures: sim
 MARGIN = math.ceil(2.0 / 360.0 * 4096)     # the default --margin of 2°
 
 
-def _steps(sim, backdrive, *, shoulder_range=(500, 3600), wrist_range=(800, 3900)):
+def _steps(sim, *, shoulder_range=(500, 3600), wrist_range=(800, 3900)):
     def to(ticks, then=""):
         def step():
             backdrive(sim, ticks)
@@ -48,12 +48,12 @@ def _steps(sim, backdrive, *, shoulder_range=(500, 3600), wrist_range=(800, 3900
             sweep(3, *wrist_range, TRUE_ZERO[3])]
 
 
-def test_calibrate_writes_offsets_directions_and_ranges(sim, backdrive, monkeypatch, tmp_path,
+def test_calibrate_writes_offsets_directions_and_ranges(sim, monkeypatch, tmp_path,
                                                         capsys):
     out = tmp_path / "arm.toml"
     sim.servo(2).write(64, b"\x01")                          # torque on: calibrate turns it off
     code = run_cli(monkeypatch, ["calibrate", "--arm", ARM3R, "--device", sim.port_path,
-                                 "--out", str(out), "--yes"], _steps(sim, backdrive))
+                                 "--out", str(out), "--yes"], _steps(sim))
     captured = capsys.readouterr()
     assert code == 0, captured.err
     assert not any(s.torque_enabled for s in sim.servos)
@@ -89,12 +89,12 @@ def test_calibrate_writes_offsets_directions_and_ranges(sim, backdrive, monkeypa
     assert code == 0 and np.allclose(state["joints"], 0.0, atol=1e-12)
 
 
-def test_range_across_the_tick_wrap_is_noted_and_left(sim, backdrive, monkeypatch, tmp_path,
+def test_range_across_the_tick_wrap_is_noted_and_left(sim, monkeypatch, tmp_path,
                                                       capsys):
     out = tmp_path / "arm.toml"
     code = run_cli(monkeypatch, ["calibrate", "--arm", ARM3R, "--device", sim.port_path,
                                  "--out", str(out), "--yes"],
-                   _steps(sim, backdrive, shoulder_range=(-300, 3600)))
+                   _steps(sim, shoulder_range=(-300, 3600)))
     err = capsys.readouterr().err
     assert code == 0, err
     assert "Extended Position Mode" in err and "'shoulder'" in err
@@ -103,17 +103,17 @@ def test_range_across_the_tick_wrap_is_noted_and_left(sim, backdrive, monkeypatc
     assert shoulder.servo.zero_offset == TRUE_ZERO[1]
 
 
-def test_declining_writes_nothing(sim, backdrive, monkeypatch, tmp_path, capsys):
+def test_declining_writes_nothing(sim, monkeypatch, tmp_path, capsys):
     out = tmp_path / "arm.toml"
     code = run_cli(monkeypatch, ["calibrate", "--arm", ARM3R, "--device", sim.port_path,
                                  "--out", str(out), "--no-ranges"],
-                   [s for i, s in enumerate(_steps(sim, backdrive)) if i in (0, 1, 3, 5)]
+                   [s for i, s in enumerate(_steps(sim)) if i in (0, 1, 3, 5)]
                    + ["n"])
     assert code == 130
     assert "not written" in capsys.readouterr().err and not out.exists()
 
 
-def test_a_joint_that_does_not_move_is_an_error_naming_it(sim, backdrive, monkeypatch,
+def test_a_joint_that_does_not_move_is_an_error_naming_it(sim, monkeypatch,
                                                           tmp_path, capsys):
     out = tmp_path / "arm.toml"
     code = run_cli(monkeypatch, ["calibrate", "--arm", ARM3R, "--device", sim.port_path,

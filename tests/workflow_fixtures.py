@@ -1,49 +1,33 @@
-"""Fixtures of the workflow tests (``pytest_plugins = ["workflow_fixtures"]``): the
-simulator's backdrive (a hand moving a torque-off joint) and ``sim``, conftest's ``sim3``
-without its packet log."""
+"""Fixtures of the workflow tests (``pytest_plugins = ["workflow_fixtures"]``): ``sim``,
+conftest's ``sim3`` without its packet log (kinematic servos), and ``physics_sim``, the same
+servos on the physics model driving the 3R example arm. A hand moving a torque-off joint is
+:func:`workflow_helpers.backdrive` (firmware_sim's ``Servo.backdrive``)."""
 
 from __future__ import annotations
 
-from collections.abc import Callable, Iterator
+from collections.abc import Iterator
 
 import pytest
+from workflow_helpers import ARM3R
 
 from firmware_sim.bus import SimBus
-from firmware_sim.profile import hold
-from firmware_sim.servo import Servo
-
-
-def _backdrive_shim(self: Servo, ticks: int) -> None:  # shim until fw lands
-    """Present Position reads ``ticks``, as if a hand turned the torque-off servo there."""
-    with self._lock:
-        self.update()
-        if self.torque_enabled:
-            raise RuntimeError(f"servo {self.id}: torque is on, it cannot be backdriven")
-        now = self.clock.now()
-        self._profile = hold(now, float(ticks))
-        self._refresh(now)
-
-
-@pytest.fixture
-def backdrive(monkeypatch) -> Callable[[SimBus, dict[int, int]], None]:
-    """``backdrive(sim, {id: ticks})`` moves torque-off servos by hand."""
-    if not hasattr(Servo, "backdrive"):  # shim until fw lands
-        monkeypatch.setattr(Servo, "backdrive", _backdrive_shim, raising=False)
-
-    def move(sim: SimBus, ticks: dict[int, int]) -> None:
-        with sim.lock:
-            for servo_id, tick in ticks.items():
-                sim.servo(servo_id).backdrive(int(tick))
-
-    return move
 
 
 @pytest.fixture
 def sim() -> Iterator[SimBus]:
-    """Three XM430-W350 (ids 1..3, arm3r's) at 1 Mbps, at tick 2048, torque off: conftest's
-    ``sim3`` without the packet log (the run tests stream whole trajectories through the CLI;
-    logging every packet slows the simulator thread enough to lose replies on a loaded
-    machine)."""
+    """Three XM430-W350 (ids 1..3, arm3r's) at 1 Mbps, at tick 2048, torque off, kinematic
+    (each goal reached at once): conftest's ``sim3`` without the packet log (the run tests
+    stream whole trajectories through the CLI; logging every packet slows the simulator
+    thread enough to lose replies on a loaded machine)."""
     with SimBus((1, 2, 3), timing="fast", log=False) as bus:
+        yield bus
+    assert not bus.errors, bus.errors
+
+
+@pytest.fixture
+def physics_sim() -> Iterator[SimBus]:
+    """arm3r's servos on the physics model, driving the arm's masses (what ``robodcn sim``
+    runs), each at its zero offset, torque off, no packet log."""
+    with SimBus(timing="fast", log=False, dynamics=True, arm=ARM3R) as bus:
         yield bus
     assert not bus.errors, bus.errors

@@ -1,5 +1,5 @@
 """Shared pieces of the workflow tests: paths, scripted stdin for prompts, the CLI in-process.
-The fixtures (an in-process SimBus, backdrive) are in workflow_fixtures.py."""
+The fixtures (in-process SimBus, kinematic and physics) are in workflow_fixtures.py."""
 
 from __future__ import annotations
 
@@ -44,6 +44,14 @@ def run_cli(monkeypatch, argv: Sequence[str], steps: Sequence[Step] = ()) -> int
     stdin = ScriptedStdin(steps)
     monkeypatch.setattr(sys, "stdin", stdin)
     return cli.main(list(argv))
+
+
+def backdrive(sim: SimBus, ticks: dict[int, int]) -> None:
+    """Move torque-off servos by hand to ``{id: ticks}`` (``Servo.backdrive``), all under the
+    bus lock so no read sees half of the move."""
+    with sim.lock:
+        for servo_id, tick in ticks.items():
+            sim.servo(servo_id).backdrive(int(tick))
 
 
 def settle(sim: SimBus, packets: int = 3, timeout: float = 5.0) -> str:
