@@ -61,13 +61,21 @@ def test_cli_sim_switches_physics_and_compensation(capsys):
 
     move = ["sim", "--arm", str(ARM3R.source), "--from", "0.25,0.10,0", "--to",
             "0.12,0.24,60", "--timing", "fast", "--json"]
-    assert cli.main([*move, "--dynamics", "off"]) == 0         # compensation off with it
-    kinematic = json.loads(capsys.readouterr().out)
+    def sim(*extra):
+        code = cli.main([*move, *extra])
+        report = json.loads(capsys.readouterr().out)
+        # 5: completed with samples skipped — the in-process simulator shares the CPU with
+        # the streamer, and on a loaded machine (two CPU hogs on two cores reproduce it) a
+        # few slots pass; the report says so and the exit code follows it.
+        assert report["stop_reason"] == "completed", report["message"]
+        assert code == {"done": 0, "degraded": 5}[report["outcome"]], report["headline"]
+        return report
+
+    kinematic = sim("--dynamics", "off")                       # compensation off with it
     assert kinematic["compensation"] is False
     assert max(kinematic["tracking_error_max_ticks"]) == 0     # each goal reached at once
-    assert cli.main([*move, "--compensation", "off"]) == 0
-    physics = json.loads(capsys.readouterr().out)
+    physics = sim("--compensation", "off")
+    assert physics["compensation"] is False
     assert max(physics["tracking_error_max_ticks"]) > 10       # the motor lags
     assert physics["current_peak_a"][0] > 0
-    assert cli.main(move) == 0
-    assert json.loads(capsys.readouterr().out)["compensation"] is True
+    assert sim()["compensation"] is True
