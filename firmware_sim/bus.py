@@ -273,6 +273,11 @@ class SimBus:
     def clear_log(self) -> None:
         self._log.clear()
 
+    def keep_log(self, keep: bool = True) -> None:
+        """Start (or stop) keeping packets in :attr:`log`, e.g. for one stretch of a bus
+        started with ``log=False``."""
+        self._log.keep = keep
+
     def port_rate(self) -> int | None:
         """Bits/s the client set on the port (slave termios), None if not a known rate."""
         return self._port.rate()

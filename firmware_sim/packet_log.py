@@ -55,6 +55,15 @@ class PacketLog:
         self._path = path
         self._file: IO[str] | None = None
 
+    @property
+    def keep(self) -> bool:
+        """Whether entries are kept in :attr:`entries`."""
+        return self._keep
+
+    @keep.setter
+    def keep(self, value: bool) -> None:
+        self._keep = bool(value)
+
     def open(self) -> None:
         """Open the log file for appending (no-op without a path)."""
         if self._path and self._file is None:

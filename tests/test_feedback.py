@@ -23,7 +23,7 @@ def test_one_fast_sync_read_per_feedback_cycle_carries_all_items():
         for j, i in enumerate(ARM3R.servo_ids):
             assert fb.positions[j] == sa.sim.servo(i).present_position
         assert (fb.hardware_errors == 0).all()
-        sa.sim._log_on = True
+        sa.sim.keep_log()
         report = execute(traj, sa.bus, health_interval=100.0)
         block = ADDR_FEEDBACK.to_bytes(2, "little") + FEEDBACK_LENGTH.to_bytes(2, "little")
         reads = [e for e in sa.sim.log if e.direction == "rx"

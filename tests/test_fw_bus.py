@@ -431,6 +431,16 @@ def test_packet_log_decodes_both_directions(bus, port):
     assert "WRITE" in str(rx) and "err=0x00" in str(tx)
 
 
+def test_packet_log_can_be_kept_for_a_stretch(bus, port):
+    bus.clear_log()
+    bus.keep_log(False)
+    assert PH.write4ByteTxRx(port, 2, PROFILE_VEL, 7) == (COMM_SUCCESS, 0)
+    assert bus.log == []
+    bus.keep_log()
+    assert PH.write4ByteTxRx(port, 2, PROFILE_VEL, 8) == (COMM_SUCCESS, 0)
+    assert [e.instruction for e in bus.log] == ["WRITE", "STATUS"]
+
+
 # ---- a profiled move observed through the SDK ------------------------------------------
 @pytest.mark.parametrize(("velocity", "accel", "distance"), [(100, 50, 300), (200, 20, 500)])
 def test_profiled_move_matches_x_series_formula(velocity, accel, distance):
