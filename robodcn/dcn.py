@@ -28,8 +28,14 @@ DCNArray = NDArray[np.float64]
 
 TURNS = ("shortest", "ccw", "cw")
 
-# |Re d0| below this counts as an exact 180° turn, whose direction "shortest" fixes to ccw.
-_HALF_TURN_TOLERANCE = 1e-12
+#: A rotation within this many radians of a half turn counts as an exact half turn, whose
+#: direction "shortest" fixes to ccw (and within it of a whole turn, as no rotation). One
+#: tolerance for every path: :func:`robodcn.interpolate.turn_angle` applies it to Δθ, the
+#: sign choices here (and :mod:`robodcn.dualquat`'s) to d0 = e^{iΔθ/2}.
+HALF_TURN_TOLERANCE = 1e-12
+#: The same band on a component of a unit d0 = cos(Δθ/2) + i·sin(Δθ/2): Δθ within
+#: HALF_TURN_TOLERANCE of π ⟺ |cos(Δθ/2)| ≤ sin(HALF_TURN_TOLERANCE/2).
+COMPONENT_TIE = float(np.sin(0.5 * HALF_TURN_TOLERANCE))
 
 
 # -- storage ---------------------------------------------------------------------------------
@@ -233,8 +239,8 @@ def log(p: ArrayLike) -> DCNArray:
 def _flip(re: NDArray[np.float64], im: NDArray[np.float64], turn: str) -> NDArray[np.bool_]:
     """Where d0 = re + i·im must be negated for d^t to turn the way ``turn`` asks."""
     if turn == "shortest":
-        return np.where(np.abs(re) < _HALF_TURN_TOLERANCE, im < 0.0, re < 0.0)
-    no_turn = np.abs(im) < _HALF_TURN_TOLERANCE * np.maximum(1.0, np.abs(re))
+        return np.where(np.abs(re) <= COMPONENT_TIE, im < 0.0, re < 0.0)
+    no_turn = np.abs(im) <= COMPONENT_TIE * np.maximum(1.0, np.abs(re))
     return np.where(no_turn, re < 0.0, im < 0.0 if turn == "ccw" else im > 0.0)
 
 

@@ -19,7 +19,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from robodcn import _checks
 from robodcn._series import sin_ratio, sinc
-from robodcn.dcn import TURNS
+from robodcn.dcn import COMPONENT_TIE, TURNS
 from robodcn.errors import DegenerateError, InputError
 
 DQArray = NDArray[np.float64]
@@ -332,10 +332,11 @@ def _turn_key(v: NDArray[np.float64]) -> NDArray[np.float64]:
 def _flip(d: NDArray[np.float64], turn: str) -> NDArray[np.bool_]:
     """Where the quaternion d must be negated for d^t to turn the way ``turn`` asks."""
     w, v = d[..., 0], d[..., 1:4]
+    # w = cos(Δ/2), z = sin(Δ/2) for a rotation Δ about z: the tie band is the DCN one.
     if turn == "shortest":
-        return np.where(np.abs(w) < _TIE, _turn_key(v) < 0.0, w < 0.0)
+        return np.where(np.abs(w) <= COMPONENT_TIE, _turn_key(v) < 0.0, w < 0.0)
     zc = v[..., 2]
-    no_turn = np.abs(zc) < _TIE * np.maximum(1.0, np.abs(w))
+    no_turn = np.abs(zc) <= COMPONENT_TIE * np.maximum(1.0, np.abs(w))
     return np.where(no_turn, w < 0.0, zc < 0.0 if turn == "ccw" else zc > 0.0)
 
 

@@ -29,7 +29,7 @@ Method = Literal["sclerp", "kenlerp", "seplerp", "dlb"]
 Turn = Literal["shortest", "ccw", "cw"]
 
 _TWO_PI = 2.0 * np.pi
-_HALF_TURN_TOLERANCE = 1e-12
+_HALF_TURN_TOLERANCE = dcn.HALF_TURN_TOLERANCE   # the tie band of every path (dcn's notes)
 
 
 def turn_angle(theta_start: float, theta_end: float, turn: str = "shortest") -> float:

@@ -130,6 +130,24 @@ def test_blend_is_left_invariant_on_poses(ps, p0):
     assert np.exp(1j * lhs[2]) == pytest.approx(np.exp(1j * rhs[2]), abs=1e-10)
 
 
+@pytest.mark.parametrize("theta_a", [0.0, 0.1, -3.0, np.pi, -np.pi])
+@pytest.mark.parametrize("offset", [0.0, 4e-13, 9e-13, 1.5e-12, 3e-12])
+@pytest.mark.parametrize("sign", [1.0, -1.0])
+def test_near_half_turns_break_the_same_way_in_every_path(theta_a, offset, sign):
+    """Within 1e-12 rad of a half turn the turn is +π in turn_angle, the two-pose DLB of
+    interpolate and the n-pose blend alike; beyond it, the shorter side (both paths)."""
+    a = np.array([0.3, -0.2, theta_a])
+    b = np.array([1.0, 2.0, theta_a + sign * (np.pi + offset)])
+    delta = turn_angle(a[2], b[2])
+    tie = offset <= 1e-12 - 1e-15
+    assert delta == (np.pi if tie else pytest.approx(-sign * (np.pi - offset), abs=1e-14))
+    out = robodcn.interpolate(a, b, [0.5], method="dlb")[0]
+    want = robodcn.blend(np.stack([a, b]), [0.5, 0.5])
+    assert np.allclose(out[:2], want[:2], atol=1e-11)
+    assert np.exp(1j * out[2]) == pytest.approx(np.exp(1j * want[2]), abs=1e-11)
+    assert np.exp(1j * out[2]) == pytest.approx(np.exp(1j * (a[2] + delta / 2)), abs=1e-11)
+
+
 def test_half_turn_follows_the_turn_rule():
     a, b = [0.0, 0.0, 0.25], [1.0, 1.0, 0.25 + np.pi]
     mid = {turn: robodcn.interpolate(a, b, [0.5], turn=turn)[0, 2] for turn in TURNS}
