@@ -1,6 +1,6 @@
-"""Shared fixtures: the example arms, firmware_sim buses on a pty, a ServoBus on them and a
-simulated arm. Test files import the helpers (``from conftest import ...`` is not needed:
-pytest injects the fixtures by name; the constants are importable as ``conftest.ARM3R``)."""
+"""Shared test pieces: the example arms (``conftest.ARM3R``, ``ARM2R``), a firmware_sim bus
+on a pty (fixture ``sim3``) and a ServoBus on one (:func:`open_bus`). Fixtures are injected
+by name; the constants and helpers are imported (``from conftest import ARM3R``)."""
 
 from __future__ import annotations
 
@@ -12,7 +12,6 @@ import pytest
 from firmware_sim.bus import SimBus
 from robodcn.bus import ServoBus
 from robodcn.config import Arm, load_arm
-from robodcn.simulated import SimulatedArm, simulated_arm
 
 ROOT = Path(__file__).resolve().parent.parent
 CONFIGS = ROOT / "configs"
@@ -31,25 +30,8 @@ def open_bus(sim: SimBus, servos, **kw) -> ServoBus:
 
 
 @pytest.fixture
-def arm3r() -> Arm:
-    return ARM3R
-
-
-@pytest.fixture
-def arm2r() -> Arm:
-    return ARM2R
-
-
-@pytest.fixture
 def sim3() -> Iterator[SimBus]:
     """A started firmware_sim bus with servos 1, 2, 3 (timing "fast"); no protocol errors."""
     with SimBus((1, 2, 3), timing="fast") as bus:
         yield bus
     assert not bus.errors, bus.errors
-
-
-@pytest.fixture
-def sim_arm3r() -> Iterator[SimulatedArm]:
-    """:func:`robodcn.simulated.simulated_arm` of the 3R example arm (timing "fast")."""
-    with simulated_arm(ARM3R, timing="fast") as sa:
-        yield sa
