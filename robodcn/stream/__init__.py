@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import logging
 
+from robodcn.stream.online import STOP_MODES, Execution, OnlineSamples, start
 from robodcn.stream.options import ExecutionOptions
 from robodcn.stream.rate import RateCheck, RateWarning, check_rate
 from robodcn.stream.realtime import (
@@ -39,7 +40,8 @@ logging.getLogger("robodcn.stream").addHandler(logging.NullHandler())
 
 __all__ = [
     "OUTCOMES", "PROGRESS_INTERVAL_S", "REALTIME_PRIORITY", "SPIN_REALTIME_S", "SPIN_S",
-    "STOP_REASONS", "ExecutionOptions", "ExecutionReport", "PlannedSamples", "Progress",
-    "RateCheck", "RateWarning", "StopSignal", "check_rate", "execute", "outcome_of",
-    "realtime_priority", "timer_slack", "tracking_error",
+    "STOP_MODES", "STOP_REASONS", "Execution", "ExecutionOptions", "ExecutionReport",
+    "OnlineSamples", "PlannedSamples", "Progress", "RateCheck", "RateWarning", "StopSignal",
+    "check_rate", "execute", "outcome_of", "realtime_priority", "start", "timer_slack",
+    "tracking_error",
 ]

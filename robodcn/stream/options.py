@@ -61,6 +61,8 @@ class ExecutionOptions:
     skip_late : skip samples whose slot has passed (True) or send them late (False).
     realtime : run the calling thread under SCHED_FIFO while streaming.
     clock : monotonic clock in seconds (real time: the waits sleep on it).
+    attach : called with the streaming loop just before the first sample (its ``source``
+        and ``swap``: online operations, :func:`robodcn.stream.start`).
     """
 
     feedback_every: int = 1
@@ -78,6 +80,7 @@ class ExecutionOptions:
     skip_late: bool = True
     realtime: bool = False
     clock: Callable[[], float] = time.perf_counter
+    attach: Callable[[Any], None] | None = None
 
     def __post_init__(self) -> None:
         _integer("feedback_every", self.feedback_every, 0)
@@ -100,6 +103,8 @@ class ExecutionOptions:
             raise InputError(f"profile must be a StreamProfile, got "
                              f"{type(self.profile).__name__}", field="profile",
                              value=self.profile)
+        if self.attach is not None and not callable(self.attach):
+            raise InputError("attach must be callable", field="attach", value=self.attach)
         if not callable(self.clock):
             raise InputError("clock must be callable", field="clock", value=self.clock)
 

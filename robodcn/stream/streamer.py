@@ -228,6 +228,8 @@ def execute(trajectory: Trajectory, bus: ServoBus, options: ExecutionOptions | N
             with timer_slack(), realtime_priority(opts.realtime) as streamer.realtime:
                 if streamer.realtime:
                     streamer.spin = SPIN_REALTIME_S
+                if opts.attach is not None:
+                    opts.attach(streamer)
                 streamer.run()
         except BaseException:
             streamer.finish(hold=True, release=opts.release, settle=0.0)
@@ -292,6 +294,20 @@ class _Streamer:
         self.t_start = 0.0
         self.t_end = 0.0
         self._last_progress = -math.inf
+
+    def swap(self, source: Any) -> None:
+        """Replace the sample source between two samples (any thread; online operations).
+
+        The per-sample records grow first, then the source, then the loop's bound: a loop
+        that still runs to the old bound reads the new source, which answers every index."""
+        grow = len(source) - len(self.sent_index)
+        if grow > 0:
+            self.sent_index.extend([0] * grow)
+            self.sent_at.extend([0.0] * grow)
+            self.due_at.extend([0.0] * grow)
+            self.work.extend([0.0] * grow)
+        self.source = source
+        self.n = len(source)
 
     # -- waiting --------------------------------------------------------------------------
 
@@ -390,7 +406,8 @@ class _Streamer:
         i = 0
         last_write = t0
         try:
-            while i < n:
+            while i < self.n:
+                n = self.n  # a swapped source may change the bound (swap)
                 due = t0 + i * period
                 if self.stop is not None and self.stop.is_set():
                     raise _Stop("stopped", self._stop_message())
