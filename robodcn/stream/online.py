@@ -44,6 +44,7 @@ from robodcn.bus import ServoBus
 from robodcn.errors import InputError, RobodcnError
 from robodcn.planner import PlanRequest, Trajectory
 from robodcn.stream.online_path import (
+    RETIME_SHARE,
     JointPath,
     Limits,
     blend_start,
@@ -63,8 +64,10 @@ STOP_MODES = ("smooth", "hold")
 #: samples of rest a paused stream keeps ahead of itself (extended while paused)
 PAUSE_AHEAD_S = 1.0
 #: geometry of a retarget: sampled at this rate over this many seconds (quintic, slow)
-GEOMETRY_RATE_HZ = 50.0
+GEOMETRY_RATE_HZ = 200.0
 GEOMETRY_DURATION_S = 10.0
+#: reachability stages of the quick checks while choosing a retarget's start blend
+SEARCH_STAGES = 200
 #: GIL switch interval while an online execution streams (s)
 SWITCH_INTERVAL_S = 0.0002
 
@@ -198,7 +201,9 @@ class Execution:
         self._thread: threading.Thread | None = None
         self._keeper: threading.Thread | None = None
         #: expected planning time of each operation (s): how far ahead its switch is placed
-        self._plan_s: dict[str, float] = {"retarget": 0.02}
+        #: (optimistic: the fastest of the last few; a miss is planned again from further
+        #: ahead, and the request's planning time counts both)
+        self._plan_s: dict[str, list[float]] = {"retarget": [0.01]}
         self._limits: Limits | None = None if self.arm is None else Limits.of_arm(self.arm)
 
     def warm_up(self) -> None:
@@ -265,6 +270,30 @@ class Execution:
         s = self._streamer
         return -1 if s is None or not s.sent else int(s.sent_index[s.sent - 1])
 
+    def sent(self) -> tuple[NDArray[np.int64], NDArray[np.float64], NDArray[np.float64]]:
+        """Every sample sent so far: indices, send times (perf_counter) and the commanded
+        joints (rad, before rounding to ticks)."""
+        s = self._streamer
+        if s is None:
+            return np.zeros(0, np.int64), np.zeros(0), np.zeros((0, 0))
+        n = s.sent
+        index = np.array(s.sent_index[:n], dtype=np.int64)
+        src = s.source
+        joints = np.array([src.joint(int(i)) for i in index]) if n else np.zeros((0, 0))
+        return index, np.array(s.sent_at[:n]), joints
+
+    def latencies(self) -> list[tuple[float, float, float]]:
+        """Per operation applied: (planning s, request → due time of the first changed
+        sample s, request → that sample actually sent s). Sent − due is the loop's own
+        lateness at that moment (a loaded machine)."""
+        index, at, _ = self.sent()
+        out = []
+        for requested, first, due, took in self.switches:
+            hit = np.flatnonzero(index >= first)
+            if hit.size:
+                out.append((took, due - requested, float(at[hit[0]] - requested)))
+        return out
+
     # -- the commanded state and the swap -------------------------------------------------
 
     def _state(self, index: int) -> State:
@@ -291,11 +320,15 @@ class Execution:
                              field="execution", value=self.status)
         streamer = self._streamer
         with self._lock:
-            for _ in range(6):
+            ahead = min(self._plan_s.get(what, [0.003]))
+            for _ in range(10):
                 last = self.sample
                 rate = streamer.source.rate_hz
+                bound = streamer.n
                 # state at switch, new samples from switch + 1: as far ahead as planning takes
-                switch = last + 1 + math.ceil(self._plan_s.get(what, 0.005) * rate * 1.25)
+                switch = last + 1 + math.ceil(ahead * rate)
+                # the loop must still be running when it gets to the switch
+                switch = min(switch, bound - 2)
                 t_plan = time.perf_counter()
                 state = self._state(max(switch, 0))
                 segments = [seg for seg in tail(state) if len(seg[0])]
@@ -309,17 +342,19 @@ class Execution:
                                          path, self.bus, src.rate_hz, src.joint_names,
                                          hold=hold if n == len(segments) - 1 else 0)
                 took = time.perf_counter() - t_plan
-                if self.sample + 2 < first and not self.done:
+                running = streamer.t_end == 0.0 and not self.done
+                if running and self.sample + 2 < first and self.sample + 2 < streamer.n:
                     streamer.swap(node)
+                    took_total = time.perf_counter() - requested
                     due = streamer.t_start + first * streamer.period
-                    self.switches.append((requested, first, due, took))
-                    self._plan_s[what] = 0.5 * self._plan_s.get(what, took) + 0.5 * took
+                    self.switches.append((requested, first, due, took_total))
+                    self._plan_s[what] = [*self._plan_s.get(what, [])[-4:], took]
                     log.info("%s: switch at sample %d (planned in %.2f ms)", what, first,
                              took * 1000)
                     if self.on_change is not None:
                         self.on_change(what)
                     return first
-                self._plan_s[what] = max(self._plan_s.get(what, 0.0), took) * 1.5
+                ahead = max(ahead, took) * 1.3
         raise InputError(f"cannot {what}: the stream ran ahead of planning",
                          field="execution", value=self.status)
 
@@ -498,22 +533,32 @@ class Execution:
             direction = st.qd / st.sd
             total = float(np.sum(np.linalg.norm(np.diff(q_new, axis=0), axis=1)))
             length = max(st.sd ** 2 / (2.0 * float(np.min(limits.a))), 1e-3)
-            best, best_speed = None, -1.0
+            coarse = q_new[::max(1, len(q_new) // SEARCH_STAGES)]
+            best, best_speed = length, -1.0
             for _ in range(4):
-                bent = blend_start(q_new, direction, min(length, max(total, 1e-3)))
-                candidate, _ = JointPath.of_samples(bent)
-                speed = controllable_speed(candidate, 0.0, limits)
+                bent = blend_start(coarse, direction, min(length, max(total, 1e-3)))
+                speed = controllable_speed(JointPath.of_samples(bent)[0], 0.0, limits,
+                                           max_stages=SEARCH_STAGES)
                 if speed > best_speed:
-                    best, best_speed = candidate, speed
+                    best, best_speed = length, speed
                 if speed >= st.sd * 1.01 or length >= total:
                     break
                 length *= 2.0
-            path = best
+            path, _ = JointPath.of_samples(blend_start(q_new, direction,
+                                                       min(best, max(total, 1e-3))))
+            path = dataclasses.replace(path, start_tangent=direction)
+            # the decision on the full path, under the limits the re-timing aims for
+            best_speed = controllable_speed(path, 0.0, limits.scaled(1.0).shrunk(RETIME_SHARE))
             if st.sd <= best_speed * 0.99:
                 break
             # too fast for the turn: brake along the present path first, then try again
             until = 0.0 if attempt >= 1 else 0.85 * best_speed
             more = brake(st.path, st.sigma, st.sd, full.a, rate, until_sd=until)
+            if until == 0.0:
+                # one sample at rest where the brake ends: the last step to rest and the
+                # new path's first step from rest do not add up in one acceleration
+                more = np.concatenate([more, more[-1:]]) if more.size else \
+                    np.array([st.sigma])
             if not more.size:
                 break
             segments.append((st.path.at(more), more, st.path))
@@ -521,8 +566,6 @@ class Execution:
             qd = (ends[1] - ends[0]) * rate
             st = dataclasses.replace(st, q=ends[1], qd=qd, sigma=float(more[-1]),
                                      sd=float(np.linalg.norm(qd)))
-            if until == 0.0:
-                st = dataclasses.replace(st, qd=np.zeros_like(qd), sd=0.0)
         assert path is not None
         tail = self._timed(dataclasses.replace(st, path=path, sigma=0.0), limits)
         segments.append((path.at(tail), tail, path))

@@ -35,7 +35,7 @@ from robodcn.errors import InputError
 from robodcn.path_timing import max_start_speed, path_derivatives, time_optimal
 
 #: share of each acceleration limit a brake uses (margin for the O(Δt) error of the step)
-BRAKE_SHARE = 0.97
+BRAKE_SHARE = 0.995
 #: share of each limit the time-optimal re-timing aims for (the finite differences of the
 #: sampled law, linear between path samples, land a little off the continuous optimum)
 RETIME_SHARE = 0.99
@@ -50,6 +50,8 @@ class JointPath:
     q: NDArray[np.float64]
     sigma: NDArray[np.float64]
     stops: tuple[float, ...] = ()
+    #: q'(0) when it is known exactly (a retarget: the direction of motion), else None
+    start_tangent: NDArray[np.float64] | None = None
 
     @classmethod
     def of_samples(cls, joints: NDArray[np.float64]) -> tuple[JointPath, NDArray[np.float64]]:
@@ -88,12 +90,27 @@ class JointPath:
         return float(self.sigma[-1])
 
     def at(self, sigma: NDArray[np.float64]) -> NDArray[np.float64]:
-        """q(σ) (len(σ), k), linear between samples."""
+        """q(σ) (len(σ), k): cubic Hermite between samples on q' (C¹, so the curvature of
+        the path is spread over each interval instead of sitting at the samples)."""
         sigma = np.clip(np.asarray(sigma, dtype=np.float64), self.sigma[0], self.sigma[-1])
         i = np.clip(np.searchsorted(self.sigma, sigma, side="right") - 1, 0,
                     len(self.sigma) - 2)
-        w = ((sigma - self.sigma[i]) / (self.sigma[i + 1] - self.sigma[i]))[:, None]
-        return self.q[i] * (1.0 - w) + self.q[i + 1] * w
+        h = self.sigma[i + 1] - self.sigma[i]
+        u = ((sigma - self.sigma[i]) / h)[:, None]
+        dq = self._tangents()
+        u2, u3 = u * u, u * u * u
+        h00, h10, h01, h11 = 2 * u3 - 3 * u2 + 1, u3 - 2 * u2 + u, -2 * u3 + 3 * u2, u3 - u2
+        return (h00 * self.q[i] + h10 * h[:, None] * dq[i] + h01 * self.q[i + 1]
+                + h11 * h[:, None] * dq[i + 1])
+
+    def _tangents(self) -> NDArray[np.float64]:
+        cached = self.__dict__.get("_dq")
+        if cached is None:
+            cached = self.derivatives()[0]
+            if self.start_tangent is not None:
+                cached[0] = self.start_tangent
+            object.__setattr__(self, "_dq", cached)
+        return cached
 
     def rest_from(self, sigma0: float) -> tuple[NDArray, NDArray, tuple[float, ...]]:
         """q, σ and stops of the path from σ₀ on (σ₀ itself the first sample)."""
@@ -128,6 +145,11 @@ class Limits:
                    None if all(x is None for x in jerk)
                    else np.array([np.inf if x is None else x for x in jerk]))
 
+    def shrunk(self, share: float) -> Limits:
+        """Every limit times ``share`` (a margin, not a speed scale)."""
+        return Limits(self.v * share, self.a * share,
+                      None if self.j is None else self.j * share)
+
     def scaled(self, k: float) -> Limits:
         """Speed scaling k: v·k, a·k², j·k³."""
         return Limits(self.v * k, self.a * k * k, None if self.j is None else self.j * k ** 3)
@@ -148,8 +170,10 @@ def brake(path: JointPath, sigma0: float, sd0: float, a: NDArray[np.float64], ra
     s, sd = float(sigma0), float(sd0)
     last = len(grid) - 1
     while sd > until_sd and len(out) < max_samples:
-        i = min(max(int(np.searchsorted(grid, s, side="right")) - 1, 0), last)
-        d1, d2 = dq[i], ddq[i]
+        i = min(max(int(np.searchsorted(grid, s, side="right")) - 1, 0), last - 1)
+        w = min(max((s - grid[i]) / (grid[i + 1] - grid[i]), 0.0), 1.0)
+        d1 = dq[i] + w * (dq[i + 1] - dq[i])
+        d2 = ddq[i] + w * (ddq[i + 1] - ddq[i])
         moving = np.abs(d1) > 1e-9
         if moving.any():
             c = d2[moving] * sd * sd
@@ -161,9 +185,15 @@ def brake(path: JointPath, sigma0: float, sd0: float, a: NDArray[np.float64], ra
         u = min(u, 0.0)
         nxt = sd + u * dt
         if nxt <= until_sd or not math.isfinite(nxt):
-            if until_sd <= 0.0:
-                break
-            nxt = until_sd
+            if until_sd > 0.0:
+                nxt = until_sd
+            else:
+                # the last step to rest has no centripetal part: |q'|·σ̇/Δt within a
+                final = float((amax[moving] / np.abs(d1[moving])).min()) * dt \
+                    if moving.any() else math.inf
+                if sd <= final:
+                    break
+                nxt = final
         sd = nxt
         s = min(s + sd * dt, path.length)
         out.append(s)
@@ -172,13 +202,14 @@ def brake(path: JointPath, sigma0: float, sd0: float, a: NDArray[np.float64], ra
     return np.asarray(out, dtype=np.float64)
 
 
-def controllable_speed(path: JointPath, sigma0: float, limits: Limits) -> float:
+def controllable_speed(path: JointPath, sigma0: float, limits: Limits, *,
+                       max_stages: int = 1000) -> float:
     """The fastest σ̇ at σ₀ from which the rest of the path can still be followed within
     ``limits`` and brought to rest (:func:`robodcn.path_timing.max_start_speed`)."""
     q, s, stops = path.rest_from(sigma0)
     if s.shape[0] < 3:
         return 0.0
-    return max_start_speed(q, s, limits.v, limits.a, stops=stops)
+    return max_start_speed(q, s, limits.v, limits.a, stops=stops, max_stages=max_stages)
 
 
 def retime(path: JointPath, sigma0: float, sd0: float, limits: Limits, rate_hz: float,
@@ -193,19 +224,41 @@ def retime(path: JointPath, sigma0: float, sd0: float, limits: Limits, rate_hz: 
     q, s, stops = path.rest_from(sigma0)
     if s.shape[0] < 3 or s[-1] - s[0] < 1e-9:
         return np.zeros(0)
-    inner = limits.scaled(1.0)
-    v, a = inner.v * RETIME_SHARE, inner.a * RETIME_SHARE
-    j = None if inner.j is None else inner.j * RETIME_SHARE
-    law = time_optimal(q, s, v, a, j, sd_start=_start_speed(sd0, q, s, v, a, stops),
-                       sdd_start=sdd0 if limits.j is not None else 0.0, stops=stops,
-                       rate_hz=rate_hz)
-    out = law.sample(rate_hz).s[1:]
-    # the final samples may sit at the end within rounding: keep one
-    end = np.flatnonzero(out >= s[-1] - 1e-12)
-    if end.size:
-        out = out[:end[0] + 1]
-        out[-1] = s[-1]
-    return out
+    here = path.at(np.array([sigma0]))[0]
+    tangent = path._tangents()[min(int(np.searchsorted(path.sigma, sigma0)), len(path.sigma) - 1)]
+    start = np.vstack([here - tangent * sd0 / rate_hz, here])
+    share = RETIME_SHARE
+    for _ in range(4):
+        v, a = limits.v * share, limits.a * share
+        j = None if limits.j is None else limits.j * share
+        law = time_optimal(q, s, v, a, j, sd_start=_start_speed(sd0, q, s, v, a, stops),
+                           sdd_start=sdd0 if limits.j is not None else 0.0, stops=stops,
+                           rate_hz=rate_hz)
+        out = law.sample(rate_hz).s[1:]
+        # the final samples may sit at the end within rounding: keep one
+        end = np.flatnonzero(out >= s[-1] - 1e-12)
+        if end.size:
+            out = out[:end[0] + 1]
+            out[-1] = s[-1]
+        over = excess(np.vstack([start, path.at(out)]), limits, rate_hz)
+        if over <= 1.0:
+            return out
+        share *= 0.995 / over
+    raise InputError(f"the re-timed path keeps exceeding a joint limit ({over:.4g} × it)",
+                     field="limits", value=float(over))
+
+
+def excess(joints: NDArray[np.float64], limits: Limits, rate_hz: float, *,
+           to_rest: bool = True) -> float:
+    """Largest ratio of a finite-difference joint velocity or acceleration of ``joints``
+    (sampled at ``rate_hz``; with ``to_rest`` the arm holds the last sample after) to its
+    limit: ≤ 1 when every limit holds."""
+    q = np.vstack([joints, joints[-1:]]) if to_rest else joints
+    if q.shape[0] < 3:
+        return 0.0
+    vel = np.diff(q, axis=0) * rate_hz
+    acc = np.diff(vel, axis=0) * rate_hz
+    return float(max((np.abs(vel) / limits.v).max(), (np.abs(acc) / limits.a).max()))
 
 
 def _start_speed(sd0: float, q: NDArray, s: NDArray, v: NDArray, a: NDArray,
@@ -223,20 +276,24 @@ def controllable_at(q: NDArray, s: NDArray, v: NDArray, a: NDArray,
 
 def blend_start(q_new: NDArray[np.float64], direction: NDArray[np.float64],
                 length: float) -> NDArray[np.float64]:
-    """Joint samples of ``q_new`` bent so that the tangent at its start is ``direction``.
+    """Joint samples of ``q_new`` bent to start along ``direction`` and straight.
 
-    q(σ) + L·b(σ/L)·(d₀ − q'(0)), b(u) = u(1 − u)² on [0, 1] and 0 beyond: b(0) = 0,
-    b'(0) = 1, b(1) = b'(1) = 0, so the path still starts at q(0) and is unchanged after
-    arc length L (σ measured on ``q_new``)."""
+    q(σ) + L·b(σ/L)·(d₀ − q'(0)), b(u) = u(1 − u)² (b(0) = 0, b'(0) = 1, b(1) = b'(1) = 0),
+    then minus L²·c(σ/L)·q''(0) of that curve, c(u) = u²(1 − u)³/2 (c''(0) = 1, zero with
+    two derivatives at 1): the path starts at q(0) in the direction d₀ with no curvature and
+    is unchanged after arc length L (σ measured on ``q_new``). No curvature at the start
+    matters at the switch: the last two samples streamed lie on the chord d₀, so a
+    curved start would add ½·q''·σ̇² to the joint acceleration of the first new sample."""
     path, _ = JointPath.of_samples(q_new)
     if path.length <= 0 or length <= 0:
         return q_new
-    dq, _ = path.derivatives()
     step = np.linalg.norm(np.diff(q_new, axis=0), axis=1)
     sig = np.concatenate([[0.0], np.cumsum(step)])
-    u = np.clip(sig / length, 0.0, 1.0)
-    b = u * (1.0 - u) ** 2
-    return q_new + (length * b)[:, None] * (np.asarray(direction) - dq[0])[None, :]
+    u = np.clip(sig / length, 0.0, 1.0)[:, None]
+    dq, _ = path.derivatives()
+    bent = q_new + length * u * (1.0 - u) ** 2 * (np.asarray(direction) - dq[0])[None, :]
+    _, ddq = JointPath(bent, sig).derivatives()
+    return bent - length ** 2 * 0.5 * u ** 2 * (1.0 - u) ** 3 * ddq[0][None, :]
 
 
 def first_stop(stops: Sequence[float], sigma: float) -> float | None:
