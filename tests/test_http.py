@@ -427,7 +427,7 @@ def test_openapi_body_schema_is_what_the_parser_accepts(planner_server: Any) -> 
     status, _, data = call(planner_server, "POST", "/v1/trajectories", body)
     assert status == 200, data
     move_props = doc["components"]["schemas"]["MoveBody"]["properties"]
-    assert set(move_props) == set(props) - {"start_joints"}
+    assert set(move_props) - {"replace"} == set(props) - {"start_joints"}
 
 
 # -- token ------------------------------------------------------------------------------------
@@ -564,7 +564,7 @@ def test_stop_during_a_move_holds(arm_server: Any) -> None:
     status, _, state = call(server, "GET", "/v1/state")
     assert status == 200 and state["moving"] and state["source"] == "stream"
     assert state["move"] == body["id"]
-    status, _, stopped = call(server, "POST", "/v1/stop")
+    status, _, stopped = call(server, "POST", "/v1/stop", {"mode": "hold"})
     assert status == 200
     assert stopped == {"stopped": True, "move": body["id"], "status": "stopped"}
     final = poll_move(server, body["id"], lambda b: b["status"] != "running")

@@ -10,6 +10,7 @@ from typing import Any
 import robodcn
 from robodcn.config import Arm
 from robodcn.contract import schema_of
+from robodcn.http import online_ops
 from robodcn.http.planbody import move_body_schema, plan_body_schema
 from robodcn.http.results import RESULTS
 from robodcn.http.routes import ROUTES, TRANSPORT_ERRORS, Route
@@ -27,6 +28,7 @@ def schemas(arm: Arm | None = None) -> dict[str, dict[str, Any]]:
         "Trajectory": schema_of(Trajectory),
         "OpenAPI": {"type": "object"},
         **{name: schema_of(cls) for name, cls in RESULTS.items()},
+        **online_ops.body_schemas(move_body_schema(arm)),
     }
 
 
@@ -46,11 +48,12 @@ def openapi(arm: Arm | None = None, *, token: bool = False,
             op["parameters"] = [{"name": p, "in": "path", "required": True,
                                  "schema": {"type": "string"}} for p in route.params]
         if route.body:
-            op["requestBody"] = {"required": route.name != "stop",
+            op["requestBody"] = {"required": route.name not in online_ops.OPTIONAL_BODIES,
                                  "content": {"application/json": {
                                      "schema": {"$ref": f"#/components/schemas/{route.body}"}}}}
         codes = set(route.errors) | set(TRANSPORT_ERRORS)
-        if route.name in ("start_move", "get_move", "stop", "state"):
+        if route.name in ("start_move", "get_move", "stop", "state", "pause", "resume",
+                          "set_speed"):
             codes.add(503)  # no arm attached, or a bus fault
         if route.method == "POST" and token:
             codes.add(401)

@@ -16,7 +16,8 @@ from collections.abc import Callable, Iterator
 from typing import TYPE_CHECKING, Any
 
 import robodcn
-from robodcn.errors import InputError, TooLargeError
+from robodcn.errors import TooLargeError
+from robodcn.http import online_ops
 from robodcn.http.framing import HTTPError, Request
 from robodcn.http.jsonbody import decode_json
 from robodcn.http.limits import LARGE_PLAN_SAMPLES, LARGE_PLAN_WAYPOINTS, MAX_RESPONSE
@@ -138,7 +139,10 @@ def op_plan(server: RobodcnHTTPServer, request: Request, params: dict[str, str]
 def op_start_move(server: RobodcnHTTPServer, request: Request, params: dict[str, str]
                   ) -> tuple[int, Any]:
     controller = _controller(server)
-    req = parse_move(server.arm, read_json(request))
+    body, replace = online_ops.take_replace(read_json(request))
+    req = parse_move(server.arm, body)
+    if replace and controller.busy:
+        return online_ops.replace_move(server, controller, req)
     # Plan from where the arm is (409 at once if it is moving), so an infeasible approach
     # is a 422 now rather than a failed move later, and the record shows what will run.
     with controller.admitting():
@@ -162,13 +166,8 @@ def op_get_move(server: RobodcnHTTPServer, request: Request, params: dict[str, s
 def op_stop(server: RobodcnHTTPServer, request: Request, params: dict[str, str]
             ) -> tuple[int, Any]:
     controller = _controller(server)
-    body = read_json(request, required=False) if request.body else {}
-    if body != {}:
-        if not isinstance(body, dict):
-            raise InputError("the stop body must be empty or {}", field="body")
-        name = next(iter(body))
-        raise InputError(f"unknown field {name!r}: stop takes no fields", field=name)
-    return 200, controller.stop()
+    body = read_json(request, required=False) if request.body else None
+    return 200, controller.stop_move(online_ops.stop_mode(body))
 
 
 def op_state(server: RobodcnHTTPServer, request: Request, params: dict[str, str]
@@ -183,3 +182,4 @@ def op_openapi(server: RobodcnHTTPServer, request: Request, params: dict[str, st
 
 OPERATIONS: dict[str, Operation] = {name.removeprefix("op_"): fn for name, fn in
                                     dict(globals()).items() if name.startswith("op_")}
+OPERATIONS.update(online_ops.OPERATIONS)

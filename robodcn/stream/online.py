@@ -205,6 +205,7 @@ class Execution:
         #: ahead, and the request's planning time counts both)
         self._plan_s: dict[str, list[float]] = {"retarget": [0.01]}
         self._limits: Limits | None = None if self.arm is None else Limits.of_arm(self.arm)
+        self._options = ExecutionOptions()
 
     def warm_up(self) -> None:
         """Run the re-timing once on the plan's path (first calls pay numpy's set-up)."""
@@ -230,6 +231,12 @@ class Execution:
             self._limits = Limits.of_arm(self.arm)
         self.status = "running"
         self._attached.set()
+
+    def run(self) -> ExecutionReport | None:
+        """Stream on the calling thread until the end (:func:`prepare`); the report, or
+        raise what :func:`execute` raised."""
+        self._run(self.trajectory, self._options)
+        return self.wait(0)
 
     def _run(self, trajectory: Trajectory, opts: ExecutionOptions) -> None:
         from robodcn.stream.streamer import execute
@@ -514,6 +521,22 @@ class Execution:
                            rate_hz=GEOMETRY_RATE_HZ)
         return plan_from_present(arm, None, target, joints=q, **options).joints
 
+    def remaining(self, first: int, request: PlanRequest | None = None) -> Trajectory:
+        """The commanded samples from ``first`` to the end as a Trajectory (t from 0): what a
+        retarget put in place, for records and reports."""
+        src: OnlineSamples = self._streamer.source
+        end = max(first + 1, src.end)
+        index = range(first, end)
+        joints = np.array([src.joint(i) for i in index])
+        ticks = np.array([src.goal(i) for i in index])
+        poses = kinematics.fk(self.arm.links, joints)
+        poses[:, 2] = np.unwrap(poses[:, 2])
+        method = request.method if request is not None else "sclerp"
+        if isinstance(method, tuple):
+            method = list(method)
+        return Trajectory(np.arange(len(joints)) / src.rate_hz, poses, joints, ticks,
+                          src.joint_names, tuple(self.bus.ids), src.rate_hz, method, request)
+
     def _retarget_tail(self, state: State, target: Any,
                        plan_options: dict[str, Any]) -> list[Segment]:
         """Brake along the present path as far as needed (a turn the limits cannot take at
@@ -572,20 +595,28 @@ class Execution:
         return segments
 
 
-def start(trajectory: Trajectory, bus: ServoBus, options: ExecutionOptions | None = None,
-          *, arm: Any = None, **kwargs: Any) -> Execution:
-    """Start streaming ``trajectory`` on its own thread; the :class:`Execution` at once.
-
-    Same options as :func:`robodcn.stream.execute` (the stop signal is the execution's:
-    one is made when none is given). Refusals before the first write are raised by
-    :meth:`Execution.wait` (and kept in ``Execution.error``)."""
+def prepare(trajectory: Trajectory, bus: ServoBus, options: ExecutionOptions | None = None,
+            *, arm: Any = None, **kwargs: Any) -> Execution:
+    """An :class:`Execution` of ``trajectory`` not yet started: :meth:`Execution.run` streams
+    it on the calling thread (a service's bus worker), :func:`start` on a thread of its own.
+    Options as :func:`robodcn.stream.execute` (the stop signal is the execution's: one is
+    made when none is given)."""
     opts = ExecutionOptions.build(options, kwargs)
     stop = opts.stop if isinstance(opts.stop, StopSignal) else StopSignal()
     execution = Execution(trajectory, bus, stop, arm)
     execution.warm_up()
-    opts = dataclasses.replace(opts, stop=stop, attach=execution._attach)
-    thread = threading.Thread(target=execution._run, args=(trajectory, opts), daemon=True,
-                              name="robodcn-stream")
+    execution._options = dataclasses.replace(opts, stop=stop, attach=execution._attach)
+    return execution
+
+
+def start(trajectory: Trajectory, bus: ServoBus, options: ExecutionOptions | None = None,
+          *, arm: Any = None, **kwargs: Any) -> Execution:
+    """Start streaming ``trajectory`` on its own thread; the :class:`Execution` at once.
+
+    Same options as :func:`robodcn.stream.execute`. Refusals before the first write are
+    raised by :meth:`Execution.wait` (and kept in ``Execution.error``)."""
+    execution = prepare(trajectory, bus, options, arm=arm, **kwargs)
+    thread = threading.Thread(target=execution.run, daemon=True, name="robodcn-stream")
     execution._thread = thread
     thread.start()
     return execution
