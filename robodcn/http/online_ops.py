@@ -70,8 +70,6 @@ def take_replace(body: Any) -> tuple[Any, bool]:
 
 
 def _fields(body: Any, allowed: tuple[str, ...], what: str) -> dict[str, Any]:
-    if body is None:
-        return {}
     if not isinstance(body, dict):
         raise InputError(f"the {what} body must be a JSON object", field="body", value=None)
     for name in body:
@@ -114,7 +112,7 @@ def replace_move(server: RobodcnHTTPServer, controller: Any, req: PlanRequest
 
 def _read(request: Request) -> Any:
     from robodcn.http.ops import read_json
-    return read_json(request, required=False) if request.body else None
+    return read_json(request, required=False) if request.body else {}
 
 
 def _controller(server: RobodcnHTTPServer) -> Any:

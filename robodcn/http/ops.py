@@ -166,7 +166,7 @@ def op_get_move(server: RobodcnHTTPServer, request: Request, params: dict[str, s
 def op_stop(server: RobodcnHTTPServer, request: Request, params: dict[str, str]
             ) -> tuple[int, Any]:
     controller = _controller(server)
-    body = read_json(request, required=False) if request.body else None
+    body = read_json(request, required=False) if request.body else {}
     return 200, controller.stop_move(online_ops.stop_mode(body))
 
 
