@@ -20,7 +20,7 @@ from typing import Any
 
 import numpy as np
 
-from robodcn.cli import options, planning
+from robodcn.cli import keys, options, planning
 from robodcn.cli.exit_codes import exit_for_report
 from robodcn.cli.output import emit
 from robodcn.cli.plot import _plot, _require_matplotlib
@@ -132,6 +132,8 @@ def _execute(args: argparse.Namespace, request: planning.MotionRequest, arm, bus
     traj = planning.plan_from_present(request, arm, bus)
     stop = StopSignal()
     live = _LiveProgress(traj, arm)
+    if keys.interactive():
+        return traj, _execute_with_keys(args, traj, arm, bus, stop, live), live
     with _ctrl_c_stops(stop):
         try:
             report = execute(traj, bus, feedback_every=args.feedback_every,
@@ -140,6 +142,26 @@ def _execute(args: argparse.Namespace, request: planning.MotionRequest, arm, bus
         finally:
             live.finish()
     return traj, report, live
+
+
+def _execute_with_keys(args: argparse.Namespace, traj, arm, bus, stop, live):
+    """On a terminal: the move keys (robodcn.cli.keys.MOVE_KEYS) while it streams."""
+    from robodcn.stream import start
+
+    sys.stderr.write(f"keys: {keys.MOVE_KEYS}\n")
+    execution = start(traj, bus, feedback_every=args.feedback_every,
+                      tracking_limit=math.radians(args.tracking_limit), stop=stop,
+                      progress=live, release=args.release, realtime=args.realtime, arm=arm)
+    try:
+        with keys.TerminalKeys() as terminal:
+            keys.drive(execution, terminal,
+                       on_action=lambda what: sys.stderr.write(f"\n{what}\n"))
+        return execution.wait()
+    finally:
+        if not execution.done:
+            execution.stop("hold")
+            execution.wait(5)
+        live.finish()
 
 
 def _finish(args: argparse.Namespace, traj, report) -> int:
