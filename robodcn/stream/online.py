@@ -41,7 +41,12 @@ from numpy.typing import ArrayLike, NDArray
 
 from robodcn import kinematics, servo_units
 from robodcn.bus import ServoBus
-from robodcn.errors import InputError, RobodcnError
+from robodcn.errors import (
+    AccelerationLimitError,
+    InputError,
+    RobodcnError,
+    VelocityLimitError,
+)
 from robodcn.planner import PlanRequest, Trajectory
 from robodcn.stream.online_path import (
     RETIME_SHARE,
@@ -65,7 +70,7 @@ STOP_MODES = ("smooth", "hold")
 PAUSE_AHEAD_S = 1.0
 #: geometry of a retarget: sampled at this rate over this many seconds (quintic, slow)
 GEOMETRY_RATE_HZ = 200.0
-GEOMETRY_DURATION_S = 10.0
+GEOMETRY_DURATION_S = 5.0
 #: reachability stages of the quick checks while choosing a retarget's start blend
 SEARCH_STAGES = 200
 #: GIL switch interval while an online execution streams (s)
@@ -376,7 +381,7 @@ class Execution:
         return [(path.at(sigma), sigma, path)]
 
     def _timed(self, state: State, limits: Limits, path: JointPath | None = None,
-               sigma0: float | None = None) -> NDArray:
+               sigma0: float | None = None, allowed: float | None = None) -> NDArray:
         """σ samples: brake with the full limits while over what ``limits`` allow, then the
         time-optimal law under ``limits`` to the end of the path."""
         path = state.path if path is None else path
@@ -386,7 +391,8 @@ class Execution:
         assert full is not None
         sd = state.sd
         pre = np.zeros(0)
-        allowed = controllable_speed(path, s0, limits)
+        if allowed is None:
+            allowed = controllable_speed(path, s0, limits) if sd > 0 else math.inf
         if sd > allowed * 0.98:
             pre = brake(path, s0, sd, full.a, rate, until_sd=allowed * 0.95)
             if pre.size:
@@ -519,7 +525,15 @@ class Execution:
                 target.insert(0, here)
             options.update(duration=GEOMETRY_DURATION_S, profile="quintic",
                            rate_hz=GEOMETRY_RATE_HZ)
-        return plan_from_present(arm, None, target, joints=q, **options).joints
+        try:
+            return plan_from_present(arm, None, target, joints=q, **options).joints
+        except (VelocityLimitError, AccelerationLimitError):
+            # a long way: the slow geometry plan needs longer (only its path is used)
+            if isinstance(target, PlanRequest):
+                target = dataclasses.replace(target, duration=4 * GEOMETRY_DURATION_S)
+            else:
+                options.update(duration=4 * GEOMETRY_DURATION_S)
+            return plan_from_present(arm, None, target, joints=q, **options).joints
 
     def remaining(self, first: int, request: PlanRequest | None = None) -> Trajectory:
         """The commanded samples from ``first`` to the end as a Trajectory (t from 0): what a
@@ -590,7 +604,8 @@ class Execution:
             st = dataclasses.replace(st, q=ends[1], qd=qd, sigma=float(more[-1]),
                                      sd=float(np.linalg.norm(qd)))
         assert path is not None
-        tail = self._timed(dataclasses.replace(st, path=path, sigma=0.0), limits)
+        tail = self._timed(dataclasses.replace(st, path=path, sigma=0.0), limits,
+                           allowed=best_speed if st.sd > 1e-9 else math.inf)
         segments.append((path.at(tail), tail, path))
         return segments
 

@@ -32,13 +32,15 @@ from numpy.typing import NDArray
 
 from robodcn.config import Arm
 from robodcn.errors import InputError
-from robodcn.path_timing import max_start_speed, path_derivatives, time_optimal
+from robodcn.path_timing import PathTiming, max_start_speed, path_derivatives, time_optimal
 
 #: share of each acceleration limit a brake uses (margin for the O(Δt) error of the step)
 BRAKE_SHARE = 0.995
 #: share of each limit the time-optimal re-timing aims for (the finite differences of the
 #: sampled law, linear between path samples, land a little off the continuous optimum)
-RETIME_SHARE = 0.99
+RETIME_SHARE = 0.97
+#: reachability stages of an online re-timing (the law is checked at the stream rate after)
+ONLINE_STAGES = 400
 #: a plan's sample where the joint step is below this (rad) is at rest
 REST_STEP = 1e-9
 
@@ -203,13 +205,14 @@ def brake(path: JointPath, sigma0: float, sd0: float, a: NDArray[np.float64], ra
 
 
 def controllable_speed(path: JointPath, sigma0: float, limits: Limits, *,
-                       max_stages: int = 1000) -> float:
+                       max_stages: int | None = None) -> float:
     """The fastest σ̇ at σ₀ from which the rest of the path can still be followed within
     ``limits`` and brought to rest (:func:`robodcn.path_timing.max_start_speed`)."""
     q, s, stops = path.rest_from(sigma0)
     if s.shape[0] < 3:
         return 0.0
-    return max_start_speed(q, s, limits.v, limits.a, stops=stops, max_stages=max_stages)
+    return max_start_speed(q, s, limits.v, limits.a, stops=stops,
+                           max_stages=ONLINE_STAGES if max_stages is None else max_stages)
 
 
 def retime(path: JointPath, sigma0: float, sd0: float, limits: Limits, rate_hz: float,
@@ -231,9 +234,8 @@ def retime(path: JointPath, sigma0: float, sd0: float, limits: Limits, rate_hz: 
     for _ in range(4):
         v, a = limits.v * share, limits.a * share
         j = None if limits.j is None else limits.j * share
-        law = time_optimal(q, s, v, a, j, sd_start=_start_speed(sd0, q, s, v, a, stops),
-                           sdd_start=sdd0 if limits.j is not None else 0.0, stops=stops,
-                           rate_hz=rate_hz)
+        law = _law(q, s, v, a, j, sd0, sdd0 if limits.j is not None else 0.0, stops,
+                   rate_hz)
         out = law.sample(rate_hz).s[1:]
         # the final samples may sit at the end within rounding: keep one
         end = np.flatnonzero(out >= s[-1] - 1e-12)
@@ -261,17 +263,25 @@ def excess(joints: NDArray[np.float64], limits: Limits, rate_hz: float, *,
     return float(max((np.abs(vel) / limits.v).max(), (np.abs(acc) / limits.a).max()))
 
 
-def _start_speed(sd0: float, q: NDArray, s: NDArray, v: NDArray, a: NDArray,
-                 stops: Sequence[float]) -> float:
-    """sd0, or the controllable speed when sd0 is over it by rounding only (1e-3)."""
-    top = controllable_at(q, s, v, a, stops)
-    return top if top < sd0 <= top * 1.001 else sd0
+def _law(q: NDArray, s: NDArray, v: NDArray, a: NDArray, j: NDArray | None, sd0: float,
+         sdd0: float, stops: Sequence[float], rate_hz: float) -> PathTiming:
+    """time_optimal from σ̇₀; a σ̇₀ over the controllable speed by rounding only (1e-3) starts
+    at that speed instead (a larger excess is raised: brake first)."""
+    try:
+        return time_optimal(q, s, v, a, j, sd_start=sd0, sdd_start=sdd0, stops=stops,
+                            rate_hz=rate_hz, max_stages=ONLINE_STAGES)
+    except InputError as exc:
+        top = controllable_at(q, s, v, a, stops)
+        if exc.field != "sd_start" or not top < sd0 <= top * 1.001:
+            raise
+        return time_optimal(q, s, v, a, j, sd_start=top, sdd_start=sdd0, stops=stops,
+                            rate_hz=rate_hz, max_stages=ONLINE_STAGES)
 
 
 def controllable_at(q: NDArray, s: NDArray, v: NDArray, a: NDArray,
                     stops: Sequence[float]) -> float:
     """max_start_speed of (q, s) under v, a (the start speed time_optimal accepts)."""
-    return max_start_speed(q, s, v, a, stops=stops)
+    return max_start_speed(q, s, v, a, stops=stops, max_stages=ONLINE_STAGES)
 
 
 def blend_start(q_new: NDArray[np.float64], direction: NDArray[np.float64],
