@@ -120,10 +120,10 @@ def run() -> str:
               "", "| planning ms | first changed goal due ms | sent ms | due − planning "
               "(rule ≤ 2 periods = 2 ms) |", "|---:|---:|---:|---:|"]
     if lat:
-        plan_ms = 1000 * statistics.median(p for p, _, _ in lat)
-        due_ms = 1000 * statistics.median(d for _, d, _ in lat)
-        sent_ms = 1000 * statistics.median(s for _, _, s in lat)
-        excess = 1000 * statistics.median(d - p for p, d, _ in lat)
+        plan_ms = 1000 * statistics.median(p for p, _, _, _ in lat)
+        due_ms = 1000 * statistics.median(d for _, d, _, _ in lat)
+        sent_ms = 1000 * statistics.median(s for _, _, s, _ in lat)
+        excess = 1000 * statistics.median(d - p for p, d, _, _ in lat)
         lines.append(f"| {plan_ms:.1f} | {due_ms:.1f} | {sent_ms:.1f} | {excess:.1f} |")
     return "\n".join(lines) + "\n"
 

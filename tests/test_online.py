@@ -147,21 +147,22 @@ def test_request_to_first_changed_goal_is_planning_time_plus_two_periods(sa):
 
     def ops(ex):
         for k, g in enumerate(goals):
-            _wait_sample(ex, 200 + 120 * k)
+            _wait_sample(ex, 200 + 60 * k)
             ex.retarget([None, g])
 
     _report, ex, wire = _run(sa, traj, ops)
     _sent(ex, wire)
     lat = ex.latencies()
     assert len(lat) == len(goals)
-    # the first changed sample is placed as far ahead as planning takes (its due time)
-    excess = [due - planning for planning, due, _ in lat]
-    # up to the error of the planning-time estimate that placed the switch (a loaded
-    # machine plans in 5–100 ms; the estimate is the fastest of the last few)
-    allowance = 0.25 * float(np.median([planning for planning, _, _ in lat]))
+    # The first changed sample is placed 2 periods after the planning time expected (the
+    # fastest recent one; a miss is planned again further ahead, and that request's
+    # planning time counts both attempts): up to the spread of planning times on a loaded
+    # machine, request → due is the planning time + 2 periods.
+    excess = [due - planning for planning, due, _, _ in lat]
+    allowance = 0.5 * float(np.median([planning for planning, _, _, _ in lat]))
     assert float(np.median(excess)) <= 2.0 / RATE + allowance, lat
-    # and sent then, up to the loop's own lateness on a loaded machine
-    assert all(sent - due < 0.05 for _, due, sent in lat), lat
+    # it is sent then, up to the loop's own lateness on a loaded machine
+    assert all(sent - due < 0.05 for _, due, sent, _ in lat), lat
 
 
 def test_a_retarget_that_cannot_be_planned_changes_nothing(sa):

@@ -180,8 +180,9 @@ class Execution:
     paused : True while paused (or braking into a pause)
     report : the :class:`ExecutionReport` once finished (None before)
     error : the exception :func:`execute` raised (a refusal before any write), or None
-    switches : (request time, first changed sample, its due time, planning seconds) of every
-        operation applied (perf_counter clock), for latency measurements
+    switches : (request time, first changed sample, its due time, planning seconds, the
+        planning time the switch was placed for) of every operation applied (perf_counter
+        clock), for latency measurements
     """
 
     def __init__(self, trajectory: Trajectory, bus: ServoBus, stop: StopSignal,
@@ -196,7 +197,7 @@ class Execution:
         self.paused = False
         self.report: ExecutionReport | None = None
         self.error: BaseException | None = None
-        self.switches: list[tuple[float, int, float, float]] = []
+        self.switches: list[tuple[float, int, float, float, float]] = []
         self.on_change: Callable[[str], None] | None = None
         self._smooth_stopped = False
         self._lock = threading.RLock()
@@ -294,16 +295,17 @@ class Execution:
         joints = np.array([src.joint(int(i)) for i in index]) if n else np.zeros((0, 0))
         return index, np.array(s.sent_at[:n]), joints
 
-    def latencies(self) -> list[tuple[float, float, float]]:
+    def latencies(self) -> list[tuple[float, float, float, float]]:
         """Per operation applied: (planning s, request → due time of the first changed
-        sample s, request → that sample actually sent s). Sent − due is the loop's own
-        lateness at that moment (a loaded machine)."""
+        sample s, request → that sample actually sent s, the planning time the switch was
+        placed for s). Sent − due is the loop's own lateness at that moment (a loaded
+        machine); due ≈ placed-for + 2 periods."""
         index, at, _ = self.sent()
         out = []
-        for requested, first, due, took in self.switches:
+        for requested, first, due, took, ahead in self.switches:
             hit = np.flatnonzero(index >= first)
             if hit.size:
-                out.append((took, due - requested, float(at[hit[0]] - requested)))
+                out.append((took, due - requested, float(at[hit[0]] - requested), ahead))
         return out
 
     # -- the commanded state and the swap -------------------------------------------------
@@ -359,7 +361,7 @@ class Execution:
                     streamer.swap(node)
                     took_total = time.perf_counter() - requested
                     due = streamer.t_start + first * streamer.period
-                    self.switches.append((requested, first, due, took_total))
+                    self.switches.append((requested, first, due, took_total, ahead))
                     self._plan_s[what] = [*self._plan_s.get(what, [])[-4:], took]
                     log.info("%s: switch at sample %d (planned in %.2f ms)", what, first,
                              took * 1000)
