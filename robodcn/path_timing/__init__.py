@@ -1,0 +1,14 @@
+"""Time-optimal, jerk-limited timing of a fixed geometric joint path (TOPP-RA + jerk pass).
+
+Public interface: :func:`time_optimal` → :class:`PathTiming` (or its :class:`ChainTiming`
+when jerk-limited with stops; ``duration``, ``sample``,
+``at``, ``stretch``); :func:`max_start_speed`; :class:`Samples`. numpy only.
+"""
+
+from __future__ import annotations
+
+from robodcn.path_timing.law import ChainTiming, PathTiming, Samples
+from robodcn.path_timing.optimal import max_start_speed, path_derivatives, time_optimal
+
+__all__ = ["ChainTiming", "PathTiming", "Samples", "max_start_speed", "path_derivatives",
+           "time_optimal"]

@@ -1,0 +1,192 @@
+"""robodcn.path_timing: time-optimal (TOPP-RA) and jerk-limited timing of a joint path."""
+
+from __future__ import annotations
+
+import itertools
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+from scipy.interpolate import CubicSpline
+
+from bench.bench_path_timing import cases, ours, toppra_duration
+from robodcn.errors import InputError
+from robodcn.path_timing import max_start_speed, time_optimal
+
+RATE = 1000.0
+# finite differences at the stream rate: a sampled law is checked within these shares
+V_TOL, A_TOL, J_TOL = 1e-3, 2e-2, 5e-2
+
+
+@pytest.fixture(scope="module")
+def paths():
+    return cases()
+
+
+def fd(q: np.ndarray, rate: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Joint velocity, acceleration, jerk by finite differences of stream samples."""
+    return (np.diff(q, axis=0) * rate, np.diff(q, 2, axis=0) * rate ** 2,
+            np.diff(q, 3, axis=0) * rate ** 3)
+
+
+def stream_joints(case, law) -> np.ndarray:
+    """q(s(t)) at the stream rate: a cubic spline through the samples of each piece."""
+    m = law.sample(RATE)
+    cuts = [0, *(int(np.argmin(np.abs(case.s - x))) for x in case.stops), case.s.shape[0] - 1]
+    q = np.empty((m.s.shape[0], case.q.shape[1]))
+    for lo, hi in itertools.pairwise(cuts):
+        inside = (m.s >= case.s[lo]) & (m.s <= case.s[hi])
+        q[inside] = CubicSpline(case.s[lo:hi + 1], case.q[lo:hi + 1])(m.s[inside])
+    return q
+
+
+def test_at_least_20_varied_paths(paths):
+    names = [c.name for c in paths]
+    assert len(paths) >= 20
+    for word in ("arm2r", "arm3r", "sclerp", "kenlerp", "seplerp", "dlb", "stops", "blend"):
+        assert any(word in n for n in names), word
+
+
+def test_jerk_free_duration_within_2_percent_of_toppra(paths):
+    for case in paths:
+        ratio = ours(case).duration / toppra_duration(case)
+        assert ratio <= 1.02, (case.name, ratio)
+
+
+def test_jerk_free_law_within_limits_at_stream_rate(paths):
+    for case in paths:
+        # the full sample grid: a coarser one steps over a blend's curvature corners
+        law = ours(case, max_stages=case.s.shape[0])
+        v, a, _ = case.limits
+        vel, acc, _ = fd(stream_joints(case, law), RATE)
+        assert (np.abs(vel) <= v * (1 + V_TOL) + 1e-9).all(), case.name
+        # FD acceleration spans two samples across a step of s̈: compare with the limit
+        assert (np.abs(acc) <= a * (1 + A_TOL) + 1e-9).all(), case.name
+
+
+def _within_every_limit(cases_) -> None:
+    for case in cases_:
+        law = ours(case, jerk=True, rate_hz=RATE)
+        v, a, j = case.limits
+        vel, acc, jrk = fd(stream_joints(case, law), RATE)
+        assert (np.abs(vel) <= v * (1 + V_TOL)).all(), case.name
+        assert (np.abs(acc) <= a * (1 + A_TOL)).all(), case.name
+        assert (np.abs(jrk) <= j * (1 + J_TOL)).all(), (case.name, (np.abs(jrk) / j).max())
+        assert law.duration >= ours(case).duration
+
+
+def test_jerk_limited_law_within_every_limit(paths):
+    # blends included: their curvature corners (the blended geometry is C¹ only) are crossed
+    # slowly enough that the step of joint acceleration stays within the jerk limit
+    _within_every_limit(paths)
+
+
+def test_blend_never_slower_than_stopping_at_every_via(paths):
+    by_path: dict[str, dict[str, float]] = {}
+    for case in paths:
+        if len(case.waypoints) > 2:
+            kind = "blend" if case.blend else "stops"
+            by_path.setdefault(case.name.rsplit(" ", 1)[0], {})[kind] = ours(case).duration
+    assert by_path
+    for name, d in by_path.items():
+        assert d["blend"] <= d["stops"], name
+
+
+def test_stops_are_at_rest(paths):
+    case = next(c for c in paths if c.stops)
+    for jerk in (False, True):
+        law = ours(case, jerk=jerk)
+        m = law.at(np.linspace(0, law.duration, 200_001))
+        for stop in case.stops:
+            i = int(np.argmin(np.abs(m.s - stop)))
+            assert m.sd[i] < 1e-2 * m.sd.max(), (jerk, stop, m.sd[i])
+
+
+def test_stretch_is_uniform_and_refuses_shorter(paths):
+    case = paths[0]
+    law = ours(case, jerk=True)
+    longer = law.stretch(2.0 * law.duration)
+    assert longer.duration == pytest.approx(2.0 * law.duration)
+    a = law.at(np.array([0.3 * law.duration]))
+    b = longer.at(np.array([0.6 * law.duration]))
+    assert b.s[0] == pytest.approx(a.s[0])
+    assert b.sd[0] == pytest.approx(a.sd[0] / 2) and b.sdd[0] == pytest.approx(a.sdd[0] / 4)
+    with pytest.raises(InputError) as err:
+        law.stretch(0.9 * law.duration)
+    assert err.value.field == "duration" and "shorter than the time-optimal" in str(err.value)
+
+
+def test_scale_slows_by_its_inverse(paths):
+    case = paths[0]
+    full, half = ours(case), ours(case, scale=0.5)
+    assert half.duration == pytest.approx(2.0 * full.duration, rel=1e-6)
+
+
+@pytest.mark.parametrize(("kwargs", "field"), [
+    ({"scale": 0.0}, "scale"), ({"scale": 1.5}, "scale"), ({"sd_start": -1.0}, "sd_start"),
+    ({"v_max": [1.0]}, "v_max"), ({"a_max": [1.0, -1.0]}, "a_max"),
+    ({"stops": [1.0]}, "stops"), ({"sd_start": 1e6}, "sd_start"),
+])
+def test_bad_input_names_the_argument(kwargs, field):
+    s = np.linspace(0, 1, 101)
+    q = np.stack([s, s ** 2], axis=1)
+    args = {"v_max": [1.0, 1.0], "a_max": [2.0, 2.0], **kwargs}
+    with pytest.raises(InputError) as err:
+        time_optimal(q, s, args.pop("v_max"), args.pop("a_max"), **args)
+    assert err.value.field == field
+
+
+def test_max_start_speed_is_the_controllable_limit(paths):
+    case = paths[0]
+    v, a, _ = case.limits
+    top = max_start_speed(case.q, case.s, v, a)
+    assert top > 0
+    assert ours(case, sd_start=0.999 * top).sample(RATE).sd[0] == pytest.approx(0.999 * top)
+    with pytest.raises(InputError) as err:
+        ours(case, sd_start=1.01 * top)
+    assert err.value.field == "sd_start"
+
+
+def test_bad_grid_is_refused():
+    with pytest.raises(InputError) as err:
+        time_optimal(np.zeros((3, 2)), np.array([0.0, 0.5, 0.5]), [1, 1], [1, 1])
+    assert err.value.field == "s"
+
+
+# -- properties on random smooth paths ---------------------------------------------------------
+
+def _path(coef: list[float], s: np.ndarray) -> np.ndarray:
+    """q_j(s) = c1 s + c2 sin(c3 s + j): smooth, with exact values at any s."""
+    c1, c2, c3 = coef
+    return np.stack([c1 * s + c2 * np.sin(c3 * s + j) + j * 0.3 * s for j in range(2)], axis=1)
+
+
+@settings(max_examples=25, deadline=None)
+@given(coef=st.tuples(st.floats(0.3, 2.0), st.floats(-0.5, 0.5), st.floats(0.5, 4.0)),
+       v=st.floats(0.5, 3.0), a=st.floats(2.0, 20.0), jerk=st.booleans(),
+       start_share=st.floats(0.0, 0.6), with_stop=st.booleans())
+def test_properties(coef, v, a, jerk, start_share, with_stop):
+    s = np.linspace(0.0, 1.0, 801)
+    q = _path(list(coef), s)
+    vmax, amax, jmax = np.full(2, v), np.full(2, a), np.full(2, 10.0 * a)
+    stops = [0.5] if with_stop else []
+    free = time_optimal(q, s, vmax, amax, stops=stops)
+    # a moving start at a share of the fastest speed the path allows at s = 0
+    # (with a jerk limit the braking ramps need room: a smaller share of it)
+    sd0 = start_share * (0.3 if jerk else 1.0) * max_start_speed(q, s, vmax, amax, stops=stops)
+    law = time_optimal(q, s, vmax, amax, jmax if jerk else None, sd_start=sd0, stops=stops,
+                       rate_hz=RATE)
+    m = law.sample(RATE)
+    assert m.sd[0] == pytest.approx(sd0, abs=1e-9)
+    assert m.s[0] == pytest.approx(0.0, abs=1e-12)
+    assert m.s[-1] == pytest.approx(1.0, abs=1e-9) and abs(m.sd[-1]) < 1e-9
+    assert (np.diff(m.s) >= -1e-12).all()
+    vel, acc, jrk = fd(_path(list(coef), m.s), RATE)
+    assert (np.abs(vel) <= v * (1 + V_TOL) + 1e-9).all()
+    # FD over a coarse-grid law (801 samples, ≤ 1000 stages): 5 % (see the report)
+    assert (np.abs(acc) <= a * 1.05 + 2 * v * a / RATE).all(), (np.abs(acc) / a).max()
+    if jerk:
+        assert (np.abs(jrk) <= 10.0 * a * (1 + J_TOL)).all(), (np.abs(jrk) / (10 * a)).max()
+    if sd0 == 0.0:
+        assert law.duration >= free.duration * (1 - 1e-9)
