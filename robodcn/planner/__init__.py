@@ -23,6 +23,10 @@ Structure of a plan
   waypoint (the branch and 2π turn nearest start_joints, unless that turn is outside the
   joint limits and another is inside), a joint-space quintic from start_joints is
   prepended. It is always timed "auto" and comes on top of a numeric ``duration``.
+* **Optimal (the default profile).** :mod:`~robodcn.planner.optimal`: the same geometry,
+  timed time-optimally by :mod:`robodcn.path_timing` (whole path at once; stops at vias
+  without blend; from a moving ``start_state``). The rest of this docstring describes the
+  uniform profiles.
 * **Duration.** A number: the path's time, rounded up to whole sample periods and split over
   stop segments in proportion to their own shortest durations. "auto": per piece, the
   smallest number of sample periods N for which the finite-difference checks pass. The
@@ -52,11 +56,11 @@ from robodcn.contract import MAX_SAMPLES
 from robodcn.dcn import TURNS
 from robodcn.errors import BetaIgnoredWarning, BranchSwitchWarning
 from robodcn.planner.build import plan, plan_request
-from robodcn.planner.request import PlanRequest
+from robodcn.planner.request import PlanRequest, StartState
 from robodcn.planner.trajectory import Trajectory
 from robodcn.planner.validate import ANGLE_SLACK, LIMIT_SLACK
-from robodcn.timing import PROFILES
+from robodcn.timing import PROFILES, UNIFORM_PROFILES
 
 __all__ = ["ANGLE_SLACK", "LIMIT_SLACK", "MAX_SAMPLES", "PROFILES", "TURNS",
-           "BetaIgnoredWarning", "BranchSwitchWarning", "PlanRequest", "Trajectory", "plan",
-           "plan_request"]
+           "BetaIgnoredWarning", "BranchSwitchWarning", "PlanRequest", "StartState", "Trajectory",
+           "UNIFORM_PROFILES", "plan", "plan_request"]
