@@ -22,7 +22,8 @@ Cross-field rules the schema cannot say (checked by the parser, before any plann
 ``duration × rate_hz`` sample periods must cover one per segment and stay within
 :data:`MAX_SAMPLES` samples (413); ``waypoints`` holds at most :data:`MAX_WAYPOINTS` poses
 (413); a waypoint is (x, y, θ), or (x, y) on a 2-joint (position-only) arm;
-``start_joints`` has one angle per joint, each within that joint's limits; per-segment lists
+``start_joints`` has one angle per joint, each within that joint's limits; ``start_state``
+excludes ``start_joints`` and, when moving, needs profile ``optimal``; per-segment lists
 of ``method``/``turn`` have one entry per segment.
 
 Only numpy and the standard library are imported here, so the planning core stays light.
@@ -252,6 +253,18 @@ def _specialise(name: str, schema: dict[str, Any], arm: Arm) -> None:
         schema["prefixItems"] = [{"type": "number", "minimum": j.min_angle,
                                   "maximum": j.max_angle} for j in arm.joints]
         schema["items"] = False
+    elif name == "start_state":
+        props = schema["properties"]
+        for key, bound in (("joints", None), ("velocities", "max_velocity"),
+                           ("accelerations", "max_acceleration")):
+            item = props[key]
+            item["minItems"] = item["maxItems"] = arm.dof
+            item["prefixItems"] = [
+                {"type": "number", "minimum": j.min_angle, "maximum": j.max_angle}
+                if bound is None else
+                {"type": "number", "minimum": -getattr(j, bound), "maximum": getattr(j, bound)}
+                for j in arm.joints]
+            item["items"] = False
 
 
 # -- checks shared by the parser and PlanRequest ------------------------------------------------

@@ -153,6 +153,8 @@ def _segments(req: PlanRequest) -> list:
 
 def _time(piece: _Piece, arm, rate: float, *, sd_start: float = 0.0, sdd_start: float = 0.0,
           scale: float = 1.0):
+    if float(np.ptp(piece.q, axis=0).max()) <= 1e-12:
+        return None
     v, a, j = limits(arm)
     return time_optimal(piece.q, piece.s, v, a, j, sd_start=sd_start, sdd_start=sdd_start,
                         rate_hz=rate, scale=scale * GRID_MARGIN)
@@ -161,6 +163,13 @@ def _time(piece: _Piece, arm, rate: float, *, sd_start: float = 0.0, sdd_start: 
 def _sample(piece: _Piece, arm, rate: float, ref: NDArray | None, elbow: str
             ) -> tuple[NDArray, NDArray | None, int | None, NDArray]:
     """(poses, joints or None, first sample out of reach, s) of the piece's law."""
+    if piece.law is None:  # nothing moves: held for one period
+        s = np.zeros(2)
+        piece.count = 1
+        poses = piece.poses(s, arm)
+        q, bad = (piece.joints_line(s), None) if piece.path is None else \
+            joints_of(arm, poses, ref, elbow)
+        return poses, q, bad, s
     m = piece.law.sample(rate)
     piece.count = m.t.shape[0] - 1
     if piece.path is None:
@@ -213,6 +222,9 @@ def build_pieces(req: PlanRequest) -> tuple[list[_Piece] | None, NDArray | None]
             first_q = q[0]
         piece.s, piece.q = s, q
         ref = q[-1]
+    # a piece along which no joint moves (coincident waypoints) takes no time: drop it
+    moving_pieces = [p for p in pieces if float(np.ptp(p.q, axis=0).max()) > 1e-12]
+    pieces = moving_pieces or pieces[:1]
     if req.start_joints is not None:
         start = np.asarray(req.start_joints)
         target = within_limits(first_q, limits_)
@@ -272,7 +284,7 @@ def time_first(req: PlanRequest, first: _Piece, scale: float
     first.law = _time(first, req.arm, req.rate_hz, sd_start=sd0, sdd_start=sdd0, scale=scale)
     if req.start_state is not None and req.start_state.moving:
         d1, d2 = (d[0] for d in path_derivatives(first.q, first.s, [], 2))
-        sdd_law = float(first.law.at(np.array([0.0])).sdd[0])
+        sdd_law = 0.0 if first.law is None else float(first.law.at(np.array([0.0])).sdd[0])
         ra = req.start_state.arrays()[2] - d2 * sd0 ** 2 - d1 * sdd_law
     return sd0, sdd0, rv, ra
 
@@ -281,7 +293,7 @@ def fit_duration(req: PlanRequest, pieces: list[_Piece]) -> None:
     """Stretch every piece by one factor so the whole periods add up to req.duration."""
     rate = req.rate_hz
     total = intervals(req.duration, rate)
-    need = [p.law.duration for p in pieces]
+    need = [0.0 if p.law is None else p.law.duration for p in pieces]
     optimum = sum(math.ceil(d * rate - 1e-9) for d in need)
     if req.start_state is not None and req.start_state.moving:
         raise InputError("duration: a fixed duration cannot be combined with a moving "
@@ -300,15 +312,34 @@ def fit_duration(req: PlanRequest, pieces: list[_Piece]) -> None:
         spare = [n - math.ceil(d * rate - 1e-9) for n, d in zip(shares, need, strict=True)]
         shares[int(np.argmax(spare))] -= 1
     for piece, n in zip(pieces, shares, strict=True):
-        piece.law = piece.law.stretch(max(n / rate, piece.law.duration))
+        if piece.law is not None:
+            piece.law = piece.law.stretch(max(n / rate, piece.law.duration))
 
 
-def _slow(piece: _Piece, violation: Violation) -> None:
-    ratio = max(1.0, violation.value / violation.limit)
-    factor = ratio ** (1.0 / _ORDER[violation.quantity]) * 1.002
+def stretch_factors(req: PlanRequest, joints: NDArray, history: NDArray | None) -> NDArray:
+    """Per sample, the uniform stretch λ that brings its finite differences within the limits:
+    max(|q̇|/v, √(|q̈|/a), ∛(|q⃛|/j)) over the joints, charged as validation charges them
+    (to the last sample of each difference), and spread back over the samples they span."""
+    v, a, j = validate.dynamic_limits(req.arm)
+    rate = req.rate_hz
+    f = np.ones(joints.shape[0])
+    for order, lim in ((1, v), (2, a), (3, j)):
+        if not np.isfinite(lim).any():
+            continue
+        d = validate._differences(joints, order, history) * rate ** order
+        r = (d / lim).max(axis=1) ** (1.0 / order)
+        for back in range(order + 1):  # every sample the difference spans
+            f[:f.shape[0] - back] = np.maximum(f[:f.shape[0] - back], r[back:])
+    return f
+
+
+def _slow(piece: _Piece, factor: float) -> None:
+    if piece.law is None or factor <= 1.0:
+        return
+    factor *= 1.001
     piece.law = piece.law.stretch(piece.law.duration * factor)
-    log.debug("optimal: piece slowed by %.4f after a %s of %.4g over %.4g at sample %d",
-              factor, violation.quantity, violation.value, violation.limit, violation.sample)
+    log.debug("optimal: piece slowed by %.4f (its samples passed a limit between the grid's "
+              "stages)", factor)
 
 
 def plan(req: PlanRequest):
@@ -371,9 +402,11 @@ def plan(req: PlanRequest):
             tb = _window(tb, scale, rv, arm)
             blend_out = True
             continue
-        for p in range(which, int(min(span[1], len(pieces) - 1)) + 1):
+        factors = stretch_factors(req, joints, history)
+        edges = [*starts.tolist(), joints.shape[0] - 1]
+        for p, piece in enumerate(pieces):
             if not (moving and p == 0):
-                _slow(pieces[p], violation)
+                _slow(piece, float(factors[edges[p]:edges[p + 1] + 1].max()))
     else:
         validate.raise_for(violation)
     t = np.arange(joints.shape[0]) / rate
