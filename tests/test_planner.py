@@ -287,7 +287,8 @@ def test_auto_blended_is_minimal() -> None:
     traj = plan(ARM3R, WAYPOINTS_3R, profile="quintic", blend=True, rate_hz=rate)
     check_trajectory(traj, ARM3R, WAYPOINTS_3R)
     with pytest.raises((VelocityLimitError, AccelerationLimitError)):
-        plan(ARM3R, WAYPOINTS_3R, profile="quintic", blend=True, rate_hz=rate, duration=0.99 * traj.duration)
+        plan(ARM3R, WAYPOINTS_3R, profile="quintic", blend=True, rate_hz=rate,
+             duration=0.99 * traj.duration)
 
 
 def test_auto_closed_form_matches_the_search() -> None:
@@ -314,7 +315,8 @@ def max_velocity_jump(traj: Trajectory) -> float:
 
 def test_blended_via_points_have_continuous_velocity() -> None:
     corner = [[0.25, 0.0, 0.0], [0.25, 0.2, 0.5], [0.05, 0.25, 1.0]]
-    slow = [plan(ARM3R, corner, profile="quintic", blend=True, duration=3.0, rate_hz=r) for r in (100, 1000)]
+    slow = [plan(ARM3R, corner, profile="quintic", blend=True, duration=3.0, rate_hz=r)
+            for r in (100, 1000)]
     # continuous velocity: the largest step in velocity shrinks with the sample period
     assert max_velocity_jump(slow[1]) < 0.2 * max_velocity_jump(slow[0])
     traj = slow[1]

@@ -125,7 +125,8 @@ def time_optimal(q: ArrayLike, s: ArrayLike, v_max: ArrayLike, a_max: ArrayLike,
                  j_max: ArrayLike | None = None, *, sd_start: float = 0.0,
                  sdd_start: float = 0.0, sd_end: float = 0.0, stops: Sequence[float] = (),
                  rate_hz: float | None = None, scale: float = 1.0,
-                 max_stages: int = MAX_STAGES, accel_share: float = 0.95) -> PathTiming:
+                 max_stages: int = MAX_STAGES, accel_share: float = 0.95,
+                 smooth: bool = False) -> PathTiming:
     """Least-duration time law s(t) along the joint path q(s) under per-joint limits.
 
     Parameters
@@ -144,6 +145,9 @@ def time_optimal(q: ArrayLike, s: ArrayLike, v_max: ArrayLike, a_max: ArrayLike,
     scale : speed scaling k ∈ (0, 1]: limits v·k, a·k², j·k³
     max_stages : reachability grid size at most (samples are subsampled evenly above it)
     accel_share : share of a_max the jerk pass's optimal law may use before filtering
+    smooth : the path is C² between stops (as the planner's blends are): the jerk pass then
+        skips its curvature-corner caps, which otherwise read every fast change of q''
+        between samples as a step (a C¹ corner) and slow the law there
 
     Returns
     -------
@@ -197,7 +201,8 @@ def time_optimal(q: ArrayLike, s: ArrayLike, v_max: ArrayLike, a_max: ArrayLike,
     from robodcn.path_timing.jerk import jerk_limited
     return jerk_limited(s, derivs, grid, cap, v, a, j, sd_start=sd_start, sdd_start=sdd_start,
                         stop_idx=stop_idx, rate_hz=rate_hz or CHECK_RATE_HZ,
-                        accel_share=accel_share, solve=_solve, stage_times=_stage_times)
+                        accel_share=accel_share, solve=_solve, stage_times=_stage_times,
+                        smooth=smooth)
 
 
 def max_start_speed(q: ArrayLike, s: ArrayLike, v_max: ArrayLike, a_max: ArrayLike, *,

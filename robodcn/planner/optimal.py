@@ -157,7 +157,7 @@ def _time(piece: _Piece, arm, rate: float, *, sd_start: float = 0.0, sdd_start: 
         return None
     v, a, j = limits(arm)
     return time_optimal(piece.q, piece.s, v, a, j, sd_start=sd_start, sdd_start=sdd_start,
-                        rate_hz=rate, scale=scale * GRID_MARGIN)
+                        rate_hz=rate, scale=scale * GRID_MARGIN, smooth=True)
 
 
 def _sample(piece: _Piece, arm, rate: float, ref: NDArray | None, elbow: str
@@ -201,7 +201,6 @@ def build_pieces(req: PlanRequest) -> tuple[list[_Piece] | None, NDArray | None]
     """The pieces with their dense joint paths (None, first bad pose if the path leaves the
     workspace)."""
     arm = req.arm
-    rate = req.rate_hz
     segments = _segments(req)
     pieces = _pieces(req, segments)
     state = req.start_state
@@ -355,11 +354,11 @@ def plan(req: PlanRequest):
         return _unreachable(req, bad_pose)
     tries = iter(_BLEND_TRIES)
     tb, scale = 0.0, 1.0
-    sd0, sdd0, rv, ra = time_pieces(req, pieces, scale)
+    _, _, rv, ra = time_pieces(req, pieces, scale)
     blend_out = bool(np.abs(rv).max(initial=0.0) > 1e-12 or np.abs(ra).max(initial=0.0) > 1e-9)
     if blend_out:
         tb, scale = next(tries)
-        sd0, sdd0, rv, ra = time_first(req, pieces[0], scale)
+        _, _, rv, ra = time_first(req, pieces[0], scale)
         tb = _window(tb, scale, rv, arm)
     if req.duration != "auto":
         fit_duration(req, pieces)
@@ -375,7 +374,7 @@ def plan(req: PlanRequest):
             validate.raise_for(sampled)
         poses, joints, segment_of, marks, starts = sampled
         if blend_out:
-            n_b = min(joints.shape[0], int(math.ceil(tb * rate)) + 1)
+            n_b = min(joints.shape[0], math.ceil(tb * rate) + 1)
             t = np.arange(n_b) / rate
             joints[:n_b] += _correction(rv, ra, tb, t)
             poses[:n_b] = kinematics.fk(arm.links, joints[:n_b])
@@ -398,7 +397,7 @@ def plan(req: PlanRequest):
             if nxt is None:
                 validate.raise_for(violation)
             tb, scale = nxt
-            sd0, sdd0, rv, ra = time_first(req, pieces[0], scale)
+            _, _, rv, ra = time_first(req, pieces[0], scale)
             tb = _window(tb, scale, rv, arm)
             blend_out = True
             continue
