@@ -27,7 +27,9 @@ continuous IK); only the time law differs from the uniform profiles.
   ṡ₀ is the least-squares projection of q̇0 on the path tangent q'(0),
   ṡ₀ = max(0, q'·q̇0 / |q'|²) (at most 95 % of the fastest start speed from which the path
   can still be followed, :func:`robodcn.path_timing.max_start_speed`), and s̈₀ likewise from
-  q̈0 − q''ṡ₀². What the projection leaves, r_v = q̇0 − q'ṡ₀ and r_a = q̈0 − q''ṡ₀² − q's̈₀,
+  q̈0 − q''ṡ₀² (without a jerk limit the acceleration may step at t = 0, so only the
+  velocity must match: r_a = 0). What the projection leaves, r_v = q̇0 − q'ṡ₀ and
+  r_a = q̈0 − q''ṡ₀² − q's̈(0),
   is blended out in joint space over the first T_b seconds by the quintic correction
   e(t) = T_b r_v h_v(t/T_b) + T_b² r_a h_a(t/T_b) with h_v = τ(1 − τ)³(1 + 3τ),
   h_a = τ²(1 − τ)³/2 (e(0) = 0, ė(0) = r_v, ë(0) = r_a, zero to second order at T_b): the
@@ -66,8 +68,13 @@ RETRIES = 6
 #: cube): the grid bounds the limits at the stages only, and between them the stream's
 #: samples can pass them by about 0.1 %; a piece whose samples still fail is slowed (RETRIES)
 GRID_MARGIN = 0.999
-#: Share of the fastest admissible start speed a moving start may keep.
-START_SPEED_SHARE = 0.95
+#: The blend-out of a moving start ends within this share of the first piece's law.
+BLEND_SHARE = 0.8
+#: Share of the fastest admissible start speed a moving start may keep: without a jerk limit
+#: the law may ride the controllable set's edge (rounding only), with one the jerk pass needs
+#: room to ramp the acceleration.
+START_SPEED_SHARE = 0.999
+START_SPEED_SHARE_JERK = 0.95
 _ORDER = {"velocity": 1, "acceleration": 2, "jerk": 3}
 # blend-out windows (s) tried for a non-tangent start, and the path's limit scale with each
 _BLEND_TRIES = ((0.05, 0.9), (0.1, 0.8), (0.15, 0.7), (0.25, 0.6), (0.4, 0.5), (0.6, 0.4),
@@ -182,6 +189,20 @@ def _sample(piece: _Piece, arm, rate: float, ref: NDArray | None, elbow: str
     return poses, q, bad, m.s
 
 
+def _next_blend(req: PlanRequest, first: _Piece, tries) -> tuple | None:
+    """The next (T_b, k, r_v, r_a) whose blend-out ends within the first piece's law (a
+    shorter law cannot carry it: try the next, lower k); the last try when none fits; None
+    when the tries are used up."""
+    last = None
+    for tb, scale in tries:
+        _, _, rv, ra = time_first(req, first, scale)
+        tb = _window(tb, scale, rv, req.arm)
+        last = (tb, scale, rv, ra)
+        if first.law is None or tb <= BLEND_SHARE * first.law.duration:
+            return last
+    return last
+
+
 def _window(tb: float, scale: float, rv: NDArray, arm) -> float:
     """The blend-out time: at least ``tb``, and long enough that 3.94 |r_v| / T_b ≤ (1 − k²) a
     (module doc)."""
@@ -253,10 +274,10 @@ def project_start(req: PlanRequest, first: _Piece, scale: float = 1.0
     norm2 = float(d1 @ d1)
     sd0 = sdd0 = 0.0
     if norm2 > 0:
-        v, a, _ = limits(req.arm)
+        v, a, j = limits(req.arm)
         sd0 = max(0.0, float(d1 @ qd0) / norm2)
-        fastest = max_start_speed(first.q, first.s, v, a, scale=scale)
-        sd0 = min(sd0, START_SPEED_SHARE * fastest)
+        fastest = max_start_speed(first.q, first.s, v, a, scale=scale * GRID_MARGIN)
+        sd0 = min(sd0, (START_SPEED_SHARE if j is None else START_SPEED_SHARE_JERK) * fastest)
         sdd0 = float(d1 @ (qdd0 - d2 * sd0 ** 2)) / norm2
         # the path's own start acceleration within its (scaled) limits: the rest is blended
         a_path = np.abs(d2 * sd0 ** 2 + d1 * sdd0)
@@ -281,7 +302,11 @@ def time_first(req: PlanRequest, first: _Piece, scale: float
     a jerk limit the law may start with any acceleration, not the projected s̈₀)."""
     sd0, sdd0, rv, ra = project_start(req, first, scale)
     first.law = _time(first, req.arm, req.rate_hz, sd_start=sd0, sdd_start=sdd0, scale=scale)
-    if req.start_state is not None and req.start_state.moving:
+    if req.start_state is not None and req.start_state.moving and limits(req.arm)[2] is None:
+        # without a jerk limit the acceleration may step at t = 0 (within its limits, which
+        # validation checks across the start): only the velocity is blended out
+        ra = np.zeros_like(rv)
+    elif req.start_state is not None and req.start_state.moving:
         d1, d2 = (d[0] for d in path_derivatives(first.q, first.s, [], 2))
         sdd_law = 0.0 if first.law is None else float(first.law.at(np.array([0.0])).sdd[0])
         ra = req.start_state.arrays()[2] - d2 * sd0 ** 2 - d1 * sdd_law
@@ -355,11 +380,11 @@ def plan(req: PlanRequest):
     tries = iter(_BLEND_TRIES)
     tb, scale = 0.0, 1.0
     _, _, rv, ra = time_pieces(req, pieces, scale)
-    blend_out = bool(np.abs(rv).max(initial=0.0) > 1e-12 or np.abs(ra).max(initial=0.0) > 1e-9)
+    # a residual below this (rad/s, rad/s²) is rounding of the projection, left as it is:
+    # validation checks the start's differences against the given state anyway
+    blend_out = bool(np.abs(rv).max(initial=0.0) > 1e-6 or np.abs(ra).max(initial=0.0) > 1e-4)
     if blend_out:
-        tb, scale = next(tries)
-        _, _, rv, ra = time_first(req, pieces[0], scale)
-        tb = _window(tb, scale, rv, arm)
+        tb, scale, rv, ra = _next_blend(req, pieces[0], tries)
     if req.duration != "auto":
         fit_duration(req, pieces)
     state = req.start_state
@@ -393,12 +418,13 @@ def plan(req: PlanRequest):
         if moving and which == 0:
             # a moving start cannot be stretched: blend out over longer and time the path
             # with lower limits (the residual of the projection grows as ṡ₀ falls)
-            nxt = next(tries, None)
+            log.debug("optimal: moving start fails %s %.4g > %.4g at sample %d (blend-out %.3f s,"
+                      " scale %.2f): next try", violation.quantity, violation.value,
+                      violation.limit, violation.sample, tb, scale)
+            nxt = _next_blend(req, pieces[0], tries)
             if nxt is None:
                 validate.raise_for(violation)
-            tb, scale = nxt
-            _, _, rv, ra = time_first(req, pieces[0], scale)
-            tb = _window(tb, scale, rv, arm)
+            tb, scale, rv, ra = nxt
             blend_out = True
             continue
         factors = stretch_factors(req, joints, history)
