@@ -512,11 +512,8 @@ def test_random_requests_plan_or_fail_cleanly(arm: Arm, data: st.DataObject) -> 
             # auto never fails on the limits it chose the duration for
             assert not isinstance(err, VelocityLimitError | AccelerationLimitError)
         return
-    except InputError as err:  # only the 10⁶-sample cap may refuse a well-formed request,
-        # and a fixed duration shorter than the optimal law's (profile optimal)
-        assert err.field == "duration"
-        assert "more than 1000000" in str(err) or (
-            kwargs["profile"] == "optimal" and "shorter than the time-optimal" in str(err))
+    except InputError as err:  # only the 10⁶-sample cap may refuse a well-formed request
+        assert err.field == "duration" and "more than 1000000" in str(err)
         return
     check_trajectory(traj, arm, wps, approach="start_joints" in kwargs)
 
@@ -726,3 +723,184 @@ def test_issue_command_ends_elbow_up() -> None:
                          check=True, timeout=60)
     joints = np.array(json.loads(out.stdout)["joints"])
     assert (joints[1:, 1] < 0).all()
+
+
+# -- issue 10: profile "optimal" (time-optimal, jerk-limited) and planning from a moving start ----
+
+def _jerk(arm: Arm, per_accel: float | None) -> Arm:
+    """``arm`` with jerk limits per_accel × a per joint (None: no jerk limit)."""
+    return dataclasses.replace(arm, joints=tuple(
+        dataclasses.replace(j, max_jerk=None if per_accel is None
+                            else per_accel * j.max_acceleration) for j in arm.joints))
+
+
+ISSUE_VIAS = [[0.25, 0.10, 0.0], [0.2, 0.15, math.radians(20)], [0.15, 0.2, math.radians(40)],
+              [0.12, 0.24, math.radians(60)], [0.05, 0.25, math.radians(80)]]
+
+
+def fd_ratio(traj: Trajectory, arm: Arm, history: np.ndarray | None = None) -> float:
+    """Worst finite-difference velocity/acceleration/jerk over its limit (rest or history
+    before, rest after), computed here from the samples."""
+    q = traj.joints
+    worst = 0.0
+    for order, limit in ((1, [j.max_velocity for j in arm.joints]),
+                         (2, [j.max_acceleration for j in arm.joints]),
+                         (3, [j.max_jerk or math.inf for j in arm.joints])):
+        pre = np.repeat(q[:1], order, axis=0) if history is None else history[-order:]
+        p = np.concatenate([pre, q, np.repeat(q[-1:], order, axis=0)])
+        d = np.abs(np.diff(p, order, axis=0)) * traj.rate_hz ** order
+        worst = max(worst, float((d / np.asarray(limit)).max()))
+    return worst
+
+
+def test_optimal_is_the_default_profile() -> None:
+    assert PlanRequest(arm=ARM3R, waypoints=WAYPOINTS_3R).profile == "optimal"
+    assert timing.PROFILES[0] == "optimal" and set(timing.UNIFORM_PROFILES) < set(
+        timing.PROFILES)
+
+
+@pytest.mark.parametrize("per_accel", [None, 20.0], ids=["no-jerk", "jerk"])
+@pytest.mark.parametrize("blend", [False, True])
+@pytest.mark.parametrize(("arm", "waypoints"), [(ARM3R, ISSUE_VIAS), (ARM2R, WAYPOINTS_2R)],
+                         ids=["arm3r", "arm2r"])
+def test_optimal_keeps_every_limit_and_beats_quintic(arm: Arm, waypoints: Any, blend: bool,
+                                                     per_accel: float | None) -> None:
+    a = _jerk(arm, per_accel)
+    traj = plan(a, waypoints, blend=blend, rate_hz=1000)
+    check_trajectory(traj, a, waypoints)
+    assert fd_ratio(traj, a) <= 1 + 1e-9
+    quintic = plan(a, waypoints, blend=blend, rate_hz=1000, profile="quintic")
+    assert traj.duration <= quintic.duration
+
+
+@pytest.mark.parametrize("per_accel", [None, 20.0], ids=["no-jerk", "jerk"])
+def test_blend_is_never_slower_than_stopping(per_accel: float | None) -> None:
+    """The issue's example: through three vias blended vs stopping at each."""
+    a = _jerk(ARM3R, per_accel)
+    stop = plan(a, ISSUE_VIAS, rate_hz=1000)
+    blend = plan(a, ISSUE_VIAS, blend=True, rate_hz=1000)
+    assert blend.duration <= stop.duration
+    # stopping: a sample sits on every via, at rest (the steps either side are at most an
+    # acceleration from rest within its limit: |Δq| ≤ a Δt²)
+    acc = np.array([j.max_acceleration for j in a.joints])
+    for via in ISSUE_VIAS[1:-1]:
+        i = int(np.argmin(np.linalg.norm(stop.poses[:, :2] - via[:2], axis=1)))
+        np.testing.assert_allclose(stop.poses[i, :2], via[:2], atol=1e-9)
+        for step in (stop.joints[i + 1] - stop.joints[i], stop.joints[i] - stop.joints[i - 1]):
+            assert (np.abs(step) <= acc / 1000 ** 2 * (1 + 1e-9)).all()
+    # blending: the arm never rests in between
+    speed = np.abs(np.diff(blend.joints, axis=0)).max(axis=1)
+    assert speed[5:-5].min() > 0
+
+
+def test_optimal_is_within_two_percent_of_toppra() -> None:
+    toppra = pytest.importorskip("toppra")  # the bench extra
+    import toppra.algorithm as algo
+    import toppra.constraint as constraint
+
+    from robodcn.planner import optimal
+
+    toppra.setup_logging("WARNING")
+    free = _jerk(ARM3R, None)
+    for waypoints, blend in ((ISSUE_VIAS[:2], False), (ISSUE_VIAS, False), (ISSUE_VIAS, True)):
+        traj = plan(free, waypoints, blend=blend, rate_hz=1000)
+        v = np.array([j.max_velocity for j in free.joints])
+        acc = np.array([j.max_acceleration for j in free.joints])
+        pieces, _ = optimal.build_pieces(traj.request)
+        ref = 0.0
+        for piece in pieces:
+            path = toppra.SplineInterpolator(piece.s, piece.q)
+            solved = algo.TOPPRA([constraint.JointVelocityConstraint(v),
+                                  constraint.JointAccelerationConstraint(acc)], path,
+                                 parametrizer="ParametrizeConstAccel").compute_trajectory(0, 0)
+            ref += solved.duration
+        assert traj.duration <= 1.02 * ref
+        assert traj.duration >= 0.98 * ref  # and not faster than the optimum: same problem
+
+
+def test_fixed_duration_stretches_the_optimal_law() -> None:
+    free = _jerk(ARM3R, None)
+    auto = plan(free, ISSUE_VIAS, rate_hz=100)
+    slow = plan(free, ISSUE_VIAS, rate_hz=100, duration=2.5)
+    assert slow.duration == pytest.approx(2.5)
+    check_trajectory(slow, free, ISSUE_VIAS)
+    # the same path: every auto pose lies on the slow plan's poses (a stretch, not a new path)
+    d = np.linalg.norm(auto.poses[:, None, :2] - slow.poses[None, :, :2], axis=2).min(axis=1)
+    assert d.max() < 0.01
+    # shorter than the optimum: compressed, and the first sample past a limit is named
+    with pytest.raises((VelocityLimitError, AccelerationLimitError)) as info:
+        plan(free, ISSUE_VIAS, rate_hz=100, duration=0.5 * auto.duration)
+    assert info.value.field == "duration" and info.value.sample > 0
+
+
+def _moving_state(arm: Arm, at: float = 0.4) -> tuple[Trajectory, int, robodcn.StartState]:
+    run = plan(arm, ISSUE_VIAS[:1] + ISSUE_VIAS[-1:], rate_hz=1000)
+    i = int(at * run.t.shape[0])
+    q = run.joints
+    state = robodcn.StartState(q[i], (q[i + 1] - q[i - 1]) * 500.0,
+                               (q[i + 1] - 2 * q[i] + q[i - 1]) * 1e6)
+    return run, i, state
+
+
+@pytest.mark.parametrize("goal", [ISSUE_VIAS[-1], [0.0, 0.28, 1.9], [0.22, 0.05, -0.3]],
+                         ids=["same-goal", "further", "back"])
+def test_moving_start_is_matched_and_within_limits(goal: list[float]) -> None:
+    free = _jerk(ARM3R, None)
+    run, i, state = _moving_state(free)
+    here = [float(x) for x in run.poses[i]]
+    traj = plan(free, [here, goal], rate_hz=1000, start_state=state)
+    assert traj.start_state == state
+    np.testing.assert_array_equal(traj.joints[0], state.joints)
+    q0, v0, a0 = state.arrays()
+    from robodcn.planner.validate import start_history
+
+    history = start_history(q0, v0, a0, 1000.0)
+    assert fd_ratio(traj, free, history) <= 1 + 1e-9
+    # velocity continuous across the start: the first step is v0 Δt within one sample of
+    # maximum acceleration
+    a = np.array([j.max_acceleration for j in free.joints])
+    step = (traj.joints[1] - traj.joints[0]) * 1000 - v0
+    assert (np.abs(step) <= a / 1000 * (1 + 1e-9)).all()
+    np.testing.assert_allclose(traj.poses[-1, :2], goal[:2], atol=1e-9)
+    if goal is ISSUE_VIAS[-1]:
+        # retargeting to the goal it was heading for: no slower than the rest of that move
+        assert traj.duration <= run.duration - i / 1000 + 2e-3
+
+
+def test_start_state_rules_and_json() -> None:
+    free = _jerk(ARM3R, None)
+    run, i, state = _moving_state(free)
+    here = [float(x) for x in run.poses[i]]
+    with pytest.raises(InputError) as info:
+        plan(free, [here, ISSUE_VIAS[-1]], rate_hz=1000, start_state=state, duration=3.0)
+    assert info.value.field == "duration"
+    with pytest.raises(InputError) as info:
+        plan(free, [here, ISSUE_VIAS[-1]], rate_hz=1000, start_state=state, profile="quintic")
+    assert info.value.field == "start_state"
+    with pytest.raises(InputError) as info:
+        plan(free, [here, ISSUE_VIAS[-1]], start_state=state, start_joints=state.joints)
+    assert info.value.field == "start_state"
+    too_fast = robodcn.StartState(state.joints, [10.0, 0.0, 0.0])
+    with pytest.raises(InputError) as info:
+        plan(free, [here, ISSUE_VIAS[-1]], start_state=too_fast)
+    assert info.value.field == "start_state.velocities[0]"
+    traj = plan(free, [here, ISSUE_VIAS[-1]], rate_hz=1000, start_state=state)
+    back = Trajectory.from_json(traj.to_json(), free)
+    assert back.start_state == traj.start_state
+    np.testing.assert_array_equal(back.joints, traj.joints)
+    # a body gives it as an object
+    from robodcn import contract
+
+    req = contract.parse_request({"waypoints": [here, ISSUE_VIAS[-1]], "rate_hz": 1000,
+                                  "start_state": state.to_dict()}, free)
+    assert req.start_state == state
+
+
+def test_moving_start_from_a_pose_off_the_first_waypoint_goes_there_first() -> None:
+    """With a start state the path runs from FK(joints) through every waypoint."""
+    free = _jerk(ARM3R, None)
+    run, i, state = _moving_state(free)
+    traj = plan(free, [ISSUE_VIAS[2], ISSUE_VIAS[-1]], rate_hz=1000, start_state=state)
+    d = np.linalg.norm(traj.poses[:, :2] - ISSUE_VIAS[2][:2], axis=1)
+    assert d.min() < 1e-9  # stops there (no blend) and goes on
+    np.testing.assert_allclose(traj.poses[-1, :2], ISSUE_VIAS[-1][:2], atol=1e-9)

@@ -20,9 +20,11 @@ continuous IK); only the time law differs from the uniform profiles.
   with the limits scaled instead (a stretch would change its start speed). Nothing is
   clamped: a plan that still fails raises the first failing sample.
 * **Fixed duration.** The pieces' optimal laws are stretched uniformly by one factor so that
-  their whole periods add up to the duration (a shorter duration than the optimum is an
-  InputError naming it); a moving start cannot be stretched (its start velocity would
-  change), so a numeric duration with a moving ``start_state`` is refused.
+  their whole periods add up to the duration; a duration shorter than the optimum
+  compresses them alike, and validation names the first sample past a limit (as for the
+  uniform laws). A fixed duration is never lengthened to pass validation. A moving start
+  cannot be stretched (its start velocity would change), so a numeric duration with a
+  moving ``start_state`` is refused (InputError on ``duration``).
 * **Moving start** (``start_state``): the path runs from FK(q0) (the request's docstring);
   ṡ₀ is the least-squares projection of q̇0 on the path tangent q'(0),
   ṡ₀ = max(0, q'·q̇0 / |q'|²) (at most 95 % of the fastest start speed from which the path
@@ -78,7 +80,7 @@ START_SPEED_SHARE_JERK = 0.95
 _ORDER = {"velocity": 1, "acceleration": 2, "jerk": 3}
 # blend-out windows (s) tried for a non-tangent start, and the path's limit scale with each
 _BLEND_TRIES = ((0.05, 0.9), (0.1, 0.8), (0.15, 0.7), (0.25, 0.6), (0.4, 0.5), (0.6, 0.4),
-                (0.9, 0.3))
+                (0.9, 0.3), (1.2, 0.2), (1.5, 0.12))
 #: max |h_v''| over [0, 1] (at τ ≈ 0.243): the blend-out's acceleration is ≤ this r_v / T_b
 _HV2_PEAK = 3.94
 
@@ -187,6 +189,16 @@ def _sample(piece: _Piece, arm, rate: float, ref: NDArray | None, elbow: str
     if q is not None and arm.dof == 2:
         poses[:, 2] = q[:, 0] + q[:, 1]
     return poses, q, bad, m.s
+
+
+def _needs_blend(req: PlanRequest, rv: NDArray, ra: NDArray) -> bool:
+    """Whether the projection's residual needs a blend-out: a velocity step of at most a
+    quarter sample of maximum acceleration (|r_v| ≤ a Δt / 4, what rounding the start speed
+    to the grid leaves at a velocity limit) is left as a step, and validation checks the
+    acceleration it makes across the start; an acceleration residual only matters with a
+    jerk limit (time_first sets it to zero otherwise)."""
+    _, a, _ = limits(req.arm)
+    return bool((np.abs(rv) > 0.25 * a / req.rate_hz).any() or (np.abs(ra) > 1e-4).any())
 
 
 def _next_blend(req: PlanRequest, first: _Piece, tries) -> tuple | None:
@@ -325,10 +337,13 @@ def fit_duration(req: PlanRequest, pieces: list[_Piece]) -> None:
                          "velocity): use duration=\"auto\"", field="duration",
                          value=req.duration)
     if total < optimum:
-        raise InputError(f"duration {req.duration:g} s is shorter than the time-optimal "
-                         f"{optimum / rate:.6g} s under the joint limits (profile optimal): "
-                         "at least one joint limit would be exceeded", field="duration",
-                         value=req.duration)
+        # shorter than the optimum: the laws compressed uniformly to it, so validation names
+        # the first sample past a limit (as for the uniform profiles), nothing is clamped
+        lam = total / optimum
+        for piece in pieces:
+            if piece.law is not None:
+                piece.law = _compressed(piece.law, lam)
+        return
     shares = search.split(total, need)
     # each share covers its piece's optimum (largest remainder may round one down: fix up)
     shares = [max(n, math.ceil(d * rate - 1e-9)) for n, d in zip(shares, need, strict=True)]
@@ -357,6 +372,16 @@ def stretch_factors(req: PlanRequest, joints: NDArray, history: NDArray | None) 
     return f
 
 
+def _compressed(law, lam: float):
+    """``law`` run λ < 1 times its duration (the inverse of PathTiming.stretch)."""
+    from robodcn.path_timing import ChainTiming, PathTiming
+
+    if isinstance(law, ChainTiming):
+        return ChainTiming([_compressed(p, lam) for p in law.pieces])
+    return PathTiming(law._tb, law._sb, law._vb, law._u, window=law.window,
+                      s_start=law.s_start, stretch_factor=law.stretch_factor * lam)
+
+
 def _slow(piece: _Piece, factor: float) -> None:
     if piece.law is None or factor <= 1.0:
         return
@@ -382,7 +407,7 @@ def plan(req: PlanRequest):
     _, _, rv, ra = time_pieces(req, pieces, scale)
     # a residual below this (rad/s, rad/s²) is rounding of the projection, left as it is:
     # validation checks the start's differences against the given state anyway
-    blend_out = bool(np.abs(rv).max(initial=0.0) > 1e-6 or np.abs(ra).max(initial=0.0) > 1e-4)
+    blend_out = _needs_blend(req, rv, ra)
     if blend_out:
         tb, scale, rv, ra = _next_blend(req, pieces[0], tries)
     if req.duration != "auto":
@@ -399,6 +424,8 @@ def plan(req: PlanRequest):
             validate.raise_for(sampled)
         poses, joints, segment_of, marks, starts = sampled
         if blend_out:
+            # the blend-out ends within the first piece (at rest at its end when it stops)
+            tb = min(tb, pieces[0].count / rate)
             n_b = min(joints.shape[0], math.ceil(tb * rate) + 1)
             t = np.arange(n_b) / rate
             joints[:n_b] += _correction(rv, ra, tb, t)
@@ -409,8 +436,12 @@ def plan(req: PlanRequest):
                                           segment_of=segment_of, history=history)
         if violation is None:
             break
-        if violation.quantity not in _ORDER:
+        if violation.quantity not in _ORDER or req.duration != "auto":
+            # a fixed duration is the caller's: never lengthened to pass
             validate.raise_for(violation)
+        log.debug("optimal: %s %.4g > %.4g at sample %d of %d (piece starts %s)",
+                  violation.quantity, violation.value, violation.limit, violation.sample,
+                  joints.shape[0], starts.tolist())
         # the differences of a violation span the samples sample − order .. sample
         lo = violation.sample - _ORDER[violation.quantity]
         span = np.searchsorted(starts, [max(lo, 0), violation.sample], side="right") - 1
