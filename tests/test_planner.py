@@ -899,8 +899,22 @@ def test_start_state_rules_and_json() -> None:
 def test_moving_start_from_a_pose_off_the_first_waypoint_goes_there_first() -> None:
     """With a start state the path runs from FK(joints) through every waypoint."""
     free = _jerk(ARM3R, None)
-    run, i, state = _moving_state(free)
+    _, _, state = _moving_state(free)
     traj = plan(free, [ISSUE_VIAS[2], ISSUE_VIAS[-1]], rate_hz=1000, start_state=state)
     d = np.linalg.norm(traj.poses[:, :2] - ISSUE_VIAS[2][:2], axis=1)
     assert d.min() < 1e-9  # stops there (no blend) and goes on
     np.testing.assert_allclose(traj.poses[-1, :2], ISSUE_VIAS[-1][:2], atol=1e-9)
+
+
+@pytest.mark.parametrize("goal", [ISSUE_VIAS[-1], [0.22, 0.05, -0.3]], ids=["same", "back"])
+def test_moving_start_with_jerk_limits_keeps_every_limit(goal: list[float]) -> None:
+    arm = _jerk(ARM3R, 20.0)
+    run, i, state = _moving_state(arm)
+    here = [float(x) for x in run.poses[i]]
+    traj = plan(arm, [here, goal], rate_hz=1000, start_state=state)
+    np.testing.assert_array_equal(traj.joints[0], state.joints)
+    from robodcn.planner.validate import start_history
+
+    history = start_history(*state.arrays(), 1000.0)
+    assert fd_ratio(traj, arm, history) <= 1 + 1e-9
+    np.testing.assert_allclose(traj.poses[-1, :2], goal[:2], atol=1e-9)

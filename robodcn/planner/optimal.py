@@ -83,6 +83,10 @@ _BLEND_TRIES = ((0.05, 0.9), (0.1, 0.8), (0.15, 0.7), (0.25, 0.6), (0.4, 0.5), (
                 (0.9, 0.3), (1.2, 0.2), (1.5, 0.12))
 #: max |h_v''| over [0, 1] (at τ ≈ 0.243): the blend-out's acceleration is ≤ this r_v / T_b
 _HV2_PEAK = 3.94
+#: |h_v'''(0)| and |h_a'''(0)|: the blend-out's jerk is at most these × r_v/T_b², r_a/T_b
+_HV3_PEAK, _HA3_PEAK = 36.0, 9.0
+#: shares of the projected start speed tried when the jerk pass finds no law from it
+_START_SHARES = (1.0, 0.7, 0.4, 0.0)
 
 
 @dataclass
@@ -208,18 +212,24 @@ def _next_blend(req: PlanRequest, first: _Piece, tries) -> tuple | None:
     last = None
     for tb, scale in tries:
         _, _, rv, ra = time_first(req, first, scale)
-        tb = _window(tb, scale, rv, req.arm)
+        tb = _window(tb, scale, rv, req.arm, ra)
         last = (tb, scale, rv, ra)
         if first.law is None or tb <= BLEND_SHARE * first.law.duration:
             return last
     return last
 
 
-def _window(tb: float, scale: float, rv: NDArray, arm) -> float:
+def _window(tb: float, scale: float, rv: NDArray, arm, ra: NDArray | None = None) -> float:
     """The blend-out time: at least ``tb``, and long enough that 3.94 |r_v| / T_b ≤ (1 − k²) a
     (module doc)."""
-    _, a, _ = limits(arm)
-    return max(tb, _HV2_PEAK * float(np.max(np.abs(rv) / ((1.0 - scale ** 2) * a))) * 1.05)
+    _, a, j = limits(arm)
+    ra = np.zeros_like(rv) if ra is None else ra
+    tb = max(tb, _HV2_PEAK * float(np.max(np.abs(rv) / ((1.0 - scale ** 2) * a))) * 1.05)
+    if j is not None:  # its jerk 36 r_v/T_b² + 9 r_a/T_b within half of (1 − k³) j
+        room = (1.0 - scale ** 3) * j / 2.0
+        tb = max(tb, float(np.sqrt(np.max(_HV3_PEAK * np.abs(rv) / room))) * 1.05,
+                 float(np.max(_HA3_PEAK * np.abs(ra) / room)) * 1.05)
+    return tb
 
 
 def _correction(rv: NDArray, ra: NDArray, tb: float, t: NDArray) -> NDArray:
@@ -313,7 +323,24 @@ def time_first(req: PlanRequest, first: _Piece, scale: float
     """Time the first piece from the projected start; r_a from the law's own s̈(0) (without
     a jerk limit the law may start with any acceleration, not the projected s̈₀)."""
     sd0, sdd0, rv, ra = project_start(req, first, scale)
-    first.law = _time(first, req.arm, req.rate_hz, sd_start=sd0, sdd_start=sdd0, scale=scale)
+    for share in _START_SHARES:
+        try:
+            first.law = _time(first, req.arm, req.rate_hz, sd_start=sd0 * share,
+                              sdd_start=sdd0 * share, scale=scale)
+        except InputError as exc:
+            # the jerk pass found no law from this start (its filter needs room below the
+            # controllable set's edge): start slower along the path; the blend-out carries
+            # the rest of the velocity (from rest along the path at worst: share 0)
+            if exc.field not in ("sd_start", "sdd_start") or share == 0.0:
+                raise
+            log.debug("optimal: no jerk-limited law from ṡ₀ = %.4g: trying slower", sd0 * share)
+            continue
+        if share != 1.0:
+            qd0 = req.start_state.arrays()[1]
+            d1 = path_derivatives(first.q, first.s, [], 1)[0][0]
+            sd0 *= share
+            rv = qd0 - d1 * sd0
+        break
     if req.start_state is not None and req.start_state.moving and limits(req.arm)[2] is None:
         # without a jerk limit the acceleration may step at t = 0 (within its limits, which
         # validation checks across the start): only the velocity is blended out
