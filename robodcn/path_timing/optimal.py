@@ -40,6 +40,8 @@ from robodcn.path_timing.law import PathTiming
 
 #: stages of the reachability grid at most (the samples are subsampled evenly above this)
 MAX_STAGES = 1000
+#: TOPP-RA's "interpolation" discretisation (acceleration bounded at both ends of each stage)
+INTERPOLATED = True
 #: stream rate the jerk pass checks at when the caller gives none, Hz
 CHECK_RATE_HZ = 1000.0
 #: inner margin of the jerk pass: it aims for (1 - margin) × every limit
@@ -95,9 +97,28 @@ def _grid(n: int, stop_idx: NDArray[np.int64], max_stages: int) -> NDArray[np.in
     return np.union1d(even, stop_idx)
 
 
+def _interpolated(sg: NDArray, dq: NDArray, ddq: NDArray, v: NDArray, a: NDArray
+                  ) -> tuple[NDArray, NDArray, NDArray, NDArray]:
+    """The "interpolation" discretisation of TOPP-RA (Pham & Pham 2018, §V-B): stage i also
+    bounds the acceleration at its end point, q'_{i+1} u + q''_{i+1} x_{i+1} with
+    x_{i+1} = x + 2Δ_i u, i.e. a virtual joint with q' = q'_{i+1} + 2Δ_i q''_{i+1} and
+    q'' = q''_{i+1} (no velocity bound of its own: stage i + 1 bounds it). So the law keeps the
+    acceleration limits at both ends of every stage, not only at the grid points it starts
+    from (collocation), and the stream's samples between grid points stay within them."""
+    delta = np.diff(sg)
+    nxt_dq = np.vstack([dq[1:], dq[-1:]])
+    nxt_ddq = np.vstack([ddq[1:], ddq[-1:]])
+    step = np.concatenate([delta, [0.0]])[:, None]
+    dq2 = np.hstack([dq, nxt_dq + 2.0 * step * nxt_ddq])
+    ddq2 = np.hstack([ddq, nxt_ddq])
+    return dq2, ddq2, np.concatenate([v, np.full(v.shape, np.inf)]), np.concatenate([a, a])
+
+
 def _solve(sg: NDArray, dq: NDArray, ddq: NDArray, v: NDArray, a: NDArray, extra_cap: NDArray,
            x_start: float, x_end: float) -> tuple[NDArray, NDArray]:
     """x (N + 1,), u (N,) of TOPP-RA on grid sg; raises when the start is not controllable."""
+    if INTERPOLATED:
+        dq, ddq, v, a = _interpolated(sg, dq, ddq, v, a)
     p_lo, p_hi, r, x_cap = reachability.stage_constraints(dq, ddq, v, a)
     x_cap = np.minimum(x_cap, extra_cap)
     delta = np.diff(sg)
