@@ -243,7 +243,10 @@ def max_start_speed(q: ArrayLike, s: ArrayLike, v_max: ArrayLike, a_max: ArrayLi
                          if stop_s.size else np.empty(0, np.int64))
     dq, ddq = path_derivatives(q, s, stop_idx.tolist(), 2)
     grid = _grid(q.shape[0], stop_idx, max(1, int(max_stages)))
-    p_lo, _, r, x_cap = reachability.stage_constraints(dq[grid], ddq[grid], v, a)
+    dq, ddq = dq[grid], ddq[grid]
+    if INTERPOLATED:  # the same discretisation as time_optimal's
+        dq, ddq, v, a = _interpolated(s[grid], dq, ddq, v, a)
+    p_lo, _, r, x_cap = reachability.stage_constraints(dq, ddq, v, a)
     x_cap[np.searchsorted(grid, stop_idx)] = 0.0
     x_max = reachability.controllable(np.diff(s[grid]), p_lo, r, x_cap, 0.0)
     return math.sqrt(float(x_max[0]))

@@ -196,13 +196,13 @@ def _sample(piece: _Piece, arm, rate: float, ref: NDArray | None, elbow: str
 
 
 def _needs_blend(req: PlanRequest, rv: NDArray, ra: NDArray) -> bool:
-    """Whether the projection's residual needs a blend-out: a velocity step of at most a
-    quarter sample of maximum acceleration (|r_v| ≤ a Δt / 4, what rounding the start speed
-    to the grid leaves at a velocity limit) is left as a step, and validation checks the
-    acceleration it makes across the start; an acceleration residual only matters with a
-    jerk limit (time_first sets it to zero otherwise)."""
+    """Whether the projection's residual needs a blend-out: a velocity step of at most one
+    sample of maximum acceleration (|r_v| ≤ a Δt, what rounding the start speed to the grid
+    leaves at a velocity limit) is tried as a step first, and validation checks the
+    acceleration it makes across the start (a failure goes on to the blend-out); an
+    acceleration residual only matters with a jerk limit (time_first zeroes it otherwise)."""
     _, a, _ = limits(req.arm)
-    return bool((np.abs(rv) > 0.25 * a / req.rate_hz).any() or (np.abs(ra) > 1e-4).any())
+    return bool((np.abs(rv) > a / req.rate_hz).any() or (np.abs(ra) > 1e-4).any())
 
 
 def _next_blend(req: PlanRequest, first: _Piece, tries) -> tuple | None:
