@@ -70,6 +70,10 @@ RETRIES = 6
 #: cube): the grid bounds the limits at the stages only, and between them the stream's
 #: samples can pass them by about 0.1 %; a piece whose samples still fail is slowed (RETRIES)
 GRID_MARGIN = 0.999
+#: A moving start's first piece is first timed with its acceleration (and jerk) limits × this
+#: square (cube), its velocity limits whole: the acceleration across the start mixes the
+#: given state's and the law's
+MOVING_SCALE = 0.995
 #: The blend-out of a moving start ends within this share of the first piece's law.
 BLEND_SHARE = 0.8
 #: Share of the fastest admissible start speed a moving start may keep: without a jerk limit
@@ -164,13 +168,23 @@ def _segments(req: PlanRequest) -> list:
     return out
 
 
+def _scaled(arm, scale: float, v_room: NDArray | None
+            ) -> tuple[NDArray, NDArray, NDArray | None]:
+    """The path's limits: velocity v − v_room (room left for a blend-out's velocity), or
+    v k when there is none; acceleration a k², jerk j k³ (all × GRID_MARGIN's powers)."""
+    v, a, j = limits(arm)
+    m = GRID_MARGIN
+    v = v * scale * m if v_room is None else np.maximum(v - v_room, 1e-9 * v) * m
+    return v, a * (scale * m) ** 2, None if j is None else j * (scale * m) ** 3
+
+
 def _time(piece: _Piece, arm, rate: float, *, sd_start: float = 0.0, sdd_start: float = 0.0,
-          scale: float = 1.0):
+          scale: float = 1.0, v_room: NDArray | None = None):
     if float(np.ptp(piece.q, axis=0).max()) <= 1e-12:
         return None
-    v, a, j = limits(arm)
+    v, a, j = _scaled(arm, scale, v_room)
     return time_optimal(piece.q, piece.s, v, a, j, sd_start=sd_start, sdd_start=sdd_start,
-                        rate_hz=rate, scale=scale * GRID_MARGIN, smooth=True)
+                        rate_hz=rate, smooth=True)
 
 
 def _sample(piece: _Piece, arm, rate: float, ref: NDArray | None, elbow: str
@@ -283,10 +297,10 @@ def build_pieces(req: PlanRequest) -> tuple[list[_Piece] | None, NDArray | None]
     return pieces, None
 
 
-def project_start(req: PlanRequest, first: _Piece, scale: float = 1.0
-                  ) -> tuple[float, float, NDArray, NDArray]:
-    """(ṡ₀, s̈₀, r_v, r_a) of a moving start on the first piece (module doc), with the
-    path's limits scaled by ``scale`` (velocity k, acceleration k²)."""
+def project_start(req: PlanRequest, first: _Piece, scale: float = 1.0,
+                  v_room: NDArray | None = None) -> tuple[float, float, NDArray, NDArray]:
+    """(ṡ₀, s̈₀, r_v, r_a) of a moving start on the first piece (module doc), under the
+    path's limits :func:`_scaled` (scale, v_room)."""
     k = req.arm.dof
     state = req.start_state
     if state is None or not state.moving:
@@ -296,14 +310,14 @@ def project_start(req: PlanRequest, first: _Piece, scale: float = 1.0
     norm2 = float(d1 @ d1)
     sd0 = sdd0 = 0.0
     if norm2 > 0:
-        v, a, j = limits(req.arm)
+        v, a, j = _scaled(req.arm, scale, v_room)
         sd0 = max(0.0, float(d1 @ qd0) / norm2)
-        fastest = max_start_speed(first.q, first.s, v, a, scale=scale * GRID_MARGIN)
+        fastest = max_start_speed(first.q, first.s, v, a)
         sd0 = min(sd0, (START_SPEED_SHARE if j is None else START_SPEED_SHARE_JERK) * fastest)
         sdd0 = float(d1 @ (qdd0 - d2 * sd0 ** 2)) / norm2
         # the path's own start acceleration within its (scaled) limits: the rest is blended
         a_path = np.abs(d2 * sd0 ** 2 + d1 * sdd0)
-        over = float(np.max(a_path / (a * scale ** 2)))
+        over = float(np.max(a_path / a))
         if over > 1.0:
             sdd0 /= over
     return sd0, sdd0, qd0 - d1 * sd0, qdd0 - d2 * sd0 ** 2 - d1 * sdd0
@@ -315,18 +329,21 @@ def time_pieces(req: PlanRequest, pieces: list[_Piece], scale: float = 1.0
     Returns :func:`project_start`'s (ṡ₀, s̈₀, r_v, r_a)."""
     for piece in pieces[1:]:
         piece.law = _time(piece, req.arm, req.rate_hz)
-    return time_first(req, pieces[0], scale)
+    return time_first(req, pieces[0], scale, blend=False)
 
 
-def time_first(req: PlanRequest, first: _Piece, scale: float
+def time_first(req: PlanRequest, first: _Piece, scale: float, blend: bool = True
                ) -> tuple[float, float, NDArray, NDArray]:
     """Time the first piece from the projected start; r_a from the law's own s̈(0) (without
     a jerk limit the law may start with any acceleration, not the projected s̈₀)."""
-    sd0, sdd0, rv, ra = project_start(req, first, scale)
+    # the first try (no blend-out) keeps the full velocity limits: a moving start may sit at
+    # one; the blend-out tries scale velocity by k too (room for the blend-out's velocity)
+    v_room = None if blend else np.zeros(req.arm.dof)
+    sd0, sdd0, rv, ra = project_start(req, first, scale, v_room)
     for share in _START_SHARES:
         try:
             first.law = _time(first, req.arm, req.rate_hz, sd_start=sd0 * share,
-                              sdd_start=sdd0 * share, scale=scale)
+                              sdd_start=sdd0 * share, scale=scale, v_room=v_room)
         except InputError as exc:
             # the jerk pass found no law from this start (its filter needs room below the
             # controllable set's edge): start slower along the path; the blend-out carries
@@ -431,6 +448,8 @@ def plan(req: PlanRequest):
         return _unreachable(req, bad_pose)
     tries = iter(_BLEND_TRIES)
     tb, scale = 0.0, 1.0
+    if req.start_state is not None and req.start_state.moving:
+        scale = MOVING_SCALE
     _, _, rv, ra = time_pieces(req, pieces, scale)
     # a residual below this (rad/s, rad/s²) is rounding of the projection, left as it is:
     # validation checks the start's differences against the given state anyway
