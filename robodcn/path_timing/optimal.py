@@ -2,7 +2,10 @@
 
 Jerk-free part: TOPP-RA (H. Pham and Q.-C. Pham, "A New Approach to Time-Optimal Path
 Parameterization Based on Reachability Analysis", IEEE T-RO 34(3), 2018) with the per-stage
-LPs in closed form (:mod:`robodcn.path_timing.reachability`).
+LPs in closed form (:mod:`robodcn.path_timing.reachability`), discretised by the paper's
+"interpolation" scheme (§V-B; :data:`INTERPOLATED`): each stage bounds the joint
+acceleration at both of its ends, so samples between grid points keep the limits (the
+collocation scheme, constraints at the stage start only, let them pass by up to ~1 %).
 
 Jerk pass: the joint jerk along a path is q''' ṡ³ + 3 q'' ṡ s̈ + q' s⃛. The time-optimal law
 s₀ (solved with the acceleration limits scaled by ``accel_share`` and a velocity cap that keeps
@@ -16,13 +19,18 @@ two rounds lower the speed only where a limit is over, and any residual excess i
 the uniform stretch λ = max(1, r_v, √r_a, ∛r_j) that divides velocity, acceleration and jerk
 by λ, λ², λ³. A curvature corner of the path (a step of q'', as at the planner's C¹ blends) is
 a step of joint acceleration Δq'' ṡ² within one stream period, so it is crossed slowly enough
-that Δq'' ṡ² × rate stays within the jerk limit. From a moving start (ṡ₀, s̈₀) the filter's
+that Δq'' ṡ² × rate stays within the jerk limit (``smooth=True`` skips this for a path known
+to be C², as the planner's blends now are: the check reads any fast change of q'' as a
+corner). From a moving start (ṡ₀, s̈₀) the filter's
 history is chosen so the filtered law starts exactly there, and the limits are shrunk instead
 of stretching (a stretch would change ṡ₀).
 
 Known limits: the box filter's overhead is one window (≈ 2a/j) per piece where the
-jerk-limited optimum needs about a/j, so the jerk-limited law is not time-optimal; see the
-bench (bench/bench_path_timing.py) for the ratios.
+jerk-limited optimum needs about a/j, so the jerk-limited law is not time-optimal (a
+third-order phase-plane pass — the jerk-limited TOPP-RA extension of Pham & Pham — is not
+built); see the bench (bench/bench_path_timing.py) for the ratios. Through the planner
+(C² paths, the configs' jerk 20 a) it beats the quintic ``auto`` under the same jerk limit on
+every bench path.
 """
 
 from __future__ import annotations
