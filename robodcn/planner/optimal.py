@@ -79,7 +79,7 @@ BLEND_SHARE = 0.8
 #: Share of the fastest admissible start speed a moving start may keep: without a jerk limit
 #: the law may ride the controllable set's edge (rounding only), with one the jerk pass needs
 #: room to ramp the acceleration.
-START_SPEED_SHARE = 0.999
+START_SPEED_SHARE = 1.0 - 1e-6
 START_SPEED_SHARE_JERK = 0.95
 _ORDER = {"velocity": 1, "acceleration": 2, "jerk": 3}
 # blend-out windows (s) tried for a non-tangent start, and the path's limit scale with each
