@@ -918,3 +918,24 @@ def test_moving_start_with_jerk_limits_keeps_every_limit(goal: list[float]) -> N
     history = start_history(*state.arrays(), 1000.0)
     assert fd_ratio(traj, arm, history) <= 1 + 1e-9
     np.testing.assert_allclose(traj.poses[-1, :2], goal[:2], atol=1e-9)
+
+
+def test_blended_path_is_c2_through_every_via() -> None:
+    """The blend's quintic corrections match dP/du and d²P/du² at every knot (finite jerk)."""
+    from robodcn.planner.path import blended_path, segments_of
+
+    req = PlanRequest(arm=ARM3R, waypoints=ISSUE_VIAS, blend=True)
+    path = blended_path(req, segments_of(req), None)
+    h = 1e-4
+    for knot in path.knots[1:-1]:
+        # one-sided second-order differences from each side of the knot
+        left = path(knot - h * np.arange(4.0))
+        right = path(knot + h * np.arange(4.0))
+        d1_l = (3 * left[0] - 4 * left[1] + left[2]) / (2 * h)
+        d1_r = (-3 * right[0] + 4 * right[1] - right[2]) / (2 * h)
+        d2_l = (2 * left[0] - 5 * left[1] + 4 * left[2] - left[3]) / h ** 2
+        d2_r = (2 * right[0] - 5 * right[1] + 4 * right[2] - right[3]) / h ** 2
+        np.testing.assert_allclose(d1_l, d1_r, atol=1e-3 * max(1.0, np.abs(d1_l).max()))
+        np.testing.assert_allclose(d2_l, d2_r, atol=1e-2 * max(1.0, np.abs(d2_l).max()))
+        np.testing.assert_allclose(path(np.array([knot]))[0], ISSUE_VIAS[
+            list(path.knots).index(knot)], atol=1e-12)
