@@ -48,6 +48,11 @@ from robodcn.errors import (
     VelocityLimitError,
 )
 from robodcn.planner import PlanRequest, Trajectory
+
+try:  # planning from a moving state in the planner (profile "optimal")
+    from robodcn.planner import StartState
+except ImportError:  # pragma: no cover - a planner without it: the own retarget only
+    StartState = None  # type: ignore[assignment,misc]
 from robodcn.stream.online_path import (
     RETIME_SHARE,
     JointPath,
@@ -555,6 +560,43 @@ class Execution:
 
     def _retarget_tail(self, state: State, target: Any,
                        plan_options: dict[str, Any]) -> list[Segment]:
+        """The planner's plan from the moving state (``plan(..., start_state=...)``, profile
+        "optimal") at full speed; at a speed scale below 1, or when the planner cannot
+        start from the state, :meth:`_retarget_own`."""
+        if self.speed >= 1.0 and StartState is not None:
+            try:
+                return self._retarget_planned(state, target, plan_options)
+            except RobodcnError as exc:
+                try:
+                    return self._retarget_own(state, target, plan_options)
+                except RobodcnError:
+                    raise exc from None
+        return self._retarget_own(state, target, plan_options)
+
+    def _retarget_planned(self, state: State, target: Any,
+                          plan_options: dict[str, Any]) -> list[Segment]:
+        from robodcn.planner import plan, plan_request
+        rate = 1.0 / self._streamer.period
+        start = StartState(tuple(state.q), tuple(state.qd), tuple(state.qdd))
+        if isinstance(target, PlanRequest):
+            request = dataclasses.replace(target, start_state=start, start_joints=None,
+                                          profile="optimal", duration="auto", rate_hz=rate)
+            trajectory = plan_request(request)
+        else:
+            here = tuple(kinematics.fk(self.arm.links, state.q[None, :])[0])
+            waypoints = list(target)
+            if waypoints and waypoints[0] is None:
+                waypoints[0] = here
+            else:
+                waypoints.insert(0, here)
+            options = {**plan_options, "profile": "optimal", "duration": "auto",
+                       "rate_hz": rate, "start_state": start}
+            trajectory = plan(self.arm, waypoints, **options)
+        path, sigma = JointPath.of_samples(trajectory.joints)
+        return [(trajectory.joints[1:], sigma[1:], path)]
+
+    def _retarget_own(self, state: State, target: Any,
+                      plan_options: dict[str, Any]) -> list[Segment]:
         """Brake along the present path as far as needed (a turn the limits cannot take at
         the present speed), then the new path, bent to the direction of motion."""
         full = self._limits
