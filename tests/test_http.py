@@ -427,7 +427,7 @@ def test_openapi_body_schema_is_what_the_parser_accepts(planner_server: Any) -> 
     status, _, data = call(planner_server, "POST", "/v1/trajectories", body)
     assert status == 200, data
     move_props = doc["components"]["schemas"]["MoveBody"]["properties"]
-    assert set(move_props) - {"replace"} == set(props) - {"start_joints"}
+    assert set(move_props) - {"replace"} == set(props) - {"start_joints", "start_state"}
 
 
 # -- token ------------------------------------------------------------------------------------
