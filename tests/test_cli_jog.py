@@ -118,3 +118,48 @@ def test_jog_command_on_a_pseudo_terminal():
         os.close(master)
     text = seen.decode("utf-8", "replace")
     assert "target x=" in text and "commanded" in text
+
+
+def test_sim_on_a_terminal_shows_the_keys_and_pauses_and_resumes():
+    """``robodcn sim`` on a pty: the keys line, space pauses and resumes, it ends."""
+    master, slave = pty.openpty()
+    proc = subprocess.Popen([sys.executable, "-m", "robodcn", "sim", "--to", "0.12,0.24,60",
+                             "--duration", "2", "--timing", "fast"], stdin=slave,
+                            stdout=slave, stderr=slave, close_fds=True)
+    os.close(slave)
+    seen = b""
+
+    def read_for(seconds):
+        nonlocal seen
+        deadline = time.monotonic() + seconds
+        while time.monotonic() < deadline:
+            ready, _, _ = select.select([master], [], [], 0.05)
+            if ready:
+                try:
+                    seen += os.read(master, 65536)
+                except OSError:
+                    return
+
+    try:
+        deadline = time.monotonic() + 30
+        while b"keys:" not in seen and time.monotonic() < deadline:
+            read_for(0.2)
+        assert b"keys:" in seen, seen
+        read_for(0.3)
+        os.write(master, b" ")
+        read_for(0.8)
+        os.write(master, b" ")
+        code = None
+        deadline = time.monotonic() + 30
+        while code is None and time.monotonic() < deadline:
+            read_for(0.2)
+            code = proc.poll()
+        assert code in (0, 5), seen
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+            proc.wait()
+        os.close(master)
+    text = seen.decode("utf-8", "replace")
+    assert "paused" in text and "resumed" in text, text
+    assert "space pause/resume" in text
