@@ -13,7 +13,7 @@ from typing import Any
 from robodcn import dcn, dualquat, errors
 from robodcn.config import Arm, load_arm
 from robodcn.interpolate import blend, interpolate
-from robodcn.planner import PlanRequest, Trajectory, plan, plan_request
+from robodcn.planner import PlanRequest, StartState, Trajectory, plan, plan_request
 
 __version__ = "0.1.0"
 
@@ -25,7 +25,8 @@ _LAZY = {
     "scan": "robodcn.bus",
 }
 
-__all__ = ["Arm", "ExecutionReport", "PlanRequest", "ServoBus", "StopSignal", "Trajectory",
+__all__ = ["Arm", "ExecutionReport", "PlanRequest", "ServoBus", "StartState", "StopSignal",
+           "Trajectory",
            "blend", "dcn", "dualquat", "errors", "execute", "interpolate", "load_arm", "plan",
            "plan_request", "scan"]
 

@@ -22,7 +22,8 @@ Cross-field rules the schema cannot say (checked by the parser, before any plann
 ``duration × rate_hz`` sample periods must cover one per segment and stay within
 :data:`MAX_SAMPLES` samples (413); ``waypoints`` holds at most :data:`MAX_WAYPOINTS` poses
 (413); a waypoint is (x, y, θ), or (x, y) on a 2-joint (position-only) arm;
-``start_joints`` has one angle per joint, each within that joint's limits; per-segment lists
+``start_joints`` has one angle per joint, each within that joint's limits; ``start_state``
+excludes ``start_joints`` and, when moving, needs profile ``optimal``; per-segment lists
 of ``method``/``turn`` have one entry per segment.
 
 Only numpy and the standard library are imported here, so the planning core stays light.
@@ -148,7 +149,10 @@ FIELDS: tuple[Field, ...] = (
           f"segment and at most {MAX_SAMPLES} samples), or \"auto\": the shortest within the "
           "joint limits.", default="auto", unit="s", cli_option="--duration"),
     Field("profile", {"type": "string", "enum": list(PROFILES)},
-          "Time law of each segment (or of the blended path).", default="quintic",
+          "Time law: \"optimal\" (the default) times the whole path time-optimally within "
+          "every joint's velocity, acceleration and (where configured) jerk limit; "
+          "\"linear\", \"quintic\" and \"trapezoid\" stretch one uniform law over each "
+          "segment (or the blended path).", default="optimal",
           cli_option="--profile"),
     Field("rate_hz", {"type": "number", "minimum": RATE_RANGE[0], "maximum": RATE_RANGE[1]},
           "Sample rate. Default: the arm's [bus] rate_hz.", default=None, unit="Hz",
@@ -165,11 +169,24 @@ FIELDS: tuple[Field, ...] = (
           "IK branch: \"up\" (q2 ≤ 0) or \"down\" (q2 ≥ 0); it also breaks the tie at a "
           "stretched-out (singular) start. Default: the arm's configured elbow.",
           default=None, cli_option="--elbow"),
+    Field("start_state",
+          {"type": ["object", "null"], "additionalProperties": False, "required": ["joints"],
+           "properties": {
+               "joints": {"type": "array", "minItems": 2, "maxItems": 3, "items": _ANGLE_ITEM},
+               "velocities": {"type": "array", "minItems": 2, "maxItems": 3,
+                              "items": {"type": "number"}},
+               "accelerations": {"type": "array", "minItems": 2, "maxItems": 3,
+                                 "items": {"type": "number"}}}},
+          "A moving joint state to plan from (a retarget): joints (rad), velocities (rad/s) "
+          "and accelerations (rad/s²), one per joint, each within its limit. The path runs "
+          "from the pose at those joints through every waypoint, timed from that state "
+          "(profile optimal). Default: none.", default=None, unit="rad, rad/s, rad/s²",
+          cli_unit="deg, deg/s, deg/s²"),
 )
 _BY_NAME = {f.name: f for f in FIELDS}
 
 #: The fields a move body may not give (a move starts from the arm's present joints).
-MOVE_OMIT = ("start_joints",)
+MOVE_OMIT = ("start_joints", "start_state")
 
 
 def field(name: str) -> Field:
@@ -236,6 +253,18 @@ def _specialise(name: str, schema: dict[str, Any], arm: Arm) -> None:
         schema["prefixItems"] = [{"type": "number", "minimum": j.min_angle,
                                   "maximum": j.max_angle} for j in arm.joints]
         schema["items"] = False
+    elif name == "start_state":
+        props = schema["properties"]
+        for key, bound in (("joints", None), ("velocities", "max_velocity"),
+                           ("accelerations", "max_acceleration")):
+            item = props[key]
+            item["minItems"] = item["maxItems"] = arm.dof
+            item["prefixItems"] = [
+                {"type": "number", "minimum": j.min_angle, "maximum": j.max_angle}
+                if bound is None else
+                {"type": "number", "minimum": -getattr(j, bound), "maximum": getattr(j, bound)}
+                for j in arm.joints]
+            item["items"] = False
 
 
 # -- checks shared by the parser and PlanRequest ------------------------------------------------
@@ -393,6 +422,59 @@ def check_start_joints(value: Any, arm: Arm) -> tuple[float, ...] | None:
                        f"{joint.min_angle:.4f}..{joint.max_angle:.4f} rad", v)
         out.append(x)
     return tuple(out)
+
+
+def check_start_state(value: Any, arm: Arm
+                      ) -> tuple[tuple[float, ...], tuple[float, ...], tuple[float, ...]] | None:
+    """None, or (joints, velocities, accelerations) of a start state, each within the arm's
+    limits (``start_state.joints[i]``, ``start_state.velocities[i]``, …); velocities and
+    accelerations default to zeros. Accepts a StartState or a dict with those keys."""
+    if value is None:
+        return None
+    if dataclasses.is_dataclass(value) and not isinstance(value, type):
+        value = {"joints": value.joints, "velocities": value.velocities,
+                 "accelerations": value.accelerations}
+    if not isinstance(value, Mapping):
+        raise fail("start_state", "must be an object {joints, velocities, accelerations}, got "
+                   f"{_show(value)}", value)
+    unknown = set(value) - {"joints", "velocities", "accelerations"}
+    if unknown:
+        name = sorted(unknown)[0]
+        raise fail(f"start_state.{name}", "is not a field; allowed: joints, velocities, "
+                   "accelerations", value[name])
+    if value.get("joints") is None:
+        raise fail("start_state.joints", "is required", None)
+    try:
+        joints = check_start_joints(value["joints"], arm)
+    except InputError as exc:
+        field = str(exc.field or "start_joints").replace("start_joints", "start_state.joints")
+        raise fail(field, getattr(exc, "reason", str(exc)), exc.value) from None
+    assert joints is not None
+    joints = tuple(joints)
+    out: list[tuple[float, ...]] = [joints]
+    for name, limit_of, unit in (("velocities", "max_velocity", "rad/s"),
+                                 ("accelerations", "max_acceleration", "rad/s²")):
+        given = value.get(name)
+        if given is None:
+            out.append((0.0,) * arm.dof)
+            continue
+        if isinstance(given, np.ndarray):
+            given = given.tolist()
+        if not isinstance(given, list | tuple) or len(given) != arm.dof:
+            raise fail(f"start_state.{name}", f"must be a list of {arm.dof} numbers ({unit}), "
+                       f"got {_show(given)}", given)
+        row = []
+        for i, (v, joint) in enumerate(zip(given, arm.joints, strict=True)):
+            path = f"start_state.{name}[{i}]"
+            if not is_number(v) or not math.isfinite(float(v)):
+                raise fail(path, f"must be a finite number ({unit}), got {_show(v)}", v)
+            limit = getattr(joint, limit_of)
+            if abs(float(v)) > limit * (1 + 1e-9):
+                raise fail(path, f"= {float(v):.4g} {unit} is beyond joint {joint.name!r}'s "
+                           f"limit {limit:.4g} {unit}", v)
+            row.append(float(v))
+        out.append(tuple(row))
+    return out[0], out[1], out[2]
 
 
 def check_duration(value: Any, rate_hz: float, segments: int) -> float | str:

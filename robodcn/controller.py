@@ -1,13 +1,18 @@
 """ArmController: the single owner of a ServoBus in a long-running service.
 
 Every port access runs on one worker thread (robodcn.bus is single-threaded by design): a
-move is :func:`robodcn.stream.execute` on that thread, and an idle state read is a job
+move is streamed on that thread (:func:`robodcn.stream.online.prepare`, so the running
+move can be stopped smoothly, paused, resumed, re-timed and replaced from the request
+threads: :meth:`ArmController.stop_move`, :meth:`~ArmController.pause`,
+:meth:`~ArmController.resume`, :meth:`~ArmController.set_speed`,
+:meth:`~ArmController.replace_move`), and an idle state read is a job
 queued to it. Other threads only start moves, read records, request stops and read the
 streamer's latest feedback, all under one lock that is never held across I/O.
 
-Move lifecycle: ``queued`` → ``running`` → ``done`` | ``degraded`` | ``stopped`` | ``fault``
-| ``failed`` (:data:`robodcn.http.results.MoveState`): the finished status is the report's
-outcome (``degraded``: completed with samples skipped); ``fault`` is a bus or servo fault
+Move lifecycle: ``queued`` → ``running`` → ``done`` | ``degraded`` | ``stopped`` |
+``collision`` | ``fault`` | ``failed`` | ``replaced``
+(:data:`robodcn.http.results.MoveState`): the finished status is the report's outcome
+(``degraded``: completed with samples skipped); ``fault`` is a bus or servo fault
 after motion began, ``failed`` a refusal before any sample was sent. One move at a time:
 :meth:`ArmController.start_move` raises :class:`~robodcn.errors.BusyError` while another is
 queued or running. The most recent ``history`` moves are kept for :meth:`ArmController.move`,
@@ -27,7 +32,6 @@ from __future__ import annotations
 
 import collections
 import contextlib
-import dataclasses
 import itertools
 import logging
 import termios
@@ -44,10 +48,11 @@ import numpy as np
 from robodcn import kinematics, servo_units
 from robodcn.bus import ServoBus, describe_hardware_error
 from robodcn.config import Arm
-from robodcn.errors import BusError, BusyError, CommError, InputError, RobodcnError
+from robodcn.errors import BusError, BusyError, CommError, InputError, NoMoveError, RobodcnError
 from robodcn.http.results import ApproachInfo, MoveStatus, State, StopAnswer, to_json
 from robodcn.planner import Trajectory
-from robodcn.stream import ExecutionOptions, ExecutionReport, Progress, StopSignal, execute
+from robodcn.stream import STOP_MODES, ExecutionOptions, ExecutionReport, Progress, StopSignal
+from robodcn.stream.online import prepare
 from robodcn.workflow import admin
 
 log = logging.getLogger("robodcn.controller")
@@ -106,6 +111,10 @@ class MoveRecord:
     latest: Progress | None = field(default=None, repr=False)
     measured: collections.deque[tuple[float, tuple[int, ...]]] = field(
         default_factory=lambda: collections.deque(maxlen=RECORD_SAMPLES), repr=False)
+    #: The running execution (robodcn.stream.start): pause, resume, speed, replace.
+    execution: Any = field(default=None, repr=False)
+    #: Sample of the execution where this move begins (a replacement starts mid-stream).
+    offset: int = 0
 
     @property
     def active(self) -> bool:
@@ -117,8 +126,10 @@ class MoveRecord:
             id=self.id, status=self.status, progress=self.progress, elapsed=self.elapsed,
             duration=self.trajectory.duration, samples=len(self.trajectory.t),
             tracking_error=self.tracking_error, approach=self.approach(), created=self.created,
-            started=self.started, finished=self.finished, report=report,
-            error=None)) | {"error": self.error}
+            started=self.started, finished=self.finished, report=report, error=None,
+            paused=bool(self.active and self.execution is not None and self.execution.paused),
+            speed_scale=1.0 if self.execution is None else float(self.execution.speed),
+        )) | {"error": self.error}
 
     def approach(self) -> ApproachInfo | None:
         """The approach the streamer inserted, else the one the trajectory opens with."""
@@ -292,6 +303,78 @@ class ArmController:
         with self._lock:
             return to_json(StopAnswer(stopped=True, move=record.id, status=record.status))
 
+    # -- online operations (robodcn.stream.online): stop modes, pause, speed, replace ------
+
+    def _live(self) -> MoveRecord:
+        """The running move with its execution; BusyError-free InputError when none."""
+        with self._lock:
+            record = self._current
+        if record is not None and record.execution is None:
+            # queued: the worker is about to start it
+            record.done.wait(0.0)
+            deadline = time.monotonic() + 2.0
+            while record.execution is None and not record.done.is_set() \
+                    and time.monotonic() < deadline:
+                time.sleep(0.002)
+        if record is None or record.execution is None or record.done.is_set():
+            raise NoMoveError("no move is running", field="move", value=None)
+        return record
+
+    def stop_move(self, mode: str = "smooth", *, wait: float = 1.0) -> dict[str, Any]:
+        """Stop the current move: ``"smooth"`` decelerates along its path within the limits
+        and holds there, ``"hold"`` holds where the arm is at once (:meth:`stop`)."""
+        if mode not in STOP_MODES:
+            raise InputError(f"mode must be one of {', '.join(STOP_MODES)}, got {mode!r}",
+                             field="mode", value=mode)
+        with self._lock:
+            record = self._current
+        if mode == "hold" or record is None or record.execution is None:
+            return self.stop(wait=wait)
+        record.execution.stop("smooth")
+        record.done.wait(wait)
+        with self._lock:
+            return to_json(StopAnswer(stopped=True, move=record.id, status=record.status))
+
+    def pause(self) -> dict[str, Any]:
+        """Pause the running move (a smooth stop on its path; the stream goes on)."""
+        record = self._live()
+        record.execution.pause()
+        return self.move_info(record.id) or {}
+
+    def resume(self) -> dict[str, Any]:
+        """Resume a paused move along the same path, timed from rest."""
+        record = self._live()
+        record.execution.resume()
+        return self.move_info(record.id) or {}
+
+    def set_speed(self, scale: float) -> dict[str, Any]:
+        """Re-time the rest of the running move with the limits scaled by ``scale``."""
+        record = self._live()
+        record.execution.set_speed(scale)
+        return self.move_info(record.id) or {}
+
+    def replace_move(self, request: Any) -> MoveRecord:
+        """Retarget the running move to ``request`` (a PlanRequest) from its moving state:
+        a new move record (running), the old one ends ``replaced``. Raises NoMoveError when
+        nothing runs, the planner's errors when the new path cannot be planned (the old
+        move goes on unchanged)."""
+        record = self._live()
+        execution = record.execution
+        first = execution.retarget(request)
+        trajectory = execution.remaining(first, request)
+        now = time.time()
+        with self._lock:
+            new = MoveRecord(id=str(next(self._ids)), trajectory=trajectory, status="running",
+                             started=now, execution=execution, offset=first,
+                             stop_signal=record.stop_signal)
+            record.status = "replaced"
+            record.finished = now
+            record.done.set()
+            self._current = new
+            self._moves[new.id] = new
+            self._trim()
+        return new
+
     def _on_progress(self, record: MoveRecord, p: Progress) -> None:
         error = None
         if p.tracking_error_rad:
@@ -299,7 +382,10 @@ class ArmController:
         with self._lock:
             record.latest = p
             self._last_ticks = p.present or p.goals
-            record.progress = p.sample / max(1, p.samples_total - 1)
+            # of the samples planned for this move (an online re-timing may stream more or
+            # fewer: a smooth stop ends early, a slower speed runs longer)
+            planned = max(1, len(record.trajectory.t) - 1)
+            record.progress = min(1.0, max(0.0, (p.sample - record.offset) / planned))
             record.elapsed = p.elapsed_s
             if error is not None:
                 record.tracking_error = error
@@ -312,9 +398,15 @@ class ArmController:
             record.started = time.time()
         try:
             self._recover()
-            options = dataclasses.replace(self.execute_options, stop=record.stop_signal,
-                                          progress=lambda p: self._on_progress(record, p))
-            report = execute(record.trajectory, self.bus, options)
+            # streamed on this (the worker) thread: the execution's online operations
+            # (pause, speed, replace) come from the request threads
+            execution = prepare(record.trajectory, self.bus, self.execute_options,
+                                stop=record.stop_signal,
+                                progress=lambda p: self._on_progress(self._live_of(record), p),
+                                arm=self.arm)
+            record.execution = execution
+            report = execution.run()
+            record = self._live_of(record)
         except RobodcnError as exc:
             self._suspect = self._suspect or isinstance(exc, BusError)
             log.info("move %s ended: %s", record.id, exc.message)
@@ -334,6 +426,14 @@ class ArmController:
             error = None if status != "fault" else {
                 "code": report.stop_reason, "message": report.message, "field": None}
             self._finish(record, status, report, error)
+
+    def _live_of(self, record: MoveRecord) -> MoveRecord:
+        """The record now running ``record``'s execution (a replacement), else ``record``."""
+        current = self._current
+        if current is not None and current.execution is not None \
+                and current.execution is record.execution:
+            return current
+        return record
 
     @staticmethod
     def _failed_or_fault(record: MoveRecord) -> str:
@@ -455,8 +555,12 @@ class ArmController:
             if record is not None and ticks is None:
                 ticks = tuple(record.trajectory.ticks[0])
         if record is not None:
-            return self._state_from(ticks, torque=True, alerts={}, source="stream",
-                                    move=record.id)
+            state = self._state_from(ticks, torque=True, alerts={}, source="stream",
+                                     move=record.id)
+            if record.execution is not None:
+                state.update(paused=bool(record.execution.paused),
+                             speed_scale=float(record.execution.speed))
+            return state
         return self._on_worker(self._read_state, "reading the arm's state")
 
     def present_joints(self) -> np.ndarray:

@@ -248,6 +248,14 @@ class BusyError(RobodcnError):
     http_status = 409
 
 
+class NoMoveError(RobodcnError):
+    """An operation on the running move (pause, resume, speed) while none runs."""
+
+    code = "no_move"
+    exit_code = 4
+    http_status = 409
+
+
 class StoppedError(RobodcnError):
     code = "stopped"
     exit_code = 130

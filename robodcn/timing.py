@@ -28,7 +28,11 @@ from numpy.typing import ArrayLike, NDArray
 from robodcn import _checks
 from robodcn.errors import InputError
 
-PROFILES = ("linear", "quintic", "trapezoid")
+#: Uniform time laws s(τ) stretched over a whole piece (this module).
+UNIFORM_PROFILES = ("linear", "quintic", "trapezoid")
+#: Every profile a plan may name: the uniform laws and "optimal", the time-optimal
+#: (optionally jerk-limited) law along the path (robodcn.path_timing), the default.
+PROFILES = ("optimal", *UNIFORM_PROFILES)
 QUINTIC_PEAK_VELOCITY = 15.0 / 8.0
 QUINTIC_PEAK_ACCELERATION = 10.0 / math.sqrt(3.0)
 DEFAULT_ACCEL_FRACTION = 0.25
@@ -101,8 +105,12 @@ def trapezoid_min_time(distance: float, v_max: float, a_max: float) -> tuple[flo
 
 def profile(name: str, tau: ArrayLike, accel_fraction: float = DEFAULT_ACCEL_FRACTION
             ) -> NDArray[np.float64]:
-    """s(τ) of the named profile ("linear" | "quintic" | "trapezoid")."""
-    _checks.one_of("profile", name, PROFILES)
+    """s(τ) of the named uniform profile ("linear" | "quintic" | "trapezoid").
+
+    "optimal" is not a law of normalised time (it depends on the path and the limits):
+    robodcn.path_timing times it.
+    """
+    _checks.one_of("profile", name, UNIFORM_PROFILES)
     if name == "linear":
         return linear(tau)
     if name == "quintic":

@@ -65,7 +65,8 @@ def test_defaults_and_new_fields() -> None:
 def test_cli_choices_come_from_the_schema() -> None:
     assert contract.cli_choices("method") == ("sclerp", "kenlerp", "seplerp", "dlb")
     assert contract.cli_choices("turn") == ("shortest", "ccw", "cw")
-    assert contract.cli_choices("profile") == ("linear", "quintic", "trapezoid")
+    assert contract.cli_choices("profile") == ("optimal", "linear", "quintic", "trapezoid")
+    assert contract.field("profile").default == "optimal"
     assert contract.cli_choices("elbow") == ("up", "down")
     assert contract.field("rate_hz").cli_option == "--rate"
     assert contract.cli_option("waypoints[2]") == "--from/--via/--to"
@@ -130,6 +131,12 @@ def from_schema(schema: dict[str, Any]) -> st.SearchStrategy[Any]:
                 return st.tuples(*parts).map(list)
             return st.integers(lo, hi).flatmap(build)
         return st.lists(from_schema(schema.get("items", {})), min_size=lo, max_size=hi)
+    if types == "object":
+        props = schema["properties"]
+        required = set(schema.get("required", ()))
+        return st.fixed_dictionaries(
+            {k: from_schema(v) for k, v in props.items() if k in required},
+            optional={k: from_schema(v) for k, v in props.items() if k not in required})
     raise AssertionError(schema)
 
 
@@ -141,7 +148,7 @@ def bodies(arm: Any) -> st.SearchStrategy[dict[str, Any]]:
 
 
 # Rules the schema cannot state (documented in the contract module and its schema text).
-CROSS_FIELD = {"method", "turn", "duration"}
+CROSS_FIELD = {"method", "turn", "duration", "start_state"}
 
 
 @settings(max_examples=150, deadline=None, suppress_health_check=[HealthCheck.too_slow])

@@ -430,14 +430,16 @@ def test_openapi_body_schema_is_what_the_parser_accepts(planner_server: Any) -> 
     # Every documented field is accepted (a valid value of each, all at once).
     body = {"waypoints": [HOME, TARGET], "method": "seplerp", "beta": 1.0, "turn": "ccw",
             "duration": 1.5, "profile": "trapezoid", "rate_hz": 50, "blend": False,
-            "start_joints": None, "elbow": None}
+            "start_joints": None, "elbow": None, "start_state": None}
     assert set(body) == set(props)
     status, _, data = call(planner_server, "POST", "/v1/trajectories", body)
     assert status == 200, data
-    # A move body: the plan's fields but start_joints, or a trajectory to play.
+    # A move body: the plan's fields but start_joints and start_state (the move starts where
+    # the arm is), and replace; or a trajectory to play.
     planned, given = doc["components"]["schemas"]["MoveBody"]["anyOf"]
-    assert set(planned["properties"]) == set(props) - {"start_joints"}
-    assert set(given["properties"]) == {"trajectory", "rate_hz"}
+    assert set(planned["properties"]) - {"replace"} == set(props) - {"start_joints",
+                                                                      "start_state"}
+    assert set(given["properties"]) == {"trajectory", "rate_hz", "replace"}
 
 
 # -- token ------------------------------------------------------------------------------------
@@ -574,7 +576,7 @@ def test_stop_during_a_move_holds(arm_server: Any) -> None:
     status, _, state = call(server, "GET", "/v1/state")
     assert status == 200 and state["moving"] and state["source"] == "stream"
     assert state["move"] == body["id"]
-    status, _, stopped = call(server, "POST", "/v1/stop")
+    status, _, stopped = call(server, "POST", "/v1/stop", {"mode": "hold"})
     assert status == 200
     assert stopped == {"stopped": True, "move": body["id"], "status": "stopped"}
     final = poll_move(server, body["id"], lambda b: b["status"] != "running")

@@ -103,7 +103,7 @@ def test_plans_for_both_arms(arm: Arm, waypoints: Any, profile: str, blend: bool
 
 
 def test_fixed_duration_and_per_segment_methods() -> None:
-    traj = plan(ARM3R, WAYPOINTS_3R, method=["seplerp", "kenlerp"], beta=0.5,
+    traj = plan(ARM3R, WAYPOINTS_3R, profile="quintic", method=["seplerp", "kenlerp"], beta=0.5,
                 turn=["shortest", "shortest"], duration=3.0, rate_hz=100)
     check_trajectory(traj, ARM3R, WAYPOINTS_3R)
     assert traj.duration == pytest.approx(3.0)
@@ -183,13 +183,13 @@ def test_joint_limit_sample_is_named() -> None:
     # rotate the whole arm about the base (pole at the origin): the shoulder sweeps ~80°
     wps = [[0.28 * math.cos(0.2), 0.28 * math.sin(0.2), 0.2],
            [0.28 * math.cos(1.6), 0.28 * math.sin(1.6), 1.6]]
-    free = plan(ARM3R, wps, duration=3.0, rate_hz=100)
+    free = plan(ARM3R, wps, profile="quintic", duration=3.0, rate_hz=100)
     shoulder = free.joints[:, 0]
     limit = 0.5 * (np.abs(shoulder).min() + np.abs(shoulder).max())
     narrow = variant(ARM3R, only=0, min=-limit, max=limit)
     expected = first_bad_row(np.abs(free.joints[:, :1]) > limit)
     with pytest.raises(JointLimitError) as info:
-        plan(narrow, wps, duration=3.0, rate_hz=100)
+        plan(narrow, wps, profile="quintic", duration=3.0, rate_hz=100)
     err = info.value
     assert err.sample == expected and err.joint == "shoulder"
     np.testing.assert_allclose(err.pose, free.poses[expected], atol=1e-12)
@@ -198,17 +198,17 @@ def test_joint_limit_sample_is_named() -> None:
 
 
 def test_waypoint_outside_the_limits_is_named() -> None:
-    free = plan(ARM3R, WAYPOINTS_3R, duration=3.0, rate_hz=100)
+    free = plan(ARM3R, WAYPOINTS_3R, profile="quintic", duration=3.0, rate_hz=100)
     limit = abs(free.joints[0, 0]) * 0.9  # the first waypoint's shoulder is beyond it
     narrow = variant(ARM3R, only=0, min=-limit, max=limit)
     with pytest.raises(JointLimitError) as info:
-        plan(narrow, WAYPOINTS_3R, duration=3.0, rate_hz=100)
+        plan(narrow, WAYPOINTS_3R, profile="quintic", duration=3.0, rate_hz=100)
     assert info.value.sample == 0 and info.value.field == "waypoints[0]"
     assert "waypoints[0]" in str(info.value)
 
 
 def test_tick_limit_sample_is_named() -> None:
-    free = plan(ARM3R, WAYPOINTS_3R, duration=4.0, rate_hz=100)
+    free = plan(ARM3R, WAYPOINTS_3R, profile="quintic", duration=4.0, rate_hz=100)
     narrow = variant(ARM3R, servo_min_tick=1500, servo_max_tick=2600)
     expected = first_bad_row((free.ticks < 1500) | (free.ticks > 2600))
     with pytest.raises(TickLimitError) as info:
@@ -250,7 +250,7 @@ def test_too_fast_duration_fails_at_the_first_fast_sample(profile: str) -> None:
 
 @pytest.mark.parametrize(("arm", "waypoints"), [(ARM3R, WAYPOINTS_3R[:2]),
                                                 (ARM2R, WAYPOINTS_2R[:2])], ids=["3r", "2r"])
-@pytest.mark.parametrize("profile", timing.PROFILES)
+@pytest.mark.parametrize("profile", timing.UNIFORM_PROFILES)
 def test_auto_is_feasible_and_minimal(arm: Arm, waypoints: Any, profile: str) -> None:
     rate = 500
     traj = plan(arm, waypoints, profile=profile, rate_hz=rate)
@@ -284,16 +284,17 @@ def test_linear_profile_starts_from_rest() -> None:
 
 def test_auto_blended_is_minimal() -> None:
     rate = 500
-    traj = plan(ARM3R, WAYPOINTS_3R, blend=True, rate_hz=rate)
+    traj = plan(ARM3R, WAYPOINTS_3R, profile="quintic", blend=True, rate_hz=rate)
     check_trajectory(traj, ARM3R, WAYPOINTS_3R)
     with pytest.raises((VelocityLimitError, AccelerationLimitError)):
-        plan(ARM3R, WAYPOINTS_3R, blend=True, rate_hz=rate, duration=0.99 * traj.duration)
+        plan(ARM3R, WAYPOINTS_3R, profile="quintic", blend=True, rate_hz=rate,
+             duration=0.99 * traj.duration)
 
 
 def test_auto_closed_form_matches_the_search() -> None:
     """At a high rate the finite-difference auto duration tends to the closed form."""
     wps = WAYPOINTS_3R[:2]
-    traj = plan(ARM3R, wps, rate_hz=1000)
+    traj = plan(ARM3R, wps, profile="quintic", rate_hz=1000)
     dense = 20000
     tau = np.arange(dense + 1) / dense
     poses = interpolate(wps[0], wps[1], timing.quintic(tau))
@@ -314,7 +315,8 @@ def max_velocity_jump(traj: Trajectory) -> float:
 
 def test_blended_via_points_have_continuous_velocity() -> None:
     corner = [[0.25, 0.0, 0.0], [0.25, 0.2, 0.5], [0.05, 0.25, 1.0]]
-    slow = [plan(ARM3R, corner, blend=True, duration=3.0, rate_hz=r) for r in (100, 1000)]
+    slow = [plan(ARM3R, corner, profile="quintic", blend=True, duration=3.0, rate_hz=r)
+            for r in (100, 1000)]
     # continuous velocity: the largest step in velocity shrinks with the sample period
     assert max_velocity_jump(slow[1]) < 0.2 * max_velocity_jump(slow[0])
     traj = slow[1]
@@ -464,7 +466,7 @@ def test_bad_requests_name_the_field(kwargs: dict[str, Any], field: str) -> None
 def test_auto_plan_over_the_sample_limit_is_an_input_error() -> None:
     crawl = variant(ARM3R, max_velocity=1e-3, max_acceleration=1e-3)
     with pytest.raises(InputError) as info:
-        plan(crawl, WAYPOINTS_3R[:2], rate_hz=1000)
+        plan(crawl, WAYPOINTS_3R[:2], profile="quintic", rate_hz=1000)
     assert info.value.field == "duration"
 
 
@@ -527,9 +529,11 @@ def test_theta_plays_no_part_on_a_2r_arm() -> None:
         assert other.duration == base.duration
         np.testing.assert_allclose(other.joints, base.joints, atol=1e-12)
     # the position path is the straight line between the waypoints
-    np.testing.assert_allclose(np.cross(np.diff(base.poses[:40, :2], axis=0),
-                                        base.poses[1:40, :2] - base.poses[0, :2]), 0.0,
-                               atol=1e-12)
+    n = int(np.argmin(np.linalg.norm(base.poses[:, :2] - WAYPOINTS_2R[1][:2], axis=1))) + 1
+    assert n > 10
+    d = np.diff(base.poses[:n, :2], axis=0)
+    r = base.poses[1:n, :2] - base.poses[0, :2]
+    np.testing.assert_allclose(d[:, 0] * r[:, 1] - d[:, 1] * r[:, 0], 0.0, atol=1e-12)
     # θ reported is the arm's own (FK), as the simulator would read it back
     fk = kinematics.fk(ARM2R.links, base.joints)
     np.testing.assert_allclose(base.poses[:, 2], fk[:, 2], atol=1e-12)
@@ -589,12 +593,12 @@ def test_branch_switch_is_reported() -> None:
 
 
 def test_violation_is_data_and_names_segment_and_branch() -> None:
-    free = plan(ARM3R, WAYPOINTS_3R, duration=3.0, rate_hz=100)
+    free = plan(ARM3R, WAYPOINTS_3R, profile="quintic", duration=3.0, rate_hz=100)
     # a shoulder limit the path crosses in its second segment only
     limit = float(np.abs(free.joints[:, 0]).max()) * 0.97
     narrow = variant(ARM3R, only=0, min=-limit, max=limit)
     with pytest.raises(JointLimitError) as info:
-        plan(narrow, WAYPOINTS_3R, duration=3.0, rate_hz=100)
+        plan(narrow, WAYPOINTS_3R, profile="quintic", duration=3.0, rate_hz=100)
     v = info.value.violation
     assert v is not None and v.quantity == "position" and v.joint == "shoulder"
     assert v.joint_index == 0 and v.unit == "rad"
@@ -677,19 +681,19 @@ def jerk_arm(jerk: float) -> Arm:
 
 
 def test_jerk_limit_is_respected_by_auto_timing_and_checked() -> None:
-    free = plan(ARM3R, WAYPOINTS_3R[:2])
+    free = plan(ARM3R, WAYPOINTS_3R[:2], profile="quintic")
     jerk3 = np.abs(np.diff(np.concatenate([free.joints[:1]] * 2 + [free.joints]
                                           + [free.joints[-1:]] * 2), 3, axis=0)).max()
     limit = 0.5 * jerk3 * free.rate_hz**3
     arm = jerk_arm(limit)
-    slow = plan(arm, WAYPOINTS_3R[:2])
+    slow = plan(arm, WAYPOINTS_3R[:2], profile="quintic")
     assert slow.duration > free.duration
     q = np.concatenate([slow.joints[:1]] * 3 + [slow.joints] + [slow.joints[-1:]] * 2)
     assert (np.abs(np.diff(q, 3, axis=0)) * slow.rate_hz**3 <= limit * (1 + 1e-9)).all()
     from robodcn.errors import JerkLimitError
 
     with pytest.raises(JerkLimitError) as info:
-        plan(arm, WAYPOINTS_3R[:2], duration=free.duration)
+        plan(arm, WAYPOINTS_3R[:2], profile="quintic", duration=free.duration)
     v = info.value.violation
     assert v.quantity == "jerk" and v.unit == "rad/s^3" and v.value > v.limit == limit
     assert info.value.field == "duration"
@@ -699,12 +703,12 @@ def test_joint_limit_error_says_the_other_branch_would_pass() -> None:
     # the elbow may only bend "down" (q2 ≥ −0.05): the configured "up" branch fails
     arm = variant(ARM3R, only=1, min=-0.05, max=2.8)
     with pytest.raises(JointLimitError) as info:
-        plan(arm, WAYPOINTS_3R)
+        plan(arm, WAYPOINTS_3R, profile="quintic")
     v = info.value.violation
     assert v.joint == "elbow" and v.other_branch_ok is True and v.sample == 0
     assert v.waypoint == 0 and info.value.field == "waypoints[0]"
     assert "other elbow branch would pass" in str(info.value)
-    traj = plan(arm, WAYPOINTS_3R, elbow="down")
+    traj = plan(arm, WAYPOINTS_3R, profile="quintic", elbow="down")
     check_trajectory(traj, arm, WAYPOINTS_3R)
 
 
@@ -719,3 +723,219 @@ def test_issue_command_ends_elbow_up() -> None:
                          check=True, timeout=60)
     joints = np.array(json.loads(out.stdout)["joints"])
     assert (joints[1:, 1] < 0).all()
+
+
+# -- issue 10: profile "optimal" (time-optimal, jerk-limited) and planning from a moving start ----
+
+def _jerk(arm: Arm, per_accel: float | None) -> Arm:
+    """``arm`` with jerk limits per_accel × a per joint (None: no jerk limit)."""
+    return dataclasses.replace(arm, joints=tuple(
+        dataclasses.replace(j, max_jerk=None if per_accel is None
+                            else per_accel * j.max_acceleration) for j in arm.joints))
+
+
+ISSUE_VIAS = [[0.25, 0.10, 0.0], [0.2, 0.15, math.radians(20)], [0.15, 0.2, math.radians(40)],
+              [0.12, 0.24, math.radians(60)], [0.05, 0.25, math.radians(80)]]
+
+
+def fd_ratio(traj: Trajectory, arm: Arm, history: np.ndarray | None = None) -> float:
+    """Worst finite-difference velocity/acceleration/jerk over its limit (rest or history
+    before, rest after), computed here from the samples."""
+    q = traj.joints
+    worst = 0.0
+    for order, limit in ((1, [j.max_velocity for j in arm.joints]),
+                         (2, [j.max_acceleration for j in arm.joints]),
+                         (3, [j.max_jerk or math.inf for j in arm.joints])):
+        pre = np.repeat(q[:1], order, axis=0) if history is None else history[-order:]
+        p = np.concatenate([pre, q, np.repeat(q[-1:], order, axis=0)])
+        d = np.abs(np.diff(p, order, axis=0)) * traj.rate_hz ** order
+        worst = max(worst, float((d / np.asarray(limit)).max()))
+    return worst
+
+
+def test_optimal_is_the_default_profile() -> None:
+    assert PlanRequest(arm=ARM3R, waypoints=WAYPOINTS_3R).profile == "optimal"
+    assert timing.PROFILES[0] == "optimal" and set(timing.UNIFORM_PROFILES) < set(
+        timing.PROFILES)
+
+
+@pytest.mark.parametrize("per_accel", [None, 20.0], ids=["no-jerk", "jerk"])
+@pytest.mark.parametrize("blend", [False, True])
+@pytest.mark.parametrize(("arm", "waypoints"), [(ARM3R, ISSUE_VIAS), (ARM2R, WAYPOINTS_2R)],
+                         ids=["arm3r", "arm2r"])
+def test_optimal_keeps_every_limit_and_beats_quintic(arm: Arm, waypoints: Any, blend: bool,
+                                                     per_accel: float | None) -> None:
+    a = _jerk(arm, per_accel)
+    traj = plan(a, waypoints, blend=blend, rate_hz=1000)
+    check_trajectory(traj, a, waypoints)
+    assert fd_ratio(traj, a) <= 1 + 1e-9
+    quintic = plan(a, waypoints, blend=blend, rate_hz=1000, profile="quintic")
+    assert traj.duration <= quintic.duration
+
+
+@pytest.mark.parametrize("per_accel", [None, 20.0], ids=["no-jerk", "jerk"])
+def test_blend_is_never_slower_than_stopping(per_accel: float | None) -> None:
+    """The issue's example: through three vias blended vs stopping at each."""
+    a = _jerk(ARM3R, per_accel)
+    stop = plan(a, ISSUE_VIAS, rate_hz=1000)
+    blend = plan(a, ISSUE_VIAS, blend=True, rate_hz=1000)
+    assert blend.duration <= stop.duration
+    # stopping: a sample sits on every via, at rest (the steps either side are at most an
+    # acceleration from rest within its limit: |Δq| ≤ a Δt²)
+    acc = np.array([j.max_acceleration for j in a.joints])
+    for via in ISSUE_VIAS[1:-1]:
+        i = int(np.argmin(np.linalg.norm(stop.poses[:, :2] - via[:2], axis=1)))
+        np.testing.assert_allclose(stop.poses[i, :2], via[:2], atol=1e-9)
+        for step in (stop.joints[i + 1] - stop.joints[i], stop.joints[i] - stop.joints[i - 1]):
+            assert (np.abs(step) <= acc / 1000 ** 2 * (1 + 1e-9)).all()
+    # blending: the arm never rests in between
+    speed = np.abs(np.diff(blend.joints, axis=0)).max(axis=1)
+    assert speed[5:-5].min() > 0
+
+
+def test_optimal_is_within_two_percent_of_toppra() -> None:
+    toppra = pytest.importorskip("toppra")  # the bench extra
+    import toppra.algorithm as algo
+    import toppra.constraint as constraint
+
+    from robodcn.planner import optimal
+
+    toppra.setup_logging("WARNING")
+    free = _jerk(ARM3R, None)
+    for waypoints, blend in ((ISSUE_VIAS[:2], False), (ISSUE_VIAS, False), (ISSUE_VIAS, True)):
+        traj = plan(free, waypoints, blend=blend, rate_hz=1000)
+        v = np.array([j.max_velocity for j in free.joints])
+        acc = np.array([j.max_acceleration for j in free.joints])
+        pieces, _ = optimal.build_pieces(traj.request)
+        ref = 0.0
+        for piece in pieces:
+            path = toppra.SplineInterpolator(piece.s, piece.q)
+            solved = algo.TOPPRA([constraint.JointVelocityConstraint(v),
+                                  constraint.JointAccelerationConstraint(acc)], path,
+                                 parametrizer="ParametrizeConstAccel").compute_trajectory(0, 0)
+            ref += solved.duration
+        assert traj.duration <= 1.02 * ref
+        assert traj.duration >= 0.98 * ref  # and not faster than the optimum: same problem
+
+
+def test_fixed_duration_stretches_the_optimal_law() -> None:
+    free = _jerk(ARM3R, None)
+    auto = plan(free, ISSUE_VIAS, rate_hz=100)
+    slow = plan(free, ISSUE_VIAS, rate_hz=100, duration=2.5)
+    assert slow.duration == pytest.approx(2.5)
+    check_trajectory(slow, free, ISSUE_VIAS)
+    # the same path: every auto pose lies on the slow plan's poses (a stretch, not a new path)
+    d = np.linalg.norm(auto.poses[:, None, :2] - slow.poses[None, :, :2], axis=2).min(axis=1)
+    assert d.max() < 0.01
+    # shorter than the optimum: compressed, and the first sample past a limit is named
+    with pytest.raises((VelocityLimitError, AccelerationLimitError)) as info:
+        plan(free, ISSUE_VIAS, rate_hz=100, duration=0.5 * auto.duration)
+    assert info.value.field == "duration" and info.value.sample > 0
+
+
+def _moving_state(arm: Arm, at: float = 0.4) -> tuple[Trajectory, int, robodcn.StartState]:
+    run = plan(arm, ISSUE_VIAS[:1] + ISSUE_VIAS[-1:], rate_hz=1000)
+    i = int(at * run.t.shape[0])
+    q = run.joints
+    state = robodcn.StartState(q[i], (q[i + 1] - q[i - 1]) * 500.0,
+                               (q[i + 1] - 2 * q[i] + q[i - 1]) * 1e6)
+    return run, i, state
+
+
+@pytest.mark.parametrize("goal", [ISSUE_VIAS[-1], [0.0, 0.28, 1.9], [0.22, 0.05, -0.3]],
+                         ids=["same-goal", "further", "back"])
+def test_moving_start_is_matched_and_within_limits(goal: list[float]) -> None:
+    free = _jerk(ARM3R, None)
+    run, i, state = _moving_state(free)
+    here = [float(x) for x in run.poses[i]]
+    traj = plan(free, [here, goal], rate_hz=1000, start_state=state)
+    assert traj.start_state == state
+    np.testing.assert_array_equal(traj.joints[0], state.joints)
+    q0, v0, a0 = state.arrays()
+    from robodcn.planner.validate import start_history
+
+    history = start_history(q0, v0, a0, 1000.0)
+    assert fd_ratio(traj, free, history) <= 1 + 1e-9
+    # velocity continuous across the start: the first step is v0 Δt within one sample of
+    # maximum acceleration
+    a = np.array([j.max_acceleration for j in free.joints])
+    step = (traj.joints[1] - traj.joints[0]) * 1000 - v0
+    assert (np.abs(step) <= a / 1000 * (1 + 1e-9)).all()
+    np.testing.assert_allclose(traj.poses[-1, :2], goal[:2], atol=1e-9)
+    if goal is ISSUE_VIAS[-1]:
+        # retargeting to the goal it was heading for: no slower than the rest of that move
+        assert traj.duration <= run.duration - i / 1000 + 2e-3
+
+
+def test_start_state_rules_and_json() -> None:
+    free = _jerk(ARM3R, None)
+    run, i, state = _moving_state(free)
+    here = [float(x) for x in run.poses[i]]
+    with pytest.raises(InputError) as info:
+        plan(free, [here, ISSUE_VIAS[-1]], rate_hz=1000, start_state=state, duration=3.0)
+    assert info.value.field == "duration"
+    with pytest.raises(InputError) as info:
+        plan(free, [here, ISSUE_VIAS[-1]], rate_hz=1000, start_state=state, profile="quintic")
+    assert info.value.field == "start_state"
+    with pytest.raises(InputError) as info:
+        plan(free, [here, ISSUE_VIAS[-1]], start_state=state, start_joints=state.joints)
+    assert info.value.field == "start_state"
+    too_fast = robodcn.StartState(state.joints, [10.0, 0.0, 0.0])
+    with pytest.raises(InputError) as info:
+        plan(free, [here, ISSUE_VIAS[-1]], start_state=too_fast)
+    assert info.value.field == "start_state.velocities[0]"
+    traj = plan(free, [here, ISSUE_VIAS[-1]], rate_hz=1000, start_state=state)
+    back = Trajectory.from_json(traj.to_json(), free)
+    assert back.start_state == traj.start_state
+    np.testing.assert_array_equal(back.joints, traj.joints)
+    # a body gives it as an object
+    from robodcn import contract
+
+    req = contract.parse_request({"waypoints": [here, ISSUE_VIAS[-1]], "rate_hz": 1000,
+                                  "start_state": state.to_dict()}, free)
+    assert req.start_state == state
+
+
+def test_moving_start_from_a_pose_off_the_first_waypoint_goes_there_first() -> None:
+    """With a start state the path runs from FK(joints) through every waypoint."""
+    free = _jerk(ARM3R, None)
+    _, _, state = _moving_state(free)
+    traj = plan(free, [ISSUE_VIAS[2], ISSUE_VIAS[-1]], rate_hz=1000, start_state=state)
+    d = np.linalg.norm(traj.poses[:, :2] - ISSUE_VIAS[2][:2], axis=1)
+    assert d.min() < 1e-9  # stops there (no blend) and goes on
+    np.testing.assert_allclose(traj.poses[-1, :2], ISSUE_VIAS[-1][:2], atol=1e-9)
+
+
+@pytest.mark.parametrize("goal", [ISSUE_VIAS[-1], [0.22, 0.05, -0.3]], ids=["same", "back"])
+def test_moving_start_with_jerk_limits_keeps_every_limit(goal: list[float]) -> None:
+    arm = _jerk(ARM3R, 20.0)
+    run, i, state = _moving_state(arm)
+    here = [float(x) for x in run.poses[i]]
+    traj = plan(arm, [here, goal], rate_hz=1000, start_state=state)
+    np.testing.assert_array_equal(traj.joints[0], state.joints)
+    from robodcn.planner.validate import start_history
+
+    history = start_history(*state.arrays(), 1000.0)
+    assert fd_ratio(traj, arm, history) <= 1 + 1e-9
+    np.testing.assert_allclose(traj.poses[-1, :2], goal[:2], atol=1e-9)
+
+
+def test_blended_path_is_c2_through_every_via() -> None:
+    """The blend's quintic corrections match dP/du and d²P/du² at every knot (finite jerk)."""
+    from robodcn.planner.path import blended_path, segments_of
+
+    req = PlanRequest(arm=ARM3R, waypoints=ISSUE_VIAS, blend=True)
+    path = blended_path(req, segments_of(req), None)
+    h = 1e-4
+    for knot in path.knots[1:-1]:
+        # one-sided second-order differences from each side of the knot
+        left = path(knot - h * np.arange(4.0))
+        right = path(knot + h * np.arange(4.0))
+        d1_l = (3 * left[0] - 4 * left[1] + left[2]) / (2 * h)
+        d1_r = (-3 * right[0] + 4 * right[1] - right[2]) / (2 * h)
+        d2_l = (2 * left[0] - 5 * left[1] + 4 * left[2] - left[3]) / h ** 2
+        d2_r = (2 * right[0] - 5 * right[1] + 4 * right[2] - right[3]) / h ** 2
+        np.testing.assert_allclose(d1_l, d1_r, atol=1e-3 * max(1.0, np.abs(d1_l).max()))
+        np.testing.assert_allclose(d2_l, d2_r, atol=1e-2 * max(1.0, np.abs(d2_l).max()))
+        np.testing.assert_allclose(path(np.array([knot]))[0], ISSUE_VIAS[
+            list(path.knots).index(knot)], atol=1e-12)

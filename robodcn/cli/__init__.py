@@ -36,7 +36,7 @@ from robodcn.errors import RobodcnError
 #: The command modules, in help order; each has ``register(subparsers)``. Commands of other
 #: modules (calibrate, teach, run, pose, ...) are added here.
 COMMANDS: tuple[str, ...] = ("robodcn.cli.plan_cmd", "robodcn.cli.motion_cmd",
-                             "robodcn.cli.serve_cmd", "robodcn.cli.scan_cmd",
+                             "robodcn.cli.jog_cmd", "robodcn.cli.serve_cmd", "robodcn.cli.scan_cmd",
                              "robodcn.workflow.commands")
 
 

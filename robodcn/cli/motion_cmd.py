@@ -21,7 +21,7 @@ from collections.abc import Iterator
 from contextlib import contextmanager
 from typing import Any
 
-from robodcn.cli import options, planning
+from robodcn.cli import keys, options, planning
 from robodcn.cli.exit_codes import exit_for_report
 from robodcn.cli.output import emit
 from robodcn.cli.report_text import approach_seconds, report_dict, report_text
@@ -181,6 +181,8 @@ def stream(args: argparse.Namespace, traj, arm, bus) -> tuple[Any, _LiveProgress
 
     stop = StopSignal()
     live = _LiveProgress(traj, arm)
+    if keys.interactive():
+        return _execute_with_keys(args, traj, arm, bus, stop, live), live
     with _ctrl_c_stops(stop):
         try:
             report = execute(traj, bus, feedback_every=args.feedback_every,
@@ -191,6 +193,28 @@ def stream(args: argparse.Namespace, traj, arm, bus) -> tuple[Any, _LiveProgress
         finally:
             live.finish()
     return report, live
+
+
+def _execute_with_keys(args: argparse.Namespace, traj, arm, bus, stop, live):
+    """On a terminal: the move keys (robodcn.cli.keys.MOVE_KEYS) while it streams."""
+    from robodcn.stream import start
+
+    sys.stderr.write(f"keys: {keys.MOVE_KEYS}\n")
+    execution = start(traj, bus, feedback_every=args.feedback_every,
+                      tracking_limit=math.radians(args.tracking_limit), stop=stop,
+                      progress=live, release=args.release, realtime=args.realtime,
+                      compensation=compensation(args), recover=args.recover,
+                      settle=SETTLE_S, arm=arm)
+    try:
+        with keys.TerminalKeys() as terminal:
+            keys.drive(execution, terminal,
+                       on_action=lambda what: sys.stderr.write(f"\n{what}\n"))
+        return execution.wait()
+    finally:
+        if not execution.done:
+            execution.stop("hold")
+            execution.wait(5)
+        live.finish()
 
 
 def finish(args: argparse.Namespace, arm, traj, report, live: _LiveProgress, *,

@@ -10,6 +10,7 @@ from typing import Any
 import robodcn
 from robodcn.config import Arm
 from robodcn.contract import schema_of
+from robodcn.http import online_ops
 from robodcn.http.planbody import move_body_schema, plan_body_schema, trajectory_move_schema
 from robodcn.http.results import RESULTS
 from robodcn.http.routes import ROUTES, TRANSPORT_ERRORS, Route
@@ -19,12 +20,14 @@ from robodcn.planner import Trajectory
 def schemas(arm: Arm | None = None) -> dict[str, dict[str, Any]]:
     """Component schemas: request bodies (from robodcn.contract, exact for ``arm``), the
     Trajectory and every result type (schema_of their dataclasses)."""
+    online = online_ops.body_schemas(move_body_schema(arm))
+    given = trajectory_move_schema(arm)
+    given["properties"]["replace"] = {
+        "type": "boolean", "default": False,
+        "description": "A given trajectory cannot replace a running move in flight: true "
+                       "while a move runs is a 422 naming replace (stop it first)."}
     return {
         "PlanBody": plan_body_schema(arm),
-        "MoveBody": {"anyOf": [move_body_schema(arm), trajectory_move_schema(arm)],
-                     "description": "Waypoints to plan from the arm's present pose, or a "
-                                    "given trajectory to play after a joint-space approach "
-                                    "from the present joints."},
         "TorqueBody": {"type": "object", "additionalProperties": False, "required": ["on"],
                        "properties": {"on": {"type": "boolean", "description": "torque on "
                                              "(holds where the arm is) or off"},
@@ -35,11 +38,16 @@ def schemas(arm: Arm | None = None) -> dict[str, dict[str, Any]]:
         "Events": {"type": "string", "description": "SSE: `event: state|move|alert`, `data:` "
                    "one JSON object (State plus move_info and time; Move; {alerts, error})"},
         "Page": {"type": "string"},
-        "StopBody": {"type": "object", "additionalProperties": False, "properties": {},
-                     "description": "Empty: stop takes no fields (the body may be omitted)."},
         "Trajectory": schema_of(Trajectory),
         "OpenAPI": {"type": "object"},
         **{name: schema_of(cls) for name, cls in RESULTS.items()},
+        **online,
+        # after the online bodies: waypoints (with replace) or a given trajectory
+        "MoveBody": {"anyOf": [online["MoveBody"], given],
+                     "description": "Waypoints to plan from the arm's present pose (or, with "
+                                    "replace, from the running move's commanded state), or a "
+                                    "given trajectory to play after a joint-space approach "
+                                    "from the present joints."},
     }
 
 
@@ -79,7 +87,8 @@ def openapi(arm: Arm | None = None, *, token: bool = False,
                                      "schema": {"$ref": f"#/components/schemas/{route.body}"}}}}
         codes = set(route.errors) | set(TRANSPORT_ERRORS)
         if route.name in ("start_move", "get_move", "stop", "state", "move_trajectory",
-                          "move_record", "torque", "reboot", "events"):
+                          "move_record", "torque", "reboot", "events", "pause", "resume",
+                          "set_speed"):
             codes.add(503)  # no arm attached, or a bus fault
         if route.method == "POST" and token:
             codes.add(401)

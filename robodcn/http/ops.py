@@ -16,6 +16,7 @@ from typing import TYPE_CHECKING, Any
 
 import robodcn
 from robodcn.errors import InputError, RobodcnError, TooLargeError
+from robodcn.http import online_ops
 from robodcn.http.framing import HTTPError, Reply, Request, stream_head
 from robodcn.http.jsonbody import decode_json
 from robodcn.http.limits import LARGE_PLAN_SAMPLES, LARGE_PLAN_WAYPOINTS, MAX_RESPONSE
@@ -152,10 +153,16 @@ def _given_trajectory(server: RobodcnHTTPServer, body: dict[str, Any]) -> Trajec
 def op_start_move(server: RobodcnHTTPServer, request: Request, params: dict[str, str]
                   ) -> tuple[int, Any]:
     controller = _controller(server)
-    body = read_json(request)
+    body, replace = online_ops.take_replace(read_json(request))
     given = _given_trajectory(server, body) if isinstance(body, dict) and \
         "trajectory" in body else None
     req = None if given is not None else parse_move(server.arm, body)
+    if replace and controller.busy:
+        if given is not None:
+            raise InputError("replace takes waypoints: a given trajectory cannot take over a "
+                             "running move in flight (stop it first)", field="replace",
+                             value=True)
+        return online_ops.replace_move(server, controller, req)
     # Plan from where the arm is (409 at once if it is moving), so an infeasible approach
     # is a 422 now rather than a failed move later, and the record shows what will run.
     with controller.admitting():
@@ -275,12 +282,7 @@ def op_stop(server: RobodcnHTTPServer, request: Request, params: dict[str, str]
             ) -> tuple[int, Any]:
     controller = _controller(server)
     body = read_json(request, required=False) if request.body else {}
-    if body != {}:
-        if not isinstance(body, dict):
-            raise InputError("the stop body must be empty or {}", field="body")
-        name = next(iter(body))
-        raise InputError(f"unknown field {name!r}: stop takes no fields", field=name)
-    return 200, controller.stop()
+    return 200, controller.stop_move(online_ops.stop_mode(body))
 
 
 def op_state(server: RobodcnHTTPServer, request: Request, params: dict[str, str]
@@ -295,3 +297,4 @@ def op_openapi(server: RobodcnHTTPServer, request: Request, params: dict[str, st
 
 OPERATIONS: dict[str, Operation] = {name.removeprefix("op_"): fn for name, fn in
                                     dict(globals()).items() if name.startswith("op_")}
+OPERATIONS.update(online_ops.OPERATIONS)

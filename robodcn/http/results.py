@@ -11,9 +11,11 @@ from typing import Any, Literal
 
 #: Move lifecycle. ``done``: every sample sent; ``degraded``: completed with samples skipped;
 #: ``stopped``: stopped by a request (the arm holds); ``fault``: a bus or servo fault ended
-#: it after motion began; ``failed``: refused before any sample was sent.
+#: it after motion began; ``collision``: the collision stop ended it; ``failed``: refused
+#: before any sample was sent; ``replaced``: a move with ``"replace": true`` took over the
+#: rest of it in flight.
 MoveState = Literal["queued", "running", "done", "degraded", "stopped", "collision", "fault",
-                    "failed"]
+                    "failed", "replaced"]
 
 
 def _doc(text: str, **schema: Any) -> dict[str, Any]:
@@ -73,6 +75,10 @@ class MoveStatus:
     finished: float | None = None
     report: dict[str, Any] | None = None
     error: ErrorDetail | None = None
+    paused: bool = field(default=False, metadata=_doc("paused (POST /v1/pause)"))
+    speed_scale: float = field(default=1.0, metadata=_doc(
+        "speed scale k of the limits (PUT /v1/speed)", type="number", exclusiveMinimum=0,
+        maximum=1))
 
 
 @dataclass
@@ -89,6 +95,9 @@ class State:
     moving: bool
     move: str | None
     source: Literal["bus", "stream"]
+    paused: bool = field(default=False, metadata=_doc("the running move is paused"))
+    speed_scale: float | None = field(default=None, metadata=_doc(
+        "speed scale of the running move (null when none runs)"))
 
 
 @dataclass

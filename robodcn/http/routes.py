@@ -6,7 +6,8 @@ request runs in, and ``/openapi.json``.
 - ``"work"``: the ordinary worker pool (planning, starting moves) — bounded, 503 when full;
 - ``"read"``: threads for the quick reads (state, health, move status), so a load of plans
   cannot delay them;
-- ``"control"``: threads reserved for ``POST /v1/stop``, which nothing else may use, so no
+- ``"control"``: threads reserved for ``POST /v1/stop`` (and the other controls of the running
+  move: pause, resume, speed), which nothing else may use, so no
   load of plans, reads (a state read waits up to 5 s on a faulty bus) or slow clients can
   delay a stop;
 - ``"stream"``: a long-lived response (e.g. Server-Sent Events): its own bounded pool of
@@ -75,8 +76,17 @@ ROUTES: tuple[Route, ...] = (
           "Move", "MoveBody", (*BODY_ERRORS, 409)),
     Route("GET", "/v1/moves/{id}", "get_move", "Status, progress and report of a move", 200,
           "Move", None, (404,), pool="read"),
-    Route("POST", "/v1/stop", "stop", "Stop the running move and hold position", 200,
+    Route("POST", "/v1/stop", "stop", "Stop the running move (smooth: decelerate along its "
+          "path, then hold; hold: at once)", 200,
           "Stop", "StopBody", (400, 413, 415, 422), pool="control", body_required=False),
+    Route("POST", "/v1/pause", "pause", "Pause the running move: a smooth stop on its path",
+          200, "Move", "EmptyBody", (400, 409, 413, 415, 422), pool="control",
+          body_required=False),
+    Route("POST", "/v1/resume", "resume", "Resume the paused move along the same path", 200,
+          "Move", "EmptyBody", (400, 409, 413, 415, 422), pool="control",
+          body_required=False),
+    Route("PUT", "/v1/speed", "set_speed", "Scale the running move's speed live (limits "
+          "v·k, a·k², j·k³)", 200, "Move", "SpeedBody", (*BODY_ERRORS, 409), pool="control"),
     Route("GET", "/v1/state", "state", "Present joints, pose, torque and hardware alerts",
           200, "State", pool="read"),
     Route("GET", "/openapi.json", "openapi", "This OpenAPI 3.1 document", 200, "OpenAPI"),

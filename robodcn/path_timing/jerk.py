@@ -176,7 +176,7 @@ def _filtered(sg: NDArray, x: NDArray, u: NDArray, dt: NDArray, stop_breaks: NDA
 def jerk_limited(s: NDArray, derivs: list[NDArray], grid: NDArray, cap: NDArray, v: NDArray,
                  a: NDArray, j: NDArray, *, sd_start: float, sdd_start: float,
                  stop_idx: NDArray, rate_hz: float, accel_share: float,
-                 solve: Callable, stage_times: Callable) -> PathTiming:
+                 solve: Callable, stage_times: Callable, smooth: bool = False) -> PathTiming:
     """Filtered time-optimal law within v, a, j (module doc of ``optimal``)."""
     from robodcn.path_timing.optimal import JERK_MARGIN
 
@@ -193,8 +193,11 @@ def jerk_limited(s: NDArray, derivs: list[NDArray], grid: NDArray, cap: NDArray,
     jumps = corner_jumps(derivs[1])
     for i in stop_idx.tolist():  # at rest there: the derivatives' corner is the stop's own
         jumps[max(0, i - 2):i + 3] = 0.0
-    cap, corners = _corner_cap(s, jumps, derivs[0], derivs[1], lim_v, lim_a, lim_j, rate_hz,
-                               sg, cap, w0)
+    if smooth:  # the caller's path is C² within its pieces: no curvature corners to cross
+        corners = np.zeros(jumps.shape[0], dtype=bool)
+    else:
+        cap, corners = _corner_cap(s, jumps, derivs[0], derivs[1], lim_v, lim_a, lim_j,
+                                   rate_hz, sg, cap, w0)
     jumps[~corners] = 0.0  # smooth stretches: the analytic q''' ṡ³ term covers them
     derivs = [*derivs[:3], jumps]
     stop_breaks = np.searchsorted(grid, stop_idx)

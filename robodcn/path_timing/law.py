@@ -134,7 +134,9 @@ class PathTiming:
                              "joint limit would be exceeded", field="duration",
                              value=duration)
         start = self.at(np.array([0.0]))
-        if abs(start.sd[0]) > 1e-12 or abs(start.sdd[0]) > 1e-12:
+        # a rest start may begin with an acceleration step (jerk-free law): it scales by
+        # 1/λ² and stays a start from rest; a moving start would change its velocity
+        if abs(start.sd[0]) > 1e-12 or (self.window > 0 and abs(start.sdd[0]) > 1e-12):
             raise InputError("a law from a moving start cannot be stretched uniformly: the "
                              "start velocity would change", field="duration", value=duration)
         out = PathTiming(self._tb, self._sb, self._vb, self._u, window=self.window,

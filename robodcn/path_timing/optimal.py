@@ -2,7 +2,10 @@
 
 Jerk-free part: TOPP-RA (H. Pham and Q.-C. Pham, "A New Approach to Time-Optimal Path
 Parameterization Based on Reachability Analysis", IEEE T-RO 34(3), 2018) with the per-stage
-LPs in closed form (:mod:`robodcn.path_timing.reachability`).
+LPs in closed form (:mod:`robodcn.path_timing.reachability`), discretised by the paper's
+"interpolation" scheme (§V-B; :data:`INTERPOLATED`): each stage bounds the joint
+acceleration at both of its ends, so samples between grid points keep the limits (the
+collocation scheme, constraints at the stage start only, let them pass by up to ~1 %).
 
 Jerk pass: the joint jerk along a path is q''' ṡ³ + 3 q'' ṡ s̈ + q' s⃛. The time-optimal law
 s₀ (solved with the acceleration limits scaled by ``accel_share`` and a velocity cap that keeps
@@ -16,13 +19,18 @@ two rounds lower the speed only where a limit is over, and any residual excess i
 the uniform stretch λ = max(1, r_v, √r_a, ∛r_j) that divides velocity, acceleration and jerk
 by λ, λ², λ³. A curvature corner of the path (a step of q'', as at the planner's C¹ blends) is
 a step of joint acceleration Δq'' ṡ² within one stream period, so it is crossed slowly enough
-that Δq'' ṡ² × rate stays within the jerk limit. From a moving start (ṡ₀, s̈₀) the filter's
+that Δq'' ṡ² × rate stays within the jerk limit (``smooth=True`` skips this for a path known
+to be C², as the planner's blends now are: the check reads any fast change of q'' as a
+corner). From a moving start (ṡ₀, s̈₀) the filter's
 history is chosen so the filtered law starts exactly there, and the limits are shrunk instead
 of stretching (a stretch would change ṡ₀).
 
 Known limits: the box filter's overhead is one window (≈ 2a/j) per piece where the
-jerk-limited optimum needs about a/j, so the jerk-limited law is not time-optimal; see the
-bench (bench/bench_path_timing.py) for the ratios.
+jerk-limited optimum needs about a/j, so the jerk-limited law is not time-optimal (a
+third-order phase-plane pass — the jerk-limited TOPP-RA extension of Pham & Pham — is not
+built); see the bench (bench/bench_path_timing.py) for the ratios. Through the planner
+(C² paths, the configs' jerk 20 a) it beats the quintic ``auto`` under the same jerk limit on
+every bench path.
 """
 
 from __future__ import annotations
@@ -40,6 +48,8 @@ from robodcn.path_timing.law import PathTiming
 
 #: stages of the reachability grid at most (the samples are subsampled evenly above this)
 MAX_STAGES = 1000
+#: TOPP-RA's "interpolation" discretisation (acceleration bounded at both ends of each stage)
+INTERPOLATED = True
 #: stream rate the jerk pass checks at when the caller gives none, Hz
 CHECK_RATE_HZ = 1000.0
 #: inner margin of the jerk pass: it aims for (1 - margin) × every limit
@@ -95,9 +105,28 @@ def _grid(n: int, stop_idx: NDArray[np.int64], max_stages: int) -> NDArray[np.in
     return np.union1d(even, stop_idx)
 
 
+def _interpolated(sg: NDArray, dq: NDArray, ddq: NDArray, v: NDArray, a: NDArray
+                  ) -> tuple[NDArray, NDArray, NDArray, NDArray]:
+    """The "interpolation" discretisation of TOPP-RA (Pham & Pham 2018, §V-B): stage i also
+    bounds the acceleration at its end point, q'_{i+1} u + q''_{i+1} x_{i+1} with
+    x_{i+1} = x + 2Δ_i u, i.e. a virtual joint with q' = q'_{i+1} + 2Δ_i q''_{i+1} and
+    q'' = q''_{i+1} (no velocity bound of its own: stage i + 1 bounds it). So the law keeps the
+    acceleration limits at both ends of every stage, not only at the grid points it starts
+    from (collocation), and the stream's samples between grid points stay within them."""
+    delta = np.diff(sg)
+    nxt_dq = np.vstack([dq[1:], dq[-1:]])
+    nxt_ddq = np.vstack([ddq[1:], ddq[-1:]])
+    step = np.concatenate([delta, [0.0]])[:, None]
+    dq2 = np.hstack([dq, nxt_dq + 2.0 * step * nxt_ddq])
+    ddq2 = np.hstack([ddq, nxt_ddq])
+    return dq2, ddq2, np.concatenate([v, np.full(v.shape, np.inf)]), np.concatenate([a, a])
+
+
 def _solve(sg: NDArray, dq: NDArray, ddq: NDArray, v: NDArray, a: NDArray, extra_cap: NDArray,
            x_start: float, x_end: float) -> tuple[NDArray, NDArray]:
     """x (N + 1,), u (N,) of TOPP-RA on grid sg; raises when the start is not controllable."""
+    if INTERPOLATED:
+        dq, ddq, v, a = _interpolated(sg, dq, ddq, v, a)
     p_lo, p_hi, r, x_cap = reachability.stage_constraints(dq, ddq, v, a)
     x_cap = np.minimum(x_cap, extra_cap)
     delta = np.diff(sg)
@@ -125,7 +154,8 @@ def time_optimal(q: ArrayLike, s: ArrayLike, v_max: ArrayLike, a_max: ArrayLike,
                  j_max: ArrayLike | None = None, *, sd_start: float = 0.0,
                  sdd_start: float = 0.0, sd_end: float = 0.0, stops: Sequence[float] = (),
                  rate_hz: float | None = None, scale: float = 1.0,
-                 max_stages: int = MAX_STAGES, accel_share: float = 0.95) -> PathTiming:
+                 max_stages: int = MAX_STAGES, accel_share: float = 0.95,
+                 smooth: bool = False) -> PathTiming:
     """Least-duration time law s(t) along the joint path q(s) under per-joint limits.
 
     Parameters
@@ -144,6 +174,9 @@ def time_optimal(q: ArrayLike, s: ArrayLike, v_max: ArrayLike, a_max: ArrayLike,
     scale : speed scaling k ∈ (0, 1]: limits v·k, a·k², j·k³
     max_stages : reachability grid size at most (samples are subsampled evenly above it)
     accel_share : share of a_max the jerk pass's optimal law may use before filtering
+    smooth : the path is C² between stops (as the planner's blends are): the jerk pass then
+        skips its curvature-corner caps, which otherwise read every fast change of q''
+        between samples as a step (a C¹ corner) and slow the law there
 
     Returns
     -------
@@ -197,7 +230,8 @@ def time_optimal(q: ArrayLike, s: ArrayLike, v_max: ArrayLike, a_max: ArrayLike,
     from robodcn.path_timing.jerk import jerk_limited
     return jerk_limited(s, derivs, grid, cap, v, a, j, sd_start=sd_start, sdd_start=sdd_start,
                         stop_idx=stop_idx, rate_hz=rate_hz or CHECK_RATE_HZ,
-                        accel_share=accel_share, solve=_solve, stage_times=_stage_times)
+                        accel_share=accel_share, solve=_solve, stage_times=_stage_times,
+                        smooth=smooth)
 
 
 def max_start_speed(q: ArrayLike, s: ArrayLike, v_max: ArrayLike, a_max: ArrayLike, *,
@@ -217,7 +251,10 @@ def max_start_speed(q: ArrayLike, s: ArrayLike, v_max: ArrayLike, a_max: ArrayLi
                          if stop_s.size else np.empty(0, np.int64))
     dq, ddq = path_derivatives(q, s, stop_idx.tolist(), 2)
     grid = _grid(q.shape[0], stop_idx, max(1, int(max_stages)))
-    p_lo, _, r, x_cap = reachability.stage_constraints(dq[grid], ddq[grid], v, a)
+    dq, ddq = dq[grid], ddq[grid]
+    if INTERPOLATED:  # the same discretisation as time_optimal's
+        dq, ddq, v, a = _interpolated(s[grid], dq, ddq, v, a)
+    p_lo, _, r, x_cap = reachability.stage_constraints(dq, ddq, v, a)
     x_cap[np.searchsorted(grid, stop_idx)] = 0.0
     x_max = reachability.controllable(np.diff(s[grid]), p_lo, r, x_cap, 0.0)
     return math.sqrt(float(x_max[0]))

@@ -14,15 +14,19 @@ Structure of a plan
   waypoint (quintic and trapezoid are rest-to-rest; "linear" has velocity steps).
 * **Blend (blend=True).** One time law over a global path parameter u ∈ [0, 1] whose knots
   are spaced by each segment's joint-space travel time; each segment's pose curve gets a
-  cubic Hermite correction h₁(s)·Δ₀ + h₂(s)·Δ₁ (h₁ = s(1 − s)², h₂ = s²(s − 1): zero at both
-  ends, unit slope at one end) so that at every via point the tangent dP/du equals the
-  knot-weighted (Bessel) average of the two neighbouring segments' tangents. The path still
+  quintic Hermite correction (zero at both ends; path.blended_path) so that at every via
+  point the tangent dP/du and the second derivative d²P/du² equal the knot-weighted
+  (Bessel) averages of the two neighbouring segments' (C²: the jerk stays finite). The path still
   passes exactly through every waypoint, and the velocity is continuous there; between
   waypoints the curve departs from the pure ScLERP/KenLERP/... path by that correction.
 * **Approach.** With ``start_joints`` farther than half a servo tick from the IK of the first
   waypoint (the branch and 2π turn nearest start_joints, unless that turn is outside the
   joint limits and another is inside), a joint-space quintic from start_joints is
   prepended. It is always timed "auto" and comes on top of a numeric ``duration``.
+* **Optimal (the default profile).** :mod:`~robodcn.planner.optimal`: the same geometry,
+  timed time-optimally by :mod:`robodcn.path_timing` (whole path at once; stops at vias
+  without blend; from a moving ``start_state``). The rest of this docstring describes the
+  uniform profiles.
 * **Duration.** A number: the path's time, rounded up to whole sample periods and split over
   stop segments in proportion to their own shortest durations. "auto": per piece, the
   smallest number of sample periods N for which the finite-difference checks pass. The
@@ -52,11 +56,23 @@ from robodcn.contract import MAX_SAMPLES
 from robodcn.dcn import TURNS
 from robodcn.errors import BetaIgnoredWarning, BranchSwitchWarning
 from robodcn.planner.build import plan, plan_request
-from robodcn.planner.request import PlanRequest
+from robodcn.planner.request import PlanRequest, StartState
 from robodcn.planner.trajectory import Trajectory
 from robodcn.planner.validate import ANGLE_SLACK, LIMIT_SLACK
-from robodcn.timing import PROFILES
+from robodcn.timing import PROFILES, UNIFORM_PROFILES
 
-__all__ = ["ANGLE_SLACK", "LIMIT_SLACK", "MAX_SAMPLES", "PROFILES", "TURNS",
-           "BetaIgnoredWarning", "BranchSwitchWarning", "PlanRequest", "Trajectory", "plan",
-           "plan_request"]
+__all__ = [
+           "ANGLE_SLACK",
+           "LIMIT_SLACK",
+           "MAX_SAMPLES",
+           "PROFILES",
+           "TURNS",
+           "UNIFORM_PROFILES",
+           "BetaIgnoredWarning",
+           "BranchSwitchWarning",
+           "PlanRequest",
+           "StartState",
+           "Trajectory",
+           "plan",
+           "plan_request",
+]

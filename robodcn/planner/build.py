@@ -24,7 +24,7 @@ from robodcn.planner.path import (
     shape_trapezoid,
     within_limits,
 )
-from robodcn.planner.request import PlanRequest
+from robodcn.planner.request import PlanRequest, StartState
 from robodcn.planner.trajectory import Trajectory
 
 
@@ -75,8 +75,21 @@ def _counts(req: PlanRequest, pieces: list[Piece], start: NDArray | None) -> lis
     return counts
 
 
+def warn_switches(samples: tuple[int, ...], rate: float) -> None:
+    """Never silent: a branch switch is data on the trajectory and a warning of our own."""
+    warnings.warn(BranchSwitchWarning(
+        f"the elbow branch changes at sample {samples[0]} (t={samples[0] / rate:.3f}"
+        f" s) passing a stretched-out or folded pose"
+        + (f", and {len(samples) - 1} more time(s)" if len(samples) > 1 else ""),
+        samples=samples), stacklevel=3)
+
+
 def plan_request(req: PlanRequest) -> Trajectory:
     """Plan a validated :class:`PlanRequest` (package docstring); see :func:`plan`."""
+    if req.profile == "optimal":
+        from robodcn.planner import optimal
+
+        return optimal.plan(req)
     validate.check_waypoints(req)
     pieces, start = _pieces(req)
     counts = _counts(req, pieces, start)
@@ -217,9 +230,9 @@ def _unreachable(req: PlanRequest, piece: Piece, n: int, ref: NDArray | None, of
 
 def plan(arm, waypoints: ArrayLike, *, method: str | Sequence[str] = "sclerp",
          beta: float = 1.0, turn: str | Sequence[str] = "shortest",
-         duration: float | str = "auto", profile: str = "quintic", rate_hz: float = 100,
+         duration: float | str = "auto", profile: str = "optimal", rate_hz: float = 100,
          blend: bool = False, start_joints: ArrayLike | None = None,
-         elbow: str | None = None) -> Trajectory:
+         elbow: str | None = None, start_state: StartState | None = None) -> Trajectory:
     """Plan a validated trajectory through ``waypoints`` for ``arm``.
 
     Parameters
@@ -230,12 +243,16 @@ def plan(arm, waypoints: ArrayLike, *, method: str | Sequence[str] = "sclerp",
     beta : KenLERP bias (contract.BETA_RANGE)
     duration : total seconds (rounded up to whole sample periods) or "auto" (shortest
         feasible; package docstring)
-    profile : "linear" | "quintic" | "trapezoid"
+    profile : "optimal" (default; time-optimal along the path within the velocity,
+        acceleration and configured jerk limits: robodcn.planner.optimal) | "linear" |
+        "quintic" | "trapezoid" (uniform laws)
     rate_hz : 1..1000 Hz
     blend : pass through via points with continuous velocity
     start_joints : (k,) present joints; a joint-space approach is prepended when they differ
         from the IK of waypoints[0]
     elbow : "up" | "down", or None for the arm's configured branch
+    start_state : a moving :class:`StartState` (joints, velocities, accelerations) to plan
+        from (a retarget); the path runs from the pose FK(joints) (PlanRequest docstring)
 
     Raises
     ------
@@ -251,5 +268,5 @@ def plan(arm, waypoints: ArrayLike, *, method: str | Sequence[str] = "sclerp",
         turn = tuple(turn)
     req = PlanRequest(arm=arm, waypoints=waypoints, method=method, beta=beta, turn=turn,
                       duration=duration, profile=profile, rate_hz=rate_hz, blend=blend,
-                      start_joints=start_joints, elbow=elbow)
+                      start_joints=start_joints, elbow=elbow, start_state=start_state)
     return plan_request(req)

@@ -31,8 +31,14 @@ class Path:
         start, end, method, turn = self.segments[j]
         poses = interpolate(start, end, s, method=method, beta=self.beta, turn=turn)
         if self.corrections is not None:
-            d0, d1 = self.corrections[j]
-            poses += (s * (1.0 - s) ** 2)[:, None] * d0 + (s * s * (s - 1.0))[:, None] * d1
+            d0, d1, g0, g1 = self.corrections[j]
+            # quintic Hermite basis, zero at both ends: unit slope at 0 / at 1, unit second
+            # derivative at 0 / at 1 (every other end value and derivative zero)
+            s2, r = s * s, 1.0 - s
+            poses += ((s - 6.0 * s * s2 + 8.0 * s2 * s2 - 3.0 * s2 * s2 * s)[:, None] * d0
+                      + (s2 * s * (-4.0 + 7.0 * s - 3.0 * s2))[:, None] * d1
+                      + (0.5 * s2 * r ** 3)[:, None] * g0
+                      + (0.5 * s2 * s * r * r)[:, None] * g1)
         return poses
 
     def __call__(self, u: NDArray[np.float64]) -> NDArray[np.float64]:
@@ -141,7 +147,14 @@ def segments_of(req: PlanRequest) -> list[tuple[NDArray, NDArray, str, str]]:
 
 
 def blended_path(req: PlanRequest, segments: list, reference: NDArray | None) -> Path:
-    """One path through all waypoints with Bessel tangents at the via points (module doc)."""
+    """One path through all waypoints with Bessel tangents at the via points (module doc).
+
+    C²: each segment's pose curve L(s) gets the quintic Hermite correction that sets, at both
+    of its ends, dP/du to the knot-weighted (Bessel) average of the two neighbouring
+    segments' tangents and d²P/du² to the same average of their second derivatives; the
+    path's ends keep the segment's own. So the joint path q(u) = IK(P(u)) is C² through the
+    vias (finite jerk at any speed), where the cubic correction left a step of q''.
+    """
     arm = req.arm
     v, _ = rate_limits(arm)
     weights = []
@@ -161,22 +174,29 @@ def blended_path(req: PlanRequest, segments: list, reference: NDArray | None) ->
     knots = np.concatenate([[0.0], np.cumsum(w) / w.sum()])
     knots[-1] = 1.0
     span = np.diff(knots)
-    h = 1e-6
-    ends = []  # (dL/ds at 0, dL/ds at 1) per segment, central differences
+    h, h2 = 1e-6, 1e-4
+    ends = []  # (dL/ds, d²L/ds²) at s = 0 and at s = 1 per segment, central differences
     for seg in segments:
         start, end, method, turn = seg
         p = interpolate(start, end, np.array([-h, h, 1.0 - h, 1.0 + h]), method=method,
                         beta=req.beta, turn=turn)
-        ends.append(((p[1] - p[0]) / (2 * h), (p[3] - p[2]) / (2 * h)))
+        c = interpolate(start, end, np.array([-h2, 0.0, h2, 1.0 - h2, 1.0, 1.0 + h2]),
+                        method=method, beta=req.beta, turn=turn)
+        ends.append(((p[1] - p[0]) / (2 * h), (p[3] - p[2]) / (2 * h),
+                     (c[0] - 2 * c[1] + c[2]) / h2 ** 2, (c[3] - 2 * c[4] + c[5]) / h2 ** 2))
     m = len(segments)
     tangents = [ends[0][0] / span[0]]  # dP/du at each knot
+    curvatures = [ends[0][2] / span[0] ** 2]  # d²P/du² at each knot
     for j in range(1, m):
-        incoming = ends[j - 1][1] / span[j - 1]
-        outgoing = ends[j][0] / span[j]
-        tangents.append((span[j] * incoming + span[j - 1] * outgoing) / (span[j - 1] + span[j]))
+        w_in, w_out = span[j] / (span[j - 1] + span[j]), span[j - 1] / (span[j - 1] + span[j])
+        tangents.append(w_in * ends[j - 1][1] / span[j - 1] + w_out * ends[j][0] / span[j])
+        curvatures.append(w_in * ends[j - 1][3] / span[j - 1] ** 2
+                          + w_out * ends[j][2] / span[j] ** 2)
     tangents.append(ends[-1][1] / span[-1])
-    corrections = [(span[j] * tangents[j] - ends[j][0], span[j] * tangents[j + 1] - ends[j][1])
-                   for j in range(m)]
+    curvatures.append(ends[-1][3] / span[-1] ** 2)
+    corrections = [(span[j] * tangents[j] - ends[j][0], span[j] * tangents[j + 1] - ends[j][1],
+                    span[j] ** 2 * curvatures[j] - ends[j][2],
+                    span[j] ** 2 * curvatures[j + 1] - ends[j][3]) for j in range(m)]
     return Path(segments, req.beta, knots, corrections)
 
 

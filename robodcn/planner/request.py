@@ -16,6 +16,55 @@ from robodcn.errors import BetaIgnoredWarning
 
 
 @dataclass(frozen=True)
+class StartState:
+    """A moving joint state to plan from (a retarget's switch sample), SI units.
+
+    Attributes
+    ----------
+    joints : (k,) joint angles, rad, each within its joint's limits
+    velocities : (k,) joint velocities, rad/s, each within its joint's velocity limit
+        (default: at rest)
+    accelerations : (k,) joint accelerations, rad/s², each within its acceleration limit
+        (default: zero)
+
+    Checked against an arm by :func:`robodcn.contract.check_start_state` (PlanRequest does
+    that); lists and arrays are stored as tuples of floats.
+    """
+
+    joints: Any
+    velocities: Any = None
+    accelerations: Any = None
+
+    def __post_init__(self) -> None:
+        put = object.__setattr__
+        for name in ("joints", "velocities", "accelerations"):
+            value = getattr(self, name)
+            if isinstance(value, np.ndarray):
+                value = value.tolist()
+            if isinstance(value, list):
+                value = tuple(value)
+            put(self, name, value)
+
+    @property
+    def moving(self) -> bool:
+        """Whether any velocity or acceleration is non-zero."""
+        return any(v != 0.0 for v in (*(self.velocities or ()), *(self.accelerations or ())))
+
+    def arrays(self) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
+        """(q, q̇, q̈) as float arrays (zeros where not given)."""
+        q = np.asarray(self.joints, dtype=np.float64)
+        zero = np.zeros_like(q)
+        v = zero if self.velocities is None else np.asarray(self.velocities, dtype=np.float64)
+        a = zero if self.accelerations is None else np.asarray(self.accelerations,
+                                                               dtype=np.float64)
+        return q, v, a
+
+    def to_dict(self) -> dict[str, Any]:
+        q, v, a = self.arrays()
+        return {"joints": q.tolist(), "velocities": v.tolist(), "accelerations": a.tolist()}
+
+
+@dataclass(frozen=True)
 class PlanRequest:
     """Everything a plan depends on; validated on construction (Ruckig-style input data).
 
@@ -34,12 +83,19 @@ class PlanRequest:
         a β other than 1 with no KenLERP segment warns (BetaIgnoredWarning)
     turn : "shortest" | "ccw" | "cw", or one per segment
     duration : total seconds (> 0) or "auto"
-    profile : "linear" | "quintic" | "trapezoid"
+    profile : "optimal" (default: the time-optimal law along the path within the velocity,
+        acceleration and — where set — jerk limits, robodcn.path_timing) | "linear" |
+        "quintic" | "trapezoid" (uniform laws)
     rate_hz : sample rate, 1..1000 Hz
     blend : pass through via points with continuous velocity instead of stopping
     start_joints : the arm's present joints (k,), each within its joint limits, or None
         (then the plan starts at the IK of waypoints[0])
     elbow : "up" | "down" IK branch, or None for the arm's configured one
+    start_state : a moving :class:`StartState` (joints, velocities, accelerations) to start
+        from, or None. The path then runs from the pose FK(start_state.joints) through every
+        waypoint (waypoints[0] is not repeated when it is that pose, within 0.1 mm and
+        0.01°), and is timed from the moving state (profile "optimal" only; exclusive with
+        start_joints). A dict {"joints": …, "velocities": …, "accelerations": …} is accepted.
 
     Lists given for method, turn, waypoints and start_joints are stored as tuples.
     """
@@ -50,11 +106,12 @@ class PlanRequest:
     beta: float = 1.0
     turn: Any = "shortest"
     duration: Any = "auto"
-    profile: str = "quintic"
+    profile: str = "optimal"
     rate_hz: float = 100.0
     blend: bool = False
     start_joints: Any = None
     elbow: str | None = None
+    start_state: Any = None
 
     def __post_init__(self) -> None:
         put = object.__setattr__
@@ -70,6 +127,15 @@ class PlanRequest:
             put(self, name, contract.check_field(name, getattr(self, name)))
         put(self, "duration", contract.check_duration(self.duration, self.rate_hz, segments))
         put(self, "start_joints", contract.check_start_joints(self.start_joints, self.arm))
+        state = contract.check_start_state(self.start_state, self.arm)
+        put(self, "start_state", None if state is None else StartState(*state))
+        if self.start_state is not None:
+            if self.start_joints is not None:
+                raise fail("start_state", "cannot be given with start_joints (both say where "
+                           "the plan starts): give one", "start_state")
+            if self.profile != "optimal" and self.start_state.moving:
+                raise fail("start_state", f"a moving start needs profile \"optimal\" (the "
+                           f"uniform law {self.profile!r} starts from rest)", self.profile)
         methods = {self.segment_method(j) for j in range(segments)}
         if self.beta != 1.0 and not methods & set(contract.BETA_METHODS):
             used = ", ".join(sorted(methods))
@@ -112,7 +178,8 @@ class PlanRequest:
                 "duration": self.duration, "profile": self.profile, "rate_hz": self.rate_hz,
                 "blend": self.blend,
                 "start_joints": None if self.start_joints is None else list(self.start_joints),
-                "elbow": self.elbow}
+                "elbow": self.elbow,
+                "start_state": None if self.start_state is None else self.start_state.to_dict()}
 
     @classmethod
     def from_dict(cls, data: dict[str, Any], arm: Arm | None = None) -> PlanRequest:

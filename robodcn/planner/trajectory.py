@@ -15,7 +15,7 @@ from robodcn import _checks
 from robodcn.config import RATE_RANGE, Arm
 from robodcn.contract import is_number as _is_number
 from robodcn.errors import InputError
-from robodcn.planner.request import PlanRequest
+from robodcn.planner.request import PlanRequest, StartState
 
 
 @dataclass(eq=False)
@@ -32,7 +32,9 @@ class Trajectory:
     branch_switches : sample indices where the elbow branch differs from the one before
     (through a singular pose; empty for almost every plan); approach_samples : sample
     periods of the joint-space approach prepended from start_joints (0: none), so the
-    approach lasts ``approach_duration`` seconds from t = 0.
+    approach lasts ``approach_duration`` seconds from t = 0; start_state : the moving
+    :class:`StartState` the plan starts from (its sample 0 is those joints, its velocity and
+    acceleration continue them), or None (from rest).
     """
 
     t: NDArray[np.float64] = field(metadata={
@@ -66,6 +68,10 @@ class Trajectory:
     approach_samples: int = field(default=0, metadata={
         "description": "Sample periods of the joint-space approach from start_joints that "
                        "opens the plan (0: none); it lasts approach_samples / rate_hz s."})
+    start_state: StartState | None = field(default=None, metadata={
+        "description": "The moving joint state the plan starts from (joints rad, velocities "
+                       "rad/s, accelerations rad/s²), or null: from rest.",
+        "schema": {"type": ["object", "null"]}})
 
     def __post_init__(self) -> None:
         self.t = np.asarray(self.t, dtype=np.float64)
@@ -121,7 +127,8 @@ class Trajectory:
                 "rate_hz": self.rate_hz, "method": self.method,
                 "request": None if self.request is None else self.request.to_dict(),
                 "elbow": self.elbow, "branch_switches": list(self.branch_switches),
-                "approach_samples": self.approach_samples}
+                "approach_samples": self.approach_samples,
+                "start_state": None if self.start_state is None else self.start_state.to_dict()}
 
     def to_json(self) -> str:
         """JSON with keys t, poses, joints, ticks, joint_names, servo_ids, rate_hz, method,
@@ -173,9 +180,17 @@ class Trajectory:
                 or not 0 <= approach < arrays["t"].shape[0]:
             raise InputError("approach_samples must be a sample count within the trajectory",
                              field="approach_samples", value=approach)
+        state = data.get("start_state")
+        if state is not None:
+            if not isinstance(state, dict) or not isinstance(state.get("joints"), list):
+                raise InputError("start_state must be an object with joints, velocities, "
+                                 "accelerations", field="start_state", value=None)
+            state = StartState(**{k: _checks.finite(f"start_state.{k}", v).tolist()
+                                  for k, v in state.items()
+                                  if k in ("joints", "velocities", "accelerations")})
         return cls(arrays["t"], arrays["poses"], arrays["joints"], arrays["ticks"], names,
                    data["servo_ids"], data["rate_hz"], data["method"], request, elbow,
-                   tuple(switches), approach)
+                   tuple(switches), approach, state)
 
     def to_csv(self) -> str:
         """CSV: t, x, y, theta, one column per joint (rad), one per servo (ticks)."""

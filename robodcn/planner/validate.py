@@ -59,11 +59,11 @@ def dynamic_limits(arm: Arm) -> tuple[NDArray, NDArray, NDArray]:
             np.array([j.max_acceleration for j in arm.joints]), np.array(jerk))
 
 
-def _differences(joints: NDArray, order: int) -> NDArray:
-    """|Δ^order q| at rest on both sides, row r charged to sample min(r, n − 1)."""
-    padded = np.concatenate([np.repeat(joints[:1], order, axis=0), joints,
-                             np.repeat(joints[-1:], order - 1, axis=0)]) if order > 1 else \
-        np.concatenate([joints[:1], joints])
+def _differences(joints: NDArray, order: int, history: NDArray | None = None) -> NDArray:
+    """|Δ^order q| at rest on both sides (or after the samples ``history`` before t = 0), row
+    r charged to sample min(r, n − 1)."""
+    pre = np.repeat(joints[:1], order, axis=0) if history is None else history[-order:]
+    padded = np.concatenate([pre, joints, np.repeat(joints[-1:], order - 1, axis=0)])
     d = np.abs(np.diff(padded, n=order, axis=0))
     n = joints.shape[0]
     if d.shape[0] > n:  # differences past the end belong to the last sample
@@ -101,15 +101,26 @@ def _fine(joints: NDArray, ticks: NDArray, lo: NDArray, hi: NDArray, tmin: NDArr
     return True
 
 
+def start_history(q0: NDArray, v0: NDArray, a0: NDArray, rate: float) -> NDArray:
+    """The three samples q_{-3}, q_{-2}, q_{-1} before a moving start (q0, q̇0, q̈0): the
+    constant-acceleration past q_{-m} = q0 − m Δt q̇0 + (m Δt)² q̈0 / 2, so the differences
+    across t = 0 measure the plan's continuity with that state."""
+    m = np.array([3.0, 2.0, 1.0])[:, None] / rate
+    return q0[None, :] - m * v0[None, :] + 0.5 * m * m * a0[None, :]
+
+
 def check(req: PlanRequest, poses: NDArray, joints: NDArray, *, dynamics: bool = True,
           marks: dict[int, int] | None = None, segment_of: NDArray | None = None,
-          ticks: NDArray | None = None) -> tuple[NDArray[np.int64], Violation | None]:
+          ticks: NDArray | None = None, history: NDArray | None = None
+          ) -> tuple[NDArray[np.int64], Violation | None]:
     """All checks at once: the ticks and the earliest failing sample, or None.
 
     Ties at one sample go position limits, ticks, velocity, acceleration, jerk.
     ``dynamics=False`` skips the finite differences; ``marks`` maps sample indices to the
     waypoints sampled there (a waypoint outside the limits is named as such);
-    ``segment_of`` gives each sample's segment index (−1 on the approach).
+    ``segment_of`` gives each sample's segment index (−1 on the approach); ``history``
+    (3, k) the samples before t = 0 of a moving start (:func:`start_history`; default: at
+    rest).
     """
     arm = req.arm
     rate = req.rate_hz
@@ -122,7 +133,8 @@ def check(req: PlanRequest, poses: NDArray, joints: NDArray, *, dynamics: bool =
     tmin = np.array([j.servo.min_tick for j in arm.joints])
     tmax = np.array([j.servo.max_tick for j in arm.joints])
     slack = 1.0 + LIMIT_SLACK
-    if _fine(joints, ticks, lo, hi, tmin, tmax, (v, a, jk) if dynamics else None, rate, slack):
+    if (history is None or not dynamics) and _fine(
+            joints, ticks, lo, hi, tmin, tmax, (v, a, jk) if dynamics else None, rate, slack):
         return ticks, None
     rates = []
     if dynamics:
@@ -130,7 +142,8 @@ def check(req: PlanRequest, poses: NDArray, joints: NDArray, *, dynamics: bool =
                                        (3, jk, "jerk")):
             if order == 3 and not np.isfinite(limit).any():
                 continue
-            rates.append((quantity, _differences(joints, order) * rate ** order, limit))
+            rates.append((quantity, _differences(joints, order, history) * rate ** order,
+                          limit))
     pos_excess = np.maximum(lo - joints, joints - hi)
     tick_excess = np.maximum(tmin - ticks, ticks - tmax).astype(np.float64)
     checks = [("position", pos_excess > 0.0, pos_excess, joints),

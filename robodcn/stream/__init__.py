@@ -16,6 +16,7 @@ import logging
 
 from robodcn.stream.collision import predicted_currents, thresholds
 from robodcn.stream.compensation import compensated_ticks
+from robodcn.stream.online import STOP_MODES, Execution, OnlineSamples, start
 from robodcn.stream.options import ExecutionOptions
 from robodcn.stream.rate import RateCheck, RateWarning, check_rate
 from robodcn.stream.realtime import (
@@ -48,9 +49,12 @@ __all__ = [
     "REALTIME_PRIORITY",
     "SPIN_REALTIME_S",
     "SPIN_S",
+    "STOP_MODES",
     "STOP_REASONS",
+    "Execution",
     "ExecutionOptions",
     "ExecutionReport",
+    "OnlineSamples",
     "PlannedSamples",
     "Progress",
     "RateCheck",
@@ -63,6 +67,7 @@ __all__ = [
     "outcome_of",
     "predicted_currents",
     "realtime_priority",
+    "start",
     "thresholds",
     "timer_slack",
     "tracking_error",

@@ -68,6 +68,8 @@ class ExecutionOptions:
         reads above it stop the move. ``collision=False`` disables the stop.
     recover : on an overload alert, reboot that servo, hold it where it is, re-enable
         torque and report it (the move stays stopped).
+    attach : called with the streaming loop just before the first sample (its ``source``
+        and ``swap``: online operations, :func:`robodcn.stream.start`).
     """
 
     feedback_every: int = 1
@@ -90,6 +92,7 @@ class ExecutionOptions:
     collision_current: tuple[float, ...] | None = None
     collision_cycles: int = 3
     recover: bool = False
+    attach: Callable[[Any], None] | None = None
 
     def __post_init__(self) -> None:
         _integer("feedback_every", self.feedback_every, 0)
@@ -121,6 +124,8 @@ class ExecutionOptions:
             raise InputError(f"profile must be a StreamProfile, got "
                              f"{type(self.profile).__name__}", field="profile",
                              value=self.profile)
+        if self.attach is not None and not callable(self.attach):
+            raise InputError("attach must be callable", field="attach", value=self.attach)
         if not callable(self.clock):
             raise InputError("clock must be callable", field="clock", value=self.clock)
 

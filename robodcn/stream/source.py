@@ -42,7 +42,19 @@ class PlannedSamples:
             self.commanded = compensated_ticks(
                 trajectory.joints, self.period, bus.servos, bus.limits,
                 arm=None if request is None else request.arm, p_gains=bus.position_p_gains)
+        self._lead_args = (self.period, bus.servos, bus.limits,
+                           None if trajectory.request is None else trajectory.request.arm,
+                           bus.position_p_gains)
         self._encoded = bus.encode_goals(self.commanded)
+
+    def commanded_for(self, joints: NDArray[np.float64]) -> NDArray[np.int64] | None:
+        """The goals this source would send for other joint samples (n, k) rad at its
+        period: compensated like its own (None without compensation: the plan is sent).
+        An online tail (:mod:`robodcn.stream.online`) is led the same way as the plan."""
+        if not self.compensated:
+            return None
+        period, servos, limits, arm, gains = self._lead_args
+        return compensated_ticks(joints, period, servos, limits, arm=arm, p_gains=gains)
 
     def __len__(self) -> int:
         return len(self.ticks)

@@ -112,6 +112,7 @@ from robodcn.errors import (
     ServoMismatchError,
     StartMismatchError,
 )
+from robodcn.kinematics import fk
 from robodcn.planner import Trajectory
 from robodcn.present import Approach, approach_of, plan_from_present
 from robodcn.servo_units import ticks_to_radians
@@ -249,6 +250,8 @@ def execute(trajectory: Trajectory, bus: ServoBus, options: ExecutionOptions | N
             with timer_slack(), realtime_priority(opts.realtime) as streamer.realtime:
                 if streamer.realtime:
                     streamer.spin = SPIN_REALTIME_S
+                if opts.attach is not None:
+                    opts.attach(streamer)
                 streamer.run()
         except BaseException:
             streamer.finish(hold=True, release=opts.release, settle=0.0)
@@ -330,7 +333,8 @@ class _Streamer:
         #: Warnings found when the stream was set up (added to the report's ``warnings``).
         self.warnings: list[dict[str, Any]] = []
         self.poses = source.trajectory.poses
-        self.times = source.trajectory.t
+        request = source.trajectory.request
+        self.arm = None if request is None else request.arm
 
     def plan_limits(self, trajectory: Trajectory, opts: ExecutionOptions) -> None:
         """Predicted currents along the plan and the collision thresholds (A per joint)."""
@@ -349,6 +353,20 @@ class _Streamer:
                        "limit; set collision_current_a per joint to use one")
             log.warning("%s", message)
             self.warnings.append({"code": "collision_stop_off", "message": message})
+
+    def swap(self, source: Any) -> None:
+        """Replace the sample source between two samples (any thread; online operations).
+
+        The per-sample records grow first, then the source, then the loop's bound: a loop
+        that still runs to the old bound reads the new source, which answers every index."""
+        grow = len(source) - len(self.sent_index)
+        if grow > 0:
+            self.sent_index.extend([0] * grow)
+            self.sent_at.extend([0.0] * grow)
+            self.due_at.extend([0.0] * grow)
+            self.work.extend([0.0] * grow)
+        self.source = source
+        self.n = len(source)
 
     # -- waiting --------------------------------------------------------------------------
 
@@ -436,11 +454,12 @@ class _Streamer:
         s = (self.clock() - self.t_start) / self.period
         if s <= sample:
             return goal.astype(np.float64)
-        ticks = self.source.ticks
+        source = self.source
         s = min(s, self.n - 1)
         lo = int(s)
         hi = min(lo + 1, self.n - 1)
-        return ticks[lo] + (s - lo) * (ticks[hi] - ticks[lo]).astype(np.float64)
+        below = source.goal(lo)
+        return below + (s - lo) * (source.goal(hi) - below).astype(np.float64)
 
     def _collision(self, sample: int, current: NDArray[np.float64]) -> None:
         """Stop when a joint's |current| stayed above its threshold for N reads in a row."""
@@ -450,18 +469,26 @@ class _Streamer:
         hit = self.over >= self.collision_cycles
         if hit.any():
             j = int(np.argmax(hit))
-            pose = self.poses[sample]
+            pose = self._pose_at(sample)
             self.collision = {
                 "joint": self.joint_names[j], "servo_id": int(self.bus.ids[j]),
                 "current_a": float(current[j]), "threshold_a": float(self.threshold[j]),
-                "sample": int(sample), "time_s": float(self.times[sample]),
+                "sample": int(sample), "time_s": sample * self.period,
                 "pose": [float(pose[0]), float(pose[1]), float(pose[2])]}
             raise _Stop("collision",
                         f"collision at joint {self.joint_names[j]!r}: current "
                         f"{current[j]:.2f} A above {self.threshold[j]:.2f} A for "
                         f"{self.collision_cycles} cycles at sample {sample} "
-                        f"(t = {self.times[sample]:.3f} s, pose x {pose[0]:.3f} m, "
+                        f"(t = {sample * self.period:.3f} s, pose x {pose[0]:.3f} m, "
                         f"y {pose[1]:.3f} m, θ {math.degrees(pose[2]):.1f}°)")
+
+    def _pose_at(self, sample: int) -> NDArray[np.float64]:
+        """Planned tool pose of sample i: the trajectory's, or of the commanded joints when
+        an online operation swapped the source (its samples may outrun the plan's)."""
+        joint = getattr(self.source, "joint", None)
+        if joint is not None and self.arm is not None:
+            return fk(self.arm.links, np.asarray(joint(sample))[None, :])[0]
+        return self.poses[min(sample, len(self.poses) - 1)]
 
     def _health(self) -> None:
         self.health_polls += 1
@@ -497,7 +524,8 @@ class _Streamer:
         i = 0
         last_write = t0
         try:
-            while i < n:
+            while i < self.n:
+                n = self.n  # a swapped source may change the bound (swap)
                 due = t0 + i * period
                 if self.stop is not None and self.stop.is_set():
                     raise _Stop("stopped", self._stop_message())
@@ -657,7 +685,7 @@ class _Streamer:
         fb = np.array(self.feedback_samples, dtype=np.int64)
         if self.currents and self.bus.current_limits is not None:
             series["current"] = (np.array(self.currents), np.array(self.bus.current_limits))
-        out = near_limits(tuple(self.joint_names), reads, self.times[reads],
+        out = near_limits(tuple(self.joint_names), reads, reads * self.period,
                           {q: v for q, v in series.items() if q == "tracking_error"})
         if self.currents:
             currents = np.array(self.currents)
@@ -666,7 +694,7 @@ class _Streamer:
                 more["current"] = series["current"]
             if self.threshold is not None:
                 more["collision_current"] = (currents, self.threshold)
-            out += near_limits(tuple(self.joint_names), fb, self.times[fb], more)
+            out += near_limits(tuple(self.joint_names), fb, fb * self.period, more)
         return out
 
     def report(self, approach: Approach | None,

@@ -1,0 +1,132 @@
+"""Online execution (robodcn.stream.online): planning from a moving state and request → first
+changed goal latency on firmware_sim.
+
+Rows:
+
+* planning from a moving state — a 2 s plan at 1 kHz on configs/arm3r.toml, the commanded
+  state at 30 %, 50 % and 70 % of it; a retarget to a new goal (geometry by the planner, the
+  start bent to the present direction of motion, TOPP-RA from the moving state, sampled at
+  1 kHz; median of the runs), and the re-timing of the same path alone (speed scaling k =
+  0.5 from the moving state). Target ≤ 5 ms.
+* smooth stop — the phase-plane brake from full speed.
+* request → first changed goal — retargets of a running 2 s move on firmware_sim (timing
+  "fast", 1 kHz), the planning time, the due time of the first changed sample and its send
+  time on the wire, all from the request (median over the retargets). The rule: due ≤
+  planning + 2 periods.
+
+Run alone: ``python bench/bench_online.py`` (or ``python -m bench online``).
+"""
+
+from __future__ import annotations
+
+import math
+import os
+import statistics
+import sys
+import time
+import types
+from pathlib import Path
+
+import numpy as np
+
+ROOT = Path(__file__).resolve().parent.parent
+if str(ROOT) not in sys.path:
+    sys.path.insert(0, str(ROOT))
+
+import robodcn  # noqa: E402
+from robodcn import kinematics  # noqa: E402
+from robodcn.stream.online import Execution, State  # noqa: E402
+from robodcn.stream.online_path import JointPath, Limits, brake, retime  # noqa: E402
+
+MOVING_TARGET_MS = 5.0
+START = (0.25, 0.10, 0.0)
+GOAL = (0.05, 0.25, math.radians(80))
+NEW_GOALS = [(0.20, 0.20, 0.6), (0.12, 0.22, 1.0), (0.22, 0.02, 0.2)]
+RUNS = 15
+
+
+def _median_ms(fn, runs: int = RUNS) -> float:
+    fn()  # first call pays numpy's lazy imports
+    times = []
+    for _ in range(runs):
+        t = time.perf_counter()
+        fn()
+        times.append(time.perf_counter() - t)
+    return 1000.0 * statistics.median(times)
+
+
+def planning_rows(arm) -> list[tuple[str, float, int]]:
+    q0 = kinematics.ik(arm.links, np.array([START]))[0]
+    traj = robodcn.plan(arm, [START, GOAL], rate_hz=1000, duration=2.0, start_joints=q0)
+    path, sigma = JointPath.of_samples(traj.joints)
+    limits = Limits.of_arm(arm)
+    ex = Execution(traj, None, None, arm)
+    ex._streamer = types.SimpleNamespace(period=0.001)
+    rows = []
+    for frac in (0.3, 0.5, 0.7):
+        i = int(frac * (len(traj.t) - 1))
+        q = traj.joints
+        qd = (q[i] - q[i - 1]) * 1000.0
+        qdd = (q[i] - 2 * q[i - 1] + q[i - 2]) * 1e6
+        state = State(i, q[i], qd, qdd, path, float(sigma[i]), float(np.linalg.norm(qd)))
+        for goal in NEW_GOALS:
+            samples = ex._retarget_tail(state, [None, goal], {})
+            n = sum(len(seg[1]) for seg in samples)
+            ms = _median_ms(lambda st=state, g=goal: ex._retarget_tail(st, [None, g], {}))
+            rows.append((f"retarget at {frac:.0%} → ({goal[0]:.2f}, {goal[1]:.2f}, "
+                         f"{math.degrees(goal[2]):.0f}°)", ms, n))
+        n = len(retime(path, float(sigma[i]), state.sd * 0.5, limits.scaled(0.5), 1000.0))
+        ms = _median_ms(lambda st=state: ex._timed(st, limits.scaled(0.5)))
+        rows.append((f"speed k = 0.5 at {frac:.0%} (same path)", ms, n))
+        n = len(brake(path, float(sigma[i]), state.sd, limits.a, 1000.0))
+        ms = _median_ms(lambda st=state: brake(path, st.sigma, st.sd, limits.a, 1000.0))
+        rows.append((f"smooth stop at {frac:.0%} (brake)", ms, n))
+    return rows
+
+
+def latency_rows(arm) -> list[tuple[float, float, float]]:
+    from robodcn.servo_units import ticks_to_radians
+    from robodcn.simulated import simulated_arm
+    from robodcn.stream import start
+    q0 = kinematics.ik(arm.links, np.array([START]))[0]
+    with simulated_arm(arm, timing="fast", start_joints=q0) as sa:
+        here = ticks_to_radians(sa.bus.read_positions()[None], arm.servos)[0]
+        traj = robodcn.plan(arm, [tuple(kinematics.fk(arm.links, here[None])[0]), GOAL],
+                            rate_hz=1000, duration=3.0, start_joints=here)
+        ex = start(traj, sa.bus, skip_late=False)
+        goals = [(0.2, 0.15, 0.2), (0.15, 0.2, 0.5), (0.1, 0.22, 0.9), (0.05, 0.25, 1.2),
+                 (0.1, 0.2, 0.8), (0.15, 0.18, 0.4)]
+        for k, goal in enumerate(goals):
+            while ex.sample < 150 + 100 * k and not ex.done:
+                time.sleep(0.002)
+            ex.retarget([None, goal])
+        ex.wait(30)
+        return ex.latencies()
+
+
+def run() -> str:
+    arm = robodcn.load_arm(ROOT / "configs" / "arm3r.toml")
+    load = os.getloadavg()[0]
+    lines = ["## Online execution (retarget, speed, smooth stop)", "",
+             f"configs/arm3r.toml, 1 kHz; load average {load:.1f} on {os.cpu_count()} cores "
+             "while measuring. Planning from a moving state (2 s path at 1 kHz), median of "
+             f"{RUNS} runs; target ≤ {MOVING_TARGET_MS:g} ms.", "",
+             "| operation | median ms | samples planned | ≤ target |", "|---|---:|---:|:-:|"]
+    for name, ms, n in planning_rows(arm):
+        lines.append(f"| {name} | {ms:.2f} | {n} | {'✓' if ms <= MOVING_TARGET_MS else '✗'} |")
+    lat = latency_rows(arm)
+    lines += ["", "Request → first changed goal on firmware_sim (1 kHz, timing fast, "
+              f"{len(lat)} retargets of a running move; seconds from the request, median):",
+              "", "| planning ms | first changed goal due ms | sent ms | due − planning "
+              "(rule ≤ 2 periods = 2 ms) |", "|---:|---:|---:|---:|"]
+    if lat:
+        plan_ms = 1000 * statistics.median(p for p, _, _, _ in lat)
+        due_ms = 1000 * statistics.median(d for _, d, _, _ in lat)
+        sent_ms = 1000 * statistics.median(s for _, _, s, _ in lat)
+        excess = 1000 * statistics.median(d - p for p, d, _, _ in lat)
+        lines.append(f"| {plan_ms:.1f} | {due_ms:.1f} | {sent_ms:.1f} | {excess:.1f} |")
+    return "\n".join(lines) + "\n"
+
+
+if __name__ == "__main__":
+    print(run())

@@ -1,0 +1,214 @@
+"""``robodcn jog``: interactive teleop on a terminal, every key press a retarget.
+
+Arrow keys step the target pose in x (←/→) and y (↑/↓) by ``--step`` metres, ``a``/``d``
+turn θ by ``--step-deg`` (counter-clockwise/clockwise); each press re-plans a screw path
+from where the arm is commanded to be, moving or not (:meth:`Execution.retarget`), so
+presses in quick succession blend into one motion. The status line shows the target, the
+commanded pose and the tracking error. ``q`` or Ctrl-C stops smoothly along the path and
+quits; a second Ctrl-C holds at once. ``--sim`` jogs a simulated arm, else the servos on
+``--device``.
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+import sys
+import termios
+from collections.abc import Callable
+from typing import Any
+
+import numpy as np
+
+from robodcn.cli import keys, options
+from robodcn.cli.exit_codes import Exit
+from robodcn.errors import BusError, InputError, RobodcnError
+
+#: key → (dx, dy, dθ) in steps
+JOG_KEYS: dict[str, tuple[int, int, int]] = {
+    "right": (1, 0, 0), "left": (-1, 0, 0), "up": (0, 1, 0), "down": (0, -1, 0),
+    "a": (0, 0, 1), "d": (0, 0, -1),
+}
+HELP = "keys: ←/→ x · ↑/↓ y · a/d θ · space pause · q or Ctrl-C stop"
+
+
+def register(subparsers: argparse._SubParsersAction) -> None:
+    p = subparsers.add_parser(
+        "jog", help="teleoperate the arm from the keyboard (each key a retarget in flight)",
+        description="Arrow keys step the target pose in x (left/right) and y (up/down) by "
+                    "--step metres, a/d turn theta by --step-deg; each key press re-plans "
+                    "from where the arm is commanded to be, moving or not, so presses in "
+                    "quick succession blend into one motion. Shows the target, the commanded "
+                    "pose and the tracking error. q or Ctrl-C stops smoothly along the path "
+                    "and quits; a second Ctrl-C holds at once. --sim jogs a simulated arm.")
+    options.add_arm_option(p)
+    g = p.add_argument_group("jog")
+    g.add_argument("--step", type=options.positive_float, default=0.01, metavar="M",
+                   help="x/y step per key press, metres (default 0.01)")
+    g.add_argument("--step-deg", type=options.positive_float, default=5.0, metavar="DEG",
+                   help="θ step per key press, degrees (default 5)")
+    g.add_argument("--method", default="sclerp",
+                   choices=("sclerp", "kenlerp", "seplerp", "dlb"),
+                   help="interpolation of each step (default sclerp)")
+    g.add_argument("--rate", type=options.rate, metavar="HZ",
+                   help="stream rate (default: the arm's [bus] rate)")
+    g.add_argument("--sim", action="store_true",
+                   help="jog an in-process simulated arm (firmware_sim) instead of the servos")
+    g.add_argument("--timing", choices=("realistic", "fast"), default="realistic",
+                   help="simulated wire timing with --sim (default realistic)")
+    options.add_device_options(p, default_help="default: the arm's [bus] port")
+    p.set_defaults(func=run_jog)
+
+
+class Jogger:
+    """The jog loop on an open bus: keys → targets → retargets (or new moves from rest)."""
+
+    def __init__(self, arm: Any, bus: Any, *, step: float, step_rad: float, method: str,
+                 rate_hz: float, out: Any = None) -> None:
+        from robodcn import kinematics
+        from robodcn.present import present_joints
+        self.arm, self.bus = arm, bus
+        self.step, self.step_rad, self.method, self.rate_hz = step, step_rad, method, rate_hz
+        self.out = out if out is not None else sys.stderr
+        q = present_joints(arm, bus)
+        self.target = np.array(kinematics.fk(arm.links, q[None, :])[0])
+        self.execution: Any = None
+        self.commanded = self.target.copy()
+        self.tracking = 0.0
+        self.message = ""
+        self.quit = False
+        self.reports: list[Any] = []
+        #: key presses applied in flight (a retarget of a running move)
+        self.retargets = 0
+
+    # -- motion ---------------------------------------------------------------------------
+
+    def _progress(self, p: Any) -> None:
+        from robodcn import kinematics, servo_units
+        q = servo_units.ticks_to_radians(np.array([p.goals]), self.arm.servos)
+        self.commanded = kinematics.fk(self.arm.links, q)[0]
+        if p.present is not None:
+            lag = np.abs(np.subtract(p.present, p.goals))
+            rad = np.array([2 * math.pi / s.ticks_per_turn for s in self.arm.servos])
+            self.tracking = float((lag * rad).max())
+
+    def _collect(self) -> None:
+        if self.execution is not None and self.execution.done:
+            try:
+                self.reports.append(self.execution.wait(0))
+            finally:
+                self.execution = None
+
+    def go(self) -> None:
+        """Move to the present target: a retarget while moving, else a new move."""
+        from robodcn.present import plan_from_present
+        from robodcn.stream import start
+        self._collect()
+        goal = tuple(float(v) for v in self.target)
+        if self.execution is not None:
+            try:
+                self.execution.retarget([None, goal], method=self.method)
+                self.retargets += 1
+                return
+            except RobodcnError as exc:
+                if not self.execution.done:
+                    raise
+                self.message = exc.message  # it finished meanwhile: start afresh
+                self._collect()
+        traj = plan_from_present(self.arm, self.bus, [None, goal], method=self.method,
+                                 rate_hz=self.rate_hz)
+        self.execution = start(traj, self.bus, progress=self._progress, arm=self.arm,
+                               approach=True)
+
+    def key(self, key: str) -> None:
+        """One key press."""
+        if key in ("q", "\x03"):
+            self.stop("smooth")
+            return
+        if key == " " and self.execution is not None and not self.execution.done:
+            self.message = keys.move_key(self.execution, " ") or ""
+            return
+        delta = JOG_KEYS.get(key)
+        if delta is None:
+            return
+        before = self.target.copy()
+        self.target = self.target + np.array([delta[0] * self.step, delta[1] * self.step,
+                                              delta[2] * self.step_rad])
+        try:
+            self.go()
+            self.message = ""
+        except RobodcnError as exc:
+            self.target = before  # refused: the target stays where the arm can go
+            self.message = exc.message
+
+    def stop(self, mode: str) -> None:
+        self.quit = True
+        if self.execution is not None and not self.execution.done:
+            self.execution.stop(mode, "stopped by the jog keys")
+
+    def finish(self, timeout: float = 10.0) -> None:
+        if self.execution is not None:
+            self.execution.wait(timeout)
+            self._collect()
+
+    # -- display --------------------------------------------------------------------------
+
+    def status(self) -> str:
+        t, c = self.target, self.commanded
+        return (f"target x={t[0]:+.3f} y={t[1]:+.3f} θ={math.degrees(t[2]):+6.1f}°  "
+                f"commanded x={c[0]:+.3f} y={c[1]:+.3f} θ={math.degrees(c[2]):+6.1f}°  "
+                f"tracking {math.degrees(self.tracking):4.2f}°  {self.message[:60]}")
+
+    def show(self) -> None:
+        self.out.write("\r\x1b[K" + self.status())
+        self.out.flush()
+
+    def run(self, read_key: Callable[[float], str | None], poll: float = 0.05) -> None:
+        """Until q/Ctrl-C: read keys (``read_key(timeout)``) and show the status line."""
+        ctrl_c = keys.CtrlC(lambda: self.stop("smooth"), lambda: self.stop("hold"))
+        self.out.write(HELP + "\n")
+        with ctrl_c.installed():
+            while not self.quit:
+                key = read_key(poll)
+                if key is not None:
+                    self.key(key)
+                self.show()
+        self.finish()
+        self.show()
+        self.out.write("\n")
+
+
+def run_jog(args: argparse.Namespace, read_key: Callable[[float], str | None] | None = None
+            ) -> int:
+    """The command; ``read_key`` replaces the terminal (tests)."""
+    arm = options.load_arm(args)
+    rate = args.rate or arm.bus.rate_hz
+    if read_key is None and not sys.stdin.isatty():
+        raise InputError("jog needs a terminal on stdin (it reads single key presses)",
+                         field="stdin", value=None)
+    settings = {"step": args.step, "step_rad": math.radians(args.step_deg),
+                "method": args.method, "rate_hz": rate}
+    if args.sim:
+        from robodcn.simulated import simulated_arm
+        with simulated_arm(arm, timing=args.timing) as sim:
+            return _jog(Jogger(arm, sim.bus, **settings), read_key)
+    from robodcn.bus import ServoBus
+    device = args.device if args.device is not None else arm.bus.port
+    try:
+        with ServoBus(device, args.baud or arm.bus.baud,
+                      servos=[j.servo for j in arm.joints]) as bus:
+            bus.verify()
+            return _jog(Jogger(arm, bus, **settings), read_key)
+    except (OSError, termios.error) as exc:
+        raise BusError(f"{device}: the serial device failed ({exc}); check the cable and "
+                       "the adapter", field="device", value=device) from exc
+
+
+def _jog(jogger: Jogger, read_key: Callable[[float], str | None] | None) -> int:
+    if read_key is not None:
+        jogger.run(read_key)
+    else:
+        with keys.TerminalKeys() as terminal:
+            jogger.run(terminal)
+    faults = [r for r in jogger.reports if r is not None and r.outcome == "fault"]
+    return int(Exit.FAULT if faults else Exit.DONE)

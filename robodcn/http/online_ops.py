@@ -1,0 +1,144 @@
+"""Online control of the running move over HTTP: replace, stop modes, pause, resume, speed.
+
+* ``POST /v1/moves`` with ``"replace": true`` while a move runs: the new request is planned
+  from the running move's commanded state (:meth:`robodcn.stream.Execution.retarget`);
+  202 with the new move, and the old one ends ``replaced``. Without ``replace`` a running
+  move still answers 409; with it and nothing running, the move starts as usual.
+* ``POST /v1/stop`` ``{"mode": "smooth" | "hold"}`` (default smooth: decelerate along the
+  path within the limits, then hold; hold: at once).
+* ``POST /v1/pause``, ``POST /v1/resume`` (empty body), ``PUT /v1/speed {"scale": k}``,
+  0 < k ≤ 1 (422 naming ``scale`` otherwise); 409 when no move runs.
+
+The routes are in :data:`robodcn.http.routes.ROUTES`, the body schemas in
+:func:`body_schemas` (in the OpenAPI document) and the operations in :data:`OPERATIONS`
+(merged into :data:`robodcn.http.ops.OPERATIONS`).
+"""
+
+from __future__ import annotations
+
+import copy
+import math
+from typing import TYPE_CHECKING, Any
+
+from robodcn.errors import InputError
+from robodcn.http.framing import Request
+from robodcn.planner import PlanRequest
+from robodcn.stream import STOP_MODES
+
+if TYPE_CHECKING:
+    from robodcn.http.server import RobodcnHTTPServer
+
+#: request bodies that may be omitted
+OPTIONAL_BODIES = ("stop", "pause", "resume")
+
+
+def body_schemas(move_body: dict[str, Any]) -> dict[str, dict[str, Any]]:
+    """Component schemas of the online bodies; ``move_body`` gains ``replace``."""
+    move = copy.deepcopy(move_body)
+    move.setdefault("properties", {})["replace"] = {
+        "type": "boolean", "default": False,
+        "description": "Replace the running move in flight (202, the old one ends "
+                       "'replaced'); without it a running move answers 409."}
+    return {
+        "MoveBody": move,
+        "StopBody": {"type": "object", "additionalProperties": False, "properties": {
+            "mode": {"enum": list(STOP_MODES), "default": "smooth",
+                     "description": "smooth: decelerate along the path within the limits, "
+                                    "then hold; hold: hold where the arm is at once"}},
+            "description": "Optional: the body may be omitted (a smooth stop)."},
+        "EmptyBody": {"type": "object", "additionalProperties": False, "properties": {},
+                      "description": "Empty (the body may be omitted)."},
+        "SpeedBody": {"type": "object", "additionalProperties": False, "required": ["scale"],
+                      "properties": {"scale": {
+                          "type": "number", "exclusiveMinimum": 0, "maximum": 1,
+                          "description": "speed scale k: velocity limits × k, acceleration "
+                                         "× k², jerk × k³"}}},
+    }
+
+
+def take_replace(body: Any) -> tuple[Any, bool]:
+    """The move body without ``replace``, and its value (InputError naming it if not a
+    boolean)."""
+    if not isinstance(body, dict) or "replace" not in body:
+        return body, False
+    body = dict(body)
+    replace = body.pop("replace")
+    if not isinstance(replace, bool):
+        raise InputError(f"replace must be true or false, got {replace!r}", field="replace",
+                         value=replace)
+    return body, replace
+
+
+def _fields(body: Any, allowed: tuple[str, ...], what: str) -> dict[str, Any]:
+    if not isinstance(body, dict):
+        raise InputError(f"the {what} body must be a JSON object", field="body", value=None)
+    for name in body:
+        if name not in allowed:
+            known = f"known: {', '.join(allowed)}" if allowed else f"{what} takes no fields"
+            raise InputError(f"unknown field {name!r} ({known})", field=name, value=None)
+    return body
+
+
+def stop_mode(body: Any) -> str:
+    """``mode`` of a stop body (default "smooth"), InputError naming it when unknown."""
+    mode = _fields(body, ("mode",), "stop").get("mode", "smooth")
+    if mode not in STOP_MODES:
+        raise InputError(f"mode must be one of {', '.join(STOP_MODES)}, got {mode!r}",
+                         field="mode", value=mode)
+    return mode
+
+
+def speed_scale(body: Any) -> float:
+    """``scale`` of a speed body: a number in (0, 1] (InputError naming ``scale``)."""
+    fields = _fields(body, ("scale",), "speed")
+    if "scale" not in fields:
+        raise InputError("scale is required: a number in (0, 1]", field="scale", value=None)
+    k = fields["scale"]
+    if isinstance(k, bool) or not isinstance(k, int | float) or not math.isfinite(k) \
+            or not 0.0 < k <= 1.0:
+        raise InputError(f"scale must be a number in (0, 1], got {k!r}", field="scale",
+                         value=k)
+    return float(k)
+
+
+def replace_move(server: RobodcnHTTPServer, controller: Any, req: PlanRequest
+                 ) -> tuple[int, Any]:
+    """Retarget the running move to ``req``; 202 with the new move."""
+    from robodcn.http.ops import planning_lane
+    with planning_lane(server, req):
+        record = controller.replace_move(req)
+    return 202, controller.move_info(record.id)
+
+
+def _read(request: Request) -> Any:
+    from robodcn.http.ops import read_json
+    return read_json(request, required=False) if request.body else {}
+
+
+def _controller(server: RobodcnHTTPServer) -> Any:
+    from robodcn.http.ops import _controller as controller_of
+    return controller_of(server)
+
+
+def op_pause(server: RobodcnHTTPServer, request: Request, params: dict[str, str]
+             ) -> tuple[int, Any]:
+    controller = _controller(server)
+    _fields(_read(request), (), "pause")
+    return 200, controller.pause()
+
+
+def op_resume(server: RobodcnHTTPServer, request: Request, params: dict[str, str]
+              ) -> tuple[int, Any]:
+    controller = _controller(server)
+    _fields(_read(request), (), "resume")
+    return 200, controller.resume()
+
+
+def op_set_speed(server: RobodcnHTTPServer, request: Request, params: dict[str, str]
+                 ) -> tuple[int, Any]:
+    from robodcn.http.ops import read_json
+    controller = _controller(server)
+    return 200, controller.set_speed(speed_scale(read_json(request)))
+
+
+OPERATIONS = {"pause": op_pause, "resume": op_resume, "set_speed": op_set_speed}

@@ -1,0 +1,321 @@
+"""A joint path q(σ) of a running execution and the time laws an online operation puts on it.
+
+The path of a running execution is its planned joint samples re-parameterised by joint-space
+arc length σ (radians of ‖Δq‖₂; repeated samples, where the plan dwells, are merged), so
+q'(σ) is a unit vector wherever the arm moves and a new time law σ(t) re-times the same
+geometry. Interior samples where the plan comes to rest (a via without blending: a corner
+of q(σ)) are stops, at rest in every law.
+
+Three laws, all sampled at the stream rate:
+
+* :func:`brake` — phase-plane braking (Bobrow, Dubowsky & Gibson, "Time-optimal control of
+  robotic manipulators along specified paths", IJRR 4(3), 1985): from the present (σ, σ̇)
+  integrate the most negative σ̈ that keeps every joint's acceleration
+  q'σ̈ + q''σ̇² within ±a, until σ̇ = 0. With the semi-implicit step σ̇ₙ₊₁ = σ̇ₙ + uₙΔt,
+  σₙ₊₁ = σₙ + σ̇ₙ₊₁Δt the second difference of σ is exactly uₙΔt², so the joints'
+  finite-difference accelerations on the wire are the ones the step allowed.
+* :func:`retime` — :func:`robodcn.path_timing.time_optimal` (TOPP-RA) on the rest of the
+  path from the present σ̇ (speed scaling: limits v·k, a·k², j·k³).
+* :func:`blend_start` — a new geometric path whose tangent at σ = 0 is the present joint
+  velocity direction (a retarget from a moving state): the cubic Hermite correction
+  L·b(σ/L)·(d₀ − q'(0)), b(u) = u(1 − u)², added over the first L of the path.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import NDArray
+
+from robodcn.config import Arm
+from robodcn.errors import InputError
+from robodcn.path_timing import PathTiming, max_start_speed, path_derivatives, time_optimal
+
+#: share of each acceleration limit a brake uses (margin for the O(Δt) error of the step)
+BRAKE_SHARE = 0.995
+#: share of each limit the time-optimal re-timing aims for (the finite differences of the
+#: sampled law, linear between path samples, land a little off the continuous optimum)
+RETIME_SHARE = 0.97
+#: reachability stages of an online re-timing (the law is checked at the stream rate after)
+ONLINE_STAGES = 400
+#: a plan's sample where the joint step is below this (rad) is at rest
+REST_STEP = 1e-9
+
+
+@dataclass(frozen=True)
+class JointPath:
+    """Joint samples q (m, k) at arc lengths sigma (m,), strictly increasing, with stops."""
+
+    q: NDArray[np.float64]
+    sigma: NDArray[np.float64]
+    stops: tuple[float, ...] = ()
+    #: q'(0) when it is known exactly (a retarget: the direction of motion), else None
+    start_tangent: NDArray[np.float64] | None = None
+
+    @classmethod
+    def of_samples(cls, joints: NDArray[np.float64]) -> tuple[JointPath, NDArray[np.float64]]:
+        """The path of planned joint samples and each sample's σ (n,).
+
+        Samples that do not move (the plan dwells) are merged; an interior run of them is a
+        stop (the plan is at rest there)."""
+        joints = np.asarray(joints, dtype=np.float64)
+        step = np.linalg.norm(np.diff(joints, axis=0), axis=1)
+        sample_sigma = np.concatenate([[0.0], np.cumsum(step)])
+        keep = np.concatenate([[True], step > REST_STEP])
+        q, sigma = joints[keep], sample_sigma[keep]
+        if q.shape[0] < 2:
+            return cls(np.vstack([q[:1], q[:1]]), np.array([0.0, 1.0])), np.zeros(len(joints))
+        # a stop: the plan's speed falls to (near) zero between two moving stretches
+        speed = np.concatenate([[0.0], step, [0.0]])
+        rest = (speed[1:-1] <= REST_STEP)
+        stops = []
+        for i in np.flatnonzero(rest[1:-1]) + 1:
+            s = float(sample_sigma[i])
+            if sigma[0] < s < sigma[-1] and (not stops or s - stops[-1] > 1e-9):
+                stops.append(s)
+        # local minima of the step that are near rest also stop (quintic vias)
+        if step.size > 2:
+            peak = step.max()
+            mins = np.flatnonzero((step[1:-1] < step[:-2]) & (step[1:-1] <= step[2:])
+                                  & (step[1:-1] < 1e-3 * peak)) + 1
+            for i in mins:
+                s = float(sample_sigma[i])
+                if sigma[0] < s < sigma[-1] and all(abs(s - t) > 1e-6 for t in stops):
+                    stops.append(s)
+        return cls(q, sigma, tuple(sorted(stops))), sample_sigma
+
+    @property
+    def length(self) -> float:
+        return float(self.sigma[-1])
+
+    def at(self, sigma: NDArray[np.float64]) -> NDArray[np.float64]:
+        """q(σ) (len(σ), k): cubic Hermite between samples on q' (C¹, so the curvature of
+        the path is spread over each interval instead of sitting at the samples)."""
+        sigma = np.clip(np.asarray(sigma, dtype=np.float64), self.sigma[0], self.sigma[-1])
+        i = np.clip(np.searchsorted(self.sigma, sigma, side="right") - 1, 0,
+                    len(self.sigma) - 2)
+        h = self.sigma[i + 1] - self.sigma[i]
+        u = ((sigma - self.sigma[i]) / h)[:, None]
+        dq = self._tangents()
+        u2, u3 = u * u, u * u * u
+        h00, h10, h01, h11 = 2 * u3 - 3 * u2 + 1, u3 - 2 * u2 + u, -2 * u3 + 3 * u2, u3 - u2
+        return (h00 * self.q[i] + h10 * h[:, None] * dq[i] + h01 * self.q[i + 1]
+                + h11 * h[:, None] * dq[i + 1])
+
+    def _tangents(self) -> NDArray[np.float64]:
+        cached = self.__dict__.get("_dq")
+        if cached is None:
+            cached = self.derivatives()[0]
+            if self.start_tangent is not None:
+                cached[0] = self.start_tangent
+            object.__setattr__(self, "_dq", cached)
+        return cached
+
+    def rest_from(self, sigma0: float) -> tuple[NDArray, NDArray, tuple[float, ...]]:
+        """q, σ and stops of the path from σ₀ on (σ₀ itself the first sample)."""
+        after = self.sigma > sigma0 + 1e-12
+        q = np.vstack([self.at(np.array([sigma0])), self.q[after]])
+        s = np.concatenate([[sigma0], self.sigma[after]])
+        if s.shape[0] < 2:
+            return q, s, ()
+        stops = tuple(t for t in self.stops if s[0] + 1e-9 < t < s[-1] - 1e-9)
+        return q, s, stops
+
+    def derivatives(self) -> tuple[NDArray, NDArray]:
+        """q'(σ), q''(σ) at the samples (piecewise between stops)."""
+        cuts = [int(np.argmin(np.abs(self.sigma - t))) for t in self.stops]
+        dq, ddq = path_derivatives(self.q, self.sigma, cuts, 2)
+        return dq, ddq
+
+
+@dataclass(frozen=True)
+class Limits:
+    """Per-joint velocity (rad/s), acceleration (rad/s²) and optional jerk (rad/s³) limits."""
+
+    v: NDArray[np.float64]
+    a: NDArray[np.float64]
+    j: NDArray[np.float64] | None = None
+
+    @classmethod
+    def of_arm(cls, arm: Arm) -> Limits:
+        jerk = [j.max_jerk for j in arm.joints]
+        return cls(np.array([j.max_velocity for j in arm.joints]),
+                   np.array([j.max_acceleration for j in arm.joints]),
+                   None if all(x is None for x in jerk)
+                   else np.array([np.inf if x is None else x for x in jerk]))
+
+    def shrunk(self, share: float) -> Limits:
+        """Every limit times ``share`` (a margin, not a speed scale)."""
+        return Limits(self.v * share, self.a * share,
+                      None if self.j is None else self.j * share)
+
+    def scaled(self, k: float) -> Limits:
+        """Speed scaling k: v·k, a·k², j·k³."""
+        return Limits(self.v * k, self.a * k * k, None if self.j is None else self.j * k ** 3)
+
+
+def brake(path: JointPath, sigma0: float, sd0: float, a: NDArray[np.float64], rate_hz: float,
+          *, until_sd: float = 0.0, max_samples: int = 1_000_000) -> NDArray[np.float64]:
+    """σ of the samples after (σ₀, σ̇₀) of the fastest brake along the path (module doc).
+
+    Ends at the first sample with σ̇ ≤ ``until_sd`` (0: at rest; the last σ then repeats no
+    earlier one). Uses ``BRAKE_SHARE`` of ``a``. Returns σ (m,), m ≥ 0.
+    """
+    dt = 1.0 / rate_hz
+    dq, ddq = path.derivatives()
+    grid = path.sigma
+    amax = np.asarray(a, dtype=np.float64) * BRAKE_SHARE
+    out: list[float] = []
+    s, sd = float(sigma0), float(sd0)
+    last = len(grid) - 1
+    while sd > until_sd and len(out) < max_samples:
+        i = min(max(int(np.searchsorted(grid, s, side="right")) - 1, 0), last - 1)
+        w = min(max((s - grid[i]) / (grid[i + 1] - grid[i]), 0.0), 1.0)
+        d1 = dq[i] + w * (dq[i + 1] - dq[i])
+        d2 = ddq[i] + w * (ddq[i + 1] - ddq[i])
+        moving = np.abs(d1) > 1e-9
+        if moving.any():
+            c = d2[moving] * sd * sd
+            lo = np.where(d1[moving] > 0, (-amax[moving] - c) / d1[moving],
+                          (amax[moving] - c) / d1[moving])
+            u = float(lo.max())
+        else:
+            u = -math.inf
+        u = min(u, 0.0)
+        nxt = sd + u * dt
+        if nxt <= until_sd or not math.isfinite(nxt):
+            if until_sd > 0.0:
+                nxt = until_sd
+            else:
+                # the last step to rest has no centripetal part: |q'|·σ̇/Δt within a
+                final = float((amax[moving] / np.abs(d1[moving])).min()) * dt \
+                    if moving.any() else math.inf
+                if sd <= final:
+                    break
+                nxt = final
+        sd = nxt
+        s = min(s + sd * dt, path.length)
+        out.append(s)
+        if s >= path.length:
+            break
+    return np.asarray(out, dtype=np.float64)
+
+
+def controllable_speed(path: JointPath, sigma0: float, limits: Limits, *,
+                       max_stages: int | None = None) -> float:
+    """The fastest σ̇ at σ₀ from which the rest of the path can still be followed within
+    ``limits`` and brought to rest (:func:`robodcn.path_timing.max_start_speed`)."""
+    q, s, stops = path.rest_from(sigma0)
+    if s.shape[0] < 3:
+        return 0.0
+    return max_start_speed(q, s, limits.v, limits.a, stops=stops,
+                           max_stages=ONLINE_STAGES if max_stages is None else max_stages)
+
+
+def retime(path: JointPath, sigma0: float, sd0: float, limits: Limits, rate_hz: float,
+           *, sdd0: float = 0.0) -> NDArray[np.float64]:
+    """σ of the samples after (σ₀, σ̇₀) of the time-optimal law to rest at the path's end.
+
+    Raises
+    ------
+    InputError
+        σ̇₀ faster than the rest of the path allows (``sd_start``; brake first).
+    """
+    q, s, stops = path.rest_from(sigma0)
+    if s.shape[0] < 3 or s[-1] - s[0] < 1e-9:
+        return np.zeros(0)
+    here = path.at(np.array([sigma0]))[0]
+    tangent = path._tangents()[min(int(np.searchsorted(path.sigma, sigma0)), len(path.sigma) - 1)]
+    start = np.vstack([here - tangent * sd0 / rate_hz, here])
+    share = RETIME_SHARE
+    for _ in range(4):
+        v, a = limits.v * share, limits.a * share
+        j = None if limits.j is None else limits.j * share
+        law = _law(q, s, v, a, j, sd0, sdd0 if limits.j is not None else 0.0, stops,
+                   rate_hz)
+        out = law.sample(rate_hz).s[1:]
+        # the final samples may sit at the end within rounding: keep one
+        end = np.flatnonzero(out >= s[-1] - 1e-12)
+        if end.size:
+            out = out[:end[0] + 1]
+            out[-1] = s[-1]
+        over = excess(np.vstack([start, path.at(out)]), limits, rate_hz)
+        if over <= 1.0:
+            return out
+        share *= 0.995 / over
+    raise InputError(f"the re-timed path keeps exceeding a joint limit ({over:.4g} × it)",
+                     field="limits", value=float(over))
+
+
+def excess(joints: NDArray[np.float64], limits: Limits, rate_hz: float, *,
+           to_rest: bool = True) -> float:
+    """Largest ratio of a finite-difference joint velocity or acceleration of ``joints``
+    (sampled at ``rate_hz``; with ``to_rest`` the arm holds the last sample after) to its
+    limit: ≤ 1 when every limit holds."""
+    q = np.vstack([joints, joints[-1:]]) if to_rest else joints
+    if q.shape[0] < 3:
+        return 0.0
+    vel = np.diff(q, axis=0) * rate_hz
+    acc = np.diff(vel, axis=0) * rate_hz
+    return float(max((np.abs(vel) / limits.v).max(), (np.abs(acc) / limits.a).max()))
+
+
+def _law(q: NDArray, s: NDArray, v: NDArray, a: NDArray, j: NDArray | None, sd0: float,
+         sdd0: float, stops: Sequence[float], rate_hz: float) -> PathTiming:
+    """time_optimal from σ̇₀; a σ̇₀ over the controllable speed by rounding only (1e-3) starts
+    at that speed instead (a larger excess is raised: brake first)."""
+    try:
+        return time_optimal(q, s, v, a, j, sd_start=sd0, sdd_start=sdd0, stops=stops,
+                            rate_hz=rate_hz, max_stages=ONLINE_STAGES)
+    except InputError as exc:
+        top = controllable_at(q, s, v, a, stops)
+        if exc.field != "sd_start" or not top < sd0 <= top * 1.001:
+            raise
+        return time_optimal(q, s, v, a, j, sd_start=top, sdd_start=sdd0, stops=stops,
+                            rate_hz=rate_hz, max_stages=ONLINE_STAGES)
+
+
+def controllable_at(q: NDArray, s: NDArray, v: NDArray, a: NDArray,
+                    stops: Sequence[float]) -> float:
+    """max_start_speed of (q, s) under v, a (the start speed time_optimal accepts)."""
+    return max_start_speed(q, s, v, a, stops=stops, max_stages=ONLINE_STAGES)
+
+
+def blend_start(q_new: NDArray[np.float64], direction: NDArray[np.float64],
+                length: float) -> NDArray[np.float64]:
+    """Joint samples of ``q_new`` bent to start along ``direction`` and straight.
+
+    q(σ) + L·b(σ/L)·(d₀ − q'(0)), b(u) = u(1 − u)² (b(0) = 0, b'(0) = 1, b(1) = b'(1) = 0),
+    then minus L²·c(σ/L)·q''(0) of that curve, c(u) = u²(1 − u)³/2 (c''(0) = 1, zero with
+    two derivatives at 1): the path starts at q(0) in the direction d₀ with no curvature and
+    is unchanged after arc length L (σ measured on ``q_new``). No curvature at the start
+    matters at the switch: the last two samples streamed lie on the chord d₀, so a
+    curved start would add ½·q''·σ̇² to the joint acceleration of the first new sample."""
+    path, _ = JointPath.of_samples(q_new)
+    if path.length <= 0 or length <= 0:
+        return q_new
+    step = np.linalg.norm(np.diff(q_new, axis=0), axis=1)
+    sig = np.concatenate([[0.0], np.cumsum(step)])
+    u = np.clip(sig / length, 0.0, 1.0)[:, None]
+    dq, _ = path.derivatives()
+    bent = q_new + length * u * (1.0 - u) ** 2 * (np.asarray(direction) - dq[0])[None, :]
+    _, ddq = JointPath(bent, sig).derivatives()
+    return bent - length ** 2 * 0.5 * u ** 2 * (1.0 - u) ** 3 * ddq[0][None, :]
+
+
+def first_stop(stops: Sequence[float], sigma: float) -> float | None:
+    after = [t for t in stops if t > sigma + 1e-9]
+    return after[0] if after else None
+
+
+def check_limits_named(name: str, value: float) -> float:
+    """A speed scale k ∈ (0, 1] (InputError naming ``name`` otherwise)."""
+    ok = isinstance(value, int | float) and not isinstance(value, bool) \
+        and math.isfinite(value) and 0.0 < value <= 1.0
+    if not ok:
+        raise InputError(f"{name} must be a number in (0, 1], got {value!r}", field=name,
+                         value=value)
+    return float(value)

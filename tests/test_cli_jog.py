@@ -1,0 +1,165 @@
+"""``robodcn jog`` (issue 10 §2): keys → retargets, against firmware_sim over a pty through
+the real dynamixel-sdk; and the command itself on a pseudo-terminal."""
+
+from __future__ import annotations
+
+import io
+import math
+import os
+import pty
+import select
+import subprocess
+import sys
+import time
+
+import numpy as np
+from conftest import ARM3R
+
+from robodcn import kinematics, servo_units
+from robodcn.cli.jog_cmd import Jogger
+from robodcn.simulated import simulated_arm
+
+
+def _pose(sa) -> np.ndarray:
+    ticks = [sa.sim.servo(i).present_position for i in ARM3R.servo_ids]
+    q = servo_units.ticks_to_radians(np.array([ticks]), ARM3R.servos)
+    return kinematics.fk(ARM3R.links, q)[0]
+
+
+class Script:
+    """A key source: each key after its delay (s), then None; 'q' at the end."""
+
+    def __init__(self, keys):
+        self.keys = list(keys)
+        self.next_at = time.monotonic()
+
+    def __call__(self, timeout):
+        if not self.keys:
+            time.sleep(timeout)
+            return None
+        delay, key = self.keys[0]
+        if time.monotonic() < self.next_at + delay:
+            time.sleep(timeout)
+            return None
+        self.keys.pop(0)
+        self.next_at = time.monotonic()
+        return key
+
+
+def test_key_presses_retarget_in_flight_and_end_at_the_stepped_pose():
+    with simulated_arm(ARM3R, timing="fast") as sa:
+        start = _pose(sa)
+        out = io.StringIO()
+        jog = Jogger(ARM3R, sa.bus, step=0.01, step_rad=math.radians(5), method="sclerp",
+                     rate_hz=200.0, out=out)
+        # presses in quick succession: they come while the previous step still moves
+        script = Script([(0.0, "right"), (0.0, "right"), (0.0, "up"), (0.0, "a"),
+                         (0.0, "x"), (2.0, "q")])
+        jog.run(script)
+        end = _pose(sa)
+        want = start + np.array([0.02, 0.01, math.radians(5)])
+        assert np.allclose(end[:2], want[:2], atol=2e-3), (end, want)
+        assert abs(kinematics.wrap(end[2] - want[2])) < 5e-3
+        text = out.getvalue()
+        assert "←/→ x" in text and "tracking" in text and "target x=" in text
+        # retargeted in flight (not a stop and a new move per key)
+        assert jog.retargets >= 1 and len(jog.reports) + jog.retargets == 4
+        assert all(r.outcome in ("done", "degraded") for r in jog.reports)
+
+
+def test_an_unreachable_step_is_refused_and_the_target_stays():
+    with simulated_arm(ARM3R, timing="fast") as sa:
+        jog = Jogger(ARM3R, sa.bus, step=5.0, step_rad=0.1, method="sclerp", rate_hz=100.0,
+                     out=io.StringIO())
+        before = jog.target.copy()
+        jog.key("right")
+        assert np.array_equal(jog.target, before)
+        assert "reach" in jog.message or "workspace" in jog.message, jog.message
+        jog.key("q")
+        jog.finish()
+
+
+def test_jog_command_on_a_pseudo_terminal():
+    """The real command: keys through a pty (arrow escape sequences), q quits, exit 0."""
+    master, slave = pty.openpty()
+    env = {**os.environ}
+    proc = subprocess.Popen([sys.executable, "-m", "robodcn", "jog", "--sim", "--timing",
+                             "fast", "--rate", "100"], stdin=slave, stdout=slave,
+                            stderr=slave, env=env, close_fds=True)
+    os.close(slave)
+    seen = b""
+
+    def read_for(seconds):
+        nonlocal seen
+        deadline = time.monotonic() + seconds
+        while time.monotonic() < deadline:
+            ready, _, _ = select.select([master], [], [], 0.05)
+            if ready:
+                try:
+                    seen += os.read(master, 65536)
+                except OSError:
+                    return
+
+    try:
+        read_for(0.1)
+        deadline = time.monotonic() + 30
+        while b"keys:" not in seen and time.monotonic() < deadline:
+            read_for(0.2)
+        assert b"keys:" in seen, seen
+        os.write(master, b"\x1b[C")  # right arrow
+        read_for(1.5)
+        os.write(master, b"q")
+        read_for(1.0)
+        assert proc.wait(30) == 0, seen
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+            proc.wait()
+        os.close(master)
+    text = seen.decode("utf-8", "replace")
+    assert "target x=" in text and "commanded" in text
+
+
+def test_sim_on_a_terminal_shows_the_keys_and_pauses_and_resumes():
+    """``robodcn sim`` on a pty: the keys line, space pauses and resumes, it ends."""
+    master, slave = pty.openpty()
+    proc = subprocess.Popen([sys.executable, "-m", "robodcn", "sim", "--to", "0.12,0.24,60",
+                             "--duration", "2", "--timing", "fast"], stdin=slave,
+                            stdout=slave, stderr=slave, close_fds=True)
+    os.close(slave)
+    seen = b""
+
+    def read_for(seconds):
+        nonlocal seen
+        deadline = time.monotonic() + seconds
+        while time.monotonic() < deadline:
+            ready, _, _ = select.select([master], [], [], 0.05)
+            if ready:
+                try:
+                    seen += os.read(master, 65536)
+                except OSError:
+                    return
+
+    try:
+        deadline = time.monotonic() + 30
+        while b"keys:" not in seen and time.monotonic() < deadline:
+            read_for(0.2)
+        assert b"keys:" in seen, seen
+        read_for(0.3)
+        os.write(master, b" ")
+        read_for(0.8)
+        os.write(master, b" ")
+        code = None
+        deadline = time.monotonic() + 30
+        while code is None and time.monotonic() < deadline:
+            read_for(0.2)
+            code = proc.poll()
+        assert code in (0, 5), seen
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+            proc.wait()
+        os.close(master)
+    text = seen.decode("utf-8", "replace")
+    assert "paused" in text and "resumed" in text, text
+    assert "space pause/resume" in text

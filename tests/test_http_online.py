@@ -1,0 +1,139 @@
+"""HTTP online control (issue 10 §2–§4): replace, stop modes, pause/resume, speed; against
+firmware_sim over a pty through the real dynamixel-sdk."""
+
+from __future__ import annotations
+
+import math
+import time
+from collections.abc import Iterator
+from typing import Any
+
+import numpy as np
+import pytest
+from http_helpers import ARM, HOME, LOADED_MACHINE, call, error_of, poll_move, running
+
+from robodcn import kinematics, servo_units
+from robodcn.http import make_server
+
+LONG = {"waypoints": [HOME, [0.05, 0.25, 1.2]], "duration": 2.0, "rate_hz": 200}
+OTHER = [0.22, -0.05, 0.3]
+
+
+@pytest.fixture
+def arm_server() -> Iterator[tuple[Any, Any]]:
+    from robodcn.controller import ArmController
+    from robodcn.simulated import simulated_arm
+
+    with simulated_arm(ARM, timing="fast") as sa:
+        controller = ArmController(ARM, sa.bus, execute_options=LOADED_MACHINE)
+        try:
+            with running(make_server(ARM, controller, request_timeout=5.0)) as server:
+                yield server, sa
+        finally:
+            controller.close()
+    assert not sa.sim.errors, sa.sim.errors
+
+
+def _pose_of(sa: Any) -> np.ndarray:
+    ticks = [sa.sim.servo(i).present_position for i in ARM.servo_ids]
+    q = servo_units.ticks_to_radians(np.array([ticks]), ARM.servos)
+    return kinematics.fk(ARM.links, q)[0]
+
+
+def _start(server: Any) -> dict[str, Any]:
+    status, _, body = call(server, "POST", "/v1/moves", LONG)
+    assert status == 202, body
+    return poll_move(server, body["id"], lambda b: b["progress"] > 0.1)
+
+
+def test_replace_answers_202_and_the_old_move_ends_replaced(arm_server: Any) -> None:
+    server, sa = arm_server
+    old = _start(server)
+    # without replace: still 409
+    status, _, body = call(server, "POST", "/v1/moves", LONG)
+    assert status == 409 and error_of(body)["code"] == "busy"
+    status, _, new = call(server, "POST", "/v1/moves",
+                          {"waypoints": [HOME, OTHER], "rate_hz": 200, "replace": True})
+    assert status == 202, new
+    assert new["id"] != old["id"] and new["status"] == "running"
+    status, _, before = call(server, "GET", f"/v1/moves/{old['id']}")
+    assert before["status"] == "replaced"
+    done = poll_move(server, new["id"], lambda b: b["status"] != "running")
+    assert done["status"] in ("done", "degraded"), done
+    end = _pose_of(sa)
+    assert np.allclose(end[:2], OTHER[:2], atol=2e-3)
+    assert math.isclose(kinematics.wrap(end[2] - OTHER[2]), 0, abs_tol=5e-3)
+
+
+def test_replace_field_must_be_a_boolean(arm_server: Any) -> None:
+    server, _ = arm_server
+    status, _, body = call(server, "POST", "/v1/moves", {**LONG, "replace": "yes"})
+    assert status == 422 and error_of(body)["field"] == "replace"
+
+
+def test_replace_with_nothing_running_starts_a_move(arm_server: Any) -> None:
+    server, _ = arm_server
+    status, _, body = call(server, "POST", "/v1/moves",
+                           {"waypoints": [HOME, OTHER], "rate_hz": 100, "replace": True})
+    assert status == 202 and body["status"] in ("queued", "running")
+    poll_move(server, body["id"], lambda b: b["status"] not in ("queued", "running"))
+
+
+def test_smooth_stop_is_the_default_and_decelerates(arm_server: Any) -> None:
+    server, _ = arm_server
+    move = _start(server)
+    status, _, stopped = call(server, "POST", "/v1/stop")
+    assert status == 200 and stopped["move"] == move["id"]
+    final = poll_move(server, move["id"], lambda b: b["status"] != "running")
+    assert final["status"] == "stopped"
+    assert final["report"]["stop_reason"] == "stopped"
+    assert final["report"]["hold_goals"] is None, "a smooth stop ends on its last goal"
+    assert final["progress"] < 1.0
+    status, _, body = call(server, "POST", "/v1/stop", {"mode": "sudden"})
+    assert status == 422 and error_of(body)["field"] == "mode"
+
+
+def test_pause_resume_and_speed_over_http(arm_server: Any) -> None:
+    server, sa = arm_server
+    move = _start(server)
+    status, _, paused = call(server, "POST", "/v1/pause")
+    assert status == 200 and paused["paused"] is True
+    status, _, state = call(server, "GET", "/v1/state")
+    assert state["paused"] is True and state["speed_scale"] == 1.0
+    time.sleep(0.3)
+    goals = [sa.sim.goal_history(i)[-1] for i in ARM.servo_ids]
+    time.sleep(0.2)
+    assert [sa.sim.goal_history(i)[-1] for i in ARM.servo_ids] == goals, "it stands still"
+    status, _, body = call(server, "PUT", "/v1/speed", {"scale": 1.5})
+    assert status == 422 and error_of(body)["field"] == "scale"
+    status, _, body = call(server, "PUT", "/v1/speed", {"scale": 0.5})
+    assert status == 200 and body["speed_scale"] == 0.5
+    status, _, resumed = call(server, "POST", "/v1/resume", {})
+    assert status == 200 and resumed["paused"] is False
+    final = poll_move(server, move["id"], lambda b: b["status"] != "running", timeout=20)
+    assert final["status"] in ("done", "degraded"), final
+    assert final["speed_scale"] == 0.5
+    end = _pose_of(sa)
+    assert np.allclose(end[:2], LONG["waypoints"][1][:2], atol=2e-3)
+
+
+def test_online_operations_without_a_move_are_409(arm_server: Any) -> None:
+    server, _ = arm_server
+    for method, path, body in (("POST", "/v1/pause", None), ("POST", "/v1/resume", None),
+                               ("PUT", "/v1/speed", {"scale": 0.5})):
+        status, _, data = call(server, method, path, body)
+        assert status == 409 and error_of(data)["code"] == "no_move", (path, data)
+
+
+def test_openapi_documents_the_online_endpoints(arm_server: Any) -> None:
+    server, _ = arm_server
+    _, _, doc = call(server, "GET", "/openapi.json")
+    assert {"/v1/pause", "/v1/resume", "/v1/speed"} <= set(doc["paths"])
+    assert "put" in doc["paths"]["/v1/speed"]
+    schemas = doc["components"]["schemas"]
+    planned, given = schemas["MoveBody"]["anyOf"]
+    assert planned["properties"]["replace"]["type"] == "boolean"
+    assert given["properties"]["replace"]["type"] == "boolean"
+    assert schemas["StopBody"]["properties"]["mode"]["enum"] == ["smooth", "hold"]
+    assert "replaced" in schemas["Move"]["properties"]["status"]["enum"]
+    assert {"paused", "speed_scale"} <= set(schemas["State"]["properties"])

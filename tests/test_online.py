@@ -1,0 +1,355 @@
+"""Online execution (issue 10 §2–§4) against firmware_sim over a pty, through dynamixel-sdk.
+
+Every check reads the goals the simulated servos accepted (``SimBus.goal_history``) and the
+commanded joints of the samples sent (``Execution.sent``): the wire must carry exactly the
+commanded ticks, and the commanded joints must keep the limits (their finite differences
+at the stream rate; the ticks add at most 2 ticks × rate of quantisation to a velocity).
+The simulator here is kinematic (a servo is at its goal when it takes it), so the goals go
+out uncompensated (``compensation=False``, as ``robodcn sim --dynamics off`` does); with
+compensation a tail is led like the plan (the last test).
+"""
+
+from __future__ import annotations
+
+import math
+import time
+
+import numpy as np
+import pytest
+from conftest import ARM3R
+
+from robodcn import kinematics, plan, servo_units
+from robodcn.errors import InputError, UnreachableError
+from robodcn.path_timing import max_start_speed
+from robodcn.simulated import simulated_arm
+from robodcn.stream import Execution, start
+from robodcn.stream.online_path import JointPath
+
+RATE = 1000.0
+V = np.array([j.max_velocity for j in ARM3R.joints])
+A = np.array([j.max_acceleration for j in ARM3R.joints])
+TICK = np.array([2 * math.pi / s.ticks_per_turn for s in ARM3R.servos])
+START = (0.25, 0.10, 0.0)
+GOAL = (0.05, 0.25, math.radians(80))
+#: finite differences of a law sampled at the stream rate land within this of the limit
+SLACK = 1e-6
+
+
+@pytest.fixture
+def sa():
+    with simulated_arm(ARM3R, timing="fast", dynamics=False,
+                       start_joints=kinematics.ik(ARM3R.links, np.array([START]))[0]) as s:
+        yield s
+
+
+def _present(sa) -> np.ndarray:
+    return servo_units.ticks_to_radians(sa.bus.read_positions()[None], ARM3R.servos)[0]
+
+
+def _move(sa, goal=GOAL, **kw):
+    q0 = _present(sa)
+    pose = tuple(kinematics.fk(ARM3R.links, q0[None])[0])
+    return plan(ARM3R, [pose, goal], rate_hz=RATE, start_joints=q0, **kw)
+
+
+def _run(sa, trajectory, ops, timeout=30.0, compensation=False):
+    """Start, run ``ops(execution)``, wait; the report, the execution and the wire goals."""
+    sa.sim.clear_log()
+    before = len(sa.sim.goal_history(ARM3R.servo_ids[0]))
+    ex = start(trajectory, sa.bus, skip_late=False, compensation=compensation)
+    ops(ex)
+    report = ex.wait(timeout)
+    assert report is not None and ex.done
+    wire = np.array([sa.sim.goal_history(i)[before:] for i in ARM3R.servo_ids]).T
+    return report, ex, wire
+
+
+def _sent(ex: Execution, wire: np.ndarray):
+    index, _, joints = ex.sent()
+    assert (np.diff(index) == 1).all(), "every sample sent once, in order"
+    ticks = servo_units.radians_to_ticks(joints, ARM3R.servos)
+    # the wire carries exactly the commanded samples (a hold write may follow them)
+    assert np.array_equal(wire[:len(ticks)], ticks)
+    return index, joints, ticks
+
+
+def _fd(q: np.ndarray):
+    v = np.diff(q, axis=0) * RATE
+    return v, np.diff(v, axis=0) * RATE
+
+
+def _wait_sample(ex: Execution, i: int, timeout: float = 10.0) -> None:
+    deadline = time.monotonic() + timeout
+    while ex.sample < i and not ex.done and time.monotonic() < deadline:
+        time.sleep(0.002)
+
+
+def _check_limits(joints: np.ndarray, v=V, a=A) -> None:
+    vel, acc = _fd(joints)
+    assert (np.abs(vel) <= v * (1 + SLACK)).all(), np.abs(vel).max(0) / v
+    bad = np.flatnonzero((np.abs(acc) > a * (1 + SLACK)).any(axis=1))
+    assert not bad.size, (bad[:10], np.abs(acc).max(0) / a)
+
+
+def _check_wire_steps(ticks: np.ndarray) -> None:
+    """No step of the wire velocity larger than one sample of maximum acceleration plus
+    tick quantisation (each goal is rounded by ≤ ½ tick: ≤ 2 ticks on a second difference)."""
+    q = ticks * TICK
+    dv = np.abs(np.diff(np.diff(q, axis=0), axis=0)) * RATE
+    assert (dv <= A / RATE + 2 * TICK * RATE + 1e-12).all()
+
+
+# -- retarget -------------------------------------------------------------------------------
+
+def test_retarget_in_flight_is_smooth_and_ends_at_the_new_goal(sa):
+    traj = _move(sa, duration=2.0)
+    new_goal = (0.22, -0.05, 0.3)
+
+    def ops(ex):
+        _wait_sample(ex, int(0.3 * len(traj.t)))
+        ex.retarget([None, new_goal])
+
+    report, ex, wire = _run(sa, traj, ops)
+    assert report.stop_reason == "completed", report.headline
+    _index, joints, ticks = _sent(ex, wire)
+    first = ex.switches[0][1]
+    assert 0 < first < len(traj.t), "the switch came while the old move was running"
+    # before the switch: the planned samples, unchanged
+    assert np.array_equal(ticks[:first], traj.ticks[:first])
+    _check_limits(joints)
+    _check_wire_steps(ticks)
+    # the arm was moving at the switch (no stop), and the move ends at the new goal
+    vel, _ = _fd(joints)
+    assert np.abs(vel[first - 1]).max() > 0.05 * V.min()
+    end = kinematics.fk(ARM3R.links, joints[-1:])[0]
+    assert np.allclose(end[:2], new_goal[:2], atol=1e-6)
+    assert math.isclose(kinematics.wrap(end[2] - new_goal[2]), 0.0, abs_tol=1e-6)
+    assert np.array_equal(wire[-1], ticks[-1])
+
+
+def test_retarget_back_the_way_it_came_brakes_along_the_path_first(sa):
+    """A goal behind the arm cannot be turned towards at full speed: the limits hold."""
+    traj = _move(sa)
+
+    def ops(ex):
+        _wait_sample(ex, int(0.5 * len(traj.t)))
+        ex.retarget([None, START])
+
+    _report, ex, wire = _run(sa, traj, ops)
+    _, joints, ticks = _sent(ex, wire)
+    _check_limits(joints)
+    _check_wire_steps(ticks)
+    end = kinematics.fk(ARM3R.links, joints[-1:])[0]
+    assert np.allclose(end[:2], START[:2], atol=1e-6)
+
+
+def test_request_to_first_changed_goal_is_planning_time_plus_two_periods(sa):
+    traj = _move(sa, duration=3.0)
+    goals = [(0.2, 0.15, 0.2), (0.15, 0.2, 0.5), (0.1, 0.22, 0.9), (0.05, 0.25, 1.2)]
+
+    def ops(ex):
+        for k, g in enumerate(goals):
+            _wait_sample(ex, 200 + 60 * k)
+            ex.retarget([None, g])
+
+    _report, ex, wire = _run(sa, traj, ops)
+    _sent(ex, wire)
+    lat = ex.latencies()
+    assert len(lat) == len(goals)
+    # The first changed sample is placed 2 periods after the planning time expected (the
+    # fastest recent one; a miss is planned again further ahead, and that request's
+    # planning time counts both attempts): up to the spread of planning times on a loaded
+    # machine, request → due is the planning time + 2 periods.
+    excess = [due - planning for planning, due, _, _ in lat]
+    allowance = 0.5 * float(np.median([planning for planning, _, _, _ in lat]))
+    assert float(np.median(excess)) <= 2.0 / RATE + allowance, lat
+    # it is sent then, up to the loop's own lateness on a loaded machine
+    assert all(sent - due < 0.05 for _, due, sent, _ in lat), lat
+
+
+def test_a_retarget_that_cannot_be_planned_changes_nothing(sa):
+    traj = _move(sa)
+
+    def ops(ex):
+        _wait_sample(ex, 100)
+        with pytest.raises(UnreachableError):
+            ex.retarget([None, (2.0, 2.0, 0.0)])
+
+    report, ex, wire = _run(sa, traj, ops)
+    _, _, ticks = _sent(ex, wire)
+    assert report.outcome == "done"
+    assert np.array_equal(ticks, traj.ticks)
+
+
+# -- smooth stop ----------------------------------------------------------------------------
+
+def _distance_to_polyline(points: np.ndarray, poly: np.ndarray) -> np.ndarray:
+    """Per-joint |difference| to the nearest point of the joint polyline (max-norm)."""
+    a, b = poly[:-1], poly[1:]
+    d = b - a
+    out = np.empty_like(points)
+    for n, p in enumerate(points):
+        t = np.clip(np.einsum("ij,ij->i", p - a, d) / np.maximum(
+            np.einsum("ij,ij->i", d, d), 1e-300), 0.0, 1.0)
+        near = a + t[:, None] * d
+        k = int(np.argmin(np.abs(near - p).max(axis=1)))
+        out[n] = np.abs(near[k] - p)
+    return out
+
+
+def _braking_distance(path: JointPath, sigma: float, sd: float) -> float:
+    """The time-optimal braking distance along the path from (σ, σ̇): the shortest stretch
+    over which that state is still in TOPP-RA's controllable set of a stop at its end."""
+    lo, hi = 1e-9, path.length - sigma
+    q_of = path.at
+    for _ in range(40):
+        mid = 0.5 * (lo + hi)
+        s = np.linspace(sigma, sigma + mid, 400)
+        if max_start_speed(q_of(s), s, V, A) >= sd:
+            hi = mid
+        else:
+            lo = mid
+    return hi
+
+
+def test_smooth_stop_decelerates_along_the_path_within_the_limits(sa):
+    traj = _move(sa)
+
+    def ops(ex):
+        _wait_sample(ex, int(0.45 * len(traj.t)))
+        ex.stop("smooth")
+
+    report, ex, wire = _run(sa, traj, ops)
+    assert report.stop_reason == "stopped" and report.outcome == "stopped"
+    assert report.hold_goals is None, "a smooth stop ends on its last goal, no hold jump"
+    _, joints, ticks = _sent(ex, wire)
+    first = ex.switches[0][1]
+    assert len(ticks) < len(traj.t), "it stopped before the end"
+    _check_limits(joints)
+    _check_wire_steps(ticks)
+    # every goal sent lies on the planned joint path (IK rounding ½ tick + one tick)
+    off = _distance_to_polyline(servo_units.ticks_to_radians(ticks[first:], ARM3R.servos),
+                                 traj.joints)
+    assert (off <= 1.5 * TICK + 1e-9).all(), off.max(0) / TICK
+    # stopping distance ≤ time-optimal braking distance + one period of travel
+    path, sigma = JointPath.of_samples(traj.joints)
+    s0 = sigma[first - 1]
+    sd0 = (sigma[first - 1] - sigma[first - 2]) * RATE
+    travelled = float(np.sum(np.linalg.norm(np.diff(joints[first - 1:], axis=0), axis=1)))
+    assert sd0 > 0.5
+    assert travelled <= _braking_distance(path, s0, sd0) + sd0 / RATE
+
+
+def test_hold_stop_holds_at_once(sa):
+    traj = _move(sa)
+
+    def ops(ex):
+        _wait_sample(ex, 200)
+        ex.stop("hold")
+
+    report, ex, _wire = _run(sa, traj, ops)
+    assert report.stop_reason == "stopped" and report.hold_goals is not None
+    assert report.samples_sent < 0.6 * len(traj.t)
+    assert not ex.switches
+
+
+def test_stop_mode_is_checked(sa):
+    traj = _move(sa)
+    ex = start(traj, sa.bus)
+    try:
+        with pytest.raises(InputError) as info:
+            ex.stop("sudden")
+        assert info.value.field == "mode"
+    finally:
+        ex.stop("hold")
+        ex.wait(10)
+
+
+# -- pause / resume, speed ------------------------------------------------------------------
+
+def test_pause_then_resume_ends_at_the_original_goal(sa):
+    traj = _move(sa)
+
+    def ops(ex):
+        _wait_sample(ex, int(0.4 * len(traj.t)))
+        ex.pause()
+        assert ex.paused and ex.status == "paused"
+        time.sleep(1.5)  # longer than the rest a pause keeps ahead: it is extended
+        assert not ex.done
+        ex.resume()
+        assert not ex.paused
+
+    report, ex, wire = _run(sa, traj, ops)
+    assert report.outcome == "done", report.headline
+    _, joints, ticks = _sent(ex, wire)
+    _check_limits(joints)
+    _check_wire_steps(ticks)
+    assert np.array_equal(ticks[-1], traj.ticks[-1])
+    # it stood still for over a second in between
+    still = np.all(np.diff(ticks, axis=0) == 0, axis=1)
+    runs = np.diff(np.flatnonzero(np.diff(np.concatenate([[0], still, [0]]))))[::2]
+    assert runs.max() >= 1.0 * RATE
+
+
+def test_speed_scaling_keeps_the_scaled_limits(sa):
+    traj = _move(sa)
+    k = 0.5
+
+    def ops(ex):
+        _wait_sample(ex, 5)
+        ex.set_speed(k)
+        assert ex.speed == k
+
+    report, ex, wire = _run(sa, traj, ops)
+    assert report.outcome == "done"
+    _, joints, ticks = _sent(ex, wire)
+    first = ex.switches[0][1]
+    _check_limits(joints)
+    # a brake along the path (full limits) while faster than k allows, then k's limits
+    vel, _ = _fd(joints)
+    within = first + int(np.argmax(np.all(np.abs(vel[first:]) <= V * k, axis=1)))
+    _check_limits(joints[within:], V * k, A * k * k)
+    _check_wire_steps(ticks)
+    assert np.array_equal(ticks[-1], traj.ticks[-1])
+    assert len(ticks) > 1.5 * len(traj.t), "slower"
+
+
+def test_speed_scale_out_of_range_names_scale(sa):
+    traj = _move(sa)
+    ex = start(traj, sa.bus)
+    try:
+        for bad in (0.0, 1.5, -1, float("nan"), True):
+            with pytest.raises(InputError) as info:
+                ex.set_speed(bad)
+            assert info.value.field == "scale"
+    finally:
+        ex.stop("hold")
+        ex.wait(10)
+
+
+def test_with_compensation_a_retarget_tail_is_led_like_the_plan(sa):
+    """The tail's goals are the compensated goals of its joints (continuous across the
+    switch), not its bare ticks: without the lead the goals would jump back by the lag."""
+    from robodcn.stream.compensation import compensated_ticks
+
+    traj = _move(sa, duration=2.0)
+
+    def ops(ex):
+        _wait_sample(ex, int(0.3 * len(traj.t)))
+        ex.retarget([None, (0.22, -0.05, 0.3)])
+
+    report, ex, wire = _run(sa, traj, ops, compensation=True)
+    assert report.stop_reason == "completed" and report.compensation, report.headline
+    _index, _, joints = ex.sent()
+    first = ex.switches[0][1]
+    led = compensated_ticks(joints, 1.0 / RATE, sa.bus.servos, sa.bus.limits, arm=ARM3R,
+                            p_gains=sa.bus.position_p_gains)
+    bare = servo_units.radians_to_ticks(joints, ARM3R.servos)
+    tail = slice(first, len(joints))
+    # the lead is large while moving fast: the bare ticks are far from the wire there
+    assert np.abs(wire[tail] - bare[tail]).max() > 10
+    # one lead for the whole stream, but for the two samples before the switch: they were
+    # led (central differences) towards the old path's next samples, encoded before it
+    off = np.abs(wire[:len(joints)] - led).max(axis=1)
+    off[first - 2:first] = 0
+    assert off.max() <= 1
