@@ -11,9 +11,9 @@ by ``robodcn move``/``sim`` (CLI), ``POST /v1/moves`` (HTTP) and the streamer's
 * :func:`plan_from_present` plans a :class:`~robodcn.planner.PlanRequest` or a list of
   waypoints with ``start_joints`` = the present joints; a waypoint list whose first entry is
   None starts at the present pose (FK of the present joints). The planner prepends a
-  joint-space quintic approach when the arm is not at the IK of the first waypoint.
-* :func:`approach_of` finds that approach in a trajectory (samples and duration), for
-  reports.
+  joint-space approach when the arm is not at the IK of the first waypoint.
+* :func:`approach_of` gives that approach (samples and duration, as the planner recorded it
+  in ``Trajectory.approach_samples``), for reports.
 """
 
 from __future__ import annotations
@@ -26,14 +26,11 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from robodcn import kinematics, servo_units, timing
+from robodcn import kinematics, servo_units
 from robodcn.bus import ServoBus
 from robodcn.config import Arm
 from robodcn.errors import InputError, ServoMismatchError
 from robodcn.planner import PlanRequest, Trajectory, plan, plan_request
-
-#: Joint-space tolerance (rad) when matching a trajectory's first samples to a quintic.
-_APPROACH_ATOL = 1e-9
 
 
 @dataclass(frozen=True)
@@ -121,34 +118,15 @@ def plan_from_present(arm: Arm, bus: ServoBus | None,
 def approach_of(trajectory: Trajectory) -> Approach | None:
     """The joint-space approach the planner put at the start of ``trajectory``, or None.
 
-    An approach runs q_i = q_0 + s(i/n)·(q_n − q_0), i = 0..n, with s the quintic
-    10τ³ − 15τ⁴ + 6τ⁵ (robodcn.timing) from the request's start_joints, and ends at rest
-    where the path begins. The first n ≥ 2 whose samples 0..n all match that formula (to
-    1e-9 rad) is the approach; a plan without one starts on the path itself.
+    The planner records it (:attr:`Trajectory.approach_samples`, the sample periods of the
+    approach from the request's start_joints, whatever law times it: the uniform profiles'
+    quintic or the time-optimal law of ``profile="optimal"``); a plan without one starts
+    on the path itself.
     """
-    request = trajectory.request
-    if request is None or request.start_joints is None:
+    n = int(getattr(trajectory, "approach_samples", 0) or 0)
+    if n <= 0:
         return None
-    q = trajectory.joints
-    start = np.asarray(request.start_joints, dtype=np.float64)
-    if len(q) < 2 or not np.allclose(q[0], start, atol=_APPROACH_ATOL, rtol=0.0):
-        return None
-    # Samples 1 and 2 fix n: q_1 − q_0 = s(1/n)·(q_n − q_0), q_2 − q_0 = s(2/n)·(q_n − q_0).
-    # Screen every n ≥ 2 on those two samples at once, then check the candidates in full.
-    n_all = np.arange(2, len(q))
-    if not n_all.size:
-        return None
-    span = q[n_all] - start
-    fits = np.ones(n_all.size, dtype=bool)
-    for i in (1, 2):
-        predicted = timing.quintic(np.minimum(i / n_all, 1.0))[:, None] * span
-        fits &= np.abs(predicted - (q[i] - start)).max(axis=1) <= _APPROACH_ATOL
-    for n in n_all[fits]:
-        tau = np.arange(n + 1) / n
-        line = start + np.outer(timing.quintic(tau), q[n] - start)
-        if np.allclose(q[:n + 1], line, atol=_APPROACH_ATOL, rtol=0.0):
-            return Approach(samples=int(n), duration_s=float(n) / trajectory.rate_hz)
-    return None
+    return Approach(samples=n, duration_s=float(n) / trajectory.rate_hz)
 
 
 __all__ = ["Approach", "approach_of", "check_servos", "plan_from_present", "present_joints"]
