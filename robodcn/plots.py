@@ -59,7 +59,11 @@ def _draw_arm(ax, links: Sequence[float], q: ArrayLike, color: str, label: str |
 
 def approach_end(traj) -> int:
     """Index of the first sample on the planned path (after a joint-space approach), 0 when
-    the trajectory has no approach or does not carry its request."""
+    the trajectory has no approach: the planner's record (``approach_samples``), else (an
+    older trajectory) the first sample at the first waypoint."""
+    recorded = int(getattr(traj, "approach_samples", 0) or 0)
+    if recorded:
+        return recorded
     request = getattr(traj, "request", None)
     if request is None or request.start_joints is None:
         return 0
