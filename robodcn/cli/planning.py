@@ -15,6 +15,7 @@ from contextlib import contextmanager
 from dataclasses import dataclass
 from typing import Any
 
+from robodcn import contract
 from robodcn.cli import options
 from robodcn.cli.error_text import error_text
 from robodcn.errors import InputError, RobodcnError
@@ -40,8 +41,11 @@ def add_motion_options(p: argparse.ArgumentParser, *, start_help: str) -> None:
     g.add_argument("--duration", type=options.duration, default="auto",
                    metavar="SECONDS|auto",
                    help="total duration, or auto: the shortest within the joint limits")
-    g.add_argument("--profile", default="quintic", choices=("quintic", "trapezoid", "linear"),
-                   help="time law s(t) (default quintic)")
+    profile = contract.field("profile")
+    g.add_argument("--profile", default=profile.default, choices=contract.cli_choices("profile"),
+                   help=f"time law s(t): optimal times the whole path time-optimally within "
+                        f"the joint limits, the others stretch one uniform law (default "
+                        f"{profile.default})")
     g.add_argument("--rate", type=options.rate, metavar="HZ",
                    help="sample rate, 1..1000 Hz (default: the arm's [bus] rate_hz)")
     g.add_argument("--blend", action="store_true",
