@@ -53,6 +53,13 @@ function bodyProps(path, method) {
   const content = o && o.requestBody && o.requestBody.content;
   let schema = content && content["application/json"] && content["application/json"].schema;
   if (schema && schema.$ref) schema = S.api.components.schemas[schema.$ref.split("/").pop()];
+  // A body of several forms (anyOf/oneOf, e.g. waypoints or a given trajectory): any form's
+  // fields count.
+  const forms = schema && !schema.properties && (schema.anyOf || schema.oneOf);
+  if (forms) {
+    return Object.assign({}, ...forms.map((f) =>
+      ((f.$ref ? S.api.components.schemas[f.$ref.split("/").pop()] : f) || {}).properties || {}));
+  }
   return (schema && schema.properties) || {};
 }
 
@@ -73,8 +80,10 @@ function detectFeatures() {
   const speed = bodyProps("/v1/speed", "put");
   f.speed = op("/v1/speed", "put") ? (Object.keys(speed).find((k) =>
     ["number", "integer"].includes(speed[k].type)) || "speed") : null;
-  f.speedRange = f.speed && speed[f.speed] ? [speed[f.speed].minimum ?? speed[f.speed].exclusiveMinimum ?? 0.05,
-    speed[f.speed].maximum ?? 1] : [0.05, 1];
+  const sp = f.speed && speed[f.speed];
+  // an exclusive minimum (0 < k) is not a value to send: the slider starts one step above it
+  f.speedRange = sp ? [sp.minimum ?? (sp.exclusiveMinimum !== undefined ? sp.exclusiveMinimum + 0.05 : 0.05),
+    sp.maximum ?? 1] : [0.05, 1];
   const torque = bodyProps("/v1/torque", "post");
   f.torque = op("/v1/torque", "post") ? (Object.keys(torque).find((k) =>
     torque[k].type === "boolean") || "enabled") : null;
