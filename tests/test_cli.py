@@ -343,3 +343,16 @@ def test_serve_logs_at_info_by_default(capsys, monkeypatch):
     assert main(capsys, "serve", "--arm", str(ARM3R), "--sim", "--port", "0")[2] == \
         "robodcn: INFO: robodcn.http: GET /healthz 200\n"
     assert main(capsys, "serve", "--arm", str(ARM3R), "--sim", "--log-level", "warning")[2] == ""
+
+
+def test_profile_choices_and_default_are_the_contracts():
+    """--profile offers what the planner takes, the default its default (optimal)."""
+    from robodcn import contract
+
+    parser = cli.build_parser()
+    for command in ("plan", "sim", "move"):
+        args = parser.parse_args([command, "--to", "0.12,0.24,60"])
+        assert args.profile == contract.field("profile").default == "optimal"
+        for profile in contract.cli_choices("profile"):
+            assert parser.parse_args([command, "--to", "0.12,0.24,60", "--profile",
+                                      profile]).profile == profile

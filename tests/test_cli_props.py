@@ -102,7 +102,7 @@ def bad_pose() -> st.SearchStrategy[str]:
     return st.one_of(wrong_count, bad_part)
 
 
-CHOICES = {"--profile": ("quintic", "trapezoid", "linear"), "--elbow": ("up", "down"),
+CHOICES = {"--profile": ("optimal", "quintic", "trapezoid", "linear"), "--elbow": ("up", "down"),
            "--method": ("sclerp", "kenlerp", "seplerp", "dlb"),
            "--turn": ("shortest", "ccw", "cw"), "--format": ("table", "json", "csv"),
            "--timing": ("realistic", "fast"),
