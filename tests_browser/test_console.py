@@ -344,3 +344,80 @@ def test_torque_buttons_switch_the_servos(driver: Any, until: Any, service: Any)
         until(lambda d: d.find_element("id", "torque-state").text == "torque on", 10)
     finally:
         service.call("POST", "/v1/torque", {"on": True})
+
+
+def test_pause_resume_and_the_speed_slider_drive_the_move(driver: Any, until: Any,
+                                                          service: Any) -> None:
+    """The service documents pause, resume and speed: the console shows them and they act
+    on the running move (checked on the service's own move status and state)."""
+    service.wait_idle()
+    open_console(driver, until, service)
+    for testid in ("pause", "resume", "speed"):
+        assert el(driver, testid).is_displayed(), testid
+    type_target(driver, far_target(service), duration="6")
+    move_id = click_move_and_wait_running(driver, until, service)
+    until(lambda d: el(d, "move-status").text == "running", 10)
+    driver.execute_script("""
+        const s = arguments[0];
+        s.value = '0.5';
+        s.dispatchEvent(new Event('input'));
+        s.dispatchEvent(new Event('change'));""", el(driver, "speed"))
+    until(lambda d: service.call("GET", f"/v1/moves/{move_id}")[1]["speed_scale"] == 0.5, 10,
+          "the speed slider did not set the speed scale")
+    el(driver, "pause").click()
+    until(lambda d: service.call("GET", f"/v1/moves/{move_id}")[1]["paused"] is True, 10,
+          "Pause did not pause the move")
+    time.sleep(0.8)   # the brake to rest is over well within this
+    before = present_degrees(service)
+    time.sleep(0.5)
+    after = present_degrees(service)
+    assert max(abs(a - b) for a, b in zip(before, after, strict=True)) < 0.2, "paused arm moved"
+    _, info = service.call("GET", f"/v1/moves/{move_id}")
+    assert info["status"] == "running" and info["progress"] < 0.9, info
+    el(driver, "resume").click()
+    until(lambda d: service.call("GET", f"/v1/moves/{move_id}")[1]["paused"] is False, 10,
+          "Resume did not resume the move")
+    until(lambda d: el(d, "move-status").text in FINISHED, 30)
+    _, info = service.call("GET", f"/v1/moves/{move_id}")
+    assert info["status"] in FINISHED, info
+
+
+def test_hold_holds_at_once_and_stop_stops_smoothly(driver: Any, until: Any,
+                                                    service: Any) -> None:
+    """Stop sends {"mode": "smooth"} (the report says it decelerated along the path), Hold
+    {"mode": "hold"} (held where the arm was)."""
+    for button, smooth in (("stop", True), ("hold", False)):
+        service.wait_idle()
+        open_console(driver, until, service)
+        type_target(driver, far_target(service), duration="6")
+        move_id = click_move_and_wait_running(driver, until, service)
+        until(lambda d: el(d, "move-status").text == "running", 10)
+        time.sleep(0.5)
+        el(driver, button).click()
+        until(lambda d: el(d, "move-status").text == "stopped", 10)
+        _, info = service.call("GET", f"/v1/moves/{move_id}")
+        assert info["status"] == "stopped", info
+        assert ("smoothly" in info["report"]["message"]) is smooth, (button, info["report"])
+
+
+def test_move_while_moving_replaces_the_running_move(driver: Any, until: Any,
+                                                     service: Any) -> None:
+    """The move body has two forms (waypoints with replace, or a given trajectory): the page
+    still finds replace, keeps Move enabled while moving, and a second Move retargets."""
+    service.wait_idle()
+    open_console(driver, until, service)
+    assert driver.execute_script("return window.robodcnConsole.S.features.replace") is True
+    target = far_target(service)
+    type_target(driver, target, duration="6")
+    first = click_move_and_wait_running(driver, until, service)
+    until(lambda d: el(d, "move-status").text == "running", 10)
+    time.sleep(0.5)
+    assert el(driver, "move").is_enabled()
+    type_target(driver, (0.2, 0.15, 30.0))
+    second = click_move_and_wait_running(driver, until, service)
+    until(lambda d: service.call("GET", f"/v1/moves/{first}")[1]["status"] == "replaced", 10)
+    until(lambda d: el(d, "move-status").text in FINISHED, 30)
+    _, info = service.call("GET", f"/v1/moves/{second}")
+    assert info["status"] in FINISHED, info
+    _, state = service.call("GET", "/v1/state")
+    assert math.hypot(state["pose"][0] - 0.2, state["pose"][1] - 0.15) < 0.01, state["pose"]
