@@ -28,10 +28,6 @@ from robodcn.stream import STOP_MODES
 if TYPE_CHECKING:
     from robodcn.http.server import RobodcnHTTPServer
 
-#: request bodies that may be omitted
-OPTIONAL_BODIES = ("stop", "pause", "resume")
-
-
 def body_schemas(move_body: dict[str, Any]) -> dict[str, dict[str, Any]]:
     """Component schemas of the online bodies; ``move_body`` gains ``replace``."""
     move = copy.deepcopy(move_body)
