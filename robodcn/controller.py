@@ -389,8 +389,11 @@ class ArmController:
             record.elapsed = p.elapsed_s
             if error is not None:
                 record.tracking_error = error
-            if p.present is not None:
-                record.measured.append((float(p.elapsed_s), tuple(int(v) for v in p.present)))
+            if p.present is not None and p.sample >= record.offset:
+                # seconds since this move's first sample (a replacement starts mid-stream;
+                # a read of a sample before it was the replaced move's)
+                record.measured.append((float(p.elapsed_s) - self._start_s(record),
+                                        tuple(int(v) for v in p.present)))
 
     def _run(self, record: MoveRecord) -> None:
         with self._lock:
@@ -426,6 +429,11 @@ class ArmController:
             error = None if status != "fault" else {
                 "code": report.stop_reason, "message": report.message, "field": None}
             self._finish(record, status, report, error)
+
+    @staticmethod
+    def _start_s(record: MoveRecord) -> float:
+        """Stream time (s) of the move's first sample: 0, or where a replacement began."""
+        return record.offset / record.trajectory.rate_hz
 
     def _live_of(self, record: MoveRecord) -> MoveRecord:
         """The record now running ``record``'s execution (a replacement), else ``record``."""
@@ -505,7 +513,8 @@ class ArmController:
                     self._last_ticks = tuple(final)
                 if report.final_positions is not None:
                     last = record.measured[-1][0] if record.measured else 0.0
-                    record.measured.append((max(last, float(report.duration_s)),
+                    record.measured.append((max(last, float(report.duration_s)
+                                                - self._start_s(record)),
                                             tuple(int(v) for v in report.final_positions)))
                 record.elapsed = report.duration_s
                 if report.completed:

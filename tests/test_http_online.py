@@ -63,6 +63,11 @@ def test_replace_answers_202_and_the_old_move_ends_replaced(arm_server: Any) -> 
     end = _pose_of(sa)
     assert np.allclose(end[:2], OTHER[:2], atol=2e-3)
     assert math.isclose(kinematics.wrap(end[2] - OTHER[2]), 0, abs_tol=5e-3)
+    # the replacement's recording is timed from its own first sample, like its trajectory
+    status, _, rec = call(server, "GET", f"/v1/moves/{new['id']}/record")
+    assert status == 200 and rec["t"], rec
+    assert 0.0 <= rec["t"][0] < 0.2 and rec["t"] == sorted(rec["t"]), rec["t"][:5]
+    assert rec["t"][-1] <= done["duration"] + 1.0, (rec["t"][-1], done["duration"])
 
 
 def test_replace_field_must_be_a_boolean(arm_server: Any) -> None:
