@@ -353,3 +353,30 @@ def test_with_compensation_a_retarget_tail_is_led_like_the_plan(sa):
     off = np.abs(wire[:len(joints)] - led).max(axis=1)
     off[first - 2:first] = 0
     assert off.max() <= 1
+
+
+def test_a_late_read_compares_with_the_swapped_source_past_the_plans_end(sa):
+    """The tracking reference of a read that lands late is the swapped source's goal there,
+    also past the planned trajectory's own samples (it indexed the tail node's own ticks
+    with the stream's sample index before: wrong goals, or an IndexError)."""
+    from robodcn.stream.online import OnlineSamples
+    from robodcn.stream.options import ExecutionOptions
+    from robodcn.stream.source import PlannedSamples
+    from robodcn.stream.streamer import _Streamer
+
+    traj = _move(sa, duration=0.5)
+    streamer = _Streamer(PlannedSamples(traj, sa.bus), sa.bus, ExecutionOptions())
+    root = OnlineSamples.of_trajectory(traj, sa.bus)
+    back = traj.joints[::-1]            # a tail longer than the rest of the plan
+    tail = np.vstack([back, back[::-1]])
+    path, sigma = JointPath.of_samples(tail)
+    switch = len(traj.t) // 2
+    node = OnlineSamples(root, switch, tail, sigma, path, sa.bus, RATE, traj.joint_names)
+    streamer.swap(node)
+    assert len(node) > len(traj.t) + len(tail) // 4
+    late = len(node) - 3 + 0.5          # the read lands half-way between two late samples
+    streamer.t_start = 0.0
+    streamer.clock = lambda: late / RATE
+    ref = streamer._plan_at_read(10, node.goal(10))
+    expected = (node.goal(len(node) - 3) + node.goal(len(node) - 2)) / 2.0
+    np.testing.assert_allclose(ref, expected)
