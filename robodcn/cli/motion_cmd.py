@@ -73,8 +73,9 @@ def check_plot(path: str | None) -> None:
 
 
 def plot(path: str | None, arm, traj, *, samples=(), report=None, waypoints=None) -> None:
-    """--plot: :func:`robodcn.plots.plot_motion` of ``traj`` with the measured ``samples``
-    and, when the run did not complete, where it stopped."""
+    """--plot: :func:`robodcn.plots.plot_motion` of ``traj`` with the measured ``samples``,
+    the report's trace (tracking error and current panels) and, when the run did not
+    complete, where it stopped."""
     if path is None:
         return
     from robodcn.plots import plot_motion
@@ -83,7 +84,7 @@ def plot(path: str | None, arm, traj, *, samples=(), report=None, waypoints=None
         "t": report.duration_s, "reason": report.stop_reason}
     near = () if report is None else report.near_limits
     plot_motion(path, arm, traj, samples=list(samples), stop=stop, waypoints=waypoints,
-                near_limits=near)
+                near_limits=near, trace=None if report is None else report.trace)
     print(f"plot: {path}", file=sys.stderr, flush=True)
 
 
