@@ -5,7 +5,13 @@ left the plane with the arm drawn at the start, at each via point and at the end
 waypoints marked, orientation ticks along the tool path, the approach segment dashed, the
 measured path, where a stop happened and where a limit came within 10 % (the report's
 ``near_limits``); on the right the joint velocities and accelerations
-(finite differences at the sample rate, as the planner checks them) against ±their limits.
+(finite differences at the sample rate, as the planner checks them) against ±their limits,
+marked where the plan came within 10 % of them. Given an execution's trace
+(:class:`robodcn.stream.ExecutionTrace`) two more panels on the same time axis show each
+joint's measured |tracking error| (degrees, symlog: linear below one encoder tick) against
+the tracking limit and its |current| (A) with the plan's predicted current, the current limit
+and the collision stop; a near-limit mark goes on the panel of its quantity, and a table
+under the path lists the per-joint peaks against their limits.
 :func:`plot_workspace` draws what ``check-config --plot`` shows. Planning never imports this
 module's matplotlib: the import happens inside the functions.
 """
