@@ -33,6 +33,8 @@ from robodcn.errors import InputError
 #: imported from there so that ``plan --plot`` does not load the streaming stack).
 NEAR_SHARE = 0.9
 
+#: Fewer feedback reads than this are drawn with a dot each.
+FEW_READS = 30
 #: Orientation ticks drawn along the tool path.
 ORIENTATION_TICKS = 16
 
@@ -243,7 +245,8 @@ def _draw_tracking(ax, trace, colors: Sequence[str], arm: Arm) -> None:
     """|tracking error| per joint at each read (°) against the tracking limit."""
     error = np.degrees(np.abs(trace.tracking_error_rad))
     for j, name in enumerate(trace.joint_names):
-        ax.plot(trace.t, error[:, j], color=colors[j], lw=1.2, label=name)
+        ax.plot(trace.t, error[:, j], color=colors[j], lw=1.2, label=name,
+                marker=_few_reads(trace))
     top = float(error.max()) if error.size else 0.0
     if trace.tracking_limit_rad is not None:
         limit = math.degrees(trace.tracking_limit_rad)
@@ -261,6 +264,12 @@ def _draw_tracking(ax, trace, colors: Sequence[str], arm: Arm) -> None:
     ax.set_ylim(0.0, 1.6 * max(top, tick))
     ax.set(ylabel="|tracking error| [°]",
            title="measured tracking error (log scale above one encoder tick)")
+
+
+def _few_reads(trace) -> str | None:
+    """A dot on every read when they are few (``--feedback-every 0``: only the last one),
+    so a lone read still shows."""
+    return "o" if len(trace) < FEW_READS else None
 
 
 def _ticker():
@@ -281,7 +290,8 @@ def _draw_current(ax, trace, traj, colors: Sequence[str]) -> None:
     limits = trace.current_limit_a
     same_limit = limits is not None and len(set(limits)) == 1
     for j, name in enumerate(trace.joint_names):
-        ax.plot(trace.t, current[:, j], color=colors[j], lw=1.2, label=name)
+        ax.plot(trace.t, current[:, j], color=colors[j], lw=1.2, label=name,
+                marker=_few_reads(trace))
         if predicted is not None:
             ax.plot(traj.t, np.abs(predicted[:, j]), color=colors[j], ls="--", lw=0.9)
         if limits is not None and not same_limit:
@@ -297,7 +307,8 @@ def _draw_current(ax, trace, traj, colors: Sequence[str]) -> None:
         styles.append(Line2D([], [], color="k", ls="--", lw=0.9, label="predicted"))
     if limits is not None:
         styles.append(Line2D([], [], color="k", ls=":", lw=1.2, label="current limit"))
-    if trace.collision_threshold_a is not None:
+    if trace.collision_threshold_a is not None and \
+            any(v is not None for v in trace.collision_threshold_a):
         styles.append(Line2D([], [], color="k", ls="-.", lw=1, label="collision stop"))
     ax.legend(handles=styles, fontsize="small", loc="center right", ncols=2)
     ax.set(ylabel="|current| [A]", title="measured current (colours: joints)")
