@@ -50,8 +50,13 @@ def main(argv: list[str]) -> None:
     for name in wanted:
         module = importlib.import_module(f"bench.bench_{name}")
         print(f"== bench {name}", flush=True)
+        load_before = os.getloadavg()
         text = module.run()
-        stamp = f"\n_Measured {datetime.date.today()} on {machine()}; command: `make bench`._\n"
+        command = "make bench" if not argv else f"python -m bench {' '.join(argv)}"
+        load = "; ".join(f"{a:.1f}/{b:.1f}" for a, b in zip(load_before, os.getloadavg(),
+                                                             strict=True))
+        stamp = (f"\n_Measured {datetime.date.today()} on {machine()}; load average "
+                 f"1/5/15 min at start/end {load}; command: `{command}`._\n")
         sections[name] = text.rstrip() + "\n" + stamp
         print(text, flush=True)
     OUT.parent.mkdir(exist_ok=True)

@@ -5,7 +5,13 @@ left the plane with the arm drawn at the start, at each via point and at the end
 waypoints marked, orientation ticks along the tool path, the approach segment dashed, the
 measured path, where a stop happened and where a limit came within 10 % (the report's
 ``near_limits``); on the right the joint velocities and accelerations
-(finite differences at the sample rate, as the planner checks them) against ±their limits.
+(finite differences at the sample rate, as the planner checks them) against ±their limits,
+marked where the plan came within 10 % of them. Given an execution's trace
+(:class:`robodcn.stream.ExecutionTrace`) two more panels on the same time axis show each
+joint's measured |tracking error| (degrees, symlog: linear below one encoder tick) against
+the tracking limit and its |current| (A) with the plan's predicted current, the current limit
+and the collision stop; a near-limit mark goes on the panel of its quantity, and a table
+under the path lists the per-joint peaks against their limits.
 :func:`plot_workspace` draws what ``check-config --plot`` shows. Planning never imports this
 module's matplotlib: the import happens inside the functions.
 """
@@ -23,6 +29,12 @@ from robodcn import kinematics, servo_units
 from robodcn.config import Arm
 from robodcn.errors import InputError
 
+#: A limit counts as approached at this share of it (robodcn.stream.report.NEAR_SHARE; not
+#: imported from there so that ``plan --plot`` does not load the streaming stack).
+NEAR_SHARE = 0.9
+
+#: Fewer feedback reads than this are drawn with a dot each.
+FEW_READS = 30
 #: Orientation ticks drawn along the tool path.
 ORIENTATION_TICKS = 16
 
@@ -88,7 +100,7 @@ def waypoint_samples(traj, waypoints: NDArray[np.float64] | None) -> list[int]:
 def plot_motion(path: str, arm: Arm, traj, *,
                 samples: Sequence[tuple[float, Sequence[int]]] | None = None,
                 waypoints: ArrayLike | None = None, stop: dict[str, Any] | None = None,
-                near_limits: Sequence[dict[str, Any]] = (),
+                near_limits: Sequence[dict[str, Any]] = (), trace=None,
                 title: str | None = None) -> None:
     """Draw ``traj`` for ``arm`` into the PNG ``path`` (module docstring).
 
@@ -100,18 +112,54 @@ def plot_motion(path: str, arm: Arm, traj, *,
     stop : where a stop happened: {"t": seconds, "reason": text}; marks the last measured
         pose (or the planned one at t) and a vertical line on the right-hand plots
     near_limits : the execution report's ``near_limits`` (joint, quantity, sample, ...):
-        each is marked where it began, on the path and on that joint's velocity curve
+        each is marked where it began, on the path and on the panel of its quantity
+    trace : the execution report's :class:`~robodcn.stream.trace.ExecutionTrace`: adds the
+        tracking error and (with currents) the current panels against their limits
     """
     plt = _pyplot()
     if waypoints is None and getattr(traj, "request", None) is not None:
         waypoints = np.asarray(traj.request.waypoints)
     wp = None if waypoints is None else np.asarray(waypoints, dtype=np.float64).reshape(-1, 3)
-    fig = plt.figure(figsize=(13, 6))
-    grid = fig.add_gridspec(2, 2, width_ratios=(1.1, 1))
-    ax = fig.add_subplot(grid[:, 0])
+    rows = 2 if trace is None else (3 if trace.current_a is None else 4)
+    fig = plt.figure(figsize=(13, 6) if rows == 2 else (14, 2.5 * rows + 0.8))
+    grid = fig.add_gridspec(rows, 2, width_ratios=(1.1, 1))
+    # The path keeps the height of the velocity and acceleration panels; below it, the
+    # per-joint peaks against their limits.
+    ax = fig.add_subplot(grid[:2, 0])
     ax_v = fig.add_subplot(grid[0, 1])
-    ax_a = fig.add_subplot(grid[1, 1], sharex=ax_v)
+    right = [ax_v] + [fig.add_subplot(grid[r, 1], sharex=ax_v) for r in range(1, rows)]
+    panels: dict[str, Any] = {}
+    if rows > 2:
+        panels["tracking_error"] = right[2]
+    if rows > 3:
+        panels["current"] = panels["collision_current"] = right[3]
 
+    _draw_path(ax, arm, traj, wp, samples, stop, near_limits, title)
+    first = approach_end(traj)
+    names = [spec.name for spec in arm.joints]
+    colors = _draw_kinematics(right[0], right[1], arm, traj)
+    if trace is not None:
+        _draw_tracking(panels["tracking_error"], trace, colors, arm)
+        if trace.current_a is not None:
+            _draw_current(panels["current"], trace, traj, colors)
+        _draw_summary(fig.add_subplot(grid[2:, 0]), arm, traj, trace, near_limits)
+    _mark_near(panels, near_limits, names, traj, trace)
+    for axis in right:
+        if first > 0:
+            axis.axvspan(0, traj.t[first], color="tab:gray", alpha=0.15, lw=0)
+        if stop is not None:
+            axis.axvline(stop["t"], color="crimson", lw=1.5)
+        axis.grid(alpha=0.3)
+        if axis is not right[-1]:
+            axis.tick_params(labelbottom=False)
+    right[-1].set_xlabel("t [s]")
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+
+
+def _draw_path(ax, arm: Arm, traj, wp, samples, stop, near_limits, title) -> None:
+    """The plane: planned path, orientation ticks, arm poses, waypoints, measured, stop."""
     first = approach_end(traj)
     if first > 0:
         ax.plot(traj.poses[: first + 1, 0], traj.poses[: first + 1, 1], "--", color="tab:gray",
@@ -143,7 +191,6 @@ def plot_motion(path: str, arm: Arm, traj, *,
             where = traj.poses[min(len(traj.t) - 1, round(stop["t"] * traj.rate_hz))]
         ax.plot(where[0], where[1], "X", color="crimson", ms=14,
                 label=f"stop: {stop.get('reason', 'stopped')}")
-    names = [spec.name for spec in arm.joints]
     for k, mark in enumerate(near_limits):
         i = min(max(int(mark["sample"]), 0), len(traj.t) - 1)
         ax.plot(traj.poses[i, 0], traj.poses[i, 1], "x", color="tab:red", ms=9,
@@ -155,36 +202,177 @@ def plot_motion(path: str, arm: Arm, traj, *,
     ax.grid(alpha=0.3)
     ax.legend(fontsize="small", loc="best")
 
+
+def joint_rates(traj) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """Joint velocity and acceleration (n, k) by finite differences at the sample rate, as
+    the planner checks them (rad/s, rad/s²)."""
     rate = traj.rate_hz
     q = traj.joints
     padded = np.concatenate([q[:1], q, q[-1:]])
     vel = np.diff(padded, axis=0)[: len(q)] * rate
     acc = (padded[2:] - 2.0 * padded[1:-1] + padded[:-2]) * rate * rate
+    return vel, acc
+
+
+def _near_plan(values: NDArray[np.float64], limit: float) -> int | None:
+    """First sample where |values| came within 10 % of ``limit`` (None: never)."""
+    near = np.flatnonzero(np.abs(values) >= NEAR_SHARE * limit)
+    return int(near[0]) if near.size else None
+
+
+def _draw_kinematics(ax_v, ax_a, arm: Arm, traj) -> list[str]:
+    """Planned joint velocity and acceleration against ±their limits, marked where they
+    came within 10 % of them; returns the joint colours."""
+    vel, acc = joint_rates(traj)
+    colors = []
     for j, spec in enumerate(arm.joints):
         line, = ax_v.plot(traj.t, np.degrees(vel[:, j]), label=spec.name)
         c = line.get_color()
-        ax_v.axhline(math.degrees(spec.max_velocity), color=c, ls=":", lw=1)
-        ax_v.axhline(-math.degrees(spec.max_velocity), color=c, ls=":", lw=1)
+        colors.append(c)
         ax_a.plot(traj.t, np.degrees(acc[:, j]), color=c, label=spec.name)
-        ax_a.axhline(math.degrees(spec.max_acceleration), color=c, ls=":", lw=1)
-        ax_a.axhline(-math.degrees(spec.max_acceleration), color=c, ls=":", lw=1)
+        for axis, values, limit in ((ax_v, vel[:, j], spec.max_velocity),
+                                    (ax_a, acc[:, j], spec.max_acceleration)):
+            axis.axhline(math.degrees(limit), color=c, ls=":", lw=1)
+            axis.axhline(-math.degrees(limit), color=c, ls=":", lw=1)
+            i = _near_plan(values, limit)
+            if i is not None:
+                axis.plot(traj.t[i], math.degrees(values[i]), "x", color="tab:red", ms=8,
+                          mew=2)
+    ax_v.set(ylabel="velocity [°/s]",
+             title="planned joint motion (dotted: limits, ✕: within 10 % of a limit)")
+    ax_a.set(ylabel="acceleration [°/s²]")
+    ax_v.legend(fontsize="small", loc="upper right", title="joint", title_fontsize="small")
+    return colors
+
+
+def _draw_tracking(ax, trace, colors: Sequence[str], arm: Arm) -> None:
+    """|tracking error| per joint at each read (°) against the tracking limit."""
+    error = np.degrees(np.abs(trace.tracking_error_rad))
+    for j, name in enumerate(trace.joint_names):
+        ax.plot(trace.t, error[:, j], color=colors[j], lw=1.2, label=name,
+                marker=_few_reads(trace))
+    top = float(error.max()) if error.size else 0.0
+    if trace.tracking_limit_rad is not None:
+        limit = math.degrees(trace.tracking_limit_rad)
+        ax.axhline(limit, color="k", ls=":", lw=1.2)
+        ax.annotate(f"tracking limit {limit:g}°", (0.0, limit), xycoords=("axes fraction",
+                    "data"), xytext=(4, -11), textcoords="offset points", fontsize="small")
+        top = max(top, limit)
+    # Log above one encoder tick (the error's resolution), linear below it: an error of a
+    # tick or two and one near the limit both read.
+    tick = min(360.0 / s.ticks_per_turn for s in arm.servos)
+    ax.set_yscale("symlog", linthresh=tick, linscale=0.6)
+    decades = 10.0 ** np.arange(math.ceil(math.log10(tick)), math.log10(max(top, tick)) + 1)
+    ax.set_yticks([0.0, *decades], labels=["0", *(f"{d:g}" for d in decades)])
+    ax.yaxis.set_minor_locator(_ticker().NullLocator())
+    ax.set_ylim(0.0, 1.6 * max(top, tick))
+    ax.set(ylabel="|tracking error| [°]",
+           title="measured tracking error (log scale above one encoder tick)")
+
+
+def _few_reads(trace) -> str | None:
+    """A dot on every read when they are few (``--feedback-every 0``: only the last one),
+    so a lone read still shows."""
+    return "o" if len(trace) < FEW_READS else None
+
+
+def _ticker():
+    import matplotlib.ticker
+
+    return matplotlib.ticker
+
+
+def _draw_current(ax, trace, traj, colors: Sequence[str]) -> None:
+    """|current| per joint at each read (A), the plan's prediction, the current limit and
+    the collision-stop threshold."""
+    from matplotlib.lines import Line2D
+
+    current = np.abs(trace.current_a)
+    predicted = trace.predicted_current_a
+    if predicted is not None and len(predicted) != len(traj.t):
+        predicted = None   # predicted for another sampling of the motion
+    limits = trace.current_limit_a
+    same_limit = limits is not None and len(set(limits)) == 1
+    for j, name in enumerate(trace.joint_names):
+        ax.plot(trace.t, current[:, j], color=colors[j], lw=1.2, label=name,
+                marker=_few_reads(trace))
+        if predicted is not None:
+            ax.plot(traj.t, np.abs(predicted[:, j]), color=colors[j], ls="--", lw=0.9)
+        if limits is not None and not same_limit:
+            ax.axhline(limits[j], color=colors[j], ls=":", lw=1.2)
+        if trace.collision_threshold_a is not None and \
+                trace.collision_threshold_a[j] is not None:
+            ax.axhline(trace.collision_threshold_a[j], color=colors[j], ls="-.", lw=1)
+    if same_limit:
+        ax.axhline(limits[0], color="k", ls=":", lw=1.2)
+    ax.set_ylim(bottom=0)
+    styles = [Line2D([], [], color="k", lw=1.2, label="measured")]
+    if predicted is not None:
+        styles.append(Line2D([], [], color="k", ls="--", lw=0.9, label="predicted"))
+    if limits is not None:
+        styles.append(Line2D([], [], color="k", ls=":", lw=1.2, label="current limit"))
+    if trace.collision_threshold_a is not None and \
+            any(v is not None for v in trace.collision_threshold_a):
+        styles.append(Line2D([], [], color="k", ls="-.", lw=1, label="collision stop"))
+    ax.legend(handles=styles, fontsize="small", loc="center right", ncols=2)
+    ax.set(ylabel="|current| [A]", title="measured current (colours: joints)")
+
+
+def _draw_summary(ax, arm: Arm, traj, trace, near_limits: Sequence[dict[str, Any]]) -> None:
+    """Per joint: planned peak velocity and acceleration as a share of the limit, measured
+    peak tracking error and current against theirs; the near-limit marks listed."""
+    vel, acc = joint_rates(traj)
+    error = np.degrees(np.abs(trace.tracking_error_rad))
+    current = None if trace.current_a is None else np.abs(trace.current_a)
+    head = f"{'joint':<10} {'velocity':>9} {'accel.':>7} {'tracking':>9}"
+    if current is not None:
+        head += f" {'current':>8} {'limit':>6} {'stop':>6}"
+    lines = ["peak per joint: planned velocity and acceleration as a share of",
+             "the limit; measured tracking error and current (A) with the",
+             "current limit and the collision stop (A)", "", head]
+    for j, spec in enumerate(arm.joints):
+        row = (f"{spec.name:<10} {np.abs(vel[:, j]).max() / spec.max_velocity:>8.0%} "
+               f"{np.abs(acc[:, j]).max() / spec.max_acceleration:>7.0%} "
+               f"{(error[:, j].max() if len(error) else 0.0):>8.3f}°")
+        if current is not None:
+            limit = "—" if trace.current_limit_a is None else f"{trace.current_limit_a[j]:.2f}"
+            stop = None if trace.collision_threshold_a is None else \
+                trace.collision_threshold_a[j]
+            row += (f" {np.nanmax(current[:, j]) if len(current) else 0.0:>6.2f} A"
+                    f" {limit:>6} {'off' if stop is None else f'{stop:.2f}':>6}")
+        lines.append(row)
+    if trace.tracking_limit_rad is not None:
+        lines.append(f"tracking limit {math.degrees(trace.tracking_limit_rad):g}°")
+    lines.append("")
+    lines.append("within 10 % of a limit (✕):" if near_limits else
+                 "no measured quantity came within 10 % of its limit")
+    units = {"tracking_error": ("tracking error", "°", math.degrees(1.0)),
+             "current": ("current", " A", 1.0),
+             "collision_current": ("current vs collision stop", " A", 1.0)}
     for mark in near_limits:
+        label, unit, factor = units.get(mark["quantity"],
+                                        (mark["quantity"].replace("_", " "), "", 1.0))
+        lines.append(f"  {mark['joint']} {label}: peak {factor * mark['peak']:.3g}{unit} of "
+                     f"{factor * mark['limit']:.3g}{unit}, from t {mark['time_s']:.2f} s")
+    ax.axis("off")
+    ax.text(0.0, 0.95, "\n".join(lines), family="monospace", fontsize="medium", va="top",
+            transform=ax.transAxes)
+
+
+def _mark_near(panels: dict[str, Any], near_limits: Sequence[dict[str, Any]],
+               names: Sequence[str], traj, trace) -> None:
+    """Each near-limit mark on the panel of its quantity (where that panel is drawn), at
+    the read where it began."""
+    for mark in near_limits:
+        axis = panels.get(mark["quantity"])
+        if axis is None or mark["joint"] not in names:
+            continue
         i = min(max(int(mark["sample"]), 0), len(traj.t) - 1)
-        j = names.index(mark["joint"]) if mark["joint"] in names else None
-        if j is not None:
-            ax_v.plot(traj.t[i], np.degrees(vel[i, j]), "x", color="tab:red", ms=9)
-    for axis in (ax_v, ax_a):
-        if first > 0:
-            axis.axvspan(0, traj.t[first], color="tab:gray", alpha=0.15, lw=0)
-        if stop is not None:
-            axis.axvline(stop["t"], color="crimson", lw=1.5)
-        axis.grid(alpha=0.3)
-    ax_v.set(ylabel="joint velocity [°/s]", title="velocity and acceleration (dotted: limits)")
-    ax_a.set(xlabel="t [s]", ylabel="joint acceleration [°/s²]")
-    ax_v.legend(fontsize="small", loc="upper right")
-    fig.tight_layout()
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
+        rows = np.flatnonzero(trace.sample == mark["sample"])
+        x = trace.t[rows[0]] if rows.size else traj.t[i]
+        y = math.degrees(mark["value"]) if mark["quantity"] == "tracking_error" \
+            else mark["value"]
+        axis.plot(x, y, "x", color="tab:red", ms=9, mew=2)
 
 
 def plot_workspace(path: str, arm: Arm, points: NDArray[np.float64]) -> None:

@@ -59,8 +59,9 @@ def add_execution_options(p: argparse.ArgumentParser) -> None:
 def add_plot_option(g) -> None:
     g.add_argument("--plot", metavar="FILE.png",
                    help="draw the planned motion (arm poses, waypoints, approach), the "
-                        "measured path and joint velocity/acceleration against the limits "
-                        "(needs matplotlib)")
+                        "measured path and joint velocity/acceleration against the limits; "
+                        "after a run also each joint's tracking error and current against "
+                        "theirs, marking where a limit came within 10 %% (needs matplotlib)")
 
 
 def check_plot(path: str | None) -> None:
@@ -73,8 +74,9 @@ def check_plot(path: str | None) -> None:
 
 
 def plot(path: str | None, arm, traj, *, samples=(), report=None, waypoints=None) -> None:
-    """--plot: :func:`robodcn.plots.plot_motion` of ``traj`` with the measured ``samples``
-    and, when the run did not complete, where it stopped."""
+    """--plot: :func:`robodcn.plots.plot_motion` of ``traj`` with the measured ``samples``,
+    the report's trace (tracking error and current panels) and, when the run did not
+    complete, where it stopped."""
     if path is None:
         return
     from robodcn.plots import plot_motion
@@ -83,7 +85,7 @@ def plot(path: str | None, arm, traj, *, samples=(), report=None, waypoints=None
         "t": report.duration_s, "reason": report.stop_reason}
     near = () if report is None else report.near_limits
     plot_motion(path, arm, traj, samples=list(samples), stop=stop, waypoints=waypoints,
-                near_limits=near)
+                near_limits=near, trace=None if report is None else report.trace)
     print(f"plot: {path}", file=sys.stderr, flush=True)
 
 
@@ -106,7 +108,8 @@ def register(subparsers: argparse._SubParsersAction) -> None:
                     "wire timing) whose servos start at the arm's home pose and, by default, "
                     "follow the servo physics driving the arm's masses. Prints the report "
                     "(tracking error, peak velocity and current per joint, where a limit "
-                    "came within 10 %); --plot draws planned vs measured motion.")
+                    "came within 10 %); --plot draws planned vs measured motion, tracking error "
+                    "and current.")
     planning.add_motion_options(p, start_help="start pose (default: the home pose); the "
                                               "simulated arm approaches it first")
     p.add_argument("--timing", choices=("realistic", "fast"), default="realistic",

@@ -5,8 +5,9 @@ One concept a module: ``options`` (:class:`ExecutionOptions`), ``signal``
 :func:`execute`; its docstring has the rules), ``report`` (:class:`Progress`,
 :class:`ExecutionReport`, the one tracking-error definition), ``rate`` (the bus-capacity
 warning), ``realtime`` (timer slack, SCHED_FIFO), ``servo_model`` (arm inverse dynamics and
-the DC-motor model), ``compensation`` (the goals that make a servo follow the plan) and
-``collision`` (predicted currents, collision thresholds). Moving from the present pose lives in
+the DC-motor model), ``compensation`` (the goals that make a servo follow the plan),
+``collision`` (predicted currents, collision thresholds) and ``trace`` (every feedback
+read, :class:`ExecutionTrace`). Moving from the present pose lives in
 :mod:`robodcn.present`. Every public name is importable from ``robodcn.stream``.
 """
 
@@ -38,6 +39,7 @@ from robodcn.stream.report import (
 from robodcn.stream.signal import StopSignal
 from robodcn.stream.source import PlannedSamples
 from robodcn.stream.streamer import PROGRESS_INTERVAL_S, execute
+from robodcn.stream.trace import ExecutionTrace
 
 # A library logs, the application decides where it goes: without a configured handler
 # (the CLI's -v/--log-level, the service's logging), nothing is printed.
@@ -54,6 +56,7 @@ __all__ = [
     "Execution",
     "ExecutionOptions",
     "ExecutionReport",
+    "ExecutionTrace",
     "OnlineSamples",
     "PlannedSamples",
     "Progress",

@@ -15,6 +15,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from robodcn.present import Approach
+from robodcn.stream.trace import ExecutionTrace
 
 STOP_REASONS = ("completed", "stopped", "comm_failure", "hardware_alert", "tracking_error",
                 "collision")
@@ -165,6 +166,10 @@ class ExecutionReport:
     tracking_limit_rad: float | None = None
     #: Where a limit came within 10 % (:func:`near_limits`), for the dry run's plot.
     near_limits: tuple[dict[str, Any], ...] = ()
+    #: Every feedback read (time, ticks, tracking error, current) with the limits, for the
+    #: plot (:class:`~robodcn.stream.trace.ExecutionTrace`); not in ``to_dict()`` unless
+    #: asked for (it grows with the motion).
+    trace: ExecutionTrace | None = field(default=None, repr=False, compare=False)
 
     @property
     def outcome(self) -> str:
@@ -190,8 +195,12 @@ class ExecutionReport:
             return f"completed with {self.skipped} of {total} samples skipped"
         return f"{self.outcome} after {self.samples_sent} of {total} samples: {self.message}"
 
-    def to_dict(self) -> dict[str, Any]:
-        data = dataclasses.asdict(self)
+    def to_dict(self, *, trace: bool = False) -> dict[str, Any]:
+        """JSON-ready; ``trace=True`` adds ``trace`` (:meth:`ExecutionTrace.to_dict`)."""
+        data = dataclasses.asdict(dataclasses.replace(self, trace=None))
+        del data["trace"]
+        if trace:
+            data["trace"] = None if self.trace is None else self.trace.to_dict()
         data["hardware_errors"] = {str(k): v for k, v in self.hardware_errors.items()}
         data["approach"] = None if self.approach is None else self.approach.to_dict()
         data["warnings"] = [dict(w) for w in self.warnings]

@@ -43,7 +43,9 @@ Feedback and health
     feedback map (:meth:`ServoBus.read_feedback`) the same packet brings velocities,
     currents and hardware errors: peaks per joint in the report and the collision stop
     ("collision": |current| above its threshold for ``collision_cycles`` reads, reported
-    with joint, current, sample, time and pose; :mod:`robodcn.stream.collision`). Fast Sync Read
+    with joint, current, sample, time and pose; :mod:`robodcn.stream.collision`). Every
+    read is recorded (time, ticks, tracking error, current) in preallocated arrays:
+    ``ExecutionReport.trace`` (:mod:`robodcn.stream.trace`). Fast Sync Read
     hides a servo's Alert bit in the SDK, so the bus decodes the per-servo ERR bytes
     itself, and every ``health_interval`` seconds the streamer polls Hardware Error Status
     (70) and Bus Watchdog (98) in turn. A cycle reads at most once: a health poll takes the
@@ -123,6 +125,7 @@ from robodcn.stream.realtime import SPIN_REALTIME_S, SPIN_S, realtime_priority, 
 from robodcn.stream.report import ExecutionReport, Progress, near_limits, tracking_error
 from robodcn.stream.signal import Waitable
 from robodcn.stream.source import PlannedSamples
+from robodcn.stream.trace import ExecutionTrace, TraceRecorder
 
 log = logging.getLogger("robodcn.stream")
 
@@ -335,6 +338,8 @@ class _Streamer:
         self.poses = source.trajectory.poses
         request = source.trajectory.request
         self.arm = None if request is None else request.arm
+        #: Every feedback read (:mod:`robodcn.stream.trace`), for ``ExecutionReport.trace``.
+        self.trace = TraceRecorder(self.n, [s.direction for s in bus.servos], self.rad_per_tick)
 
     def plan_limits(self, trajectory: Trajectory, opts: ExecutionOptions) -> None:
         """Predicted currents along the plan and the collision thresholds (A per joint)."""
@@ -423,6 +428,9 @@ class _Streamer:
         self.consecutive_failures = 0
         self.feedback_reads += 1
         self.last_present = present
+        error = tracking_error(present, self.previous_goal, self._plan_at_read(sample, goal))
+        self.trace.record(sample, self.clock() - self.t_start, present, error,
+                          None if fb is None else fb.currents)
         if fb is not None:
             self.velocities.append(np.abs(fb.velocities))
             self.currents.append(np.abs(fb.currents))
@@ -433,7 +441,6 @@ class _Streamer:
                             if e])
         if fb is not None and self.collision_on and self.threshold is not None:
             self._collision(sample, np.abs(fb.currents))
-        error = tracking_error(present, self.previous_goal, self._plan_at_read(sample, goal))
         self.last_error = error
         self.errors.append(error)
         self.read_samples.append(sample)
@@ -760,4 +767,14 @@ class _Streamer:
                 float(v) if math.isfinite(v) else None for v in self.threshold)),
             collision=self.collision, recovered=tuple(self.recovered),
             compensation=self.source.compensated, tracking_limit_rad=self.tracking_limit,
-            near_limits=self._near_limits())
+            near_limits=self._near_limits(), trace=self._trace())
+
+    def _trace(self) -> ExecutionTrace:
+        """``ExecutionReport.trace``: the recorded reads with the limits they face."""
+        limits = None if self.bus.current_limits is None else tuple(
+            float(v) for v in self.bus.current_limits)
+        threshold = None if self.threshold is None else tuple(
+            float(v) if math.isfinite(v) else None for v in self.threshold)
+        return self.trace.trace(self.joint_names, tracking_limit_rad=self.tracking_limit,
+                                current_limit_a=limits, collision_threshold_a=threshold,
+                                predicted_current_a=self.predicted)
