@@ -702,11 +702,23 @@ def _unreachable(req: PlanRequest, pose: NDArray):
     the pose itself."""
     import dataclasses
 
-    from robodcn.errors import UnreachableError
+    from robodcn.errors import (
+        AccelerationLimitError,
+        JerkLimitError,
+        UnreachableError,
+        VelocityLimitError,
+    )
     from robodcn.planner import build
 
     if req.start_state is None:
-        build.plan_request(dataclasses.replace(req, profile="quintic"))
+        try:
+            build.plan_request(dataclasses.replace(req, profile="quintic"))
+        except (VelocityLimitError, AccelerationLimitError, JerkLimitError):
+            if req.duration != "auto":  # a fixed duration's earlier failure is real
+                raise
+            # its retiming never sampled the gap (the joints race near it, a jerk limit
+            # most of all): the pose out of reach is what is wrong, said below
+            pass
     inner, outer = kinematics.workspace(req.arm.links)
     r = float(kinematics.wrist_radius(req.arm.links, [pose])[0])
     raise UnreachableError(f"the path leaves the workspace at {validate.fmt_pose(pose)}: the "
