@@ -14,6 +14,12 @@ Uniform time scaling (design.md §4): a joint path q(τ) run in time T has veloc
 
     T = max_j max_τ ( |dq_j/dτ| / v_j ,  √(|d²q_j/dτ²| / a_j) )          (:func:`auto_duration`)
 
+and with a jerk limit j (jerk (d³q/dτ³)/T³) also T ≥ ∛(|d³q_j/dτ³| / j_j). A law whose
+acceleration steps (trapezoid) or whose velocity steps (linear) has no finite d³q/dτ³: its
+sampled jerk is set by the step over one period (about a·rate resp. v·rate²), which depends
+on where the steps fall on the sample grid, so its finite-difference need is not monotone
+in T (the search's N passes and N − 1 fails; a shorter N may pass again).
+
 and the same law for finite differences of N + 1 samples τ_i = i/N, with Δt = T/N, is
 :func:`fd_min_duration`.
 """
@@ -129,18 +135,32 @@ def _limits(q: NDArray[np.float64], v_max: ArrayLike, a_max: ArrayLike
 
 
 def auto_duration(dq_dtau: ArrayLike, d2q_dtau2: ArrayLike, v_max: ArrayLike,
-                  a_max: ArrayLike) -> float:
+                  a_max: ArrayLike, d3q_dtau3: ArrayLike | None = None,
+                  j_max: ArrayLike | None = None) -> float:
     """Closed-form shortest T under uniform time scaling (module docstring).
 
     dq_dtau, d2q_dtau2 : (n, k) derivatives of the joint path with respect to τ.
     v_max, a_max : (k,) joint limits.
+    d3q_dtau3, j_max : (n, k) third derivative and (k,) jerk limits (inf: none); both or
+        neither. Jerk scales 1/T³: T ≥ ∛(max |d³q/dτ³| / j).
     """
     d1 = np.abs(_checks.finite("dq_dtau", dq_dtau))
     d2 = np.abs(_checks.finite("d2q_dtau2", d2q_dtau2))
     v, a = _limits(d1, v_max, a_max)
     if d1.shape[0] == 0:
         return 0.0
-    return float(max(np.max(d1.max(axis=0) / v), np.sqrt(np.max(d2.max(axis=0) / a))))
+    need = max(np.max(d1.max(axis=0) / v), np.sqrt(np.max(d2.max(axis=0) / a)))
+    if (d3q_dtau3 is None) != (j_max is None):
+        raise InputError("give d3q_dtau3 and j_max together", field="j_max", value=j_max)
+    if j_max is not None:
+        d3 = np.abs(_checks.finite("d3q_dtau3", d3q_dtau3))
+        j = np.asarray(j_max, dtype=np.float64)
+        if d3.shape != d1.shape or j.shape != v.shape:
+            raise InputError(f"need d3q_dtau3 of shape {d1.shape} and j_max of shape "
+                             f"{v.shape}, got {d3.shape}, {j.shape}", field="j_max",
+                             value=j.shape)
+        need = max(need, float(np.max(d3.max(axis=0) / j)) ** (1.0 / 3.0))
+    return float(need)
 
 
 def fd_min_duration(q: ArrayLike, v_max: ArrayLike, a_max: ArrayLike, *,

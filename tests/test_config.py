@@ -204,11 +204,19 @@ def test_messages_are_short_and_plain() -> None:
 
 def test_jerk_limit_is_optional_and_si() -> None:
     arm = load_arm(ARM3R)
-    assert all(j.max_jerk is None for j in arm.joints)
-    data = set_key(raw(), "joints[1].max_jerk_deg_s3", 20000.0)
+    # the shipped config carries jerk limits (full acceleration in about 50 ms)
+    for jt in arm.joints:
+        assert jt.max_jerk is not None
+        assert 15.0 <= jt.max_jerk / jt.max_acceleration <= 25.0
+    data = raw()
+    for joint in data["joints"]:
+        joint.pop("max_jerk_deg_s3", None)
+    assert all(j.max_jerk is None for j in arm_from_dict(data, source="a.toml").joints)
+    plain = data
+    data = set_key(plain, "joints[1].max_jerk_deg_s3", 20000.0)
     arm = arm_from_dict(data, source="a.toml")
     assert arm.joints[1].max_jerk == pytest.approx(math.radians(20000.0))
     assert arm.joints[0].max_jerk is None
     assert arm_from_dict(arm.to_dict(), source="a.toml") == arm
-    data = set_key(raw(), "joints[1].max_jerk", 300.0)
+    data = set_key(plain, "joints[1].max_jerk", 300.0)
     assert arm_from_dict(data, source="a.toml").joints[1].max_jerk == 300.0

@@ -190,3 +190,29 @@ def test_properties(coef, v, a, jerk, start_share, with_stop):
         assert (np.abs(jrk) <= 10.0 * a * (1 + J_TOL)).all(), (np.abs(jrk) / (10 * a)).max()
     if sd0 == 0.0:
         assert law.duration >= free.duration * (1 - 1e-9)
+
+
+def test_per_sample_limits_bound_each_stage():
+    """(n, k) limits: the same as (k,) when every row is equal; lowered over the first half,
+    the law's joint velocity there stays within the lower limit and the rest is faster."""
+    s = np.linspace(0, 1, 201)
+    q = _path([1.0, 0.3, 2.0], s)
+    v, a = np.array([1.0, 1.2]), np.array([4.0, 5.0])
+    whole = time_optimal(q, s, v, a)
+    same = time_optimal(q, s, np.tile(v, (201, 1)), np.tile(a, (201, 1)))
+    assert same.duration == pytest.approx(whole.duration, rel=1e-12)
+    v_s, a_s = np.tile(v, (201, 1)), np.tile(a, (201, 1))
+    v_s[:101] *= 0.5
+    a_s[:101] *= 0.25
+    law = time_optimal(q, s, v_s, a_s)
+    assert law.duration > whole.duration
+    m = law.sample(RATE)
+    dq = np.gradient(q, s, axis=0)
+    qd = np.abs(np.interp(m.s, s, dq[:, 0]) * m.sd), np.abs(np.interp(m.s, s, dq[:, 1]) * m.sd)
+    first = m.s < s[100]
+    assert (qd[0][first] <= 0.5 * v[0] * (1 + 1e-3)).all()
+    assert (qd[1][first] <= 0.5 * v[1] * (1 + 1e-3)).all()
+    assert max(qd[0][~first].max() / v[0], qd[1][~first].max() / v[1]) > 0.5
+    with pytest.raises(InputError) as err:
+        time_optimal(q, s, v_s, a, j_max=[10.0, 10.0])
+    assert err.value.field == "v_max"

@@ -68,6 +68,27 @@ def test_auto_duration_of_a_quintic_line_is_the_textbook_one() -> None:
     assert total == pytest.approx(expected, rel=1e-6)
 
 
+def test_auto_duration_with_a_jerk_limit_scales_as_its_cube_root() -> None:
+    """Quintic d³s/dτ³ = 60 − 360τ + 360τ² peaks at 60 (τ = 0, 1): T ≥ ∛(60 |Δq| / j)."""
+    delta = np.array([1.0, -2.0, 0.5])
+    v = np.array([3.0, 3.0, 1.0])
+    a = np.array([20.0, 10.0, 20.0])
+    d1, d2 = timing.quintic_derivatives(TAU)
+    d3 = 60.0 - 360.0 * TAU + 360.0 * TAU ** 2
+    free = timing.auto_duration(np.outer(d1, delta), np.outer(d2, delta), v, a)
+    j = np.array([20.0, 20.0, math.inf])
+    total = timing.auto_duration(np.outer(d1, delta), np.outer(d2, delta), v, a,
+                                 np.outer(d3, delta), j)
+    assert total == pytest.approx(max(free, (60 * 2.0 / 20.0) ** (1 / 3)), rel=1e-9)
+    assert total > free
+    loose = timing.auto_duration(np.outer(d1, delta), np.outer(d2, delta), v, a,
+                                 np.outer(d3, delta), np.full(3, 1e9))
+    assert loose == pytest.approx(free, rel=1e-12)
+    with pytest.raises(InputError) as err:
+        timing.auto_duration(np.outer(d1, delta), np.outer(d2, delta), v, a, j_max=j)
+    assert err.value.field == "j_max"
+
+
 @given(st.integers(5, 400), st.floats(0.1, 5), st.floats(0.1, 50))
 def test_fd_min_duration_is_tight(n: int, v_max: float, a_max: float) -> None:
     q = np.outer(timing.quintic(np.arange(n + 1) / n), [1.3, -0.4])

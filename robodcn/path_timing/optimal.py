@@ -57,12 +57,20 @@ JERK_MARGIN = 0.005
 _WINDOW_FRACTIONS = (1.0, 0.7, 0.5, 0.35, 0.25)
 
 
-def _limits(name: str, value: ArrayLike | None, k: int) -> NDArray[np.float64]:
+def _limits(name: str, value: ArrayLike | None, k: int, n: int | None = None
+            ) -> NDArray[np.float64]:
+    """(k,) per-joint limits, inf where None; with ``n``, (n, k) per-sample limits too."""
     if value is None:
         return np.full(k, np.inf)
-    raw = np.asarray([np.inf if v is None else v for v in np.atleast_1d(value).tolist()],
-                     dtype=np.float64) if np.ndim(value) else np.full(k, float(value))
-    if raw.shape != (k,):
+    if n is not None and np.ndim(value) == 2:
+        raw = np.asarray(value, dtype=np.float64)
+        if raw.shape != (n, k):
+            raise InputError(f"{name} per sample must have shape ({n}, {k}), got {raw.shape}",
+                             field=name, value=raw.shape)
+    else:
+        raw = np.asarray([np.inf if v is None else v for v in np.atleast_1d(value).tolist()],
+                         dtype=np.float64) if np.ndim(value) else np.full(k, float(value))
+    if raw.shape != (k,) and not (n is not None and raw.shape == (n, k)):
         raise InputError(f"{name} must have one entry per joint ({k}), got shape {raw.shape}",
                          field=name, value=value)
     if np.isnan(raw).any() or (raw <= 0).any():
@@ -119,7 +127,10 @@ def _interpolated(sg: NDArray, dq: NDArray, ddq: NDArray, v: NDArray, a: NDArray
     step = np.concatenate([delta, [0.0]])[:, None]
     dq2 = np.hstack([dq, nxt_dq + 2.0 * step * nxt_ddq])
     ddq2 = np.hstack([ddq, nxt_ddq])
-    return dq2, ddq2, np.concatenate([v, np.full(v.shape, np.inf)]), np.concatenate([a, a])
+    # per-stage limits (N, k) work alike: the virtual joint takes its own stage's limits (the
+    # tighter ones where a blend-out window ends and the limits rise along the path)
+    return (dq2, ddq2, np.concatenate([v, np.full(v.shape, np.inf)], axis=-1),
+            np.concatenate([a, a], axis=-1))
 
 
 def _solve(sg: NDArray, dq: NDArray, ddq: NDArray, v: NDArray, a: NDArray, extra_cap: NDArray,
@@ -163,7 +174,8 @@ def time_optimal(q: ArrayLike, s: ArrayLike, v_max: ArrayLike, a_max: ArrayLike,
     q : (n, k) joint path samples, radians, at path parameters ``s``
     s : (n,) strictly increasing path parameters (any unit; the law's ṡ is in s per second)
     v_max, a_max : (k,) per-joint velocity (rad/s) and acceleration (rad/s²) limits; None
-        entries (or None) = unlimited
+        entries (or None) = unlimited; without a jerk limit also (n, k), per sample of ``q``
+        (a moving start's blend-out window keeps room for its correction there)
     j_max : (k,) per-joint jerk limits (rad/s³), None = no jerk limit (the law's s̈ may step)
     sd_start : path speed ṡ at t = 0 (retargeting from a moving state), ≥ 0
     sdd_start : path acceleration s̈ at t = 0; honoured when jerk is limited (without a jerk
@@ -199,9 +211,12 @@ def time_optimal(q: ArrayLike, s: ArrayLike, v_max: ArrayLike, a_max: ArrayLike,
         raise InputError(f"s must be {n} strictly increasing finite path parameters, got shape "
                          f"{s.shape}", field="s", value=s.shape)
     scale = _number("scale", scale, 0.0, 1.0, lo_open=True)
-    v = _limits("v_max", v_max, k) * scale
-    a = _limits("a_max", a_max, k) * scale ** 2
+    v = _limits("v_max", v_max, k, n) * scale
+    a = _limits("a_max", a_max, k, n) * scale ** 2
     jerk = j_max is not None and np.isfinite(_limits("j_max", j_max, k)).any()
+    if jerk and (v.ndim == 2 or a.ndim == 2):
+        raise InputError("per-sample v_max/a_max are not supported with a jerk limit",
+                         field="v_max", value=v.shape)
     j = _limits("j_max", j_max, k) * scale ** 3
     sd_start = _number("sd_start", sd_start, 0.0, math.inf)
     sdd_start = _number("sdd_start", sdd_start, -math.inf, math.inf)
@@ -223,6 +238,7 @@ def time_optimal(q: ArrayLike, s: ArrayLike, v_max: ArrayLike, a_max: ArrayLike,
     cap = np.full(grid.shape[0], np.inf)
     cap[np.searchsorted(grid, stop_idx)] = 0.0
     if not jerk:
+        v, a = (lim[grid] if lim.ndim == 2 else lim for lim in (v, a))
         x, u = _solve(sg, dq, ddq, v, a, cap, sd_start ** 2, sd_end ** 2)
         dt = _stage_times(sg, x)
         tb = np.concatenate([[0.0], np.cumsum(dt)])
@@ -243,15 +259,16 @@ def max_start_speed(q: ArrayLike, s: ArrayLike, v_max: ArrayLike, a_max: ArrayLi
     by :func:`time_optimal`; with one, the jerk pass needs room below it."""
     q = np.asarray(q, dtype=np.float64)
     s = np.asarray(s, dtype=np.float64)
-    k = q.shape[1]
-    v = _limits("v_max", v_max, k) * scale
-    a = _limits("a_max", a_max, k) * scale ** 2
+    n, k = q.shape
+    v = _limits("v_max", v_max, k, n) * scale
+    a = _limits("a_max", a_max, k, n) * scale ** 2
     stop_s = np.atleast_1d(np.asarray(stops, dtype=np.float64))
     stop_idx = np.unique(np.abs(s[None, :] - stop_s[:, None]).argmin(axis=1)
                          if stop_s.size else np.empty(0, np.int64))
     dq, ddq = path_derivatives(q, s, stop_idx.tolist(), 2)
     grid = _grid(q.shape[0], stop_idx, max(1, int(max_stages)))
     dq, ddq = dq[grid], ddq[grid]
+    v, a = (lim[grid] if lim.ndim == 2 else lim for lim in (v, a))
     if INTERPOLATED:  # the same discretisation as time_optimal's
         dq, ddq, v, a = _interpolated(s[grid], dq, ddq, v, a)
     p_lo, _, r, x_cap = reachability.stage_constraints(dq, ddq, v, a)

@@ -38,8 +38,13 @@ continuous IK); only the time law differs from the uniform profiles.
   plan starts exactly at the given joint state and is on the path from T_b on. The path is
   then timed with its limits scaled by k (velocity k, acceleration k²) and T_b is long
   enough that the correction's own acceleration peak 3.94 |r_v| / T_b stays within the
-  remaining (1 − k²) a; k falls and T_b grows over a few tries until the sum passes
-  validation, else the first failing sample is raised.
+  remaining (1 − k²) a. Without a jerk limit the room is kept only inside the window
+  (:func:`windowed_first`: per-sample limits up to the s the law reaches at T_b), and when
+  that window would be longer than braking to rest (a goal off the current heading, a
+  reversal) the plan brakes along the start velocity at the acceleration limits and goes
+  from rest there (:func:`brake_then_go`) — also the fallback when the window fails
+  validation. With a jerk limit k falls and T_b grows over a few tries (whole path scaled)
+  until the sum passes validation, else the first failing sample is raised.
 """
 
 from __future__ import annotations
@@ -89,6 +94,10 @@ _BLEND_TRIES = ((0.05, 0.9), (0.1, 0.8), (0.15, 0.7), (0.25, 0.6), (0.4, 0.5), (
 _HV2_PEAK = 3.94
 #: |h_v'''(0)| and |h_a'''(0)|: the blend-out's jerk is at most these × r_v/T_b², r_a/T_b
 _HV3_PEAK, _HA3_PEAK = 36.0, 9.0
+#: Without a jerk limit, a moving start's blend-out first runs in a window: the path's
+#: limits are velocity v − |r_v| and acceleration (k a)² with this k only over the samples
+#: the law passes before T_b, whole after it (the tries of _BLEND_TRIES scale the whole path)
+WINDOW_SCALE = 0.75
 #: shares of the projected start speed tried when the jerk pass finds no law from it
 _START_SHARES = (1.0, 0.7, 0.4, 0.0)
 
@@ -252,6 +261,108 @@ def _correction(rv: NDArray, ra: NDArray, tb: float, t: NDArray) -> NDArray:
     hv = tau * (1 - tau) ** 3 * (1 + 3 * tau)
     ha = 0.5 * tau ** 2 * (1 - tau) ** 3
     return tb * rv[None, :] * hv + tb * tb * ra[None, :] * ha
+
+
+def windowed_first(req: PlanRequest, first: _Piece, sd0: float
+                   ) -> tuple[float, NDArray, NDArray] | None:
+    """Time the first piece of a moving start (no jerk limit) with room for its blend-out
+    only inside the blend-out window; (T_b, r_v, r_a) or None when it cannot (a jerk limit,
+    or no law from the start: the whole-path tries take over).
+
+    The start speed is the projection ṡ₀ capped so that the path's velocity q'ṡ₀ fits
+    within v − |r_v| (the correction's velocity is at most |r_v|: max |h_v'| = 1); T_b is
+    :func:`_window`'s at k = WINDOW_SCALE. The window ends at the s the first (no blend-out)
+    law reaches at T_b: the windowed law is timed under limits no looser anywhere, so its
+    ṡ(s) is no higher and it reaches that s no earlier than T_b (Pham & Pham 2018: the
+    greedy forward pass is the pointwise fastest profile within the controllable set).
+    """
+    v, a, j = limits(req.arm)
+    if j is None and first.law is not None and first.path is not None:
+        _, qd0, _ = req.start_state.arrays()
+        d1 = path_derivatives(first.q, first.s, [], 1)[0][0]
+        m, k = GRID_MARGIN, WINDOW_SCALE
+        # the path's velocity within k v there (the correction's own is at most |r_v| and
+        # decays as the path's grows; validation checks the sum sample by sample)
+        v_w = v * k * m
+        sd0 = min(sd0, 0.999 * float(np.min(v_w / np.maximum(np.abs(d1), 1e-12))))
+        rv = qd0 - d1 * sd0
+        tb = _window(0.0, k, rv, req.arm)
+        if tb > BLEND_SHARE * first.law.duration:
+            return None
+        s_b = float(first.law.at(np.array([tb])).s[0])
+        n_b = min(first.s.shape[0], int(np.searchsorted(first.s, s_b)) + 2)
+        n = first.s.shape[0]
+        v_s = np.tile(v * m, (n, 1))
+        a_s = np.tile(a * (MOVING_SCALE * m) ** 2, (n, 1))
+        v_s[:n_b] = v_w
+        a_s[:n_b] = a * (k * m) ** 2
+        try:
+            first.law = time_optimal(first.q, first.s, v_s, a_s, sd_start=sd0,
+                                     rate_hz=req.rate_hz, smooth=True)
+        except InputError:
+            return None
+        return tb, rv, np.zeros_like(rv)
+    return None
+
+
+def _prefer_brake(req: PlanRequest, first: _Piece, scale: float) -> bool:
+    """Whether a moving start (no jerk limit) brakes and goes rather than blends out: when
+    the blend-out window T_b (:func:`_window` at WINDOW_SCALE, from the projection's
+    residual) is longer than braking to rest would take (max_j |q̇0_j| / a_j) — the window's
+    slower path then costs about as much as the braking, and a long window rarely fits."""
+    _, qd0, _ = req.start_state.arrays()
+    v, a, _ = limits(req.arm)
+    if first.path is None:
+        return False
+    d1 = path_derivatives(first.q, first.s, [], 1)[0][0]
+    norm2 = float(d1 @ d1)
+    sd0 = max(0.0, float(d1 @ qd0) / norm2) if norm2 > 0 else 0.0
+    if not _needs_blend(req, qd0 - d1 * sd0, np.zeros_like(qd0)):
+        return False  # tangent already: the first try keeps the velocity as it is
+    v_w = v * WINDOW_SCALE * GRID_MARGIN
+    sd0 = min(sd0, 0.999 * float(np.min(v_w / np.maximum(np.abs(d1), 1e-12))))
+    rv = qd0 - d1 * sd0
+    return _window(0.0, WINDOW_SCALE, rv, req.arm) > float(np.max(np.abs(qd0) / a))
+
+
+def brake_then_go(req: PlanRequest) -> list[_Piece] | None:
+    """A moving start's pieces as "brake along the start velocity, then go": a joint line
+    q(s) = q0 + s q̇0 T0 that brakes to rest at the acceleration limit (T0 = max_j |q̇0_j| /
+    2a_j: the line's tangent is q̇0, so ṡ₀ = 1/T0 matches the given velocity exactly and
+    s = 1 is the braking distance), then the request's path planned from rest there. Its
+    duration is the bound any blend-out must beat; None when the path from there leaves the
+    workspace."""
+    import dataclasses
+
+    from robodcn.planner.request import StartState
+
+    q0, qd0, _ = req.start_state.arrays()
+    v, a, _ = limits(req.arm)
+    a_m = a * GRID_MARGIN ** 2  # a line: q'' = 0, no curvature between the stages
+    t0 = 1.0001 * float(np.max(np.abs(qd0) / (2.0 * a_m)))
+    q_stop = q0 + qd0 * t0
+    waypoints = [list(w) for w in req.waypoints]
+    here, there = kinematics.fk(req.arm.links, np.vstack([q0, q_stop]))
+    gap = abs((waypoints[0][2] - here[2] + math.pi) % (2 * math.pi) - math.pi)
+    if np.abs(here[:2] - np.asarray(waypoints[0][:2])).max() <= 1e-4 and (
+            req.position_only or gap <= 1.75e-4):
+        # the path was to start here: it starts where the braking ends instead
+        waypoints[0] = [float(x) for x in there]
+        if req.position_only:
+            waypoints[0][2] = req.waypoints[0][2]
+    still = (0.0,) * q0.shape[0]
+    rest = dataclasses.replace(req, waypoints=waypoints,
+                               start_state=StartState(tuple(q_stop), still, still))
+    pieces, _ = build_pieces(rest)
+    if pieces is None:
+        return None
+    for piece in pieces:  # from rest
+        piece.law = _time(piece, req.arm, req.rate_hz)
+    brake = _Piece(None, -1, q_from=q0, q_to=q_stop)
+    brake.s = np.linspace(0.0, 1.0, 3)
+    brake.q = brake.joints_line(brake.s)
+    brake.law = time_optimal(brake.q, brake.s, v, a_m, sd_start=1.0 / t0, rate_hz=req.rate_hz)
+    return [brake, *pieces]
 
 
 def build_pieces(req: PlanRequest) -> tuple[list[_Piece] | None, NDArray | None]:
@@ -447,15 +558,27 @@ def plan(req: PlanRequest):
     if pieces is None:
         return _unreachable(req, bad_pose)
     tries = iter(_BLEND_TRIES)
-    tb, scale = 0.0, 1.0
+    tb, scale, braking = 0.0, 1.0, False
     if req.start_state is not None and req.start_state.moving:
         scale = MOVING_SCALE
-    _, _, rv, ra = time_pieces(req, pieces, scale)
-    # a residual below this (rad/s, rad/s²) is rounding of the projection, left as it is:
-    # validation checks the start's differences against the given state anyway
-    blend_out = _needs_blend(req, rv, ra)
+    if scale != 1.0 and limits(arm)[2] is None and _prefer_brake(req, pieces[0], scale):
+        braked = brake_then_go(req)
+        if braked is not None:
+            pieces, braking = braked, True
+    blend_out = False
+    if not braking:
+        sd0, _, rv, ra = time_pieces(req, pieces, scale)
+        # a residual below this (rad/s, rad/s²) is rounding of the projection, left as it
+        # is: validation checks the start's differences against the given state anyway
+        blend_out = _needs_blend(req, rv, ra)
     if blend_out:
-        tb, scale, rv, ra = _next_blend(req, pieces[0], tries)
+        windowed = windowed_first(req, pieces[0], sd0)
+        if windowed is not None:
+            tb, rv, ra = windowed
+        elif limits(arm)[2] is None and (braked := brake_then_go(req)) is not None:
+            pieces, braking, blend_out = braked, True, False
+        else:
+            tb, scale, rv, ra = _next_blend(req, pieces[0], tries)
     if req.duration != "auto":
         fit_duration(req, pieces)
     state = req.start_state
@@ -492,6 +615,13 @@ def plan(req: PlanRequest):
         lo = violation.sample - _ORDER[violation.quantity]
         span = np.searchsorted(starts, [max(lo, 0), violation.sample], side="right") - 1
         which = int(max(0, min(span[0], len(pieces) - 1)))
+        if moving and which == 0 and not braking and limits(arm)[2] is None and (
+                braked := brake_then_go(req)) is not None:
+            # the blend-out window failed between samples: brake and go instead
+            pieces, braking, blend_out = braked, True, False
+            continue
+        if moving and which == 0 and braking:
+            validate.raise_for(violation)
         if moving and which == 0:
             # a moving start cannot be stretched: blend out over longer and time the path
             # with lower limits (the residual of the projection grows as ṡ₀ falls)
@@ -572,11 +702,23 @@ def _unreachable(req: PlanRequest, pose: NDArray):
     the pose itself."""
     import dataclasses
 
-    from robodcn.errors import UnreachableError
+    from robodcn.errors import (
+        AccelerationLimitError,
+        JerkLimitError,
+        UnreachableError,
+        VelocityLimitError,
+    )
     from robodcn.planner import build
 
     if req.start_state is None:
-        build.plan_request(dataclasses.replace(req, profile="quintic"))
+        try:
+            build.plan_request(dataclasses.replace(req, profile="quintic"))
+        except (VelocityLimitError, AccelerationLimitError, JerkLimitError):
+            if req.duration != "auto":  # a fixed duration's earlier failure is real
+                raise
+            # its retiming never sampled the gap (the joints race near it, a jerk limit
+            # most of all): the pose out of reach is what is wrong, said below
+            pass
     inner, outer = kinematics.workspace(req.arm.links)
     r = float(kinematics.wrist_radius(req.arm.links, [pose])[0])
     raise UnreachableError(f"the path leaves the workspace at {validate.fmt_pose(pose)}: the "
