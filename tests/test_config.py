@@ -203,16 +203,11 @@ def test_messages_are_short_and_plain() -> None:
 
 
 def test_jerk_limit_is_optional_and_si() -> None:
-    arm = load_arm(ARM3R)
-    # the shipped config carries jerk limits (full acceleration in about 50 ms)
-    for jt in arm.joints:
-        assert jt.max_jerk is not None
-        assert 15.0 <= jt.max_jerk / jt.max_acceleration <= 25.0
-    data = raw()
-    for joint in data["joints"]:
-        joint.pop("max_jerk_deg_s3", None)
-    assert all(j.max_jerk is None for j in arm_from_dict(data, source="a.toml").joints)
-    plain = data
+    # the shipped config leaves its jerk keys commented (the online layer does not honour them)
+    assert all(j.max_jerk is None for j in load_arm(ARM3R).joints)
+    assert all(j.max_jerk is None for j in load_arm(ARM2R).joints)
+    plain = raw()
+    assert all("max_jerk_deg_s3" not in joint for joint in plain["joints"])
     data = set_key(plain, "joints[1].max_jerk_deg_s3", 20000.0)
     arm = arm_from_dict(data, source="a.toml")
     assert arm.joints[1].max_jerk == pytest.approx(math.radians(20000.0))

@@ -380,3 +380,31 @@ def test_a_late_read_compares_with_the_swapped_source_past_the_plans_end(sa):
     ref = streamer._plan_at_read(10, node.goal(10))
     expected = (node.goal(len(node) - 3) + node.goal(len(node) - 2)) / 2.0
     np.testing.assert_allclose(ref, expected)
+
+
+# -- jerk limits: the online laws are acceleration-limited, so they are refused -------------
+
+def test_online_operations_refuse_a_jerk_limited_arm_and_a_smooth_stop_holds(sa):
+    import dataclasses
+    jerk_arm = dataclasses.replace(ARM3R, joints=tuple(
+        dataclasses.replace(j, max_jerk=20.0 * j.max_acceleration) for j in ARM3R.joints))
+    q0 = _present(sa)
+    pose = tuple(kinematics.fk(ARM3R.links, q0[None])[0])
+    traj = plan(jerk_arm, [pose, GOAL], rate_hz=RATE, start_joints=q0)
+
+    def ops(ex):
+        _wait_sample(ex, 100)
+        for op in (ex.pause, ex.resume, lambda: ex.set_speed(0.5),
+                   lambda: ex.retarget([None, (0.22, -0.05, 0.3)])):
+            with pytest.raises(InputError) as info:
+                op()
+            assert info.value.field == "max_jerk_deg_s3"
+            assert "max_jerk_deg_s3" in str(info.value) and "deg/s³" in str(info.value)
+        assert not ex.switches and ex.speed == 1.0, "nothing changed"
+        ex.stop("smooth")  # no brake that breaks the jerk limit: it holds at once
+
+    report, ex, wire = _run(sa, traj, ops)
+    assert report.stop_reason == "stopped" and report.hold_goals is not None
+    assert not ex.switches
+    _, _, ticks = _sent(ex, wire)
+    assert np.array_equal(ticks, traj.ticks[:len(ticks)]), "only planned samples were sent"

@@ -21,8 +21,13 @@ thread):
   :func:`~robodcn.stream.online_path.blend_start`), timed time-optimally from the moving
   state (TOPP-RA, :func:`robodcn.path_timing.time_optimal`).
 
-Known limit: the brake and the moving-start laws are acceleration-limited; a jerk limit is
-honoured by resume and speed changes from rest only.
+Known limit: the brake, the speed change, the resume and the retarget laws are
+acceleration-limited only. On an arm with a jerk limit (``max_jerk_deg_s3``) they would break
+it, so they are refused instead (:meth:`Execution.refuse_jerk`): pause, resume,
+:meth:`Execution.set_speed` and :meth:`Execution.retarget` raise :class:`InputError` with
+``field="max_jerk_deg_s3"`` before anything changes, and a smooth stop holds at once (the
+``"hold"`` mode, logged as a warning) — never a silent violation. The planned move itself
+(profile "optimal") honours the jerk limit.
 """
 
 from __future__ import annotations
@@ -406,7 +411,27 @@ class Execution:
         if self._limits is None:
             raise InputError(f"cannot {what}: the trajectory carries no arm (plan it with "
                              "robodcn.plan or pass arm=)", field="arm", value=None)
+        self.refuse_jerk(what)
         return self._limits
+
+    def jerk_limited(self) -> list[str]:
+        """Names of the arm's joints with a jerk limit (the online laws do not honour one)."""
+        if self.arm is None:
+            return []
+        return [j.name for j in self.arm.joints if getattr(j, "max_jerk", None) is not None]
+
+    def refuse_jerk(self, what: str) -> None:
+        """Raise :class:`InputError` (field ``max_jerk_deg_s3``) when the arm sets a jerk
+        limit: the online brake and re-timing laws are acceleration-limited only and would
+        exceed it."""
+        names = self.jerk_limited()
+        if names:
+            j = next(jt for jt in self.arm.joints if jt.name == names[0])
+            raise InputError(
+                f"cannot {what}: the online brake and re-timing do not honour jerk limits yet "
+                f"and joint {names[0]} sets max_jerk_deg_s3 = {math.degrees(j.max_jerk):g} "
+                "deg/s³ (leave the key out to move online)",
+                field="max_jerk_deg_s3", value=math.degrees(j.max_jerk))
 
     @staticmethod
     def _samples(path: JointPath, sigma: NDArray) -> list[Segment]:
@@ -455,6 +480,12 @@ class Execution:
             raise InputError(f"mode must be one of {', '.join(STOP_MODES)}, got {mode!r}",
                              field="mode", value=mode)
         if mode == "hold" or self.done or self._streamer is None or self._limits is None:
+            self.stop_signal.request(reason)
+            return
+        if self.jerk_limited():
+            # the brake would break the jerk limit: hold at once, as a fault does
+            log.warning("smooth stop not possible with a jerk limit (max_jerk_deg_s3 on %s): "
+                        "holding at once", ", ".join(self.jerk_limited()))
             self.stop_signal.request(reason)
             return
         limits = self._limits
