@@ -33,6 +33,8 @@ START = (0.25, 0.10, 0.0)
 GOAL = (0.05, 0.25, math.radians(80))
 #: finite differences of a law sampled at the stream rate land within this of the limit
 SLACK = 1e-6
+#: samples after a switch left out of "the loop's own lateness" (a late swap delays them too)
+SWITCH_SETTLE = 20
 
 
 @pytest.fixture
@@ -163,8 +165,22 @@ def test_request_to_first_changed_goal_is_planning_time_plus_two_periods(sa):
     excess = [due - planning for planning, due, _, _ in lat]
     allowance = 0.5 * float(np.median([planning for planning, _, _, _ in lat]))
     assert float(np.median(excess)) <= 2.0 / RATE + allowance, lat
-    # it is sent then, up to the loop's own lateness on a loaded machine
-    assert all(sent - due < 0.05 for _, due, sent, _ in lat), lat
+    # It is sent then, up to the loop's own lateness: the first changed sample is no later
+    # past its due time than the other samples of the run (the worst of them, away from the
+    # switches) plus one period — host load that delays every sample does not fail this,
+    # a swap that delays the loop does.
+    index, at, _ = ex.sent()
+    streamer = ex._streamer
+    late = at - (streamer.t_start + index * streamer.period)
+    firsts = [first for _, first, _, _, _ in ex.switches]
+    near = np.zeros(index.shape, bool)
+    for first in firsts:
+        near |= (index >= first) & (index < first + SWITCH_SETTLE)
+    assert (~near).sum() > len(index) // 2
+    ordinary = float(late[~near].max())
+    for first in firsts:
+        k = int(np.flatnonzero(index >= first)[0])
+        assert late[k] <= ordinary + 1.0 / RATE, (first, late[k], ordinary)
 
 
 def test_a_retarget_that_cannot_be_planned_changes_nothing(sa):
@@ -408,3 +424,74 @@ def test_online_operations_refuse_a_jerk_limited_arm_and_a_smooth_stop_holds(sa)
     assert not ex.switches
     _, _, ticks = _sent(ex, wire)
     assert np.array_equal(ticks, traj.ticks[:len(ticks)]), "only planned samples were sent"
+
+
+# -- a retarget under load: the switch is placed from what the missed attempt measured ------
+
+def test_a_retarget_lands_when_planning_and_the_loop_run_late(sa):
+    """The first attempt takes 4× the expected planning time while the loop stalls and then
+    catches up (back to back, as on a loaded host): planned again further ahead, it lands."""
+    import threading
+    traj = _move(sa, duration=2.0)
+    stall = threading.Event()
+    write = sa.bus.write_encoded
+    calls = []
+
+    def slow_write(encoded):
+        if stall.is_set():
+            stall.clear()
+            time.sleep(0.03)
+        return write(encoded)
+
+    def ops(ex):
+        sa.bus.write_encoded = slow_write
+        plan_tail = ex._retarget_tail
+
+        def slow_tail(*args):
+            calls.append(time.perf_counter())
+            if len(calls) == 1:
+                stall.set()
+                time.sleep(0.04)
+            return plan_tail(*args)
+
+        ex._retarget_tail = slow_tail
+        ex._plan_s["retarget"] = [0.01]
+        _wait_sample(ex, int(0.3 * len(traj.t)))
+        ex.retarget([None, (0.22, -0.05, 0.3)])
+
+    try:
+        report, ex, wire = _run(sa, traj, ops)
+    finally:
+        sa.bus.write_encoded = write
+    assert len(calls) >= 2, "the first attempt missed"
+    assert report.stop_reason == "completed", report.headline
+    _, joints, ticks = _sent(ex, wire)
+    _check_limits(joints)
+    _check_wire_steps(ticks)
+    end = kinematics.fk(ARM3R.links, joints[-1:])[0]
+    assert np.allclose(end[:2], (0.22, -0.05), atol=1e-6)
+
+
+def test_a_retarget_the_rest_of_the_move_cannot_wait_for_is_refused(sa):
+    traj = _move(sa, duration=1.0)
+    failures = []
+
+    def ops(ex):
+        plan_tail = ex._retarget_tail
+
+        def slow_tail(*args):
+            time.sleep(0.2)
+            return plan_tail(*args)
+
+        ex._retarget_tail = slow_tail
+        _wait_sample(ex, len(traj.t) - 300)
+        with pytest.raises(InputError) as info:
+            ex.retarget([None, (0.22, -0.05, 0.3)])
+        failures.append(info.value)
+
+    report, ex, wire = _run(sa, traj, ops)
+    assert failures and failures[0].field == "execution"
+    assert "ran ahead of planning" in str(failures[0])
+    assert report.outcome == "done" and not ex.switches
+    _, _, ticks = _sent(ex, wire)
+    assert np.array_equal(ticks, traj.ticks), "nothing changed"

@@ -83,6 +83,10 @@ GEOMETRY_RATE_HZ = 200.0
 GEOMETRY_DURATION_S = 5.0
 #: reachability stages of the quick checks while choosing a retarget's start blend
 SEARCH_STAGES = 200
+#: attempts of an online operation before "the stream ran ahead of planning"; after a miss
+#: the switch is placed this many times further ahead than the miss measured
+SWITCH_TRIES = 8
+SWITCH_MARGIN = 1.5
 #: GIL switch interval while an online execution streams (s)
 SWITCH_INTERVAL_S = 0.0002
 
@@ -361,8 +365,17 @@ class Execution:
         """Plan ``tail`` from the state at a switch sample ahead of the loop and swap it in.
 
         ``tail`` returns the new samples as segments (joints, σ, path), each on one path.
-        Returns the first changed sample. Retries further ahead when planning took longer
-        than the margin (the loop never reads a sample that changes under it)."""
+        Returns the first changed sample. The switch is placed the expected planning time
+        ahead of the later of the last sample sent and the sample due now; when the loop got
+        there first (planning or the loop's catching up took longer), it is planned again
+        :data:`SWITCH_MARGIN` × what that attempt measured further ahead, up to
+        :data:`SWITCH_TRIES` times (the loop never reads a sample that changes under it).
+
+        Raises
+        ------
+        InputError
+            ``field="execution"``, "the stream ran ahead of planning": no attempt landed
+            before the loop (or the move ended first); nothing changed."""
         requested = time.perf_counter()
         if not self._attached.wait(10.0) or self.done or self._streamer is None:
             raise InputError(f"cannot {what}: the execution is not running",
@@ -370,13 +383,16 @@ class Execution:
         streamer = self._streamer
         with self._lock:
             ahead = min(self._plan_s.get(what, [0.003]))
-            for _ in range(10):
-                last = self.sample
+            for _ in range(SWITCH_TRIES):
                 rate = streamer.source.rate_hz
                 bound = streamer.n
+                # The loop may lag its clock on a loaded host and then catch up (or skip):
+                # count from the later of the last sample sent and the one due now.
+                last = max(self.sample, self._due_now(streamer) - 1)
                 # state at switch, new samples from switch + 1: as far ahead as planning takes
                 switch = last + 1 + math.ceil(ahead * rate)
                 # the loop must still be running when it gets to the switch
+                capped = switch >= bound - 2
                 switch = min(switch, bound - 2)
                 t_plan = time.perf_counter()
                 state = self._state(max(switch, 0))
@@ -403,9 +419,24 @@ class Execution:
                     if self.on_change is not None:
                         self.on_change(what)
                     return first
-                ahead = max(ahead, took) * 1.3
+                if capped or not running:
+                    break  # the move ends before any switch planning could reach
+                # Missed: the stream ran on by more than planning was given. Next time give
+                # it what this attempt measured (the planning and the loop's advance during
+                # it, which includes a lagging loop catching up), with a margin.
+                ran = (self.sample - last + 2) / rate
+                ahead = SWITCH_MARGIN * max(ahead, took, ran)
+                log.info("%s: the stream ran ahead of planning (%.1f ms), again %.1f ms ahead",
+                         what, took * 1000, ahead * 1000)
         raise InputError(f"cannot {what}: the stream ran ahead of planning",
                          field="execution", value=self.status)
+
+    @staticmethod
+    def _due_now(streamer: Any) -> int:
+        """Index of the sample due now on the loop's clock (−1 before the loop started)."""
+        if not streamer.t_start:
+            return -1
+        return int((streamer.clock() - streamer.t_start) / streamer.period)
 
     def _need_arm(self, what: str) -> Limits:
         if self._limits is None:
