@@ -87,6 +87,8 @@ SEARCH_STAGES = 200
 #: the switch is placed this many times further ahead than the miss measured
 SWITCH_TRIES = 8
 SWITCH_MARGIN = 1.5
+#: re-timings tried by a speed change or resume, braking further between them
+RETIME_TRIES = 8
 #: GIL switch interval while an online execution streams (s)
 SWITCH_INTERVAL_S = 0.0002
 
@@ -486,21 +488,44 @@ class Execution:
             if pre.size:
                 sd = (pre[-1] - (pre[-2] if pre.size > 1 else s0)) * rate
                 s0 = float(pre[-1])
-        for _ in range(4):
+        for attempt in range(RETIME_TRIES):
             try:
                 rest = retime(path, s0, sd, limits, rate)
                 break
             except InputError:
-                more = brake(path, s0, sd, full.a, rate, until_sd=sd * 0.8)
-                if not more.size:
+                if sd <= 0.0:
                     raise
+                # Too fast for ``limits`` here: the brake ran on to where less speed is
+                # allowed (near the path's end). Brake again to what is allowed where it
+                # now is; the last tries brake to rest (always possible under the full
+                # limits), from where the scaled law starts.
+                to_rest = attempt >= RETIME_TRIES - 2
+                until = 0.0 if to_rest else min(
+                    0.8 * sd, 0.95 * controllable_speed(path, s0, limits))
                 prev = pre[-1] if pre.size else s0
+                more = brake(path, s0, sd, full.a, rate, until_sd=until)
+                if to_rest:
+                    # one sample at rest where the brake ends (its last step and the law's
+                    # first step from rest are two accelerations, not one)
+                    more = np.concatenate([more, more[-1:]]) if more.size else np.array([s0])
+                    sd = 0.0
+                elif more.size:
+                    sd = (more[-1] - (more[-2] if more.size > 1 else prev)) * rate
+                else:
+                    continue
                 pre = np.concatenate([pre, more])
-                sd = (more[-1] - (more[-2] if more.size > 1 else prev)) * rate
                 s0 = float(more[-1])
         else:
             raise InputError("cannot re-time the path from the present speed",
                              field="speed", value=self.speed)
+        if pre.size and pre[-1] >= path.length - 1e-12 and rest.size == 0:
+            # the brake (a share of the full limits) ran to the path's end still moving:
+            # the move is already braking to its end as fast as the limits allow
+            last = pre[-1] - (pre[-2] if pre.size > 1 else state.sigma)
+            if last * rate > 1e-9:
+                raise InputError("cannot re-time the path from the present speed: it ends "
+                                 "before a brake could reach the scaled limits",
+                                 field="speed", value=self.speed)
         return np.concatenate([pre, rest])
 
     # -- operations -----------------------------------------------------------------------
@@ -572,15 +597,26 @@ class Execution:
             self.status = "running"
 
     def set_speed(self, scale: float) -> None:
-        """Re-time the rest of the path with the limits scaled by ``scale`` ∈ (0, 1]."""
+        """Re-time the rest of the path with the limits scaled by ``scale`` ∈ (0, 1].
+
+        Near the end, where the move already brakes to its end at the full limits and no
+        brake reaches the scaled ones first, the move ends as planned (``speed`` is still
+        set: a resume uses it)."""
         k = check_limits_named("scale", scale)
         limits = self._need_arm("change speed")
         with self._lock:
             self.speed = k
             if self.paused or self.status == "stopping" or self.done:
                 return
-            self._apply("change speed", lambda st: self._samples(
-                st.path, self._timed(st, limits.scaled(k))))
+            try:
+                self._apply("change speed", lambda st: self._samples(
+                    st.path, self._timed(st, limits.scaled(k))))
+            except InputError as exc:
+                if exc.field != "speed":
+                    raise
+                # near the end the move already brakes to rest at the full limits; a
+                # slower law from here would overrun the path: the move ends as planned
+                log.info("speed %.3g: %s; the move ends as planned", k, exc)
 
     def retarget(self, target: PlanRequest | Sequence[ArrayLike | None],
                  **plan_options: Any) -> int:
