@@ -142,3 +142,32 @@ def test_openapi_documents_the_online_endpoints(arm_server: Any) -> None:
     assert schemas["StopBody"]["properties"]["mode"]["enum"] == ["smooth", "hold"]
     assert "replaced" in schemas["Move"]["properties"]["status"]["enum"]
     assert {"paused", "speed_scale"} <= set(schemas["State"]["properties"])
+
+
+def test_a_jerk_limited_arm_refuses_online_operations_naming_the_key() -> None:
+    """The online laws do not honour jerk limits: 422 naming max_jerk_deg_s3, the move goes
+    on unchanged (not replaced) and ends done."""
+    import dataclasses
+
+    from robodcn.controller import ArmController
+    from robodcn.simulated import simulated_arm
+
+    jerk_arm = dataclasses.replace(ARM, joints=tuple(
+        dataclasses.replace(j, max_jerk=20.0 * j.max_acceleration) for j in ARM.joints))
+    with simulated_arm(jerk_arm, timing="fast") as sa:
+        controller = ArmController(jerk_arm, sa.bus, execute_options=LOADED_MACHINE)
+        try:
+            with running(make_server(jerk_arm, controller, request_timeout=5.0)) as server:
+                old = _start(server)
+                for method, path, body in (
+                        ("POST", "/v1/moves", {"waypoints": [HOME, OTHER], "rate_hz": 200,
+                                               "replace": True}),
+                        ("PUT", "/v1/speed", {"scale": 0.5}),
+                        ("POST", "/v1/pause", None)):
+                    status, _, answer = call(server, method, path, body)
+                    assert status == 422, (path, answer)
+                    assert error_of(answer)["field"] == "max_jerk_deg_s3", answer
+                done = poll_move(server, old["id"], lambda b: b["status"] != "running")
+                assert done["status"] in ("done", "degraded"), done
+        finally:
+            controller.close()
