@@ -352,7 +352,7 @@ def test_speed_scaling_while_the_move_brakes_to_its_end_lets_it_end_as_planned(s
         assert ex.speed == 0.5
 
     report, ex, wire = _run(sa, traj, ops)
-    assert report.outcome == "done" and not ex.switches
+    assert report.outcome == "done" and not ex.switches, report.headline
     _, _, ticks = _sent(ex, wire)
     assert np.array_equal(ticks, traj.ticks)
 
@@ -507,7 +507,7 @@ def test_a_retarget_the_rest_of_the_move_cannot_wait_for_is_refused(sa):
         plan_tail = ex._retarget_tail
 
         def slow_tail(*args):
-            time.sleep(0.2)
+            time.sleep(0.6)  # longer than the 0.3 s the move has left
             return plan_tail(*args)
 
         ex._retarget_tail = slow_tail
@@ -519,6 +519,6 @@ def test_a_retarget_the_rest_of_the_move_cannot_wait_for_is_refused(sa):
     report, ex, wire = _run(sa, traj, ops)
     assert failures and failures[0].field == "execution"
     assert "ran ahead of planning" in str(failures[0])
-    assert report.outcome == "done" and not ex.switches
+    assert report.outcome == "done" and not ex.switches, report.headline
     _, _, ticks = _sent(ex, wire)
     assert np.array_equal(ticks, traj.ticks), "nothing changed"
