@@ -154,7 +154,8 @@ def test_request_to_first_changed_goal_is_planning_time_plus_two_periods(sa):
             _wait_sample(ex, 200 + 60 * k)
             ex.retarget([None, g])
 
-    _report, ex, wire = _run(sa, traj, ops)
+    report, ex, wire = _run(sa, traj, ops)
+    assert report.outcome in ("done", "degraded"), report.headline
     _sent(ex, wire)
     lat = ex.latencies()
     assert len(lat) == len(goals)
@@ -307,7 +308,7 @@ def test_pause_then_resume_ends_at_the_original_goal(sa):
     assert runs.max() >= 1.0 * RATE
 
 
-@pytest.mark.parametrize("at", [5, 150, 250], ids=["near-rest", "fast", "faster"])
+@pytest.mark.parametrize("at", [5, 100, 180], ids=["near-rest", "fast", "faster"])
 def test_speed_scaling_keeps_the_scaled_limits(sa, at):
     """Over k's limits only while braking along the path (full limits) from the switch, and
     only as long as the brake goes: it ends where the scaled law takes over, which may be
@@ -325,6 +326,9 @@ def test_speed_scaling_keeps_the_scaled_limits(sa, at):
 
     report, ex, wire = _run(sa, traj, ops)
     assert report.outcome == "done"
+    # (the move's own braking to its end starts near sample 300 of its 469: 180 + a loaded
+    # host's delay still lands before it)
+    assert ex.switches, "the speed change was applied"
     _, joints, ticks = _sent(ex, wire)
     first = ex.switches[0][1]
     _check_limits(joints)
