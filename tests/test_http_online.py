@@ -15,6 +15,9 @@ from http_helpers import ARM, HOME, LOADED_MACHINE, call, error_of, poll_move, r
 from robodcn import kinematics, servo_units
 from robodcn.http import make_server
 
+# Real-time assertions (switch samples, latency in periods): run alone (pyproject markers).
+pytestmark = pytest.mark.serial
+
 LONG = {"waypoints": [HOME, [0.05, 0.25, 1.2]], "duration": 2.0, "rate_hz": 200}
 OTHER = [0.22, -0.05, 0.3]
 

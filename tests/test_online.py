@@ -25,6 +25,9 @@ from robodcn.simulated import simulated_arm
 from robodcn.stream import Execution, start
 from robodcn.stream.online_path import JointPath
 
+# Real-time assertions (switch samples, latency in periods): run alone (pyproject markers).
+pytestmark = pytest.mark.serial
+
 RATE = 1000.0
 V = np.array([j.max_velocity for j in ARM3R.joints])
 A = np.array([j.max_acceleration for j in ARM3R.joints])
@@ -325,7 +328,7 @@ def test_speed_scaling_keeps_the_scaled_limits(sa, at):
         assert ex.speed == k
 
     report, ex, wire = _run(sa, traj, ops)
-    assert report.outcome == "done"
+    assert report.outcome == "done", (report.headline, report.stop_reason, report.message)
     # (the move's own braking to its end starts near sample 300 of its 469: 180 + a loaded
     # host's delay still lands before it)
     assert ex.switches, "the speed change was applied"
