@@ -356,3 +356,17 @@ def test_profile_choices_and_default_are_the_contracts():
         for profile in contract.cli_choices("profile"):
             assert parser.parse_args([command, "--to", "0.12,0.24,60", "--profile",
                                       profile]).profile == profile
+
+
+def test_a_tracking_stop_is_worded_in_degrees(capsys: pytest.CaptureFixture[str]) -> None:
+    """The physics sim without compensation lags ~7° on a fast move: a 0.5° --tracking-limit
+    stops it (exit 4), and the CLI words the stop in the config's degrees, not radians."""
+    from robodcn import cli
+
+    rc = cli.main(["sim", "--to", "0.12,0.24,60", "--compensation", "off",
+                   "--tracking-limit", "0.5"])
+    err = capsys.readouterr()
+    text = err.out + err.err
+    assert rc == 4, text
+    line = next(ln for ln in text.splitlines() if "tracking error" in ln and "limit" in ln)
+    assert "°" in line and "limit 0.50°" in line and " rad" not in line, line

@@ -33,6 +33,14 @@ def headline(report: Any) -> str:
     ..."), with what to try when samples were skipped."""
     if report.outcome == "fault":
         kind = _FAULTS.get(report.stop_reason, "fault")
+        detail = getattr(report, "stop_detail", None)
+        if detail and detail.get("quantity") == "tracking_error":
+            # The stream words its stop in SI; the CLI speaks the config's degrees.
+            return (f"{kind} after {report.samples_sent} of {report.samples_total} samples: "
+                    f"tracking error {math.degrees(detail['value']):.2f}° "
+                    f"({detail['ticks']} ticks) at joint {detail['joint']!r}, sample "
+                    f"{detail['sample']}, limit {math.degrees(detail['limit']):.2f}° "
+                    "(--tracking-limit)")
         return f"{kind} {report.headline.removeprefix('fault ')}"
     if report.outcome == "degraded":
         return (f"{report.headline} (the stream fell behind its {report.rate_hz:g} Hz "

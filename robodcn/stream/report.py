@@ -169,6 +169,9 @@ class ExecutionReport:
     #: Every feedback read (time, ticks, tracking error, current) with the limits, for the
     #: plot (:class:`~robodcn.stream.trace.ExecutionTrace`); not in ``to_dict()`` unless
     #: asked for (it grows with the motion).
+    #: What stopped the stream, as data in SI units (e.g. a tracking-error stop: quantity,
+    #: joint, sample, value, ticks, limit, unit), or None.
+    stop_detail: dict[str, Any] | None = None
     trace: ExecutionTrace | None = field(default=None, repr=False, compare=False)
 
     @property

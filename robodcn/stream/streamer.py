@@ -138,10 +138,11 @@ PROGRESS_INTERVAL_S = 0.05
 class _Stop(Exception):
     """Internal: leave the streaming loop with a reason."""
 
-    def __init__(self, reason: str, message: str) -> None:
+    def __init__(self, reason: str, message: str, detail: dict[str, Any] | None = None) -> None:
         super().__init__(message)
         self.reason = reason
         self.message = message
+        self.detail = detail
 
 
 def _radians_per_tick(bus: ServoBus) -> NDArray[np.float64]:
@@ -311,6 +312,8 @@ class _Streamer:
         self.hardware: dict[int, int] = {}
         self.reason = "completed"
         self.message = "all samples sent"
+        #: What stopped the stream, as data (SI) for the surfaces to word in their units.
+        self.stop_detail: dict[str, Any] | None = None
         self.hold_goals: NDArray[np.int64] | None = None
         self.final: NDArray[np.int64] | None = None
         self.released = False
@@ -448,11 +451,15 @@ class _Streamer:
             over = np.abs(error) > self.tick_limit
             if over.any():
                 j = int(np.argmax(over))
+                value = float(abs(error[j]) * self.rad_per_tick[j])
                 raise _Stop("tracking_error",
-                            f"tracking error {abs(error[j]) * self.rad_per_tick[j]:.3f} rad "
+                            f"tracking error {value:.3f} rad "
                             f"({int(error[j])} ticks) at joint "
                             f"{self.joint_names[j]!r}, sample {sample}, limit "
-                            f"{self.tracking_limit:.3f} rad")
+                            f"{self.tracking_limit:.3f} rad",
+                            {"quantity": "tracking_error", "joint": self.joint_names[j],
+                             "sample": int(sample), "value": value, "ticks": int(error[j]),
+                             "limit": float(self.tracking_limit), "unit": "rad"})
 
     def _plan_at_read(self, sample: int, goal: NDArray[np.int64]) -> NDArray[np.float64]:
         """The plan where it is at the end of this read (ticks, linear between samples):
@@ -585,6 +592,7 @@ class _Streamer:
         except _Stop as stop:
             self.reason = stop.reason
             self.message = stop.message
+            self.stop_detail = stop.detail
             requested = getattr(self.stop, "requested_at", None)
             if stop.reason == "stopped" and requested is not None:
                 self.stop_latency = time.perf_counter() - requested
@@ -733,7 +741,8 @@ class _Streamer:
             message = (f"completed with {skipped} of {self.n} samples skipped "
                        f"({self.skipped_late} late, {self.failed_writes} failed writes)")
         return ExecutionReport(
-            stop_reason=self.reason, message=message, samples_total=self.n,
+            stop_reason=self.reason, message=message, stop_detail=self.stop_detail,
+            samples_total=self.n,
             samples_sent=sent, skipped=skipped, skipped_late=self.skipped_late,
             rate_hz=self.rate_hz,
             achieved_rate_hz=(sent - 1) / span if span > 0 else 0.0,
