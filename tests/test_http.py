@@ -7,7 +7,6 @@ library itself (the planner, FK, servo units), never from a previous run.
 
 from __future__ import annotations
 
-import contextlib
 import http.client
 import json
 import math
@@ -20,53 +19,25 @@ import sys
 import threading
 import time
 from collections.abc import Iterator
-from pathlib import Path
 from typing import Any
 
 import numpy as np
 import pytest
+from http_helpers import ARM, BODY, HOME, LOADED_MACHINE, ROOT, TARGET, address, error_of, running
 from hypothesis import HealthCheck, event, given, settings
 from hypothesis import strategies as st
 
 from robodcn import kinematics, servo_units
-from robodcn.config import arm_from_dict, load_arm
+from robodcn.config import arm_from_dict
 from robodcn.errors import InputError, PlanError
 from robodcn.http_server import MAX_BODY, PLAN_FIELDS, ROUTES, make_server
 from robodcn.planner import MAX_SAMPLES, Trajectory, plan
-
-ROOT = Path(__file__).resolve().parent.parent
-ARM = load_arm(ROOT / "configs" / "arm3r.toml")
-HOME = list(ARM.home)
-TARGET = [0.18, 0.12, 0.6]
-BODY = {"waypoints": [HOME, TARGET], "duration": 0.6, "rate_hz": 100}
-#: The simulator shares this process (and a busy test machine): a stall of the streaming
-#: thread past the default 100 ms Bus Watchdog would stop a move for reasons these tests are
-#: not about (robodcn.stream's own tests cover the watchdog).
-LOADED_MACHINE = {"watchdog_ms": 1000}
-
-
-@contextlib.contextmanager
-def running(server: Any) -> Iterator[Any]:
-    thread = threading.Thread(target=server.serve_forever, kwargs={"poll_interval": 0.05},
-                              daemon=True)
-    thread.start()
-    try:
-        yield server
-    finally:
-        server.shutdown()
-        server.server_close()
-        thread.join(5)
 
 
 @pytest.fixture(scope="module")
 def planner_server() -> Iterator[Any]:
     with running(make_server(ARM, None, request_timeout=1.0)) as server:
         yield server
-
-
-def address(server: Any) -> tuple[str, int]:
-    host, port = server.server_address[:2]
-    return ("127.0.0.1" if host == "0.0.0.0" else host), port
 
 
 def call(server: Any, method: str, path: str, body: Any = None, *,
@@ -85,13 +56,6 @@ def call(server: Any, method: str, path: str, body: Any = None, *,
         return resp.status, dict(resp.getheaders()), json.loads(payload)
     finally:
         conn.close()
-
-
-def error_of(body: Any) -> dict[str, Any]:
-    assert set(body) == {"error"}
-    assert {"code", "message", "field"} <= set(body["error"])
-    assert body["error"]["message"]
-    return body["error"]
 
 
 # -- plan-only endpoints -----------------------------------------------------------------------

@@ -7,18 +7,17 @@ stand-in controller. The browser itself is tested in tests_browser/ (``make test
 
 from __future__ import annotations
 
-import contextlib
 import http.client
 import json
 import re
 import socket
-import threading
 import time
 from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
 
 import pytest
+from http_helpers import running
 
 from robodcn.config import load_arm
 from robodcn.errors import CommError
@@ -29,19 +28,6 @@ ROOT = Path(__file__).resolve().parent.parent
 ARM = load_arm(ROOT / "configs" / "arm3r.toml")
 HOME = list(ARM.home)
 TARGET = [0.18, 0.12, 0.6]
-
-
-@contextlib.contextmanager
-def running(server: Any) -> Iterator[Any]:
-    thread = threading.Thread(target=server.serve_forever, kwargs={"poll_interval": 0.05},
-                              daemon=True)
-    thread.start()
-    try:
-        yield server
-    finally:
-        server.shutdown()
-        server.server_close()
-        thread.join(5)
 
 
 @pytest.fixture
