@@ -1,7 +1,7 @@
 """Planar serial-chain rigid-body dynamics of an arm, read from its TOML file.
 
-firmware_sim reads the arm file itself (``tomllib``): the other side of the wire must not
-import robodcn. It uses ``[arm] links``, each ``[joints.servo]`` (``id``, ``model``,
+firmware_sim reads the arm file itself (``tomllib``): the other side of the wire never
+depends on robodcn. It uses ``[arm] links``, each ``[joints.servo]`` (``id``, ``model``,
 ``ticks_per_turn``, ``zero_offset``, ``direction``) and an optional ``[dynamics]`` table::
 
     [dynamics]

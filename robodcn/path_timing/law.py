@@ -125,14 +125,7 @@ class PathTiming:
             ``duration`` shorter than this law's (the optimum under the limits cannot be
             beaten), or a moving start (a stretch would change the start velocity).
         """
-        if not (isinstance(duration, int | float) and math.isfinite(duration)):
-            raise InputError(f"duration must be a number of seconds, got {duration!r}",
-                             field="duration", value=duration)
-        if duration < self.duration * (1.0 - 1e-12):
-            raise InputError(f"duration {duration:g} s is shorter than the time-optimal "
-                             f"{self.duration:.6g} s under the joint limits: at least one "
-                             "joint limit would be exceeded", field="duration",
-                             value=duration)
+        _check_stretch(duration, self.duration)
         start = self.at(np.array([0.0]))
         # a rest start may begin with an acceleration step (jerk-free law): it scales by
         # 1/λ² and stays a start from rest; a moving start would change its velocity
@@ -148,6 +141,16 @@ class PathTiming:
         return (f"PathTiming(duration={self.duration:.6g} s, window={self.window:.4g} s, "
                 f"stretch_factor={self.stretch_factor:.6g})")
 
+
+def _check_stretch(duration: float, optimal: float) -> None:
+    """A stretch target: a finite number of seconds, not shorter than the optimal law's."""
+    if not (isinstance(duration, int | float) and math.isfinite(duration)):
+        raise InputError(f"duration must be a number of seconds, got {duration!r}",
+                         field="duration", value=duration)
+    if duration < optimal * (1.0 - 1e-12):
+        raise InputError(f"duration {duration:g} s is shorter than the time-optimal "
+                         f"{optimal:.6g} s under the joint limits: at least one "
+                         "joint limit would be exceeded", field="duration", value=duration)
 
 
 class ChainTiming(PathTiming):
@@ -185,14 +188,7 @@ class ChainTiming(PathTiming):
 
     def stretch(self, duration: float) -> ChainTiming:
         """Every piece slowed by the same factor to a total ``duration`` (PathTiming.stretch)."""
-        if not (isinstance(duration, int | float) and math.isfinite(duration)):
-            raise InputError(f"duration must be a number of seconds, got {duration!r}",
-                             field="duration", value=duration)
-        if duration < self.duration * (1.0 - 1e-12):
-            raise InputError(f"duration {duration:g} s is shorter than the time-optimal "
-                             f"{self.duration:.6g} s under the joint limits: at least one "
-                             "joint limit would be exceeded", field="duration",
-                             value=duration)
+        _check_stretch(duration, self.duration)
         lam = duration / self.duration
         return ChainTiming([p.stretch(p.duration * lam) for p in self.pieces])
 
