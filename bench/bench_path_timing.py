@@ -24,15 +24,14 @@ from __future__ import annotations
 import itertools
 import math
 import os
-import statistics
 import time
-from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 
 import robodcn
+from bench.bench_planner import median_seconds
 from robodcn.path_timing import time_optimal
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -145,17 +144,6 @@ def ours(case: Case, jerk: bool | np.ndarray = False, **kw: object):
     # the planner's blends are C² now: no curvature corners to crawl through
     return time_optimal(case.q, case.s, v, a, j if jerk else None, stops=case.stops,
                         smooth=True, **kw)
-
-
-def median_seconds(fn: Callable[[], object], repeat: int, warmup: int = 2) -> float:
-    for _ in range(warmup):
-        fn()
-    times = []
-    for _ in range(repeat):
-        start = time.perf_counter()
-        fn()
-        times.append(time.perf_counter() - start)
-    return statistics.median(times)
 
 
 def _ok(flag: bool) -> str:
