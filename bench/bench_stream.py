@@ -157,8 +157,9 @@ def _run(rate: float, feedback_every: int, fast_read: bool, realtime: bool = Fal
     return report
 
 
-def _back_to_back(fast_read: bool, realtime: bool, cycles: int = 2000) -> tuple[float, float]:
-    """Sync Write + (Fast) Sync Read with no schedule: median and p99 cycle time (µs)."""
+def _cycle_times(realtime: bool, cycles: int, *, baud: int = BAUD,
+                 fast_read: bool | None = None):
+    """Seconds of each Sync Write + (Fast) Sync Read of the feedback block, no schedule."""
     import time
 
     import numpy as np
@@ -167,8 +168,8 @@ def _back_to_back(fast_read: bool, realtime: bool, cycles: int = 2000) -> tuple[
     from robodcn.stream import realtime_priority
 
     arm, traj = _trajectory(100.0)
-    with _Sim(realtime=realtime) as sim, \
-            ServoBus(sim.path, BAUD, servos=arm.servos, rx_timeout_ms=10,
+    with _Sim(realtime=realtime, baud=baud) as sim, \
+            ServoBus(sim.path, baud, servos=arm.servos, rx_timeout_ms=10,
                      fast_read=fast_read) as bus:
         bus.verify()
         bus.configure()
@@ -180,6 +181,14 @@ def _back_to_back(fast_read: bool, realtime: bool, cycles: int = 2000) -> tuple[
                 bus.write_encoded(row)
                 bus.read_feedback()
                 times[i] = time.perf_counter() - start
+    return times
+
+
+def _back_to_back(fast_read: bool, realtime: bool, cycles: int = 2000) -> tuple[float, float]:
+    """Sync Write + (Fast) Sync Read with no schedule: median and p99 cycle time (µs)."""
+    import numpy as np
+
+    times = _cycle_times(realtime, cycles, fast_read=fast_read)
     return float(np.median(times)) * 1e6, float(np.percentile(times, 99)) * 1e6
 
 
@@ -438,27 +447,9 @@ def _feedback_stream(baud: int, rate: float, realtime: bool):
 
 def _feedback_back_to_back(baud: int, realtime: bool, cycles: int = 2000) -> float:
     """Median seconds of Sync Write + Fast Sync Read of the feedback block, no schedule."""
-    import time
-
     import numpy as np
 
-    from robodcn.bus import ServoBus
-    from robodcn.stream import realtime_priority
-
-    arm, traj = _trajectory(100.0)
-    with _Sim(realtime=realtime, baud=baud) as sim, \
-            ServoBus(sim.path, baud, servos=arm.servos, rx_timeout_ms=10) as bus:
-        bus.verify()
-        bus.configure()
-        rows = bus.encode_goals(np.repeat(traj.ticks[:1], cycles, axis=0))
-        times = np.empty(cycles)
-        with realtime_priority(realtime):
-            for i, row in enumerate(rows):
-                start = time.perf_counter()
-                bus.write_encoded(row)
-                bus.read_feedback()
-                times[i] = time.perf_counter() - start
-    return float(np.median(times))
+    return float(np.median(_cycle_times(realtime, cycles, baud=baud)))
 
 
 def feedback() -> str:
