@@ -1,5 +1,5 @@
 """Shared helpers for the HTTP service tests: a server in a thread, one-shot requests and
-raw-socket exchanges."""
+raw-socket exchanges; fixtures (``arm_server``) for ``pytest_plugins = ["http_helpers"]``."""
 
 from __future__ import annotations
 
@@ -13,7 +13,10 @@ from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
 
+import pytest
+
 from robodcn.config import load_arm
+from robodcn.http import make_server
 
 ROOT = Path(__file__).resolve().parent.parent
 ARM = load_arm(ROOT / "configs" / "arm3r.toml")
@@ -36,6 +39,23 @@ def running(server: Any) -> Iterator[Any]:
         server.shutdown()
         server.server_close()
         thread.join(5)
+
+
+#: A service on a simulated arm (fast timing) with its controller; the simulator must end
+#: without protocol errors. Test modules import it to use it.
+@pytest.fixture
+def arm_server() -> Iterator[tuple[Any, Any]]:
+    from robodcn.controller import ArmController
+    from robodcn.simulated import simulated_arm
+
+    with simulated_arm(ARM, timing="fast") as sa:
+        controller = ArmController(ARM, sa.bus, execute_options=LOADED_MACHINE)
+        try:
+            with running(make_server(ARM, controller, request_timeout=2.0)) as server:
+                yield server, sa
+        finally:
+            controller.close()
+    assert not sa.sim.errors, sa.sim.errors
 
 
 def address(server: Any) -> tuple[str, int]:

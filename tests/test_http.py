@@ -23,7 +23,16 @@ from typing import Any
 
 import numpy as np
 import pytest
-from http_helpers import ARM, BODY, HOME, LOADED_MACHINE, ROOT, TARGET, address, error_of, running
+from http_helpers import (  # arm_server: a fixture
+    ARM,
+    BODY,
+    HOME,
+    ROOT,
+    TARGET,
+    address,
+    error_of,
+    running,
+)
 from hypothesis import HealthCheck, event, given, settings
 from hypothesis import strategies as st
 
@@ -32,6 +41,8 @@ from robodcn.config import arm_from_dict
 from robodcn.errors import InputError, PlanError
 from robodcn.http_server import MAX_BODY, PLAN_FIELDS, ROUTES, make_server
 from robodcn.planner import MAX_SAMPLES, Trajectory, plan
+
+pytest_plugins = ["http_helpers"]     # fixtures: arm_server
 
 
 @pytest.fixture(scope="module")
@@ -439,21 +450,6 @@ def test_token_guards_every_post() -> None:
 
 
 # -- moves, stop and state on the simulated arm ---------------------------------------------------
-
-@pytest.fixture
-def arm_server() -> Iterator[tuple[Any, Any]]:
-    from robodcn.controller import ArmController
-    from robodcn.simulated import simulated_arm
-
-    with simulated_arm(ARM, timing="fast") as sa:
-        controller = ArmController(ARM, sa.bus, execute_options=LOADED_MACHINE)
-        try:
-            with running(make_server(ARM, controller, request_timeout=2.0)) as server:
-                yield server, sa
-        finally:
-            controller.close()
-    assert not sa.sim.errors, sa.sim.errors
-
 
 def present(sa: Any) -> list[int]:
     return [sa.sim.servo(i).present_position for i in ARM.servo_ids]

@@ -7,7 +7,6 @@ from __future__ import annotations
 import csv
 import io
 import json
-from collections.abc import Iterator
 from typing import Any
 
 import numpy as np
@@ -15,32 +14,17 @@ import pytest
 from http_helpers import (
     ARM,
     HOME,
-    LOADED_MACHINE,
     TARGET,
     call,
     error_of,
     finished,
     poll_move,
-    running,
 )
 
 from robodcn import servo_units
-from robodcn.http import make_server, openapi
+from robodcn.http import openapi
 
-
-@pytest.fixture
-def arm_server() -> Iterator[tuple[Any, Any]]:
-    from robodcn.controller import ArmController
-    from robodcn.simulated import simulated_arm
-
-    with simulated_arm(ARM, timing="fast") as sa:
-        controller = ArmController(ARM, sa.bus, execute_options=LOADED_MACHINE)
-        try:
-            with running(make_server(ARM, controller, request_timeout=2.0)) as server:
-                yield server, sa
-        finally:
-            controller.close()
-    assert not sa.sim.errors, sa.sim.errors
+pytest_plugins = ["http_helpers"]     # fixtures: arm_server
 
 
 def torque_of(sa: Any) -> list[bool]:
