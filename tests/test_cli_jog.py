@@ -79,87 +79,75 @@ def test_an_unreachable_step_is_refused_and_the_target_stays():
         jog.finish()
 
 
-def test_jog_command_on_a_pseudo_terminal():
-    """The real command: keys through a pty (arrow escape sequences), q quits, exit 0."""
-    master, slave = pty.openpty()
-    env = {**os.environ}
-    proc = subprocess.Popen([sys.executable, "-m", "robodcn", "jog", "--sim", "--timing",
-                             "fast", "--rate", "100"], stdin=slave, stdout=slave,
-                            stderr=slave, env=env, close_fds=True)
-    os.close(slave)
-    seen = b""
+class _Terminal:
+    """A robodcn command on a pseudo-terminal: what it printed so far, keys typed into it."""
 
-    def read_for(seconds):
-        nonlocal seen
+    def __init__(self, *args: str) -> None:
+        self.master, slave = pty.openpty()
+        self.proc = subprocess.Popen([sys.executable, "-m", "robodcn", *args], stdin=slave,
+                                     stdout=slave, stderr=slave, close_fds=True)
+        os.close(slave)
+        self.seen = b""
+
+    def read_for(self, seconds: float) -> None:
         deadline = time.monotonic() + seconds
         while time.monotonic() < deadline:
-            ready, _, _ = select.select([master], [], [], 0.05)
+            ready, _, _ = select.select([self.master], [], [], 0.05)
             if ready:
                 try:
-                    seen += os.read(master, 65536)
+                    self.seen += os.read(self.master, 65536)
                 except OSError:
                     return
 
+    def wait_for(self, text: bytes, timeout: float = 30.0) -> None:
+        deadline = time.monotonic() + timeout
+        while text not in self.seen and time.monotonic() < deadline:
+            self.read_for(0.2)
+        assert text in self.seen, self.seen
+
+    def type(self, keys: bytes) -> None:
+        os.write(self.master, keys)
+
+    def close(self) -> str:
+        if self.proc.poll() is None:
+            self.proc.kill()
+            self.proc.wait()
+        os.close(self.master)
+        return self.seen.decode("utf-8", "replace")
+
+
+def test_jog_command_on_a_pseudo_terminal():
+    """The real command: keys through a pty (arrow escape sequences), q quits, exit 0."""
+    term = _Terminal("jog", "--sim", "--timing", "fast", "--rate", "100")
     try:
-        read_for(0.1)
-        deadline = time.monotonic() + 30
-        while b"keys:" not in seen and time.monotonic() < deadline:
-            read_for(0.2)
-        assert b"keys:" in seen, seen
-        os.write(master, b"\x1b[C")  # right arrow
-        read_for(1.5)
-        os.write(master, b"q")
-        read_for(1.0)
-        assert proc.wait(30) == 0, seen
+        term.read_for(0.1)
+        term.wait_for(b"keys:")
+        term.type(b"\x1b[C")  # right arrow
+        term.read_for(1.5)
+        term.type(b"q")
+        term.read_for(1.0)
+        assert term.proc.wait(30) == 0, term.seen
     finally:
-        if proc.poll() is None:
-            proc.kill()
-            proc.wait()
-        os.close(master)
-    text = seen.decode("utf-8", "replace")
+        text = term.close()
     assert "target x=" in text and "commanded" in text
 
 
 def test_sim_on_a_terminal_shows_the_keys_and_pauses_and_resumes():
     """``robodcn sim`` on a pty: the keys line, space pauses and resumes, it ends."""
-    master, slave = pty.openpty()
-    proc = subprocess.Popen([sys.executable, "-m", "robodcn", "sim", "--to", "0.12,0.24,60",
-                             "--duration", "2", "--timing", "fast"], stdin=slave,
-                            stdout=slave, stderr=slave, close_fds=True)
-    os.close(slave)
-    seen = b""
-
-    def read_for(seconds):
-        nonlocal seen
-        deadline = time.monotonic() + seconds
-        while time.monotonic() < deadline:
-            ready, _, _ = select.select([master], [], [], 0.05)
-            if ready:
-                try:
-                    seen += os.read(master, 65536)
-                except OSError:
-                    return
-
+    term = _Terminal("sim", "--to", "0.12,0.24,60", "--duration", "2", "--timing", "fast")
     try:
-        deadline = time.monotonic() + 30
-        while b"keys:" not in seen and time.monotonic() < deadline:
-            read_for(0.2)
-        assert b"keys:" in seen, seen
-        read_for(0.3)
-        os.write(master, b" ")
-        read_for(0.8)
-        os.write(master, b" ")
+        term.wait_for(b"keys:")
+        term.read_for(0.3)
+        term.type(b" ")
+        term.read_for(0.8)
+        term.type(b" ")
         code = None
         deadline = time.monotonic() + 30
         while code is None and time.monotonic() < deadline:
-            read_for(0.2)
-            code = proc.poll()
-        assert code in (0, 5), seen
+            term.read_for(0.2)
+            code = term.proc.poll()
+        assert code in (0, 5), term.seen
     finally:
-        if proc.poll() is None:
-            proc.kill()
-            proc.wait()
-        os.close(master)
-    text = seen.decode("utf-8", "replace")
+        text = term.close()
     assert "paused" in text and "resumed" in text, text
     assert "space pause/resume" in text
