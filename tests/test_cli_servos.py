@@ -77,7 +77,9 @@ def test_move_and_scan_against_firmware_sim(firmware):
     assert [s["id"] for s in json.loads(scan.stdout)["servos"]] == [1, 2, 3]
     first = robodcn("move", "--arm", ARM3R, "--device", firmware, *MOVE, "--json")
     assert first.returncode in COMPLETED, first.stderr
-    assert json.loads(first.stdout)["final_error_ticks"] == [0, 0, 0]
+    # At rest within one encoder count (the physics default: friction holds a motor on
+    # either side of its last tick).
+    assert max(abs(e) for e in json.loads(first.stdout)["final_error_ticks"]) <= 1
     # The second move starts where the first ended (its present pose) and comes back.
     back = robodcn("move", "--arm", ARM3R, "--device", firmware, "--to", "0.25,0.10,0",
                    "--json")

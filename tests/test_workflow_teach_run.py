@@ -80,7 +80,10 @@ def test_teach_records_poses_with_undo_then_run_replays_them(physics_sim, monkey
     assert report["compensation"] is True
     if report["outcome"] == "done":
         assert max(report["tracking_error_max_rad"]) <= math.radians(0.5), report
-    assert report["final_error_ticks"] == [0, 0, 0]
+    # At rest within one encoder count: which side of the last tick Coulomb friction holds
+    # a motor on depends on the timing of its final approach (seen ±1 on a loaded machine);
+    # uncompensated, the same sim rests several ticks short (`robodcn sim --compensation off`).
+    assert max(abs(e) for e in report["final_error_ticks"]) <= 1, report
     end = servo_units.ticks_to_radians(present(sim), ARM.servos)
     assert np.allclose(kinematics.fk(ARM.links, end[None])[0], want[-1], atol=2e-3)
 

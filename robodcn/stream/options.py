@@ -53,8 +53,8 @@ class ExecutionOptions:
     stop : StopSignal or ``threading.Event`` set from any thread to stop; the arm holds.
     progress : called with :class:`Progress` at most every 50 ms and at the end.
     release : torque off when finished or stopped (otherwise the servos hold).
-    settle : seconds to keep reading after the last sample until the arm is within one tick
-        of the final goal (0: one read).
+    settle : seconds to keep reading after the last sample until the arm is on the final
+        goal, or at rest within one tick of it (0: one read).
     health_interval : seconds between Hardware Error Status / Bus Watchdog polls.
     watchdog_ms : Bus Watchdog timeout; None = max(250 ms, 10 periods); 0 = not armed.
     profile : passed to :meth:`ServoBus.configure` when the servos need configuring.

@@ -133,6 +133,8 @@ log = logging.getLogger("robodcn.stream")
 OVERLOAD_BIT = 0x20
 #: Minimum time between progress callbacks (s).
 PROGRESS_INTERVAL_S = 0.05
+#: A final reading one tick off its target counts once unchanged for this long (s).
+REST_S = 0.05
 
 
 class _Stop(Exception):
@@ -678,14 +680,27 @@ class _Streamer:
             pass
 
     def _final(self, settle: float, target: NDArray[np.int64] | None) -> None:
-        deadline = time.perf_counter() + settle
+        """Read the final positions, for up to ``settle`` seconds, until the arm is on its
+        target or at rest within one tick of it.
+
+        One tick off is returned only at rest (the same reading for :data:`REST_S`): a
+        motor still closing its last tick would otherwise be reported a tick short of
+        where it comes to rest."""
+        now = time.perf_counter()
+        deadline = now + settle
+        last, since = None, now
         while True:
             try:
                 self.final = self.bus.read_positions()
             except BusError:
                 return
-            if target is None or np.abs(self.final - target).max() <= 1 \
-                    or time.perf_counter() >= deadline:
+            now = time.perf_counter()
+            if last is None or not np.array_equal(self.final, last):
+                last, since = self.final, now
+            if target is None or now >= deadline:
+                return
+            error = np.abs(self.final - target).max()
+            if error == 0 or (error <= 1 and now - since >= REST_S):
                 return
             time.sleep(0.005)
 
