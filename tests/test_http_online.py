@@ -147,9 +147,10 @@ def test_openapi_documents_the_online_endpoints(arm_server: Any) -> None:
     assert {"paused", "speed_scale"} <= set(schemas["State"]["properties"])
 
 
-def test_a_jerk_limited_arm_refuses_online_operations_naming_the_key() -> None:
-    """The online laws do not honour jerk limits: 422 naming max_jerk_deg_s3, the move goes
-    on unchanged (not replaced) and ends done."""
+def test_a_jerk_limited_arm_moves_online_over_http() -> None:
+    """Pause, speed, resume and replace on an arm with jerk limits (max_jerk_deg_s3): the
+    online laws keep them (tests/test_online.py checks the wire), so the service takes every
+    operation and the replacement ends at its goal."""
     import dataclasses
 
     from robodcn.controller import ArmController
@@ -162,15 +163,22 @@ def test_a_jerk_limited_arm_refuses_online_operations_naming_the_key() -> None:
         try:
             with running(make_server(jerk_arm, controller, request_timeout=5.0)) as server:
                 old = _start(server)
-                for method, path, body in (
-                        ("POST", "/v1/moves", {"waypoints": [HOME, OTHER], "rate_hz": 200,
-                                               "replace": True}),
-                        ("PUT", "/v1/speed", {"scale": 0.5}),
-                        ("POST", "/v1/pause", None)):
-                    status, _, answer = call(server, method, path, body)
-                    assert status == 422, (path, answer)
-                    assert error_of(answer)["field"] == "max_jerk_deg_s3", answer
-                done = poll_move(server, old["id"], lambda b: b["status"] != "running")
+                status, _, paused = call(server, "POST", "/v1/pause")
+                assert status == 200 and paused["paused"] is True, paused
+                status, _, body = call(server, "PUT", "/v1/speed", {"scale": 0.5})
+                assert status == 200 and body["speed_scale"] == 0.5, body
+                status, _, resumed = call(server, "POST", "/v1/resume", {})
+                assert status == 200 and resumed["paused"] is False, resumed
+                status, _, new = call(server, "POST", "/v1/moves",
+                                      {"waypoints": [HOME, OTHER], "rate_hz": 200,
+                                       "replace": True})
+                assert status == 202, new
+                status, _, before = call(server, "GET", f"/v1/moves/{old['id']}")
+                assert before["status"] == "replaced", before
+                done = poll_move(server, new["id"], lambda b: b["status"] != "running",
+                                 timeout=30.0)
                 assert done["status"] in ("done", "degraded"), done
+                end = _pose_of(sa)
+                assert np.allclose(end[:2], OTHER[:2], atol=2e-3)
         finally:
             controller.close()

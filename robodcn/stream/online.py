@@ -21,13 +21,15 @@ thread):
   :func:`~robodcn.stream.online_path.blend_start`), timed time-optimally from the moving
   state (TOPP-RA, :func:`robodcn.path_timing.time_optimal`).
 
-Known limit: the brake, the speed change, the resume and the retarget laws are
-acceleration-limited only. On an arm with a jerk limit (``max_jerk_deg_s3``) they would break
-it, so they are refused instead (:meth:`Execution.refuse_jerk`): pause, resume,
-:meth:`Execution.set_speed` and :meth:`Execution.retarget` raise :class:`InputError` with
-``field="max_jerk_deg_s3"`` before anything changes, and a smooth stop holds at once (the
-``"hold"`` mode, logged as a warning) — never a silent violation. The planned move itself
-(profile "optimal") honours the jerk limit.
+On an arm with jerk limits (``max_jerk_deg_s3``) every law keeps them too, across the
+switch: the brake is :func:`~robodcn.stream.online_path.brake_jerk` (from the commanded path
+acceleration σ̈ at the switch, ramping it within the jerk bound), the re-timing starts from
+(σ̇, σ̈) under the jerk limits, and every new tail is checked with the three samples before
+it (finite-difference velocity, acceleration and jerk). What the jerk limits cannot join to
+the moving state is reached through rest: a retarget then brakes to rest along the present
+path and leaves from there (:meth:`Execution._retarget_through_rest`), a speed change brakes
+to rest and re-times from there. Where the present path ends before a jerk-limited brake
+could stop, the move's own end is the stop.
 """
 
 from __future__ import annotations
@@ -64,8 +66,10 @@ from robodcn.stream.online_path import (
     Limits,
     blend_start,
     brake,
+    brake_jerk_checked,
     check_limits_named,
     controllable_speed,
+    excess,
     retime,
 )
 from robodcn.stream.options import ExecutionOptions
@@ -91,6 +95,17 @@ SWITCH_MARGIN = 1.5
 RETIME_TRIES = 8
 #: GIL switch interval while an online execution streams (s)
 SWITCH_INTERVAL_S = 0.0002
+#: first guesses of the planning time of each operation on a jerk-limited arm (s): its
+#: laws take longer, and a first switch placed too close is planned twice
+JERK_PLAN_S = {"retarget": 0.2, "stop smoothly": 0.03, "pause": 0.03, "resume": 0.1,
+               "change speed": 0.15}
+#: a planned retarget tail may exceed a limit by this much on the wire (finite differences
+#: of a law sampled at the stream rate) before the way through rest is taken instead
+TAIL_SLACK = 1e-6
+
+
+class _PlanEnds(Exception):
+    """The present path ends before a jerk-limited brake could stop: its end is the stop."""
 
 
 class OnlineSamples:
@@ -208,6 +223,10 @@ class State:
     path: JointPath
     sigma: float
     sd: float
+    #: σ̈: the commanded acceleration along the direction of motion
+    sdd: float = 0.0
+    #: the commanded joints (3, k) of samples index − 2 … index (jerk checks across a switch)
+    history: NDArray[np.float64] | None = None
 
 
 class Execution:
@@ -251,6 +270,8 @@ class Execution:
         #: ahead, and the request's planning time counts both)
         self._plan_s: dict[str, list[float]] = {"retarget": [0.01]}
         self._limits: Limits | None = None if self.arm is None else Limits.of_arm(self.arm)
+        if self._limits is not None and self._limits.j is not None:
+            self._plan_s = {k: [v] for k, v in JERK_PLAN_S.items()}
         self._options = ExecutionOptions()
 
     def warm_up(self) -> None:
@@ -360,7 +381,9 @@ class Execution:
         qd = (q0 - q1) * rate
         qdd = (q0 - 2.0 * q1 + q2) * rate * rate
         path, sigma = src.path_at(index)
-        return State(index, q0, qd, qdd, path, sigma, float(np.linalg.norm(qd)))
+        sd = float(np.linalg.norm(qd))
+        sdd = float(qdd @ qd) / sd if sd > 1e-12 else 0.0
+        return State(index, q0, qd, qdd, path, sigma, sd, sdd, np.vstack([q2, q1, q0]))
 
     def _apply(self, what: str, tail: Callable[[State], list[Segment]], *,
                hold: int = 0) -> int:
@@ -384,7 +407,8 @@ class Execution:
                              field="execution", value=self.status)
         streamer = self._streamer
         with self._lock:
-            ahead = min(self._plan_s.get(what, [0.003]))
+            # (jerk-limited laws take long and vary: the slowest of the last few)
+            ahead = (max if self._jerk else min)(self._plan_s.get(what, [0.003]))
             for _ in range(SWITCH_TRIES):
                 rate = streamer.source.rate_hz
                 bound = streamer.n
@@ -444,27 +468,41 @@ class Execution:
         if self._limits is None:
             raise InputError(f"cannot {what}: the trajectory carries no arm (plan it with "
                              "robodcn.plan or pass arm=)", field="arm", value=None)
-        self.refuse_jerk(what)
         return self._limits
 
     def jerk_limited(self) -> list[str]:
-        """Names of the arm's joints with a jerk limit (the online laws do not honour one)."""
+        """Names of the arm's joints with a jerk limit."""
         if self.arm is None:
             return []
         return [j.name for j in self.arm.joints if getattr(j, "max_jerk", None) is not None]
 
-    def refuse_jerk(self, what: str) -> None:
-        """Raise :class:`InputError` (field ``max_jerk_deg_s3``) when the arm sets a jerk
-        limit: the online brake and re-timing laws are acceleration-limited only and would
-        exceed it."""
-        names = self.jerk_limited()
-        if names:
-            j = next(jt for jt in self.arm.joints if jt.name == names[0])
-            raise InputError(
-                f"cannot {what}: the online brake and re-timing do not honour jerk limits yet "
-                f"and joint {names[0]} sets max_jerk_deg_s3 = {math.degrees(j.max_jerk):g} "
-                "deg/s³ (leave the key out to move online)",
-                field="max_jerk_deg_s3", value=math.degrees(j.max_jerk))
+    @property
+    def _jerk(self) -> bool:
+        return self._limits is not None and self._limits.j is not None
+
+    def _brake(self, state: State, until_sd: float = 0.0) -> NDArray | None:
+        """σ samples of the fastest brake along the present path from ``state`` (to
+        ``until_sd``) under the full limits; None when the path ends first (jerk limits)."""
+        limits = self._limits
+        assert limits is not None
+        rate = self._streamer.source.rate_hz
+        if limits.j is None:
+            return brake(state.path, state.sigma, state.sd, limits.a, rate, until_sd=until_sd)
+        return brake_jerk_checked(state.path, state.sigma, state.sd, state.sdd, limits, rate,
+                                  state.history, until_sd=until_sd)
+
+    def _braked(self, state: State, sigma: NDArray, *, at_rest: bool) -> State:
+        """The state where the σ samples ``sigma`` of a brake on ``state.path`` end."""
+        if not sigma.size:
+            return state
+        q = state.path.at(sigma[-3:])
+        history = np.vstack([state.history, q])[-3:] if state.history is not None else None
+        rate = self._streamer.source.rate_hz
+        sd = 0.0 if at_rest else float(np.linalg.norm(history[-1] - history[-2]) * rate)
+        return dataclasses.replace(state, index=state.index + len(sigma), q=history[-1],
+                                   qd=(history[-1] - history[-2]) * rate,
+                                   qdd=np.zeros_like(state.q), sigma=float(sigma[-1]), sd=sd,
+                                   sdd=0.0, history=history)
 
     @staticmethod
     def _samples(path: JointPath, sigma: NDArray) -> list[Segment]:
@@ -474,6 +512,8 @@ class Execution:
                sigma0: float | None = None, allowed: float | None = None) -> NDArray:
         """σ samples: brake with the full limits while over what ``limits`` allow, then the
         time-optimal law under ``limits`` to the end of the path."""
+        if self._jerk:
+            return self._timed_jerk(state, limits, path, sigma0)
         path = state.path if path is None else path
         s0 = state.sigma if sigma0 is None else sigma0
         rate = self._streamer.period and 1.0 / self._streamer.period
@@ -528,6 +568,60 @@ class Execution:
                                  field="speed", value=self.speed)
         return np.concatenate([pre, rest])
 
+    def _timed_jerk(self, state: State, limits: Limits, path: JointPath | None = None,
+                    sigma0: float | None = None) -> NDArray:
+        """:meth:`_timed` under jerk limits: the law from the moving state (σ̇, σ̈); else a
+        jerk-limited brake under the full limits to below what ``limits`` allow and the law
+        from there; else a brake to rest and the law from rest (always possible).
+
+        Raises
+        ------
+        InputError
+            ``field="speed"``: the path ends before any brake could (the move's own end)."""
+        path = state.path if path is None else path
+        st = dataclasses.replace(state, path=path,
+                                 sigma=state.sigma if sigma0 is None else sigma0)
+        rate = self._streamer.source.rate_hz
+
+        def law(at: State) -> NDArray:
+            return retime(path, at.sigma, at.sd, limits, rate, sdd0=at.sdd,
+                          history=at.history)
+
+        try:
+            return law(st)
+        except InputError:
+            pass
+        if st.sd > 0.0:
+            allowed = controllable_speed(path, st.sigma, limits)
+            if 0.0 < allowed < st.sd:
+                pre = self._brake(st, until_sd=0.9 * allowed)
+                if pre is not None:
+                    try:
+                        return np.concatenate([pre, law(self._braked(st, pre,
+                                                                     at_rest=False))])
+                    except InputError:
+                        pass
+        pre = self._brake(st) if st.sd > 0.0 or st.sdd != 0.0 else np.zeros(0)
+        if pre is None:
+            raise InputError("cannot re-time the path from the present speed: it ends "
+                             "before a jerk-limited brake could stop", field="speed",
+                             value=self.speed)
+        return np.concatenate([pre, law(self._braked(st, pre, at_rest=True))])
+
+    def _rest_of_source(self, state: State) -> list[Segment]:
+        """The samples after ``state`` as they are (one segment per path): the present
+        move's own way to rest."""
+        src: OnlineSamples = self._streamer.source
+        segments: list[Segment] = []
+        for i in range(state.index + 1, src.end):
+            path, sigma = src.path_at(i)
+            if segments and segments[-1][2] is path:
+                segments[-1][0].append(src.joint(i))
+                segments[-1][1].append(sigma)
+            else:
+                segments.append(([src.joint(i)], [sigma], path))
+        return [(np.array(q), np.array(s), p) for q, s, p in segments]
+
     # -- operations -----------------------------------------------------------------------
 
     def stop(self, mode: str = "smooth", reason: str = "stop requested") -> None:
@@ -538,33 +632,37 @@ class Execution:
         if mode == "hold" or self.done or self._streamer is None or self._limits is None:
             self.stop_signal.request(reason)
             return
-        if self.jerk_limited():
-            # the brake would break the jerk limit: hold at once, as a fault does
-            log.warning("smooth stop not possible with a jerk limit (max_jerk_deg_s3 on %s): "
-                        "holding at once", ", ".join(self.jerk_limited()))
-            self.stop_signal.request(reason)
-            return
-        limits = self._limits
         self._stop_keeper()
         self._smooth_stopped = True
         self.status = "stopping"
         try:
-            self._apply("stop smoothly", lambda st: self._samples(
-                st.path, brake(st.path, st.sigma, st.sd, limits.a,
-                               self._streamer.source.rate_hz)))
+            self._apply("stop smoothly", lambda st: self._samples(st.path,
+                                                                  self._brake_or_end(st)))
+        except _PlanEnds:
+            log.info("smooth stop: the move's own end is the fastest stop")
         except (InputError, RobodcnError):
             self.stop_signal.request(reason)
 
+    def _brake_or_end(self, state: State) -> NDArray:
+        sigma = self._brake(state)
+        if sigma is None:
+            raise _PlanEnds
+        return sigma
+
     def pause(self) -> None:
         """Brake along the path to rest and stay there (the stream goes on)."""
-        limits = self._need_arm("pause")
+        self._need_arm("pause")
         with self._lock:
             if self.paused:
                 return
             rate = self._streamer.source.rate_hz if self._streamer else 1.0
             hold = max(1, int(PAUSE_AHEAD_S * rate))
-            self._apply("pause", lambda st: self._samples(
-                st.path, brake(st.path, st.sigma, st.sd, limits.a, rate)), hold=hold)
+            try:
+                self._apply("pause", lambda st: self._samples(st.path, self._brake_or_end(st)),
+                            hold=hold)
+            except _PlanEnds:
+                log.info("pause: the move ends before a brake could stop it")
+                return
             self.paused = True
             self.status = "paused"
         self._keeper = threading.Thread(target=self._keep_paused, daemon=True,
@@ -686,15 +784,24 @@ class Execution:
         """The planner's plan from the moving state (``plan(..., start_state=...)``, profile
         "optimal") at full speed; at a speed scale below 1, or when the planner cannot
         start from the state, :meth:`_retarget_own`."""
+        if self._jerk:
+            # the planner's moving start joins the state within its own sampled model, which
+            # on the wire is several times the jerk limit: the own retarget (its brakes and
+            # laws jerk-limited and checked across the switch), or through rest
+            try:
+                return self._retarget_own(state, target, plan_options)
+            except RobodcnError:
+                return self._retarget_through_rest(state, target, plan_options)
+        own = self._retarget_own
         if self.speed >= 1.0 and StartState is not None:
             try:
                 return self._retarget_planned(state, target, plan_options)
             except RobodcnError as exc:
                 try:
-                    return self._retarget_own(state, target, plan_options)
+                    return own(state, target, plan_options)
                 except RobodcnError:
                     raise exc from None
-        return self._retarget_own(state, target, plan_options)
+        return own(state, target, plan_options)
 
     def _retarget_planned(self, state: State, target: Any,
                           plan_options: dict[str, Any]) -> list[Segment]:
@@ -716,7 +823,47 @@ class Execution:
                        "rate_hz": rate, "start_state": start}
             trajectory = plan(self.arm, waypoints, **options)
         path, sigma = JointPath.of_samples(trajectory.joints)
+        if self._jerk:
+            # the planner joins the moving state within its own sampled model: check the
+            # joints on the wire, across the switch, before they are sent
+            over = excess(np.vstack([state.history, trajectory.joints[1:]]), self._limits,
+                          rate)
+            if over > 1.0 + TAIL_SLACK:
+                raise InputError(f"the retarget from the moving state exceeds a joint limit "
+                                 f"({over:.4g} × it)", field="limits", value=over)
         return [(trajectory.joints[1:], sigma[1:], path)]
+
+    @staticmethod
+    def _jerk_speed(path: JointPath, limits: Limits) -> float:
+        """The σ̇ at which the path's own jerk |d³q/dσ³|σ̇³ takes half of a joint's jerk limit
+        somewhere on it (the law needs the rest to change σ̈)."""
+        dddq = np.abs(path.derivatives(3)[2])
+        with np.errstate(divide="ignore"):
+            cap = np.cbrt(0.5 * limits.j / dddq)
+        return float(np.min(cap))
+
+    def _retarget_through_rest(self, state: State, target: Any,
+                               plan_options: dict[str, Any]) -> list[Segment]:
+        """Under jerk limits: brake to rest along the present path (or follow it to its end
+        when that comes first), then the new path from rest, timed under the present speed
+        scale's limits."""
+        full = self._limits
+        assert full is not None
+        sigma = self._brake(state)
+        if sigma is None:
+            segments = self._rest_of_source(state)
+            q = segments[-1][0][-1] if segments else state.q
+            history = np.vstack([state.history, *(seg[0] for seg in segments)])[-3:]
+            rest = dataclasses.replace(state, q=q, history=history)
+        else:
+            segments = self._samples(state.path, sigma) if sigma.size else []
+            rest = self._braked(state, sigma, at_rest=True)
+        path, _ = JointPath.of_samples(self._geometry(rest.q, target, plan_options))
+        path = dataclasses.replace(path, smooth=True)
+        start = dataclasses.replace(rest, qd=np.zeros_like(rest.q), sd=0.0, sdd=0.0,
+                                    path=path, sigma=0.0)
+        tail = self._timed_jerk(start, full.scaled(self.speed))
+        return [*segments, (path.at(tail), tail, path)]
 
     def _retarget_own(self, state: State, target: Any,
                       plan_options: dict[str, Any]) -> list[Segment]:
@@ -733,14 +880,18 @@ class Execution:
             q_new = self._geometry(st.q, target, plan_options)
             if st.sd <= 1e-9:
                 path, _ = JointPath.of_samples(q_new)
+                path = dataclasses.replace(path, smooth=self._jerk)
                 break
             direction = st.qd / st.sd
+            # under jerk limits the new path continues the present curvature too
+            # q'' = (q̈ − q'σ̈)/σ̇² (the part of the acceleration across the motion)
+            curve = (st.qdd - direction * st.sdd) / st.sd ** 2 if self._jerk else None
             total = float(np.sum(np.linalg.norm(np.diff(q_new, axis=0), axis=1)))
             length = max(st.sd ** 2 / (2.0 * float(np.min(limits.a))), 1e-3)
             coarse = q_new[::max(1, len(q_new) // SEARCH_STAGES)]
             best, best_speed = length, -1.0
             for _ in range(4):
-                bent = blend_start(coarse, direction, min(length, max(total, 1e-3)))
+                bent = blend_start(coarse, direction, min(length, max(total, 1e-3)), curve)
                 speed = controllable_speed(JointPath.of_samples(bent)[0], 0.0, limits,
                                            max_stages=SEARCH_STAGES)
                 if speed > best_speed:
@@ -749,14 +900,26 @@ class Execution:
                     break
                 length *= 2.0
             path, _ = JointPath.of_samples(blend_start(q_new, direction,
-                                                       min(best, max(total, 1e-3))))
-            path = dataclasses.replace(path, start_tangent=direction)
+                                                       min(best, max(total, 1e-3)), curve))
+            path = dataclasses.replace(path, start_tangent=direction, smooth=self._jerk)
             # the decision on the full path, under the limits the re-timing aims for
             best_speed = controllable_speed(path, 0.0, limits.scaled(1.0).shrunk(RETIME_SHARE))
+            if self._jerk:
+                best_speed = min(best_speed, self._jerk_speed(path, limits))
             if st.sd <= best_speed * 0.99:
                 break
             # too fast for the turn: brake along the present path first, then try again
             until = 0.0 if attempt >= 1 else 0.85 * best_speed
+            if self._jerk:
+                more = self._brake(st, until_sd=until)
+                if more is None:  # the present path ends first: the caller goes its way
+                    raise InputError("the present path ends before a brake could stop",
+                                     field="speed", value=st.sd)
+                if not more.size:
+                    break
+                segments.append((st.path.at(more), more, st.path))
+                st = self._braked(st, more, at_rest=until == 0.0)
+                continue
             more = brake(st.path, st.sigma, st.sd, full.a, rate, until_sd=until)
             if until == 0.0:
                 # one sample at rest where the brake ends: the last step to rest and the

@@ -16,6 +16,12 @@ Three laws, all sampled at the stream rate:
   finite-difference accelerations on the wire are the ones the step allowed.
 * :func:`retime` — :func:`robodcn.path_timing.time_optimal` (TOPP-RA) on the rest of the
   path from the present σ̇ (speed scaling: limits v·k, a·k², j·k³).
+* :func:`brake_jerk` — the same brake on an arm with jerk limits: the path acceleration σ̈
+  moves at most one sample of the jerk bound per sample (|q'σ⃛ + 3q''σ̇σ̈| ≤ j), down to the
+  most negative σ̈ the acceleration limits allow and back up to 0 exactly when σ̇ reaches
+  its target: the discrete form of the time-optimal jerk-limited stop of a triple
+  integrator (a ramp, a plateau, a ramp; Kröger, "On-Line Trajectory Generation in Robotic
+  Systems", Springer 2010, §3, type IV for one degree of freedom), on the path parameter.
 * :func:`blend_start` — a new geometric path whose tangent at σ = 0 is the present joint
   velocity direction (a retarget from a moving state): the cubic Hermite correction
   L·b(σ/L)·(d₀ − q'(0)), b(u) = u(1 − u)², added over the first L of the path.
@@ -41,6 +47,8 @@ BRAKE_SHARE = 0.995
 RETIME_SHARE = 0.97
 #: reachability stages of an online re-timing (the law is checked at the stream rate after)
 ONLINE_STAGES = 400
+#: shares of the limits a checked jerk-limited brake tries before it gives up
+BRAKE_TRIES = 6
 #: a plan's sample where the joint step is below this (rad) is at rest
 REST_STEP = 1e-9
 
@@ -54,6 +62,9 @@ class JointPath:
     stops: tuple[float, ...] = ()
     #: q'(0) when it is known exactly (a retarget: the direction of motion), else None
     start_tangent: NDArray[np.float64] | None = None
+    #: C² between the samples (quintic Hermite on q', q''): a jerk-limited law sees no
+    #: curvature steps at the samples of a coarse path (a retarget's geometry)
+    smooth: bool = False
 
     @classmethod
     def of_samples(cls, joints: NDArray[np.float64]) -> tuple[JointPath, NDArray[np.float64]]:
@@ -101,9 +112,27 @@ class JointPath:
         u = ((sigma - self.sigma[i]) / h)[:, None]
         dq = self._tangents()
         u2, u3 = u * u, u * u * u
+        hh = h[:, None]
+        if self.smooth:
+            # quintic Hermite on q, q', q'' at both ends of the interval
+            ddq = self._curvatures()
+            u4, u5 = u3 * u, u3 * u2
+            return ((1 - 10 * u3 + 15 * u4 - 6 * u5) * self.q[i]
+                    + (u - 6 * u3 + 8 * u4 - 3 * u5) * hh * dq[i]
+                    + (0.5 * u2 - 1.5 * u3 + 1.5 * u4 - 0.5 * u5) * hh * hh * ddq[i]
+                    + (0.5 * u3 - u4 + 0.5 * u5) * hh * hh * ddq[i + 1]
+                    + (-4 * u3 + 7 * u4 - 3 * u5) * hh * dq[i + 1]
+                    + (10 * u3 - 15 * u4 + 6 * u5) * self.q[i + 1])
         h00, h10, h01, h11 = 2 * u3 - 3 * u2 + 1, u3 - 2 * u2 + u, -2 * u3 + 3 * u2, u3 - u2
-        return (h00 * self.q[i] + h10 * h[:, None] * dq[i] + h01 * self.q[i + 1]
-                + h11 * h[:, None] * dq[i + 1])
+        return (h00 * self.q[i] + h10 * hh * dq[i] + h01 * self.q[i + 1]
+                + h11 * hh * dq[i + 1])
+
+    def _curvatures(self) -> NDArray[np.float64]:
+        cached = self.__dict__.get("_ddq")
+        if cached is None:
+            cached = self.derivatives()[1]
+            object.__setattr__(self, "_ddq", cached)
+        return cached
 
     def _tangents(self) -> NDArray[np.float64]:
         cached = self.__dict__.get("_dq")
@@ -124,11 +153,11 @@ class JointPath:
         stops = tuple(t for t in self.stops if s[0] + 1e-9 < t < s[-1] - 1e-9)
         return q, s, stops
 
-    def derivatives(self) -> tuple[NDArray, NDArray]:
-        """q'(σ), q''(σ) at the samples (piecewise between stops)."""
+    def derivatives(self, order: int = 2) -> tuple[NDArray, ...]:
+        """q'(σ), q''(σ) (and q''' with ``order`` 3) at the samples (piecewise between
+        stops)."""
         cuts = [int(np.argmin(np.abs(self.sigma - t))) for t in self.stops]
-        dq, ddq = path_derivatives(self.q, self.sigma, cuts, 2)
-        return dq, ddq
+        return tuple(path_derivatives(self.q, self.sigma, cuts, order))
 
 
 @dataclass(frozen=True)
@@ -204,6 +233,127 @@ def brake(path: JointPath, sigma0: float, sd0: float, a: NDArray[np.float64], ra
     return np.asarray(out, dtype=np.float64)
 
 
+def _local(derivs: tuple[NDArray, ...], grid: NDArray, s: float) -> list[NDArray]:
+    """q'(σ), q''(σ), … linearly interpolated between the path samples."""
+    i = min(max(int(np.searchsorted(grid, s, side="right")) - 1, 0), len(grid) - 2)
+    w = min(max((s - grid[i]) / (grid[i + 1] - grid[i]), 0.0), 1.0)
+    return [d[i] + w * (d[i + 1] - d[i]) for d in derivs]
+
+
+def _bounds(d1: NDArray, c: NDArray, limit: NDArray) -> tuple[float, float]:
+    """The interval of x with |d1_i x + c_i| ≤ limit_i for every moving joint i."""
+    moving = np.abs(d1) > 1e-9
+    if not moving.any():
+        return -math.inf, math.inf
+    d, cc, lim = d1[moving], c[moving], limit[moving]
+    one, two = (-lim - cc) / d, (lim - cc) / d
+    return float(np.minimum(one, two).max()), float(np.maximum(one, two).min())
+
+
+def _ramp_loss(u: float, up: float, dt: float) -> float:
+    """σ̇ lost while σ̈ = u < 0 ramps back to 0 by ``up``·Δt a sample (the σ̈ after this
+    sample's: k = 1 … K, the last one clipped to 0)."""
+    if u >= 0.0:
+        return 0.0
+    n = math.ceil(-u / (up * dt) - 1e-12)
+    return -dt * ((n - 1) * u + up * dt * (n - 1) * n / 2.0)
+
+
+def brake_jerk(path: JointPath, sigma0: float, sd0: float, sdd0: float, limits: Limits,
+               rate_hz: float, *, until_sd: float = 0.0, share: float = BRAKE_SHARE,
+               max_samples: int = 1_000_000) -> NDArray[np.float64] | None:
+    """σ of the samples after (σ₀, σ̇₀, σ̈₀) of the fastest jerk-limited brake (module doc).
+
+    Each sample chooses σ̈ₙ: as low as the acceleration bound (|q'σ̈ + q''σ̇²| ≤ a) and the
+    jerk bound from σ̈ₙ₋₁ (|q'(σ̈ₙ − σ̈ₙ₋₁)/Δt + 3q''σ̇σ̈ₙ₋₁ + q'''σ̇³| ≤ j) allow, but no lower than
+    the ramp back to σ̈ = 0 can recover: σ̇ₙ − loss(σ̈ₙ) ≥ ``until_sd`` (the velocity a ramp
+    at the jerk bound takes, :func:`_ramp_loss`, from the quadratic's root). What rounding
+    leaves of σ̇ at the end is spread over the last ramp (a constant on its σ̈, so its jerk
+    barely changes) and the brake ends at exactly ``until_sd`` with σ̈ = 0. Steps as
+    :func:`brake` (σ̇ₙ = σ̇ₙ₋₁ + σ̈ₙΔt, σₙ = σₙ₋₁ + σ̇ₙΔt: the wire's finite differences are
+    these σ̈ and their jerk). ``share`` of every limit is used.
+
+    Returns σ (m,), or None when the path ends before the brake can (the move's own end is
+    then the fastest stop)."""
+    dt = 1.0 / rate_hz
+    derivs = path.derivatives(3)
+    grid = path.sigma
+    amax, jmax = limits.a * share, limits.j * share
+    s, sd, u = float(sigma0), float(sd0), float(sdd0)
+    accel: list[float] = []
+    ramp_start = 0
+    rising = False
+    while sd > until_sd + 1e-12 or u < 0.0:
+        if len(accel) >= max_samples:
+            raise InputError("the jerk-limited brake did not come to rest",
+                             field="sd_start", value=sd0)
+        d1, d2, d3 = _local(derivs, grid, s)
+        a_lo, _ = _bounds(d1, d2 * sd * sd, amax)
+        w_lo, w_hi = _bounds(d1, 3.0 * d2 * sd * u + d3 * sd ** 3, jmax)
+        w_lo, w_hi = min(w_lo, 0.0), max(w_hi, 1e-9)
+        hi = u + w_hi * dt
+        if u < 0.0:
+            hi = min(hi, 0.0)
+        lo = min(max(u + w_lo * dt, a_lo), hi)
+        # the most negative σ̈ from which a ramp back at w_hi ends at until_sd:
+        # σ̇ + σ̈Δt − loss(σ̈) = until_sd with loss ≈ σ̈²/(2 w_hi) − σ̈Δt/2
+        b = 1.5 * dt
+        root = w_hi * (b - math.sqrt(b * b + 2.0 * max(sd - until_sd, 0.0) / w_hi))
+        nxt = min(max(root, lo), hi)
+        if nxt > u and not rising:
+            ramp_start = len(accel)
+        rising = nxt > u
+        u = nxt
+        sd += u * dt
+        accel.append(u)
+        if sd <= until_sd:
+            break
+        s += sd * dt
+        if s >= path.length:
+            return None
+    u_arr = np.asarray(accel, dtype=np.float64)
+    if not u_arr.size:
+        return np.zeros(0)
+    # what rounding leaves of σ̇ at the end, spread over the last ramp: σ̇ ends at until_sd
+    residual = sd0 + float(u_arr.sum()) * dt - until_sd
+    tail = max(len(u_arr) - ramp_start, 1)
+    u_arr[-tail:] -= residual / (tail * dt)
+    sd_n = sd0 + np.cumsum(u_arr) * dt
+    sigma = sigma0 + np.cumsum(sd_n) * dt
+    if until_sd <= 0.0 and sigma.size > 1:
+        sigma = sigma[:-1]  # σ̇ = 0 there: the hold that follows repeats the sample before
+    if sigma.size and sigma[-1] >= path.length:
+        return None
+    return sigma
+
+
+def brake_jerk_checked(path: JointPath, sigma0: float, sd0: float, sdd0: float,
+                       limits: Limits, rate_hz: float, history: NDArray[np.float64], *,
+                       until_sd: float = 0.0) -> NDArray[np.float64] | None:
+    """:func:`brake_jerk`, checked on the joints it sends after ``history`` (the three
+    commanded samples up to the switch): the finite differences also see the curvature
+    steps of the sampled path between its samples, which the law's model leaves out, so
+    the share of the limits is lowered until every velocity, acceleration and jerk holds.
+
+    Raises
+    ------
+    InputError
+        ``field="limits"``: no share within :data:`BRAKE_TRIES` keeps them."""
+    share, over = BRAKE_SHARE, math.inf
+    for _ in range(BRAKE_TRIES):
+        out = brake_jerk(path, sigma0, sd0, sdd0, limits, rate_hz, until_sd=until_sd,
+                         share=share)
+        if out is None or not out.size:
+            return out
+        over = excess(np.vstack([history, path.at(out)]), limits, rate_hz,
+                      to_rest=until_sd <= 0.0)
+        if over <= 1.0:
+            return out
+        share *= 0.99 / over
+    raise InputError(f"the jerk-limited brake keeps exceeding a joint limit ({over:.4g} × "
+                     "it)", field="limits", value=float(over))
+
+
 def controllable_speed(path: JointPath, sigma0: float, limits: Limits, *,
                        max_stages: int | None = None) -> float:
     """The fastest σ̇ at σ₀ from which the rest of the path can still be followed within
@@ -216,8 +366,11 @@ def controllable_speed(path: JointPath, sigma0: float, limits: Limits, *,
 
 
 def retime(path: JointPath, sigma0: float, sd0: float, limits: Limits, rate_hz: float,
-           *, sdd0: float = 0.0) -> NDArray[np.float64]:
-    """σ of the samples after (σ₀, σ̇₀) of the time-optimal law to rest at the path's end.
+           *, sdd0: float = 0.0, history: NDArray[np.float64] | None = None
+           ) -> NDArray[np.float64]:
+    """σ of the samples after (σ₀, σ̇₀, σ̈₀) of the time-optimal law to rest at the path's
+    end (σ̈₀ counts with jerk limits only). The law is checked on the joints it sends after
+    ``history`` (the commanded samples up to σ₀; by default two on the tangent at σ̇₀).
 
     Raises
     ------
@@ -229,7 +382,7 @@ def retime(path: JointPath, sigma0: float, sd0: float, limits: Limits, rate_hz: 
         return np.zeros(0)
     here = path.at(np.array([sigma0]))[0]
     tangent = path._tangents()[min(int(np.searchsorted(path.sigma, sigma0)), len(path.sigma) - 1)]
-    start = np.vstack([here - tangent * sd0 / rate_hz, here])
+    start = np.vstack([here - tangent * sd0 / rate_hz, here]) if history is None else history
     share = RETIME_SHARE
     for _ in range(4):
         v, a = limits.v * share, limits.a * share
@@ -252,15 +405,19 @@ def retime(path: JointPath, sigma0: float, sd0: float, limits: Limits, rate_hz: 
 
 def excess(joints: NDArray[np.float64], limits: Limits, rate_hz: float, *,
            to_rest: bool = True) -> float:
-    """Largest ratio of a finite-difference joint velocity or acceleration of ``joints``
-    (sampled at ``rate_hz``; with ``to_rest`` the arm holds the last sample after) to its
-    limit: ≤ 1 when every limit holds."""
-    q = np.vstack([joints, joints[-1:]]) if to_rest else joints
+    """Largest ratio of a finite-difference joint velocity, acceleration or (with jerk
+    limits) jerk of ``joints`` (sampled at ``rate_hz``; with ``to_rest`` the arm holds the
+    last sample after) to its limit: ≤ 1 when every limit holds. The jerk needs four
+    samples: give the three commanded before a switch first to check across it."""
+    q = np.vstack([joints, joints[-1:], joints[-1:]]) if to_rest else joints
     if q.shape[0] < 3:
         return 0.0
     vel = np.diff(q, axis=0) * rate_hz
     acc = np.diff(vel, axis=0) * rate_hz
-    return float(max((np.abs(vel) / limits.v).max(), (np.abs(acc) / limits.a).max()))
+    worst = max((np.abs(vel) / limits.v).max(), (np.abs(acc) / limits.a).max())
+    if limits.j is not None and acc.shape[0] > 1:
+        worst = max(worst, (np.abs(np.diff(acc, axis=0)) * rate_hz / limits.j).max())
+    return float(worst)
 
 
 def _law(q: NDArray, s: NDArray, v: NDArray, a: NDArray, j: NDArray | None, sd0: float,
@@ -285,7 +442,8 @@ def controllable_at(q: NDArray, s: NDArray, v: NDArray, a: NDArray,
 
 
 def blend_start(q_new: NDArray[np.float64], direction: NDArray[np.float64],
-                length: float) -> NDArray[np.float64]:
+                length: float, curvature: NDArray[np.float64] | None = None
+                ) -> NDArray[np.float64]:
     """Joint samples of ``q_new`` bent to start along ``direction`` and straight.
 
     q(σ) + L·b(σ/L)·(d₀ − q'(0)), b(u) = u(1 − u)² (b(0) = 0, b'(0) = 1, b(1) = b'(1) = 0),
@@ -293,7 +451,10 @@ def blend_start(q_new: NDArray[np.float64], direction: NDArray[np.float64],
     two derivatives at 1): the path starts at q(0) in the direction d₀ with no curvature and
     is unchanged after arc length L (σ measured on ``q_new``). No curvature at the start
     matters at the switch: the last two samples streamed lie on the chord d₀, so a
-    curved start would add ½·q''·σ̇² to the joint acceleration of the first new sample."""
+    curved start would add ½·q''·σ̇² to the joint acceleration of the first new sample.
+    With ``curvature`` κ (q'' of the present path at the switch, under jerk limits) the
+    path starts with q''(0) = κ instead: its joint acceleration q'σ̈ + q''σ̇² then continues
+    the present one, so the jerk across the switch is the law's alone."""
     path, _ = JointPath.of_samples(q_new)
     if path.length <= 0 or length <= 0:
         return q_new
@@ -303,7 +464,8 @@ def blend_start(q_new: NDArray[np.float64], direction: NDArray[np.float64],
     dq, _ = path.derivatives()
     bent = q_new + length * u * (1.0 - u) ** 2 * (np.asarray(direction) - dq[0])[None, :]
     _, ddq = JointPath(bent, sig).derivatives()
-    return bent - length ** 2 * 0.5 * u ** 2 * (1.0 - u) ** 3 * ddq[0][None, :]
+    want = ddq[0] if curvature is None else ddq[0] - np.asarray(curvature)
+    return bent - length ** 2 * 0.5 * u ** 2 * (1.0 - u) ** 3 * want[None, :]
 
 
 def first_stop(stops: Sequence[float], sigma: float) -> float | None:
