@@ -482,12 +482,16 @@ class Execution:
 
     def _brake(self, state: State, until_sd: float = 0.0) -> NDArray | None:
         """σ samples of the fastest brake along the present path from ``state`` (to
-        ``until_sd``) under the full limits; None when the path ends first (jerk limits)."""
+        ``until_sd``) under the full limits; None when the path ends first."""
         limits = self._limits
         assert limits is not None
         rate = self._streamer.source.rate_hz
         if limits.j is None:
-            return brake(state.path, state.sigma, state.sd, limits.a, rate, until_sd=until_sd)
+            sigma = brake(state.path, state.sigma, state.sd, limits.a, rate, until_sd=until_sd)
+            # a brake that runs into the path's end is cut there (a step to rest): the move's
+            # own end, braking within the limits, comes first
+            ends = sigma.size and sigma[-1] >= state.path.length - 1e-12 and state.sd > 0.0
+            return None if ends else sigma
         return brake_jerk_checked(state.path, state.sigma, state.sd, state.sdd, limits, rate,
                                   state.history, until_sd=until_sd)
 
