@@ -25,15 +25,16 @@ On an arm with jerk limits (``max_jerk_deg_s3``) every law keeps them too, acros
 switch: the brake is :func:`~robodcn.stream.online_path.brake_jerk` (from the commanded path
 acceleration σ̈ at the switch, ramping it within the jerk bound), the re-timing starts from
 (σ̇, σ̈) under the jerk limits, and every new tail is checked with the three samples before
-it (finite-difference velocity, acceleration and jerk). What the jerk limits cannot join to
-the moving state is reached through rest: a retarget then brakes to rest along the present
-path and leaves from there (:meth:`Execution._retarget_through_rest`), a speed change brakes
-to rest and re-times from there. Where the present path ends before a jerk-limited brake
-could stop, the move's own end is the stop.
+it (finite-difference velocity, acceleration and jerk). A speed change the jerk limits
+cannot join to the moving state brakes to rest and re-times from there. A retarget under
+jerk limits always goes through rest: it brakes to rest along the present path and leaves
+from there (:meth:`Execution._retarget_through_rest`; why in :meth:`_retarget_tail`).
+Where the present path ends before a brake could stop, the move's own end is the stop.
 """
 
 from __future__ import annotations
 
+import contextlib
 import dataclasses
 import logging
 import math
@@ -69,6 +70,7 @@ from robodcn.stream.online_path import (
     brake_jerk_checked,
     check_limits_named,
     controllable_speed,
+    evenly_spaced,
     excess,
     retime,
 )
@@ -85,6 +87,8 @@ PAUSE_AHEAD_S = 1.0
 #: geometry of a retarget: sampled at this rate over this many seconds (quintic, slow)
 GEOMETRY_RATE_HZ = 200.0
 GEOMETRY_DURATION_S = 5.0
+#: arc-length samples a jerk-limited retarget keeps of that geometry
+GEOMETRY_SAMPLES = 400
 #: reachability stages of the quick checks while choosing a retarget's start blend
 SEARCH_STAGES = 200
 #: attempts of an online operation before "the stream ran ahead of planning"; after a miss
@@ -97,11 +101,47 @@ RETIME_TRIES = 8
 SWITCH_INTERVAL_S = 0.0002
 #: first guesses of the planning time of each operation on a jerk-limited arm (s): its
 #: laws take longer, and a first switch placed too close is planned twice
-JERK_PLAN_S = {"retarget": 0.2, "stop smoothly": 0.03, "pause": 0.03, "resume": 0.1,
+JERK_PLAN_S = {"retarget": 0.12, "stop smoothly": 0.03, "pause": 0.03, "resume": 0.1,
                "change speed": 0.15}
+#: rest a retarget's end keeper keeps ahead of the loop while the retarget plans (s)
+KEEP_AHEAD_S = 0.1
 #: a planned retarget tail may exceed a limit by this much on the wire (finite differences
 #: of a law sampled at the stream rate) before the way through rest is taken instead
 TAIL_SLACK = 1e-6
+
+
+class _EndKeeper:
+    """While a retarget plans, the present move's end (at rest) is held on: the source is
+    extended by repeats of its last goal whenever less than :data:`KEEP_AHEAD_S` of it is
+    left, so a retarget that takes longer than the move has left leaves from its end
+    instead of finding the stream finished."""
+
+    def __init__(self, execution: Execution, streamer: Any) -> None:
+        self.execution = execution
+        self.streamer = streamer
+        self.stopped = False
+        self._thread = threading.Thread(target=self._run, daemon=True, name="robodcn-keep")
+
+    def __enter__(self) -> _EndKeeper:
+        self._thread.start()
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        with self.execution._swap_lock:
+            self.stopped = True
+        self._thread.join()
+
+    def _run(self) -> None:
+        ex, streamer = self.execution, self.streamer
+        while True:
+            with ex._swap_lock:
+                if self.stopped or ex.done or streamer.t_end != 0.0:
+                    return
+                src: OnlineSamples = streamer.source
+                rate = src.rate_hz
+                if len(src) - ex.sample < KEEP_AHEAD_S * rate:
+                    streamer.swap(src.held(src.hold + math.ceil(2 * KEEP_AHEAD_S * rate)))
+            time.sleep(KEEP_AHEAD_S / 10)
 
 
 class _PlanEnds(Exception):
@@ -260,6 +300,8 @@ class Execution:
         self.on_change: Callable[[str], None] | None = None
         self._smooth_stopped = False
         self._lock = threading.RLock()
+        #: the swaps of a retarget's end keeper and the retarget's own (never interleaved)
+        self._swap_lock = threading.Lock()
         self._attached = threading.Event()
         self._done = threading.Event()
         self._streamer: Any = None
@@ -406,7 +448,8 @@ class Execution:
             raise InputError(f"cannot {what}: the execution is not running",
                              field="execution", value=self.status)
         streamer = self._streamer
-        with self._lock:
+        keeper = _EndKeeper(self, streamer) if what == "retarget" else None
+        with self._lock, keeper or contextlib.nullcontext():
             # (jerk-limited laws take long and vary: the slowest of the last few)
             ahead = (max if self._jerk else min)(self._plan_s.get(what, [0.003]))
             for _ in range(SWITCH_TRIES):
@@ -415,6 +458,12 @@ class Execution:
                 # The loop may lag its clock on a loaded host and then catch up (or skip):
                 # count from the later of the last sample sent and the one due now.
                 last = max(self.sample, self._due_now(streamer) - 1)
+                if what == "retarget" and bound - last < math.ceil(ahead * rate) + 4:
+                    # the move ends before planning could: keep its end (at rest) a while
+                    # longer, so the new move leaves from there instead of being refused
+                    src0: OnlineSamples = streamer.source
+                    streamer.swap(src0.held(src0.hold + math.ceil(2 * ahead * rate) + 8))
+                    bound = streamer.n
                 # state at switch, new samples from switch + 1: as far ahead as planning takes
                 switch = last + 1 + math.ceil(ahead * rate)
                 # the loop must still be running when it gets to the switch
@@ -435,7 +484,10 @@ class Execution:
                 took = time.perf_counter() - t_plan
                 running = streamer.t_end == 0.0 and not self.done
                 if running and self.sample + 2 < first and self.sample + 2 < streamer.n:
-                    streamer.swap(node)
+                    with self._swap_lock:
+                        if keeper is not None:
+                            keeper.stopped = True
+                        streamer.swap(node)
                     took_total = time.perf_counter() - requested
                     due = streamer.t_start + first * streamer.period
                     self.switches.append((requested, first, due, took_total, ahead))
@@ -758,14 +810,20 @@ class Execution:
             options.update(duration=GEOMETRY_DURATION_S, profile="quintic",
                            rate_hz=GEOMETRY_RATE_HZ)
         try:
-            return plan_from_present(arm, None, target, joints=q, **options).joints
+            return self._even(plan_from_present(arm, None, target, joints=q, **options).joints)
         except (VelocityLimitError, AccelerationLimitError):
             # a long way: the slow geometry plan needs longer (only its path is used)
             if isinstance(target, PlanRequest):
                 target = dataclasses.replace(target, duration=4 * GEOMETRY_DURATION_S)
             else:
                 options.update(duration=4 * GEOMETRY_DURATION_S)
-            return plan_from_present(arm, None, target, joints=q, **options).joints
+            return self._even(plan_from_present(arm, None, target, joints=q, **options).joints)
+
+    def _even(self, q: NDArray) -> NDArray:
+        """Under jerk limits, the geometry's samples thinned to about even arc-length steps
+        (:func:`~robodcn.stream.online_path.evenly_spaced`): the slow quintic crowds them at
+        both ends, where third differences on them are noise of 10⁵ × the path's own q⁽³⁾."""
+        return evenly_spaced(q, GEOMETRY_SAMPLES) if self._jerk else q
 
     def remaining(self, first: int, request: PlanRequest | None = None) -> Trajectory:
         """The commanded samples from ``first`` to the end as a Trajectory (t from 0): what a
@@ -789,13 +847,12 @@ class Execution:
         "optimal") at full speed; at a speed scale below 1, or when the planner cannot
         start from the state, :meth:`_retarget_own`."""
         if self._jerk:
-            # the planner's moving start joins the state within its own sampled model, which
-            # on the wire is several times the jerk limit: the own retarget (its brakes and
-            # laws jerk-limited and checked across the switch), or through rest
-            try:
-                return self._retarget_own(state, target, plan_options)
-            except RobodcnError:
-                return self._retarget_through_rest(state, target, plan_options)
+            # From a moving state neither the planner's moving start (it joins the state
+            # within its own sampled model: 7–24 × the jerk limit on the wire across the
+            # switch) nor the bent start of _retarget_own (the bend's own q⁽³⁾σ̇³ at speed)
+            # keeps a jerk limit; measured, every jerk-limited attempt ended braking to rest
+            # anyway, after a wasted planning: go through rest at once.
+            return self._retarget_through_rest(state, target, plan_options)
         own = self._retarget_own
         if self.speed >= 1.0 and StartState is not None:
             try:
@@ -837,15 +894,6 @@ class Execution:
                                  f"({over:.4g} × it)", field="limits", value=over)
         return [(trajectory.joints[1:], sigma[1:], path)]
 
-    @staticmethod
-    def _jerk_speed(path: JointPath, limits: Limits) -> float:
-        """The σ̇ at which the path's own jerk |d³q/dσ³|σ̇³ takes half of a joint's jerk limit
-        somewhere on it (the law needs the rest to change σ̈)."""
-        dddq = np.abs(path.derivatives(3)[2])
-        with np.errstate(divide="ignore"):
-            cap = np.cbrt(0.5 * limits.j / dddq)
-        return float(np.min(cap))
-
     def _retarget_through_rest(self, state: State, target: Any,
                                plan_options: dict[str, Any]) -> list[Segment]:
         """Under jerk limits: brake to rest along the present path (or follow it to its end
@@ -884,18 +932,14 @@ class Execution:
             q_new = self._geometry(st.q, target, plan_options)
             if st.sd <= 1e-9:
                 path, _ = JointPath.of_samples(q_new)
-                path = dataclasses.replace(path, smooth=self._jerk)
                 break
             direction = st.qd / st.sd
-            # under jerk limits the new path continues the present curvature too
-            # q'' = (q̈ − q'σ̈)/σ̇² (the part of the acceleration across the motion)
-            curve = (st.qdd - direction * st.sdd) / st.sd ** 2 if self._jerk else None
             total = float(np.sum(np.linalg.norm(np.diff(q_new, axis=0), axis=1)))
             length = max(st.sd ** 2 / (2.0 * float(np.min(limits.a))), 1e-3)
             coarse = q_new[::max(1, len(q_new) // SEARCH_STAGES)]
             best, best_speed = length, -1.0
             for _ in range(4):
-                bent = blend_start(coarse, direction, min(length, max(total, 1e-3)), curve)
+                bent = blend_start(coarse, direction, min(length, max(total, 1e-3)))
                 speed = controllable_speed(JointPath.of_samples(bent)[0], 0.0, limits,
                                            max_stages=SEARCH_STAGES)
                 if speed > best_speed:
@@ -904,26 +948,14 @@ class Execution:
                     break
                 length *= 2.0
             path, _ = JointPath.of_samples(blend_start(q_new, direction,
-                                                       min(best, max(total, 1e-3)), curve))
-            path = dataclasses.replace(path, start_tangent=direction, smooth=self._jerk)
+                                                       min(best, max(total, 1e-3))))
+            path = dataclasses.replace(path, start_tangent=direction)
             # the decision on the full path, under the limits the re-timing aims for
             best_speed = controllable_speed(path, 0.0, limits.scaled(1.0).shrunk(RETIME_SHARE))
-            if self._jerk:
-                best_speed = min(best_speed, self._jerk_speed(path, limits))
             if st.sd <= best_speed * 0.99:
                 break
             # too fast for the turn: brake along the present path first, then try again
             until = 0.0 if attempt >= 1 else 0.85 * best_speed
-            if self._jerk:
-                more = self._brake(st, until_sd=until)
-                if more is None:  # the present path ends first: the caller goes its way
-                    raise InputError("the present path ends before a brake could stop",
-                                     field="speed", value=st.sd)
-                if not more.size:
-                    break
-                segments.append((st.path.at(more), more, st.path))
-                st = self._braked(st, more, at_rest=until == 0.0)
-                continue
             more = brake(st.path, st.sigma, st.sd, full.a, rate, until_sd=until)
             if until == 0.0:
                 # one sample at rest where the brake ends: the last step to rest and the

@@ -63,7 +63,7 @@ class JointPath:
     #: q'(0) when it is known exactly (a retarget: the direction of motion), else None
     start_tangent: NDArray[np.float64] | None = None
     #: C² between the samples (quintic Hermite on q', q''): a jerk-limited law sees no
-    #: curvature steps at the samples of a coarse path (a retarget's geometry)
+    #: curvature steps at the samples of a coarse path (a retarget's geometry from rest)
     smooth: bool = False
 
     @classmethod
@@ -442,8 +442,7 @@ def controllable_at(q: NDArray, s: NDArray, v: NDArray, a: NDArray,
 
 
 def blend_start(q_new: NDArray[np.float64], direction: NDArray[np.float64],
-                length: float, curvature: NDArray[np.float64] | None = None
-                ) -> NDArray[np.float64]:
+                length: float) -> NDArray[np.float64]:
     """Joint samples of ``q_new`` bent to start along ``direction`` and straight.
 
     q(σ) + L·b(σ/L)·(d₀ − q'(0)), b(u) = u(1 − u)² (b(0) = 0, b'(0) = 1, b(1) = b'(1) = 0),
@@ -451,10 +450,7 @@ def blend_start(q_new: NDArray[np.float64], direction: NDArray[np.float64],
     two derivatives at 1): the path starts at q(0) in the direction d₀ with no curvature and
     is unchanged after arc length L (σ measured on ``q_new``). No curvature at the start
     matters at the switch: the last two samples streamed lie on the chord d₀, so a
-    curved start would add ½·q''·σ̇² to the joint acceleration of the first new sample.
-    With ``curvature`` κ (q'' of the present path at the switch, under jerk limits) the
-    path starts with q''(0) = κ instead: its joint acceleration q'σ̈ + q''σ̇² then continues
-    the present one, so the jerk across the switch is the law's alone."""
+    curved start would add ½·q''·σ̇² to the joint acceleration of the first new sample."""
     path, _ = JointPath.of_samples(q_new)
     if path.length <= 0 or length <= 0:
         return q_new
@@ -464,8 +460,23 @@ def blend_start(q_new: NDArray[np.float64], direction: NDArray[np.float64],
     dq, _ = path.derivatives()
     bent = q_new + length * u * (1.0 - u) ** 2 * (np.asarray(direction) - dq[0])[None, :]
     _, ddq = JointPath(bent, sig).derivatives()
-    want = ddq[0] if curvature is None else ddq[0] - np.asarray(curvature)
-    return bent - length ** 2 * 0.5 * u ** 2 * (1.0 - u) ** 3 * want[None, :]
+    return bent - length ** 2 * 0.5 * u ** 2 * (1.0 - u) ** 3 * ddq[0][None, :]
+
+
+def evenly_spaced(q: NDArray[np.float64], count: int) -> NDArray[np.float64]:
+    """The samples of ``q`` (n, k) at least 1/``count`` of its arc length apart (the first
+    and the last always kept): a path's own points, no longer crowded where it was slow."""
+    step = np.linalg.norm(np.diff(q, axis=0), axis=1)
+    sigma = np.concatenate([[0.0], np.cumsum(step)])
+    gap = sigma[-1] / count
+    if gap <= 0.0:
+        return q
+    keep = [0]
+    for i in range(1, len(q) - 1):
+        if sigma[i] - sigma[keep[-1]] >= gap and sigma[-1] - sigma[i] >= 0.5 * gap:
+            keep.append(i)
+    keep.append(len(q) - 1)
+    return q[keep]
 
 
 def first_stop(stops: Sequence[float], sigma: float) -> float | None:
