@@ -154,7 +154,9 @@ class PlanRequest:
                     "kenlerp does)")
         elif ignored:
             which = ", ".join(f"{j} (β = {self.beta[j]:g}, method {self.segment_method(j)})"
-                              for j in ignored)
+                              for j in ignored[:5])
+            if len(ignored) > 5:  # a long plan: name the first few
+                which += f", … ({len(ignored)} segments)"
             text = (f"beta has no effect on segment{'s' if len(ignored) > 1 else ''} {which}: "
                     "only kenlerp uses it")
         else:
