@@ -24,7 +24,7 @@ Cross-field rules the schema cannot say (checked by the parser, before any plann
 (413); a waypoint is (x, y, θ), or (x, y) on a 2-joint (position-only) arm;
 ``start_joints`` has one angle per joint, each within that joint's limits; ``start_state``
 excludes ``start_joints`` and, when moving, needs profile ``optimal``; per-segment lists
-of ``method``/``turn`` have one entry per segment.
+of ``method``/``turn``/``beta`` have one entry per segment.
 
 Only numpy and the standard library are imported here, so the planning core stays light.
 """
@@ -112,10 +112,14 @@ def _enum_of(schema: Mapping[str, Any]) -> tuple[str, ...]:
     return ()
 
 
-def _per_segment_schema(choices: tuple[str, ...]) -> dict[str, Any]:
-    return {"oneOf": [{"type": "string", "enum": list(choices)},
-                      {"type": "array", "minItems": 1, "maxItems": MAX_WAYPOINTS - 1,
-                       "items": {"type": "string", "enum": list(choices)}}]}
+def _per_segment_schema(one: dict[str, Any]) -> dict[str, Any]:
+    """``one`` value for every segment, or an array of one per segment."""
+    return {"oneOf": [one, {"type": "array", "minItems": 1, "maxItems": MAX_WAYPOINTS - 1,
+                            "items": dict(one)}]}
+
+
+def _choice_schema(choices: tuple[str, ...]) -> dict[str, Any]:
+    return {"type": "string", "enum": list(choices)}
 
 
 _POSE_ITEM = {"type": "number", "minimum": -MAX_COORDINATE, "maximum": MAX_COORDINATE}
@@ -132,14 +136,15 @@ FIELDS: tuple[Field, ...] = (
           "ignored).",
           unit="m, m, rad", cli_option="--from/--via/--to", cli_unit="m, m, deg",
           required=True),
-    Field("method", _per_segment_schema(METHODS),
+    Field("method", _per_segment_schema(_choice_schema(METHODS)),
           "Interpolation method, or a list with one per segment.", default="sclerp",
           cli_option="--method"),
-    Field("beta", {"type": "number", "minimum": BETA_RANGE[0], "maximum": BETA_RANGE[1]},
-          "KenLERP bias β: 0 is SEP-LERP, 1 ScLERP, above 1 extrapolates past ScLERP; "
-          "negative values are refused. Only kenlerp reads it.", default=1.0,
-          cli_option="--beta"),
-    Field("turn", _per_segment_schema(TURNS),
+    Field("beta", _per_segment_schema({"type": "number", "minimum": BETA_RANGE[0],
+                                       "maximum": BETA_RANGE[1]}),
+          "KenLERP bias β, or a list with one per segment: 0 is SEP-LERP, 1 ScLERP, above 1 "
+          "extrapolates past ScLERP; negative values are refused. Only kenlerp reads it.",
+          default=1.0, cli_option="--beta"),
+    Field("turn", _per_segment_schema(_choice_schema(TURNS)),
           "Turn direction of θ, or a list with one per segment.", default="shortest",
           cli_option="--turn"),
     Field("duration",
@@ -354,17 +359,30 @@ def check_choice(path: str, value: Any, choices: tuple[str, ...]) -> str:
     return value
 
 
-def check_per_segment(name: str, value: Any, segments: int) -> str | tuple[str, ...]:
-    """A choice, or a list/tuple of one choice per segment (method, turn)."""
-    choices = _BY_NAME[name].choices
-    if isinstance(value, str):
-        return check_choice(name, value, choices)
+def check_per_segment(name: str, value: Any, segments: int) -> Any:
+    """One value for every segment, or a list/tuple of one per segment (a tuple).
+
+    ``method``/``turn`` take choices, ``beta`` numbers within :data:`BETA_RANGE`; an entry's
+    error names it (``beta[1]``), a list of the wrong length names the field.
+    """
+    f = _BY_NAME[name]
+    one = f.schema["oneOf"][0]
+
+    def check(path: str, v: Any) -> Any:
+        if one["type"] == "number":
+            return check_number(path, v, one, f.unit)
+        return check_choice(path, v, f.choices)
+
+    if isinstance(value, np.ndarray):
+        value = value.tolist()
     if isinstance(value, list | tuple):
         if len(value) != segments:
             raise fail(name, f"as a list needs one entry per segment ({segments}), got "
                        f"{len(value)}", value)
-        return tuple(check_choice(f"{name}[{i}]", v, choices) for i, v in enumerate(value))
-    raise fail(name, f"must be one of {', '.join(choices)} or a list of them, got "
+        return tuple(check(f"{name}[{i}]", v) for i, v in enumerate(value))
+    if one["type"] == "number" or isinstance(value, str):
+        return check(name, value)
+    raise fail(name, f"must be one of {', '.join(f.choices)} or a list of them, got "
                f"{_show(value)}", value)
 
 
@@ -503,9 +521,9 @@ def intervals(duration: float, rate: float) -> int:
 
 
 def check_field(name: str, value: Any) -> Any:
-    """The arm-independent single-value fields: beta, profile, rate_hz, blend, elbow."""
+    """The arm-independent single-value fields: profile, rate_hz, blend, elbow."""
     f = _BY_NAME[name]
-    if name in ("beta", "rate_hz"):
+    if name == "rate_hz":
         return check_number(name, value, f.schema, f.unit)
     if name == "profile":
         return check_choice(name, value, f.choices)

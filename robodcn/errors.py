@@ -275,12 +275,15 @@ class BetaIgnoredWarning(RobodcnWarning):
     """``beta`` was given with a method that does not use it (only KenLERP does).
 
     Given through :mod:`warnings` by :class:`~robodcn.planner.PlanRequest`; ``field`` is
-    "beta" and ``method`` the request's method(s).
+    "beta", ``method`` the request's method(s) and ``segments`` the indices of the segments
+    whose β is ignored.
     """
 
-    def __init__(self, message: str, *, field: str = "beta", method: Any = None) -> None:
+    def __init__(self, message: str, *, field: str = "beta", method: Any = None,
+                 segments: tuple[int, ...] = ()) -> None:
         super().__init__(message, field=field)
         self.method = method
+        self.segments = segments
 
 
 class BranchSwitchWarning(RobodcnWarning):

@@ -148,7 +148,7 @@ def bodies(arm: Any) -> st.SearchStrategy[dict[str, Any]]:
 
 
 # Rules the schema cannot state (documented in the contract module and its schema text).
-CROSS_FIELD = {"method", "turn", "duration", "start_state"}
+CROSS_FIELD = {"method", "turn", "beta", "duration", "start_state"}
 
 
 @settings(max_examples=150, deadline=None, suppress_health_check=[HealthCheck.too_slow])

@@ -105,12 +105,34 @@ def test_trajectory_summary_fractions_match_the_limits():
     assert "shoulder" in text and "of the limit" in text and len(text.splitlines()) == 5
 
 
-def test_waypoint_beta_other_than_the_plans_is_refused(tmp_path):
+def test_waypoint_beta_is_its_segments_and_plan_beta_the_default(tmp_path):
     path = tmp_path / "p.toml"
-    text = ("[plan]\nbeta = 0.5\n\n[[waypoints]]\nx = 0.25\ny = 0.1\n\n[[waypoints]]\n"
-            "x = 0.12\ny = 0.24\nbeta = {}\n")
-    path.write_text(text.format(0.5))
-    assert files.load_waypoints(path).options["beta"] == 0.5
-    path.write_text(text.format(2.0))
-    with pytest.raises(InputError, match=r"waypoints\[1\]\.beta: the planner takes one"):
+    text = ("[plan]\nmethod = \"kenlerp\"\n{plan}\n[[waypoints]]\nx = 0.25\ny = 0.1\n\n"
+            "[[waypoints]]\nx = 0.2\ny = 0.2\ntheta_deg = 30\n\n"
+            "[[waypoints]]\nx = 0.12\ny = 0.24\ntheta_deg = 60\nbeta = 1.5\n")
+    path.write_text(text.format(plan="beta = 0.2\n"))
+    fields = files.load_waypoints(path).plan_fields()
+    assert fields["beta"] == (0.2, 1.5)        # segment 0 from [plan], segment 1 its own
+    traj = plan(ARM, **fields)
+    assert traj.request.beta == (0.2, 1.5)
+    path.write_text(text.format(plan=""))      # no [plan] beta: the planner's default, 1
+    assert files.load_waypoints(path).options["beta"] == (1.0, 1.5)
+    path.write_text(text.format(plan="") + "\n[[waypoints]]\nx = 0.1\ny = 0.2\nbeta = 11\n")
+    with pytest.raises(InputError, match=r"waypoints\[3\]\.beta: must be within 0\.\.10, "
+                       "got 11"):
         files.load_waypoints(path)
+    path.write_text(text.format(plan="beta = -1\n"))
+    with pytest.raises(InputError, match=r"plan\.beta: must be within 0\.\.10"):
+        files.load_waypoints(path)
+    path.write_text(text.format(plan="").replace("x = 0.25\n", "x = 0.25\nbeta = 0.5\n"))
+    with pytest.raises(InputError, match=r"waypoints\[0\]\.beta: the first waypoint starts "
+                       "no segment"):
+        files.load_waypoints(path)
+
+
+def test_per_segment_beta_round_trips_through_the_file(tmp_path):
+    poses = np.array([[0.25, 0.10, 0.0], [0.2, 0.2, 0.5], [0.12, 0.24, 1.0]])
+    path = tmp_path / "p.toml"
+    path.write_text(waypoints_toml(poses, arm_name="arm3r", method="kenlerp",
+                                   beta=[0.2, 1.5]))
+    assert files.load_waypoints(path).plan_fields()["beta"] == (0.2, 1.5)

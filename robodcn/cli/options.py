@@ -87,6 +87,16 @@ def finite_float(text: str) -> float:
     return value
 
 
+def finite_floats(text: str) -> list[float]:
+    """``"0.5"`` or ``"0.2,1.5"``: finite numbers (one, or one per segment: see
+    :func:`one_or_per_segment`)."""
+    values = [_number_or_nan(part) for part in str(text).split(",")]
+    if any(math.isnan(v) for v in values):
+        raise _Bad(f"must be a finite number or a comma list of them (one per segment), got "
+                   f"{_shown(text)}")
+    return values
+
+
 def rate(text: str) -> float:
     from robodcn.config import RATE_RANGE
 
@@ -220,12 +230,18 @@ def split_list(text: str, option: str, allowed: Sequence[str], segments: int
         if item not in allowed:
             raise InputError(f"{option}: {_shown(item)} is not one of {', '.join(allowed)}",
                              field=option, value=text)
+    return one_or_per_segment(items, option, segments)
+
+
+def one_or_per_segment(items: list[Any], option: str, segments: int) -> Any:
+    """The one item (for every segment), or the list when it has one per segment;
+    InputError naming ``option`` otherwise."""
     if len(items) == 1:
         return items[0]
     if len(items) != segments:
         raise InputError(f"{option} takes one value or one per segment ({segments} here: "
                          f"--from → {'--via … → ' if segments > 1 else ''}--to), got "
-                         f"{len(items)}", field=option, value=text)
+                         f"{len(items)}", field=option, value=",".join(map(str, items)))
     return items
 
 
@@ -316,6 +332,6 @@ def add_arm_option(p: argparse.ArgumentParser) -> None:
 
 __all__ = ["DEFAULT_ARM", "NEGATIVE_POSE", "Parser", "add_arm_option", "add_device_options",
            "add_logging_options", "baud", "check_output_path", "check_plot_path",
-           "configure_logging", "device", "duration", "finite_float", "id_list", "load_arm",
-           "non_negative_int", "number", "parse_pose", "positive_float", "rate", "split_list",
-           "tcp_port"]
+           "configure_logging", "device", "duration", "finite_float", "finite_floats", "id_list",
+           "load_arm", "non_negative_int", "number", "one_or_per_segment", "parse_pose",
+           "positive_float", "rate", "split_list", "tcp_port"]

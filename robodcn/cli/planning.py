@@ -33,9 +33,9 @@ def add_motion_options(p: argparse.ArgumentParser, *, start_help: str) -> None:
                    help="via pose, repeatable, in order (--via 1, --via 2, ... in messages)")
     g.add_argument("--method", default="sclerp", metavar="M[,M...]",
                    help="sclerp | kenlerp | seplerp | dlb, or one per segment (default sclerp)")
-    g.add_argument("--beta", type=options.finite_float, metavar="B",
-                   help="KenLERP bias: 0 decoupled, 1 = ScLERP, > 1 amplifies (default 1; "
-                        "only kenlerp uses it)")
+    g.add_argument("--beta", type=options.finite_floats, metavar="B[,B...]",
+                   help="KenLERP bias: 0 decoupled, 1 = ScLERP, > 1 amplifies, or one per "
+                        "segment (default 1; only kenlerp uses it)")
     g.add_argument("--turn", default="shortest", metavar="T[,T...]",
                    help="shortest | ccw | cw, or one per segment (default shortest)")
     g.add_argument("--duration", type=options.duration, default="auto",
@@ -91,6 +91,8 @@ def motion_request(args: argparse.Namespace, arm) -> MotionRequest:
     segments = len(vias) + 1
     method = options.split_list(args.method, "--method", METHODS, segments)
     turn = options.split_list(args.turn, "--turn", TURNS, segments)
+    beta = 1.0 if args.beta is None else options.one_or_per_segment(args.beta, "--beta",
+                                                                     segments)
     rate = args.rate if args.rate is not None else arm.bus.rate_hz
     if args.duration != "auto" and args.duration * rate + 1 > MAX_SAMPLES:
         raise InputError(f"--duration {args.duration:g} s at {rate:g} Hz needs more than "
@@ -101,7 +103,7 @@ def motion_request(args: argparse.Namespace, arm) -> MotionRequest:
                          f"sample period for each of the {segments} segments",
                          field="--duration", value=args.duration)
     keywords: dict[str, Any] = dict(
-        method=method, beta=1.0 if args.beta is None else args.beta, turn=turn,
+        method=method, beta=beta, turn=turn,
         duration=args.duration, profile=args.profile, rate_hz=rate, blend=args.blend)
     if args.elbow is not None:
         keywords["elbow"] = args.elbow

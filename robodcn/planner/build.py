@@ -36,7 +36,7 @@ def _pieces(req: PlanRequest) -> tuple[list[Piece], NDArray | None]:
     if req.blend:
         paths = [blended_path(req, segments, start)]
     else:
-        paths = [Path([seg], req.beta, np.array([0.0, 1.0]), None) for seg in segments]
+        paths = [Path([seg], np.array([0.0, 1.0]), None) for seg in segments]
     pieces = [Piece(path=p, profile=req.profile, elbow=req.branch) for p in paths]
     first = kinematics.ik_path(arm.links, np.array([segments[0][0]]), reference=start,
                                elbow=req.branch, limits=limits)[0]
@@ -229,7 +229,7 @@ def _unreachable(req: PlanRequest, piece: Piece, n: int, ref: NDArray | None, of
 
 
 def plan(arm, waypoints: ArrayLike, *, method: str | Sequence[str] = "sclerp",
-         beta: float = 1.0, turn: str | Sequence[str] = "shortest",
+         beta: float | Sequence[float] = 1.0, turn: str | Sequence[str] = "shortest",
          duration: float | str = "auto", profile: str = "optimal", rate_hz: float = 100,
          blend: bool = False, start_joints: ArrayLike | None = None,
          elbow: str | None = None, start_state: StartState | None = None) -> Trajectory:
@@ -240,7 +240,7 @@ def plan(arm, waypoints: ArrayLike, *, method: str | Sequence[str] = "sclerp",
     arm : Arm (robodcn.load_arm)
     waypoints : (m, 3), m ≥ 2 poses (x, y, θ), metres and radians; (m, 2) on a 2-joint arm
     method, turn : interpolation method / turn direction, or a list with one per segment
-    beta : KenLERP bias (contract.BETA_RANGE)
+    beta : KenLERP bias (contract.BETA_RANGE), or a list with one per segment
     duration : total seconds (rounded up to whole sample periods) or "auto" (shortest
         feasible; package docstring)
     profile : "optimal" (default; time-optimal along the path within the velocity,
@@ -266,6 +266,8 @@ def plan(arm, waypoints: ArrayLike, *, method: str | Sequence[str] = "sclerp",
         method = tuple(method)
     if isinstance(turn, list):
         turn = tuple(turn)
+    if isinstance(beta, list):
+        beta = tuple(beta)
     req = PlanRequest(arm=arm, waypoints=waypoints, method=method, beta=beta, turn=turn,
                       duration=duration, profile=profile, rate_hz=rate_hz, blend=blend,
                       start_joints=start_joints, elbow=elbow, start_state=start_state)

@@ -61,7 +61,14 @@ from robodcn.contract import MAX_SAMPLES, intervals
 from robodcn.errors import InputError, TooLargeError, Violation
 from robodcn.path_timing import max_start_speed, path_derivatives, time_optimal
 from robodcn.planner import search, validate
-from robodcn.planner.path import Path, blended_path, joints_of, segments_of, within_limits
+from robodcn.planner.path import (
+    Path,
+    Segment,
+    blended_path,
+    joints_of,
+    segments_of,
+    within_limits,
+)
 from robodcn.planner.request import PlanRequest
 
 log = logging.getLogger(__name__)
@@ -142,13 +149,13 @@ def _pieces(req: PlanRequest, segments: list) -> list[_Piece]:
     if req.blend:
         start = None if req.start_state is None else req.start_state.arrays()[0]
         return [_Piece(blended_path(req, segments, start), 0)]
-    return [_Piece(Path([seg], req.beta, np.array([0.0, 1.0]), None), j)
+    return [_Piece(Path([seg], np.array([0.0, 1.0]), None), j)
             for j, seg in enumerate(segments)]
 
 
 def _segments(req: PlanRequest) -> list:
     """The request's segments; with a start state, from FK(q0) first (request docstring):
-    the prepended segment takes segment 0's method and turn, θ chained on from the arm's."""
+    the prepended segment takes segment 0's method, turn and β, θ chained on from the arm's."""
     if req.start_state is None:
         return segments_of(req)
     from robodcn.interpolate import turn_angle
@@ -163,16 +170,18 @@ def _segments(req: PlanRequest) -> list:
     close = np.abs(pose[:2] - wp[0, :2]).max() <= 1e-4 and gap <= 1.75e-4
     methods = [req.segment_method(j) for j in range(req.segments)]
     turns = [req.segment_turn(j) for j in range(req.segments)]
+    betas = [req.segment_beta(j) for j in range(req.segments)]
     if close:
         wp = wp[1:]
     else:
-        methods, turns = [methods[0], *methods], [turns[0], *turns]
+        methods, turns, betas = ([methods[0], *methods], [turns[0], *turns],
+                                 [betas[0], *betas])
     out = []
     start = pose.copy()
     for j in range(wp.shape[0]):
         end = wp[j].copy()
         end[2] = start[2] + turn_angle(start[2], wp[j, 2], turns[j])
-        out.append((start, end, methods[j], turns[j]))
+        out.append(Segment(start, end, methods[j], turns[j], betas[j]))
         start = end
     return out
 

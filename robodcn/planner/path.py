@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Sequence
+from typing import NamedTuple
 
 import numpy as np
 from numpy.typing import NDArray
@@ -17,19 +18,33 @@ from robodcn.planner.request import PlanRequest
 COARSE = 128
 
 
-class Path:
-    """A pose curve P(u), u ∈ [0, 1], over one or more segments with knots U."""
+class Segment(NamedTuple):
+    """One segment of a path: its end poses (θ chained), method, turn and KenLERP β."""
 
-    def __init__(self, segments: list[tuple[NDArray, NDArray, str, str]], beta: float,
-                 knots: NDArray[np.float64], corrections: list[tuple[NDArray, NDArray]] | None):
+    start: NDArray[np.float64]
+    end: NDArray[np.float64]
+    method: str
+    turn: str
+    beta: float
+
+    def poses(self, s: NDArray[np.float64]) -> NDArray[np.float64]:
+        """The segment's interpolation at path parameters ``s`` (robodcn.interpolate)."""
+        return interpolate(self.start, self.end, s, method=self.method, beta=self.beta,
+                           turn=self.turn)
+
+
+class Path:
+    """A pose curve P(u), u ∈ [0, 1], over one or more segments with knots U; each segment
+    is interpolated with its own method, turn and β (:class:`Segment`)."""
+
+    def __init__(self, segments: list[Segment], knots: NDArray[np.float64],
+                 corrections: list[tuple[NDArray, NDArray]] | None):
         self.segments = segments
-        self.beta = beta
         self.knots = knots
         self.corrections = corrections
 
     def segment_poses(self, j: int, s: NDArray[np.float64]) -> NDArray[np.float64]:
-        start, end, method, turn = self.segments[j]
-        poses = interpolate(start, end, s, method=method, beta=self.beta, turn=turn)
+        poses = self.segments[j].poses(s)
         if self.corrections is not None:
             d0, d1, g0, g1 = self.corrections[j]
             # quintic Hermite basis, zero at both ends: unit slope at 0 / at 1, unit second
@@ -126,8 +141,8 @@ def shape_trapezoid(piece: Piece, arm: Arm, reference: NDArray | None) -> None:
     piece.accel_fraction = min(0.5, max(0.05, rho))
 
 
-def segments_of(req: PlanRequest) -> list[tuple[NDArray, NDArray, str, str]]:
-    """(start, end, method, turn) per segment with θ chained continuously across waypoints.
+def segments_of(req: PlanRequest) -> list[Segment]:
+    """(start, end, method, turn, β) per segment with θ chained continuously across waypoints.
 
     On a position-only (2-joint) arm θ plays no part: every θ is 0, so each segment is the
     straight-line position interpolation whatever the method (no rotation to screw about).
@@ -141,12 +156,13 @@ def segments_of(req: PlanRequest) -> list[tuple[NDArray, NDArray, str, str]]:
         turn = req.segment_turn(j)
         end = wp[j + 1].copy()
         end[2] = start[2] + turn_angle(start[2], wp[j + 1, 2], turn)
-        out.append((start, end, req.segment_method(j), turn))
+        out.append(Segment(start, end, req.segment_method(j), turn, req.segment_beta(j)))
         start = end
     return out
 
 
-def blended_path(req: PlanRequest, segments: list, reference: NDArray | None) -> Path:
+def blended_path(req: PlanRequest, segments: list[Segment], reference: NDArray | None
+                 ) -> Path:
     """One path through all waypoints with Bessel tangents at the via points (module doc).
 
     C²: each segment's pose curve L(s) gets the quintic Hermite correction that sets, at both
@@ -160,7 +176,7 @@ def blended_path(req: PlanRequest, segments: list, reference: NDArray | None) ->
     weights = []
     ref = reference
     for seg in segments:
-        single = Path([seg], req.beta, np.array([0.0, 1.0]), None)
+        single = Path([seg], np.array([0.0, 1.0]), None)
         s = np.linspace(0.0, 1.0, 33)
         poses = single(s)
         q, _ = kinematics.try_ik_path(arm.links, poses, reference=ref, elbow=req.branch)
@@ -177,11 +193,8 @@ def blended_path(req: PlanRequest, segments: list, reference: NDArray | None) ->
     h, h2 = 1e-6, 1e-4
     ends = []  # (dL/ds, d²L/ds²) at s = 0 and at s = 1 per segment, central differences
     for seg in segments:
-        start, end, method, turn = seg
-        p = interpolate(start, end, np.array([-h, h, 1.0 - h, 1.0 + h]), method=method,
-                        beta=req.beta, turn=turn)
-        c = interpolate(start, end, np.array([-h2, 0.0, h2, 1.0 - h2, 1.0, 1.0 + h2]),
-                        method=method, beta=req.beta, turn=turn)
+        p = seg.poses(np.array([-h, h, 1.0 - h, 1.0 + h]))
+        c = seg.poses(np.array([-h2, 0.0, h2, 1.0 - h2, 1.0, 1.0 + h2]))
         ends.append(((p[1] - p[0]) / (2 * h), (p[3] - p[2]) / (2 * h),
                      (c[0] - 2 * c[1] + c[2]) / h2 ** 2, (c[3] - 2 * c[4] + c[5]) / h2 ** 2))
     m = len(segments)
@@ -197,7 +210,7 @@ def blended_path(req: PlanRequest, segments: list, reference: NDArray | None) ->
     corrections = [(span[j] * tangents[j] - ends[j][0], span[j] * tangents[j + 1] - ends[j][1],
                     span[j] ** 2 * curvatures[j] - ends[j][2],
                     span[j] ** 2 * curvatures[j + 1] - ends[j][3]) for j in range(m)]
-    return Path(segments, req.beta, knots, corrections)
+    return Path(segments, knots, corrections)
 
 
 def within_limits(q: NDArray[np.float64], limits: Sequence[tuple[float, float]]

@@ -79,8 +79,10 @@ class PlanRequest:
         2-joint (position-only) arm (x, y) is accepted too (stored with θ = 0) and θ plays no
         part in the plan
     method : "sclerp" | "kenlerp" | "seplerp" | "dlb", or one per segment
-    beta : KenLERP bias within contract.BETA_RANGE (0 SEP-LERP, 1 ScLERP, > 1 extrapolates);
-        a β other than 1 with no KenLERP segment warns (BetaIgnoredWarning)
+    beta : KenLERP bias within contract.BETA_RANGE (0 SEP-LERP, 1 ScLERP, > 1 extrapolates),
+        or one per segment (each segment interpolated with its own β). One β other than 1
+        with no KenLERP segment warns (BetaIgnoredWarning); so does, per segment, a β other
+        than 1 on a segment whose method does not use it
     turn : "shortest" | "ccw" | "cw", or one per segment
     duration : total seconds (> 0) or "auto"
     profile : "optimal" (default: the time-optimal law along the path within the velocity,
@@ -97,13 +99,13 @@ class PlanRequest:
         0.01°), and is timed from the moving state (profile "optimal" only; exclusive with
         start_joints). A dict {"joints": …, "velocities": …, "accelerations": …} is accepted.
 
-    Lists given for method, turn, waypoints and start_joints are stored as tuples.
+    Lists given for method, beta, turn, waypoints and start_joints are stored as tuples.
     """
 
     arm: Arm
     waypoints: Any
     method: Any = "sclerp"
-    beta: float = 1.0
+    beta: Any = 1.0
     turn: Any = "shortest"
     duration: Any = "auto"
     profile: str = "optimal"
@@ -123,7 +125,8 @@ class PlanRequest:
         segments = len(wp) - 1
         put(self, "method", contract.check_per_segment("method", self.method, segments))
         put(self, "turn", contract.check_per_segment("turn", self.turn, segments))
-        for name in ("beta", "profile", "rate_hz", "blend", "elbow"):
+        put(self, "beta", contract.check_per_segment("beta", self.beta, segments))
+        for name in ("profile", "rate_hz", "blend", "elbow"):
             put(self, name, contract.check_field(name, getattr(self, name)))
         put(self, "duration", contract.check_duration(self.duration, self.rate_hz, segments))
         put(self, "start_joints", contract.check_start_joints(self.start_joints, self.arm))
@@ -136,12 +139,30 @@ class PlanRequest:
             if self.profile != "optimal" and self.start_state.moving:
                 raise fail("start_state", f"a moving start needs profile \"optimal\" (the "
                            f"uniform law {self.profile!r} starts from rest)", self.profile)
-        methods = {self.segment_method(j) for j in range(segments)}
-        if self.beta != 1.0 and not methods & set(contract.BETA_METHODS):
-            used = ", ".join(sorted(methods))
-            warnings.warn(BetaIgnoredWarning(
-                f"beta = {self.beta:g} has no effect: method {used} does not use it (only "
-                "kenlerp does)", method=self.method), stacklevel=3)
+        self._warn_ignored_beta()
+
+    def _warn_ignored_beta(self) -> None:
+        """BetaIgnoredWarning: one β ≠ 1 that no segment reads, or per-segment β ≠ 1 on
+        segments whose method does not read it (``segments`` on the warning)."""
+        ignored = [j for j in range(self.segments) if self.segment_beta(j) != 1.0
+                   and self.segment_method(j) not in contract.BETA_METHODS]
+        if isinstance(self.beta, float):
+            if len(ignored) < self.segments:
+                return  # one β for the plan: it is used if any segment is KenLERP
+            used = ", ".join(sorted({self.segment_method(j) for j in ignored}))
+            text = (f"beta = {self.beta:g} has no effect: method {used} does not use it (only "
+                    "kenlerp does)")
+        elif ignored:
+            which = ", ".join(f"{j} (β = {self.beta[j]:g}, method {self.segment_method(j)})"
+                              for j in ignored[:5])
+            if len(ignored) > 5:  # a long plan: name the first few
+                which += f", … ({len(ignored)} segments)"
+            text = (f"beta has no effect on segment{'s' if len(ignored) > 1 else ''} {which}: "
+                    "only kenlerp uses it")
+        else:
+            return
+        warnings.warn(BetaIgnoredWarning(text, method=self.method, segments=tuple(ignored)),
+                      stacklevel=4)
 
     @property
     def waypoints_array(self) -> NDArray[np.float64]:
@@ -168,12 +189,15 @@ class PlanRequest:
     def segment_turn(self, j: int) -> str:
         return self.turn if isinstance(self.turn, str) else self.turn[j]
 
+    def segment_beta(self, j: int) -> float:
+        return self.beta if isinstance(self.beta, float) else self.beta[j]
+
     def to_dict(self) -> dict[str, Any]:
         """JSON-ready dict (the arm embedded in SI keys, see Arm.to_dict)."""
         return {"arm": self.arm.to_dict(), "arm_source": self.arm.source,
                 "waypoints": [list(w) for w in self.waypoints],
                 "method": self.method if isinstance(self.method, str) else list(self.method),
-                "beta": self.beta,
+                "beta": self.beta if isinstance(self.beta, float) else list(self.beta),
                 "turn": self.turn if isinstance(self.turn, str) else list(self.turn),
                 "duration": self.duration, "profile": self.profile, "rate_hz": self.rate_hz,
                 "blend": self.blend,

@@ -262,7 +262,8 @@ def _add_run(sub) -> None:
                    help="run against an in-process simulated bus (servos start at home)")
     g = p.add_argument_group("plan (waypoints files; override the file's [plan])")
     g.add_argument("--method", metavar="M[,M...]", help="sclerp | kenlerp | seplerp | dlb")
-    g.add_argument("--beta", type=float, help="KenLERP bias")
+    g.add_argument("--beta", type=options.finite_floats, metavar="B[,B...]",
+                   help="KenLERP bias, or one per segment")
     g.add_argument("--turn", metavar="T[,T...]", help="shortest | ccw | cw")
     g.add_argument("--duration", metavar="SECONDS|auto", help="total duration or auto")
     g.add_argument("--profile", choices=("quintic", "trapezoid", "linear"), help="time law")
@@ -308,13 +309,19 @@ def load_run_file(args: argparse.Namespace, arm: Arm) -> tuple[str, Any]:
     kind, text = files.file_kind(args.file)
     if kind == "waypoints":
         wp = files.load_waypoints(args.file)
+        beta = args.beta[0] if args.beta is not None and len(args.beta) == 1 else args.beta
         fields = wp.plan_fields(method=_split(args.method, "--method", METHODS),
-                                turn=_split(args.turn, "--turn", TURNS), beta=args.beta,
+                                turn=_split(args.turn, "--turn", TURNS), beta=beta,
                                 duration=_duration(args.duration), profile=args.profile,
                                 blend=args.blend, rate_hz=args.rate)
         fields.setdefault("rate_hz", arm.bus.rate_hz)
-        for key in ("method", "turn"):
+        segments = len(wp.waypoints) - 1
+        for key in ("method", "turn", "beta"):
             if isinstance(fields.get(key), list):
+                if len(fields[key]) != segments:
+                    raise InputError(f"--{key} lists {len(fields[key])} values for the "
+                                     f"{segments} segments of {args.file}", field=key,
+                                     value=fields[key])
                 fields[key] = tuple(fields[key])
         # Every field, and the path through the waypoints, checked before the bus opens (the
         # real plan starts from the present joints, with an approach).

@@ -2,10 +2,10 @@
 
 - **Waypoints TOML** (``robodcn teach`` writes one): ``[[waypoints]]`` tables with ``x``,
   ``y`` (metres) and ``theta_deg`` (or ``theta``, radians), optionally ``method`` / ``turn``
-  for the segment that leads to that waypoint (a ``beta`` there must equal the plan's: the
-  planner takes one KenLERP β per plan); a ``[plan]`` table with ``method``, ``beta``,
-  ``turn``, ``duration`` (seconds or "auto"), ``profile``, ``rate_hz``, ``blend``; an
-  optional ``arm`` name (informational). :func:`load_waypoints` → :class:`WaypointsPlan`,
+  / ``beta`` (KenLERP β) for the segment that leads to that waypoint; a ``[plan]`` table
+  with ``method``, ``beta``, ``turn`` (the defaults of segments whose waypoint gives none),
+  ``duration`` (seconds or "auto"), ``profile``, ``rate_hz``, ``blend``; an optional ``arm``
+  name (informational). :func:`load_waypoints` → :class:`WaypointsPlan`,
   whose :meth:`~WaypointsPlan.plan_fields` are :class:`robodcn.planner.PlanRequest` fields.
 - **Trajectory JSON** (``robodcn plan --format json``): :meth:`robodcn.planner.Trajectory.from_json`
   with the arm, then checked against this arm's limits and calibration.
@@ -37,7 +37,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from robodcn import kinematics, servo_units
+from robodcn import contract, kinematics, servo_units
 from robodcn.config import RATE_RANGE, Arm
 from robodcn.dcn import TURNS
 from robodcn.errors import (
@@ -91,10 +91,29 @@ def _number(path: str, where: str, value: Any) -> float:
     return float(value)
 
 
+def _beta(path: str, where: str, value: Any) -> float:
+    beta = _number(path, where, value)
+    lo, hi = contract.BETA_RANGE
+    if not lo <= beta <= hi:
+        raise _fail(path, where, f"must be within {lo:g}..{hi:g}, got {value!r}", value)
+    return beta
+
+
 def _choice(path: str, where: str, value: Any, allowed: tuple[str, ...]) -> str:
     if value not in allowed:
         raise _fail(path, where, f"must be one of {', '.join(allowed)}, got {value!r}", value)
     return value
+
+
+#: What a segment takes when neither its waypoint nor ``[plan]`` says (the planner's).
+SEGMENT_DEFAULTS = {"method": "sclerp", "turn": "shortest", "beta": 1.0}
+
+
+def _segment_value(path: str, where: str, key: str, value: Any) -> Any:
+    """A waypoint's method, turn or beta for the segment that leads to it."""
+    if key == "beta":
+        return _beta(path, where, value)
+    return _choice(path, where, value, METHODS if key == "method" else TURNS)
 
 
 def load_waypoints(path: str | Path) -> WaypointsPlan:
@@ -121,7 +140,7 @@ def load_waypoints(path: str | Path) -> WaypointsPlan:
         elif key == "profile":
             options[key] = _choice(source, where, value, PROFILES)
         elif key == "beta":
-            options[key] = _number(source, where, value)
+            options[key] = _beta(source, where, value)
         elif key == "rate_hz":
             rate = _number(source, where, value)
             if not RATE_RANGE[0] <= rate <= RATE_RANGE[1]:
@@ -144,19 +163,16 @@ def load_waypoints(path: str | Path) -> WaypointsPlan:
         raise _fail(source, "waypoints", "needs at least two [[waypoints]] tables, got "
                     f"{0 if not isinstance(rows, list) else len(rows)}", None)
     poses = np.empty((len(rows), 3))
-    per_segment: dict[str, list[str | None]] = {"method": [], "turn": []}
+    per_segment: dict[str, list[Any]] = {"method": [], "turn": [], "beta": []}
     for i, row in enumerate(rows):
         where = f"waypoints[{i}]"
         if not isinstance(row, dict):
             raise _fail(source, where, "must be a table", row)
-        if "beta" in row and row["beta"] != options.get("beta", 1.0):
-            raise _fail(source, f"{where}.beta", "the planner takes one KenLERP beta per plan: "
-                        "give it as beta in [plan]", row["beta"])
-        extra = set(row) - {"x", "y", "theta", "theta_deg", "method", "turn", "beta"}
+        extra = set(row) - {"x", "y", "theta", "theta_deg", *per_segment}
         if extra:
             key = sorted(extra)[0]
             raise _fail(source, f"{where}.{key}", "unknown key (allowed: x, y, theta_deg or "
-                        "theta, method, turn)", row[key])
+                        "theta, method, turn, beta)", row[key])
         for key in ("x", "y"):
             if key not in row:
                 raise _fail(source, f"{where}.{key}", "missing", None)
@@ -168,16 +184,16 @@ def load_waypoints(path: str | Path) -> WaypointsPlan:
                                                     row.get("theta", 0.0)))
         poses[i] = (_number(source, f"{where}.x", row["x"]),
                     _number(source, f"{where}.y", row["y"]), theta)
-        for key, allowed in (("method", METHODS), ("turn", TURNS)):
+        for key in per_segment:
             if key in row and i == 0:
                 raise _fail(source, f"{where}.{key}", "the first waypoint starts no segment: "
                             f"give {key} on the waypoint the segment leads to", row[key])
             if i > 0:
-                per_segment[key].append(_choice(source, f"{where}.{key}", row[key], allowed)
-                                        if key in row else None)
+                per_segment[key].append(None if key not in row else
+                                        _segment_value(source, f"{where}.{key}", key, row[key]))
     for key, values in per_segment.items():
         if any(v is not None for v in values):
-            default = options.get(key, "sclerp" if key == "method" else "shortest")
+            default = options.get(key, SEGMENT_DEFAULTS[key])
             options[key] = tuple(v if v is not None else default for v in values)
     return WaypointsPlan(source, poses, options)
 

@@ -59,30 +59,33 @@ def _toml_string(text: str) -> str:
 
 
 def waypoints_toml(poses: Sequence[Sequence[float]], *, arm_name: str,
-                   method: str | Sequence[str] | None = None, beta: float | None = None,
+                   method: str | Sequence[str] | None = None,
+                   beta: float | Sequence[float] | None = None,
                    turn: str | Sequence[str] | None = None) -> str:
     """The waypoints file for ``poses`` (x, y metres, θ radians; written as ``theta_deg``).
 
-    ``method`` and ``turn`` are one value for the whole plan (``[plan]``) or one per segment
-    (written on the waypoint each segment leads to); ``beta`` goes in ``[plan]``.
+    ``method``, ``turn`` and ``beta`` are one value for the whole plan (``[plan]``) or one
+    per segment (written on the waypoint each segment leads to).
     """
     lines = [f"# robodcn waypoints taught on arm {arm_name!r}: x, y in metres, theta_deg in "
              "degrees.",
-             "# [plan] holds plan options for every segment; a waypoint may carry method and",
-             "# turn for the segment that leads to it. Run with: robodcn run FILE",
+             "# [plan] holds plan options for every segment; a waypoint may carry method, turn",
+             "# and beta for the segment that leads to it. Run with: robodcn run FILE",
              f"arm = {_toml_string(arm_name)}", "", "[plan]"]
-    per_segment: dict[str, Sequence[str]] = {}
+    per_segment: dict[str, list[str]] = {}
     for key, value in (("method", method), ("turn", turn)):
         if isinstance(value, str):
             lines.append(f"{key} = {_toml_string(value)}")
         elif value is not None:
-            per_segment[key] = list(value)
-    if beta is not None:
+            per_segment[key] = [_toml_string(v) for v in value]
+    if isinstance(beta, int | float):
         lines.append(f"beta = {float(beta)!r}")
+    elif beta is not None:
+        per_segment["beta"] = [repr(float(b)) for b in beta]
     for i, (x, y, theta) in enumerate(np.asarray(poses, dtype=np.float64).reshape(-1, 3)):
         lines += ["", "[[waypoints]]", f"x = {round(float(x), 6)!r}", f"y = {round(float(y), 6)!r}",
                   f"theta_deg = {round(math.degrees(float(theta)), 4)!r}"]
         for key, values in per_segment.items():
             if i >= 1 and i - 1 < len(values):
-                lines.append(f"{key} = {_toml_string(values[i - 1])}")
+                lines.append(f"{key} = {values[i - 1]}")
     return "\n".join(lines) + "\n"
