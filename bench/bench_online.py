@@ -9,6 +9,12 @@ Rows:
   1 kHz; median of the runs), and the re-timing of the same path alone (speed scaling k =
   0.5 from the moving state). Target ≤ 5 ms.
 * smooth stop — the phase-plane brake from full speed.
+* jerk limits (every joint's ``max_jerk`` = 20 × its acceleration limit per second) — the
+  same states on the same move planned under them: the jerk-limited smooth stop
+  (``brake_jerk_checked``), the speed change k = 0.5 from (σ̇, σ̈) and the retarget (through
+  rest), with the largest ratio of a finite-difference velocity, acceleration or jerk on the
+  wire (the three samples before the switch included) to its limit, and the stop's duration
+  against the acceleration-limited brake's from the same state of the jerk-free move.
 * request → first changed goal — retargets of a running 2 s move on firmware_sim (timing
   "fast", 1 kHz), the planning time, the due time of the first changed sample and its send
   time on the wire, all from the request (median over the retargets). The rule: due ≤
@@ -36,13 +42,22 @@ if str(ROOT) not in sys.path:
 import robodcn  # noqa: E402
 from robodcn import kinematics  # noqa: E402
 from robodcn.stream.online import Execution, State  # noqa: E402
-from robodcn.stream.online_path import JointPath, Limits, brake, retime  # noqa: E402
+from robodcn.stream.online_path import (  # noqa: E402
+    JointPath,
+    Limits,
+    brake,
+    brake_jerk_checked,
+    excess,
+    retime,
+)
 
 MOVING_TARGET_MS = 5.0
 START = (0.25, 0.10, 0.0)
 GOAL = (0.05, 0.25, math.radians(80))
 NEW_GOALS = [(0.20, 0.20, 0.6), (0.12, 0.22, 1.0), (0.22, 0.02, 0.2)]
 RUNS = 15
+JERK_RUNS = 5
+JERK_PER_ACCEL = 20.0
 
 
 def _median_ms(fn, runs: int = RUNS) -> float:
@@ -84,6 +99,55 @@ def planning_rows(arm) -> list[tuple[str, float, int]]:
     return rows
 
 
+def jerk_rows(arm) -> list[tuple[str, float, int, float, str]]:
+    """(operation, median ms, samples, wire excess, note) under jerk limits (module doc)."""
+    import dataclasses
+    jerk_arm = dataclasses.replace(arm, joints=tuple(
+        dataclasses.replace(j, max_jerk=JERK_PER_ACCEL * j.max_acceleration)
+        for j in arm.joints))
+    q0 = kinematics.ik(arm.links, np.array([START]))[0]
+    plain = robodcn.plan(arm, [START, GOAL], rate_hz=1000, duration=2.0, start_joints=q0)
+    traj = robodcn.plan(jerk_arm, [START, GOAL], rate_hz=1000, duration=2.0, start_joints=q0)
+    limits = Limits.of_arm(jerk_arm)
+    ex = Execution(traj, None, None, jerk_arm)
+    path, sigma = JointPath.of_samples(traj.joints)
+    plain_path, plain_sigma = JointPath.of_samples(plain.joints)
+    rows = []
+    for frac in (0.3, 0.5, 0.7):
+        i = int(frac * (len(traj.t) - 1))
+        q = traj.joints
+        qd = (q[i] - q[i - 1]) * 1000.0
+        qdd = (q[i] - 2 * q[i - 1] + q[i - 2]) * 1e6
+        sd = float(np.linalg.norm(qd))
+        state = State(i, q[i], qd, qdd, path, float(sigma[i]), sd, float(qdd @ qd) / sd,
+                      q[i - 2:i + 1])
+        # the execution's helpers read the rate and the source from its streamer
+        ex._streamer = types.SimpleNamespace(period=0.001,
+                                             source=types.SimpleNamespace(rate_hz=1000.0))
+        stop = brake_jerk_checked(path, state.sigma, sd, state.sdd, limits, 1000.0,
+                                  state.history)
+        ms = _median_ms(lambda st=state: brake_jerk_checked(
+            path, st.sigma, st.sd, st.sdd, limits, 1000.0, st.history), JERK_RUNS)
+        psd = (plain_sigma[i] - plain_sigma[i - 1]) * 1000.0
+        plain_stop = brake(plain_path, float(plain_sigma[i]), psd, limits.a, 1000.0)
+        over = excess(np.vstack([state.history, path.at(stop)]), limits, 1000.0)
+        rows.append((f"smooth stop at {frac:.0%}", ms, len(stop), over,
+                     f"{len(stop)} ms vs {len(plain_stop)} ms jerk-free"))
+        tail = ex._timed(state, limits.scaled(0.5))
+        ms = _median_ms(lambda st=state: ex._timed(st, limits.scaled(0.5)), JERK_RUNS)
+        over = excess(np.vstack([state.history, path.at(tail)]), limits, 1000.0)
+        rows.append((f"speed k = 0.5 at {frac:.0%}", ms, len(tail), over, ""))
+        goal = NEW_GOALS[0]
+        segments = ex._retarget_tail(state, [None, goal], {})
+        ms = _median_ms(lambda st=state, g=goal: ex._retarget_tail(st, [None, g], {}),
+                        JERK_RUNS)
+        joints = np.vstack([state.history, *(seg[0] for seg in segments)])
+        rows.append((f"retarget at {frac:.0%} → ({goal[0]:.2f}, {goal[1]:.2f}, "
+                     f"{math.degrees(goal[2]):.0f}°)", ms, len(joints) - 3,
+                     excess(joints, limits, 1000.0), "through rest"))
+    return rows
+
+
 def latency_rows(arm) -> list[tuple[float, float, float]]:
     from robodcn.servo_units import ticks_to_radians
     from robodcn.simulated import simulated_arm
@@ -114,6 +178,14 @@ def run() -> str:
              "| operation | median ms | samples planned | ≤ target |", "|---|---:|---:|:-:|"]
     for name, ms, n in planning_rows(arm):
         lines.append(f"| {name} | {ms:.2f} | {n} | {'✓' if ms <= MOVING_TARGET_MS else '✗'} |")
+    lines += ["", f"Under jerk limits (max_jerk = {JERK_PER_ACCEL:g} × max_acceleration /s on "
+              "every joint), the same move and states; wire excess = the largest "
+              "finite-difference velocity, acceleration or jerk over its limit (≤ 1 keeps "
+              f"every limit), median of {JERK_RUNS} runs:", "",
+              "| operation | median ms | samples | wire excess | note |",
+              "|---|---:|---:|---:|---|"]
+    for name, ms, n, over, note in jerk_rows(arm):
+        lines.append(f"| {name} | {ms:.1f} | {n} | {over:.3f} | {note} |")
     lat = latency_rows(arm)
     lines += ["", "Request → first changed goal on firmware_sim (1 kHz, timing fast, "
               f"{len(lat)} retargets of a running move; seconds from the request, median):",
