@@ -70,6 +70,17 @@ def _median_ms(fn, runs: int = RUNS) -> float:
     return 1000.0 * statistics.median(times)
 
 
+def _state_at(traj, path: JointPath, sigma: np.ndarray, i: int) -> State:
+    """The commanded state at sample i of ``traj`` as an execution reads it (backward
+    differences at 1 kHz, σ̈ along the motion, the three samples up to i)."""
+    q = traj.joints
+    qd = (q[i] - q[i - 1]) * 1000.0
+    qdd = (q[i] - 2 * q[i - 1] + q[i - 2]) * 1e6
+    sd = float(np.linalg.norm(qd))
+    return State(i, q[i], qd, qdd, path, float(sigma[i]), sd, float(qdd @ qd) / sd,
+                 q[i - 2:i + 1])
+
+
 def planning_rows(arm) -> list[tuple[str, float, int]]:
     q0 = kinematics.ik(arm.links, np.array([START]))[0]
     traj = robodcn.plan(arm, [START, GOAL], rate_hz=1000, duration=2.0, start_joints=q0)
@@ -79,21 +90,17 @@ def planning_rows(arm) -> list[tuple[str, float, int]]:
     ex._streamer = types.SimpleNamespace(period=0.001)
     rows = []
     for frac in (0.3, 0.5, 0.7):
-        i = int(frac * (len(traj.t) - 1))
-        q = traj.joints
-        qd = (q[i] - q[i - 1]) * 1000.0
-        qdd = (q[i] - 2 * q[i - 1] + q[i - 2]) * 1e6
-        state = State(i, q[i], qd, qdd, path, float(sigma[i]), float(np.linalg.norm(qd)))
+        state = _state_at(traj, path, sigma, int(frac * (len(traj.t) - 1)))
         for goal in NEW_GOALS:
             samples = ex._retarget_tail(state, [None, goal], {})
             n = sum(len(seg[1]) for seg in samples)
             ms = _median_ms(lambda st=state, g=goal: ex._retarget_tail(st, [None, g], {}))
             rows.append((f"retarget at {frac:.0%} → ({goal[0]:.2f}, {goal[1]:.2f}, "
                          f"{math.degrees(goal[2]):.0f}°)", ms, n))
-        n = len(retime(path, float(sigma[i]), state.sd * 0.5, limits.scaled(0.5), 1000.0))
+        n = len(retime(path, state.sigma, state.sd * 0.5, limits.scaled(0.5), 1000.0))
         ms = _median_ms(lambda st=state: ex._timed(st, limits.scaled(0.5)))
         rows.append((f"speed k = 0.5 at {frac:.0%} (same path)", ms, n))
-        n = len(brake(path, float(sigma[i]), state.sd, limits.a, 1000.0))
+        n = len(brake(path, state.sigma, state.sd, limits.a, 1000.0))
         ms = _median_ms(lambda st=state: brake(path, st.sigma, st.sd, limits.a, 1000.0))
         rows.append((f"smooth stop at {frac:.0%} (brake)", ms, n))
     return rows
@@ -115,12 +122,8 @@ def jerk_rows(arm) -> list[tuple[str, float, int, float, str]]:
     rows = []
     for frac in (0.3, 0.5, 0.7):
         i = int(frac * (len(traj.t) - 1))
-        q = traj.joints
-        qd = (q[i] - q[i - 1]) * 1000.0
-        qdd = (q[i] - 2 * q[i - 1] + q[i - 2]) * 1e6
-        sd = float(np.linalg.norm(qd))
-        state = State(i, q[i], qd, qdd, path, float(sigma[i]), sd, float(qdd @ qd) / sd,
-                      q[i - 2:i + 1])
+        state = _state_at(traj, path, sigma, i)
+        sd = state.sd
         # the execution's helpers read the rate and the source from its streamer
         ex._streamer = types.SimpleNamespace(period=0.001,
                                              source=types.SimpleNamespace(rate_hz=1000.0))

@@ -107,18 +107,23 @@ def _check_wire_steps(ticks: np.ndarray) -> None:
 
 # -- retarget -------------------------------------------------------------------------------
 
-def test_retarget_in_flight_is_smooth_and_ends_at_the_new_goal(sa):
-    traj = _move(sa, duration=2.0)
-    new_goal = (0.22, -0.05, 0.3)
-
+def _retarget_run(sa, traj, new_goal, at: float = 0.3):
+    """Retarget ``traj`` to ``new_goal`` at the fraction ``at`` of it; the wire goals, the
+    commanded joints, their ticks and the first changed sample (it completed)."""
     def ops(ex):
-        _wait_sample(ex, int(0.3 * len(traj.t)))
+        _wait_sample(ex, int(at * len(traj.t)))
         ex.retarget([None, new_goal])
 
     report, ex, wire = _run(sa, traj, ops)
     assert report.stop_reason == "completed", report.headline
     _index, joints, ticks = _sent(ex, wire)
-    first = ex.switches[0][1]
+    return wire, joints, ticks, ex.switches[0][1]
+
+
+def test_retarget_in_flight_is_smooth_and_ends_at_the_new_goal(sa):
+    traj = _move(sa, duration=2.0)
+    new_goal = (0.22, -0.05, 0.3)
+    wire, joints, ticks, first = _retarget_run(sa, traj, new_goal)
     assert 0 < first < len(traj.t), "the switch came while the old move was running"
     # before the switch: the planned samples, unchanged
     assert np.array_equal(ticks[:first], traj.ticks[:first])
@@ -451,10 +456,10 @@ def _check_jerk(joints: np.ndarray, v=V, a=A, j=J) -> None:
     assert not bad.size, (bad[:10], jerk.max(0) / j)
 
 
-def _jerk_move(sa, goal=GOAL):
+def _jerk_move(sa, goal=GOAL, **kw):
     q0 = _present(sa)
     pose = tuple(kinematics.fk(ARM3R.links, q0[None])[0])
-    return plan(JERK_ARM, [pose, goal], rate_hz=RATE, start_joints=q0)
+    return plan(JERK_ARM, [pose, goal], rate_hz=RATE, start_joints=q0, **kw)
 
 
 def test_jerk_limited_smooth_stop_brakes_along_the_path_within_every_limit(sa):
@@ -525,17 +530,10 @@ def test_jerk_limited_speed_change_in_motion_keeps_every_limit(sa, at):
 
 
 def test_jerk_limited_retarget_brakes_to_rest_then_leaves_within_every_limit(sa):
-    traj = _jerk_move(sa)
+    # a 2 s move: the switch lands while it moves whatever the planning takes (≈ 0.1 s)
+    traj = _jerk_move(sa, duration=2.0)
     new_goal = (0.22, -0.05, 0.3)
-
-    def ops(ex):
-        _wait_sample(ex, int(0.3 * len(traj.t)))
-        ex.retarget([None, new_goal])
-
-    report, ex, wire = _run(sa, traj, ops)
-    assert report.stop_reason == "completed", report.headline
-    _, joints, ticks = _sent(ex, wire)
-    first = ex.switches[0][1]
+    _wire, joints, ticks, first = _retarget_run(sa, traj, new_goal)
     assert np.array_equal(ticks[:first], traj.ticks[:first])
     _check_jerk(joints)
     # under jerk limits it brakes to rest along the present path, then leaves from there
@@ -571,12 +569,14 @@ def test_a_retarget_lands_when_planning_and_the_loop_run_late(sa):
         sa.bus.write_encoded = slow_write
         plan_tail = ex._retarget_tail
 
-        def slow_tail(*args):
+        def slow_tail(state, *args):
             calls.append(time.perf_counter())
             if len(calls) == 1:
                 stall.set()
                 time.sleep(0.04)
-            return plan_tail(*args)
+                # and past the switch, however the loop ran meanwhile (it is what is tested)
+                _wait_sample(ex, state.index + 2)
+            return plan_tail(state, *args)
 
         ex._retarget_tail = slow_tail
         ex._plan_s["retarget"] = [0.01]

@@ -624,6 +624,20 @@ class Execution:
                                  field="speed", value=self.speed)
         return np.concatenate([pre, rest])
 
+    def _retimed(self, state: State, limits: Limits) -> NDArray:
+        """:meth:`_timed` on the present path for a speed change or a resume.
+
+        Raises
+        ------
+        InputError
+            ``field="speed"``: nothing of the path is left to re-time (the switch is at its
+            end); the samples planned stand."""
+        sigma = self._timed(state, limits)
+        if not sigma.size:
+            raise InputError("nothing of the path is left to re-time", field="speed",
+                             value=self.speed)
+        return sigma
+
     def _timed_jerk(self, state: State, limits: Limits, path: JointPath | None = None,
                     sigma0: float | None = None) -> NDArray:
         """:meth:`_timed` under jerk limits: the law from the moving state (σ̇, σ̈); else a
@@ -746,8 +760,13 @@ class Execution:
             if not self.paused:
                 return
             self._stop_keeper()
-            self._apply("resume", lambda st: self._samples(
-                st.path, self._timed(st, limits.scaled(self.speed))))
+            try:
+                self._apply("resume", lambda st: self._samples(
+                    st.path, self._retimed(st, limits.scaled(self.speed))))
+            except InputError as exc:
+                if exc.field != "speed":
+                    raise
+                log.info("resume: %s; the held end of the path stands", exc)
             self.status = "running"
 
     def set_speed(self, scale: float) -> None:
@@ -764,7 +783,7 @@ class Execution:
                 return
             try:
                 self._apply("change speed", lambda st: self._samples(
-                    st.path, self._timed(st, limits.scaled(k))))
+                    st.path, self._retimed(st, limits.scaled(k))))
             except InputError as exc:
                 if exc.field != "speed":
                     raise
