@@ -57,6 +57,7 @@ GOAL = (0.05, 0.25, math.radians(80))
 NEW_GOALS = [(0.20, 0.20, 0.6), (0.12, 0.22, 1.0), (0.22, 0.02, 0.2)]
 RUNS = 15
 JERK_RUNS = 5
+LATENCY_MOVES = 3
 JERK_PER_ACCEL = 20.0
 
 
@@ -152,23 +153,34 @@ def jerk_rows(arm) -> list[tuple[str, float, int, float, str]]:
 
 
 def latency_rows(arm) -> list[tuple[float, float, float]]:
-    from robodcn.servo_units import ticks_to_radians
-    from robodcn.simulated import simulated_arm
+    """Retargets of running moves on ``python -m firmware_sim`` in its own process (as
+    servos are: the simulator does not share the interpreter, and so the planning, with
+    the streaming loop)."""
+    from bench.bench_stream import BAUD, _seat, _Sim
+    from robodcn.bus import ServoBus
+    from robodcn.servo_units import radians_to_ticks, ticks_to_radians
     from robodcn.stream import start
-    q0 = kinematics.ik(arm.links, np.array([START]))[0]
-    with simulated_arm(arm, timing="fast", start_joints=q0) as sa:
-        here = ticks_to_radians(sa.bus.read_positions()[None], arm.servos)[0]
-        traj = robodcn.plan(arm, [tuple(kinematics.fk(arm.links, here[None])[0]), GOAL],
-                            rate_hz=1000, duration=3.0, start_joints=here)
-        ex = start(traj, sa.bus, skip_late=False)
-        goals = [(0.2, 0.15, 0.2), (0.15, 0.2, 0.5), (0.1, 0.22, 0.9), (0.05, 0.25, 1.2),
-                 (0.1, 0.2, 0.8), (0.15, 0.18, 0.4)]
-        for k, goal in enumerate(goals):
-            while ex.sample < 150 + 100 * k and not ex.done:
-                time.sleep(0.002)
-            ex.retarget([None, goal])
-        ex.wait(30)
-        return ex.latencies()
+    goals = [(0.2, 0.15, 0.2), (0.15, 0.2, 0.5), (0.1, 0.22, 0.9), (0.05, 0.25, 1.2),
+             (0.1, 0.2, 0.8), (0.15, 0.18, 0.4)]
+    out = []
+    with _Sim(timing="fast") as sim, \
+            ServoBus(sim.path, BAUD, servos=arm.servos, rx_timeout_ms=10) as bus:
+        bus.verify()
+        bus.configure()
+        seat = radians_to_ticks(kinematics.ik(arm.links, np.array([START])), arm.servos)[0]
+        for _ in range(LATENCY_MOVES):  # each from START, retargeted six times
+            _seat(bus, seat)  # a goal step in joint space (the sim starts stretched out)
+            here = ticks_to_radians(bus.read_positions()[None], arm.servos)[0]
+            traj = robodcn.plan(arm, [tuple(kinematics.fk(arm.links, here[None])[0]), GOAL],
+                                rate_hz=1000, duration=3.0, start_joints=here)
+            ex = start(traj, bus, skip_late=False)
+            for k, goal in enumerate(goals):
+                while ex.sample < 150 + 100 * k and not ex.done:
+                    time.sleep(0.002)
+                ex.retarget([None, goal])
+            ex.wait(30)
+            out += ex.latencies()
+    return out
 
 
 def run() -> str:
@@ -191,15 +203,22 @@ def run() -> str:
         lines.append(f"| {name} | {ms:.1f} | {n} | {over:.3f} | {note} |")
     lat = latency_rows(arm)
     lines += ["", "Request → first changed goal on firmware_sim (1 kHz, timing fast, "
-              f"{len(lat)} retargets of a running move; seconds from the request, median):",
-              "", "| planning ms | first changed goal due ms | sent ms | due − planning "
-              "(rule ≤ 2 periods = 2 ms) |", "|---:|---:|---:|---:|"]
+              f"{len(lat)} retargets of {LATENCY_MOVES} running moves; milliseconds from the "
+              "request, median; the last column counts the retargets whose first changed "
+              "goal was due within planning + 2 periods). firmware_sim runs in its own process "
+              "(`python -m firmware_sim --timing fast`); planning shares the interpreter with "
+              "the streaming loop, so it takes longer and varies more than in the table "
+              "above:", "",
+              "| planning ms | first changed goal due ms | sent ms | due − planning "
+              "(rule ≤ 2 periods = 2 ms) | within the rule |", "|---:|---:|---:|---:|---:|"]
     if lat:
         plan_ms = 1000 * statistics.median(p for p, _, _, _ in lat)
         due_ms = 1000 * statistics.median(d for _, d, _, _ in lat)
         sent_ms = 1000 * statistics.median(s for _, _, s, _ in lat)
         excess = 1000 * statistics.median(d - p for p, d, _, _ in lat)
-        lines.append(f"| {plan_ms:.1f} | {due_ms:.1f} | {sent_ms:.1f} | {excess:.1f} |")
+        within = sum(d - p <= 0.002 for p, d, _, _ in lat)
+        lines.append(f"| {plan_ms:.1f} | {due_ms:.1f} | {sent_ms:.1f} | {excess:.1f} | "
+                     f"{within} of {len(lat)} |")
     return "\n".join(lines) + "\n"
 
 

@@ -41,6 +41,7 @@ import math
 import sys
 import threading
 import time
+import types
 from collections.abc import Callable, Sequence
 from typing import Any
 
@@ -108,6 +109,15 @@ KEEP_AHEAD_S = 0.1
 #: a planned retarget tail may exceed a limit by this much on the wire (finite differences
 #: of a law sampled at the stream rate) before the way through rest is taken instead
 TAIL_SLACK = 1e-6
+
+
+#: planning times of this process's last operations, per operation and kind of arm (jerk
+#: limits or not): a new execution places its first switches from them instead of a guess
+_SEEN_PLAN_S: dict[tuple[str, bool], list[float]] = {}
+_SEEN_LOCK = threading.Lock()
+#: set once a retarget was planned in this process (the first one pays the planner's and
+#: numpy's first-call costs: :meth:`Execution.warm_up` pays them before a stream starts)
+_RETARGET_WARM = threading.Event()
 
 
 class _EndKeeper:
@@ -314,17 +324,50 @@ class Execution:
         self._limits: Limits | None = None if self.arm is None else Limits.of_arm(self.arm)
         if self._limits is not None and self._limits.j is not None:
             self._plan_s = {k: [v] for k, v in JERK_PLAN_S.items()}
+        with _SEEN_LOCK:
+            for (what, jerk), times in _SEEN_PLAN_S.items():
+                if jerk == self._jerk:
+                    self._plan_s[what] = list(times)
         self._options = ExecutionOptions()
 
     def warm_up(self) -> None:
-        """Run the re-timing once on the plan's path (first calls pay numpy's set-up)."""
+        """Run the re-timing once on the plan's path (first calls pay numpy's set-up), and
+        once a process a retarget from its middle to its end (the planner's first calls)."""
         if self._limits is None:
             return
+        rate = self.trajectory.rate_hz
         path, sigma = JointPath.of_samples(self.trajectory.joints)
-        if path.length > 0:
-            mid = float(sigma[len(sigma) // 2])
-            retime(path, mid, 0.0, self._limits, self.trajectory.rate_hz)
-            brake(path, mid, 1e-3, self._limits.a, self.trajectory.rate_hz)
+        if path.length <= 0:
+            return
+        mid = float(sigma[len(sigma) // 2])
+        retime(path, mid, 0.0, self._limits, rate)
+        brake(path, mid, 1e-3, self._limits.a, rate)
+        q = self.trajectory.joints
+        i = len(q) // 2
+        if _RETARGET_WARM.is_set() or self._jerk or self.arm is None or i < 2:
+            return
+        _RETARGET_WARM.set()
+        qd = (q[i] - q[i - 1]) * rate
+        qdd = (q[i] - 2.0 * q[i - 1] + q[i - 2]) * rate * rate
+        sd = float(np.linalg.norm(qd))
+        state = State(i, q[i], qd, qdd, path, float(sigma[i]), sd,
+                      float(qdd @ qd) / sd if sd > 1e-12 else 0.0, q[i - 2:i + 1])
+        end = tuple(kinematics.fk(self.arm.links, q[-1:])[0])
+        self._streamer = types.SimpleNamespace(period=1.0 / rate,
+                                               source=types.SimpleNamespace(rate_hz=rate))
+        try:
+            # (its time is not a guess for a switch: planning beside a running stream,
+            # which shares the interpreter, takes about twice as long)
+            self._retarget_tail(state, [None, end], {})
+        except RobodcnError:
+            pass
+        finally:
+            self._streamer = None
+
+    def _record_plan_s(self, what: str, took: float) -> None:
+        self._plan_s[what] = [*self._plan_s.get(what, [])[-4:], took]
+        with _SEEN_LOCK:
+            _SEEN_PLAN_S[(what, self._jerk)] = list(self._plan_s[what])
 
     # -- lifecycle ------------------------------------------------------------------------
 
@@ -491,7 +534,7 @@ class Execution:
                     took_total = time.perf_counter() - requested
                     due = streamer.t_start + first * streamer.period
                     self.switches.append((requested, first, due, took_total, ahead))
-                    self._plan_s[what] = [*self._plan_s.get(what, [])[-4:], took]
+                    self._record_plan_s(what, took)
                     log.info("%s: switch at sample %d (planned in %.2f ms)", what, first,
                              took * 1000)
                     if self.on_change is not None:
