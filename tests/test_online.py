@@ -353,6 +353,36 @@ def test_speed_scaling_keeps_the_scaled_limits(sa, at):
     assert len(ticks) > len(traj.t) + 0.25 * (len(traj.t) - first), "slower"
 
 
+def test_speed_scaling_a_slower_fixed_duration_plan_slows_it_by_k(sa):
+    """A 2 s plan (slower than the limits allow) at k = 0.5 takes about twice its remaining
+    time and is never faster than 0.5 × its own speed at the same point of the path, once it
+    has slowed down to it (re-timing it time-optimally under the scaled limits made it
+    faster, 1401 → 713 ms)."""
+    traj = _move(sa, duration=2.0)
+    k = 0.5
+
+    def ops(ex):
+        _wait_sample(ex, int(0.3 * len(traj.t)))
+        ex.set_speed(k)
+
+    report, ex, wire = _run(sa, traj, ops)
+    assert report.outcome == "done", report.headline
+    _, joints, ticks = _sent(ex, wire)
+    _check_limits(joints)
+    first = ex.switches[0][1]
+    left, now = len(traj.t) - first, len(ticks) - first
+    assert 1.8 * left <= now <= 2.3 * left, (left, now)
+    # speed along the path against the plan's at the same arc length
+    _, sigma = JointPath.of_samples(traj.joints)
+    plan_speed = np.diff(sigma) * RATE
+    arc = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(joints, axis=0), axis=1))])
+    speed = np.diff(arc) * RATE
+    limit = k * np.interp(arc[1:], 0.5 * (sigma[1:] + sigma[:-1]), plan_speed)
+    slowed = first + int(np.argmax(speed[first:] <= limit[first:] * 1.01))
+    assert (speed[slowed:] <= limit[slowed:] * 1.01 + 1e-3).all()
+    assert np.array_equal(ticks[-1], traj.ticks[-1])
+
+
 def test_speed_scaling_while_the_move_brakes_to_its_end_lets_it_end_as_planned(sa):
     """Where the plan already brakes to its end at the full limits, no law under k's limits
     reaches the end from the present speed (a brake to them runs past it): no error, no
@@ -463,11 +493,12 @@ def _jerk_move(sa, goal=GOAL, **kw):
 
 
 def test_jerk_limited_smooth_stop_brakes_along_the_path_within_every_limit(sa):
-    traj = _jerk_move(sa)
-    _check_jerk(traj.joints)  # the plan itself (profile "optimal") keeps them
+    # a 2 s move: the stop lands while it moves whatever the planning and the host take
+    traj = _jerk_move(sa, duration=2.0)
+    _check_jerk(traj.joints)  # the plan itself (profile "optimal", stretched) keeps them
 
     def ops(ex):
-        _wait_sample(ex, int(0.45 * len(traj.t)))
+        _wait_sample(ex, int(0.4 * len(traj.t)))
         ex.stop("smooth")
 
     report, ex, wire = _run(sa, traj, ops)
@@ -484,11 +515,11 @@ def test_jerk_limited_smooth_stop_brakes_along_the_path_within_every_limit(sa):
                                  traj.joints)
     assert (off <= 1.5 * TICK + 1e-9).all(), off.max(0) / TICK
     vel, _ = _fd(joints)
-    assert np.abs(vel[first - 1]).max() > 0.2 * V.min(), "it was moving at the switch"
+    assert np.abs(vel[first - 1]).max() > 0.1 * V.min(), "it was moving at the switch"
 
 
 def test_jerk_limited_pause_resume_and_speed_scaling_keep_every_limit(sa):
-    traj = _jerk_move(sa)
+    traj = _jerk_move(sa, duration=2.0)
     k = 0.5
 
     def ops(ex):
@@ -514,7 +545,7 @@ def test_jerk_limited_pause_resume_and_speed_scaling_keep_every_limit(sa):
 
 @pytest.mark.parametrize("at", [0.2, 0.45], ids=["accelerating", "cruising"])
 def test_jerk_limited_speed_change_in_motion_keeps_every_limit(sa, at):
-    traj = _jerk_move(sa)
+    traj = _jerk_move(sa, duration=2.0)  # room for the switch (placed ≈ 0.15 s ahead)
 
     def ops(ex):
         _wait_sample(ex, int(at * len(traj.t)))

@@ -166,7 +166,7 @@ def time_optimal(q: ArrayLike, s: ArrayLike, v_max: ArrayLike, a_max: ArrayLike,
                  sdd_start: float = 0.0, sd_end: float = 0.0, stops: Sequence[float] = (),
                  rate_hz: float | None = None, scale: float = 1.0,
                  max_stages: int = MAX_STAGES, accel_share: float = 0.95,
-                 smooth: bool = False) -> PathTiming:
+                 smooth: bool = False, sd_cap: ArrayLike | None = None) -> PathTiming:
     """Least-duration time law s(t) along the joint path q(s) under per-joint limits.
 
     Parameters
@@ -189,6 +189,9 @@ def time_optimal(q: ArrayLike, s: ArrayLike, v_max: ArrayLike, a_max: ArrayLike,
     smooth : the path is C² between stops (as the planner's blends are): the jerk pass then
         skips its curvature-corner caps, which otherwise read every fast change of q''
         between samples as a step (a C¹ corner) and slow the law there
+    sd_cap : (n,) the largest ṡ allowed at each sample of ``q`` (a speed scale that must not
+        make a slower plan faster: k × its own ṡ), None = none; it bounds the reachability
+        sets' ṡ² like a velocity limit of the path itself
 
     Returns
     -------
@@ -236,6 +239,12 @@ def time_optimal(q: ArrayLike, s: ArrayLike, v_max: ArrayLike, a_max: ArrayLike,
     sg = s[grid]
     dq, ddq = derivs[0][grid], derivs[1][grid]
     cap = np.full(grid.shape[0], np.inf)
+    if sd_cap is not None:
+        sd_cap = np.asarray(sd_cap, dtype=np.float64)
+        if sd_cap.shape != (n,) or np.isnan(sd_cap).any() or (sd_cap < 0).any():
+            raise InputError(f"sd_cap must be {n} speeds ≥ 0, got shape {sd_cap.shape}",
+                             field="sd_cap", value=sd_cap.shape)
+        cap = np.minimum(cap, sd_cap[grid] ** 2)
     cap[np.searchsorted(grid, stop_idx)] = 0.0
     if not jerk:
         v, a = (lim[grid] if lim.ndim == 2 else lim for lim in (v, a))

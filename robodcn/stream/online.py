@@ -329,6 +329,8 @@ class Execution:
                 if jerk == self._jerk:
                     self._plan_s[what] = list(times)
         self._options = ExecutionOptions()
+        #: id(path) → (path, σ midpoints, σ̇ at speed 1) of the first law on each path
+        self._laws: dict[int, tuple[JointPath, NDArray, NDArray]] = {}
 
     def warm_up(self) -> None:
         """Run the re-timing once on the plan's path (first calls pay numpy's set-up), and
@@ -378,6 +380,7 @@ class Execution:
         root = OnlineSamples.of_trajectory(planned.trajectory, self.bus,
                                            encoded=planned._encoded, lead=lead)
         streamer.swap(root)
+        self._register_law(root.path, root.sigma, root.rate_hz, 1.0)
         self._streamer = streamer
         if self.arm is None and planned.trajectory.request is not None:
             self.arm = planned.trajectory.request.arm
@@ -531,6 +534,8 @@ class Execution:
                         if keeper is not None:
                             keeper.stopped = True
                         streamer.swap(node)
+                    for _joints, sigma, path in segments:  # a new path's own law
+                        self._register_law(path, sigma, src.rate_hz, self.speed)
                     took_total = time.perf_counter() - requested
                     due = streamer.t_start + first * streamer.period
                     self.switches.append((requested, first, due, took_total, ahead))
@@ -608,11 +613,13 @@ class Execution:
         return [(path.at(sigma), sigma, path)]
 
     def _timed(self, state: State, limits: Limits, path: JointPath | None = None,
-               sigma0: float | None = None, allowed: float | None = None) -> NDArray:
+               sigma0: float | None = None, allowed: float | None = None,
+               cap: Callable[[NDArray[np.float64]], NDArray[np.float64]] | None = None
+               ) -> NDArray:
         """σ samples: brake with the full limits while over what ``limits`` allow, then the
-        time-optimal law under ``limits`` to the end of the path."""
+        time-optimal law under ``limits`` (and the speed ``cap``) to the end of the path."""
         if self._jerk:
-            return self._timed_jerk(state, limits, path, sigma0)
+            return self._timed_jerk(state, limits, path, sigma0, cap)
         path = state.path if path is None else path
         s0 = state.sigma if sigma0 is None else sigma0
         rate = self._streamer.period and 1.0 / self._streamer.period
@@ -620,8 +627,14 @@ class Execution:
         assert full is not None
         sd = state.sd
         pre = np.zeros(0)
+
+        def allow(at: float) -> float:
+            """The fastest start at σ = ``at``: the controllable speed, under the cap."""
+            top = controllable_speed(path, at, limits)
+            return top if cap is None else min(top, float(cap(np.array([at]))[0]))
+
         if allowed is None:
-            allowed = controllable_speed(path, s0, limits) if sd > 0 else math.inf
+            allowed = allow(s0) if sd > 0 else math.inf
         if sd > allowed * 0.98:
             pre = brake(path, s0, sd, full.a, rate, until_sd=allowed * 0.95)
             if pre.size:
@@ -629,7 +642,7 @@ class Execution:
                 s0 = float(pre[-1])
         for attempt in range(RETIME_TRIES):
             try:
-                rest = retime(path, s0, sd, limits, rate)
+                rest = retime(path, s0, sd, limits, rate, sd_cap=cap)
                 break
             except InputError:
                 if sd <= 0.0:
@@ -639,8 +652,7 @@ class Execution:
                 # now is; the last tries brake to rest (always possible under the full
                 # limits), from where the scaled law starts.
                 to_rest = attempt >= RETIME_TRIES - 2
-                until = 0.0 if to_rest else min(
-                    0.8 * sd, 0.95 * controllable_speed(path, s0, limits))
+                until = 0.0 if to_rest else min(0.8 * sd, 0.95 * allow(s0))
                 prev = pre[-1] if pre.size else s0
                 more = brake(path, s0, sd, full.a, rate, until_sd=until)
                 if to_rest:
@@ -667,6 +679,36 @@ class Execution:
                                  field="speed", value=self.speed)
         return np.concatenate([pre, rest])
 
+    def _register_law(self, path: JointPath, sigma: NDArray, rate_hz: float,
+                      scale: float) -> None:
+        """Keep the first law a path was timed with, at speed scale 1 (σ̇ / ``scale`` at the
+        midpoints of its samples): what a speed scale k must not exceed k × of."""
+        if id(path) in self._laws or sigma.size < 2:
+            return
+        step = np.diff(sigma)
+        keep = step > 0.0
+        if not keep.any():
+            return
+        mid = 0.5 * (sigma[1:] + sigma[:-1])[keep]
+        self._laws[id(path)] = (path, mid, step[keep] * rate_hz / max(scale, 1e-9))
+
+    def _speed_cap(self, state: State, k: float
+                   ) -> Callable[[NDArray[np.float64]], NDArray[np.float64]] | None:
+        """σ ↦ the largest σ̇ a re-timing at speed scale k may reach: k × the path's own
+        first law, so a slower, fixed-duration plan stays k × as slow (as with
+        joint_trajectory_controller's speed scaling) instead of becoming time-optimal. The
+        k-scaled law itself keeps v·k, a·k², j·k³, so a law under the cap exists from any
+        state below it; :meth:`_timed` brakes to it first."""
+        entry = self._laws.get(id(state.path))
+        if entry is None or entry[0] is not state.path:
+            return None
+        _, mid, speed = entry
+
+        def cap(s: NDArray[np.float64]) -> NDArray[np.float64]:
+            return k * np.interp(s, mid, speed) * (1.0 + 1e-6) + 1e-9
+
+        return cap
+
     def _retimed(self, state: State, limits: Limits) -> NDArray:
         """:meth:`_timed` on the present path for a speed change or a resume.
 
@@ -675,14 +717,16 @@ class Execution:
         InputError
             ``field="speed"``: nothing of the path is left to re-time (the switch is at its
             end); the samples planned stand."""
-        sigma = self._timed(state, limits)
+        sigma = self._timed(state, limits, cap=self._speed_cap(state, self.speed))
         if not sigma.size:
             raise InputError("nothing of the path is left to re-time", field="speed",
                              value=self.speed)
         return sigma
 
     def _timed_jerk(self, state: State, limits: Limits, path: JointPath | None = None,
-                    sigma0: float | None = None) -> NDArray:
+                    sigma0: float | None = None,
+                    cap: Callable[[NDArray[np.float64]], NDArray[np.float64]] | None = None
+                    ) -> NDArray:
         """:meth:`_timed` under jerk limits: the law from the moving state (σ̇, σ̈); else a
         jerk-limited brake under the full limits to below what ``limits`` allow and the law
         from there; else a brake to rest and the law from rest (always possible).
@@ -698,7 +742,7 @@ class Execution:
 
         def law(at: State) -> NDArray:
             return retime(path, at.sigma, at.sd, limits, rate, sdd0=at.sdd,
-                          history=at.history)
+                          history=at.history, sd_cap=cap)
 
         try:
             return law(st)
@@ -706,6 +750,8 @@ class Execution:
             pass
         if st.sd > 0.0:
             allowed = controllable_speed(path, st.sigma, limits)
+            if cap is not None:
+                allowed = min(allowed, float(cap(np.array([st.sigma]))[0]))
             if 0.0 < allowed < st.sd:
                 pre = self._brake(st, until_sd=0.9 * allowed)
                 if pre is not None:
@@ -828,10 +874,11 @@ class Execution:
                 self._apply("change speed", lambda st: self._samples(
                     st.path, self._retimed(st, limits.scaled(k))))
             except InputError as exc:
-                if exc.field != "speed":
+                if exc.field not in ("speed", "limits"):
                     raise
                 # near the end the move already brakes to rest at the full limits; a
-                # slower law from here would overrun the path: the move ends as planned
+                # slower law from here would overrun the path (or none keeps every limit
+                # from this state): the move ends as planned
                 log.info("speed %.3g: %s; the move ends as planned", k, exc)
 
     def retarget(self, target: PlanRequest | Sequence[ArrayLike | None],

@@ -30,7 +30,7 @@ Three laws, all sampled at the stream rate:
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -366,11 +366,13 @@ def controllable_speed(path: JointPath, sigma0: float, limits: Limits, *,
 
 
 def retime(path: JointPath, sigma0: float, sd0: float, limits: Limits, rate_hz: float,
-           *, sdd0: float = 0.0, history: NDArray[np.float64] | None = None
+           *, sdd0: float = 0.0, history: NDArray[np.float64] | None = None,
+           sd_cap: Callable[[NDArray[np.float64]], NDArray[np.float64]] | None = None
            ) -> NDArray[np.float64]:
     """σ of the samples after (σ₀, σ̇₀, σ̈₀) of the time-optimal law to rest at the path's
     end (σ̈₀ counts with jerk limits only). The law is checked on the joints it sends after
     ``history`` (the commanded samples up to σ₀; by default two on the tangent at σ̇₀).
+    ``sd_cap`` maps σ to the largest σ̇ allowed there (:func:`time_optimal`'s ``sd_cap``).
 
     Raises
     ------
@@ -388,7 +390,7 @@ def retime(path: JointPath, sigma0: float, sd0: float, limits: Limits, rate_hz: 
         v, a = limits.v * share, limits.a * share
         j = None if limits.j is None else limits.j * share
         law = _law(q, s, v, a, j, sd0, sdd0 if limits.j is not None else 0.0, stops,
-                   rate_hz)
+                   rate_hz, None if sd_cap is None else sd_cap(s))
         out = law.sample(rate_hz).s[1:]
         # the final samples may sit at the end within rounding: keep one
         end = np.flatnonzero(out >= s[-1] - 1e-12)
@@ -421,18 +423,19 @@ def excess(joints: NDArray[np.float64], limits: Limits, rate_hz: float, *,
 
 
 def _law(q: NDArray, s: NDArray, v: NDArray, a: NDArray, j: NDArray | None, sd0: float,
-         sdd0: float, stops: Sequence[float], rate_hz: float) -> PathTiming:
+         sdd0: float, stops: Sequence[float], rate_hz: float,
+         sd_cap: NDArray | None = None) -> PathTiming:
     """time_optimal from σ̇₀; a σ̇₀ over the controllable speed by rounding only (1e-3) starts
     at that speed instead (a larger excess is raised: brake first)."""
     try:
         return time_optimal(q, s, v, a, j, sd_start=sd0, sdd_start=sdd0, stops=stops,
-                            rate_hz=rate_hz, max_stages=ONLINE_STAGES)
+                            rate_hz=rate_hz, max_stages=ONLINE_STAGES, sd_cap=sd_cap)
     except InputError as exc:
         top = controllable_at(q, s, v, a, stops)
         if exc.field != "sd_start" or not top < sd0 <= top * 1.001:
             raise
         return time_optimal(q, s, v, a, j, sd_start=top, sdd_start=sdd0, stops=stops,
-                            rate_hz=rate_hz, max_stages=ONLINE_STAGES)
+                            rate_hz=rate_hz, max_stages=ONLINE_STAGES, sd_cap=sd_cap)
 
 
 def controllable_at(q: NDArray, s: NDArray, v: NDArray, a: NDArray,
