@@ -216,3 +216,25 @@ def test_per_sample_limits_bound_each_stage():
     with pytest.raises(InputError) as err:
         time_optimal(q, s, v_s, a, j_max=[10.0, 10.0])
     assert err.value.field == "v_max"
+
+
+@pytest.mark.parametrize("jerk", [None, 200.0], ids=["jerk-free", "jerk-limited"])
+def test_sd_cap_bounds_the_law_and_only_slows_it(jerk):
+    """``sd_cap`` (a speed scale's k × the plan's own ṡ): the law stays under it wherever it
+    is, is no shorter than without it, and a cap above the free law changes nothing."""
+    t = np.linspace(0.0, 1.0, 400)
+    q = np.stack([np.cos(2 * t), np.sin(2 * t), 0.5 * t], axis=1)
+    s = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(q, axis=0), axis=1))])
+    v, a = np.full(3, 3.0), np.full(3, 20.0)
+    j = None if jerk is None else np.full(3, jerk)
+    free = time_optimal(q, s, v, a, j, rate_hz=RATE)
+    cap = np.full(len(s), 0.6)
+    capped = time_optimal(q, s, v, a, j, rate_hz=RATE, sd_cap=cap)
+    m = capped.sample(RATE)
+    assert m.sd.max() <= 0.6 * 1.01
+    assert capped.duration >= free.duration
+    loose = time_optimal(q, s, v, a, j, rate_hz=RATE, sd_cap=np.full(len(s), 1e3))
+    assert loose.duration == pytest.approx(free.duration, rel=1e-9)
+    with pytest.raises(InputError) as info:
+        time_optimal(q, s, v, a, j, sd_cap=np.full(3, 1.0))
+    assert info.value.field == "sd_cap"
