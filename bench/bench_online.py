@@ -72,14 +72,8 @@ def _median_ms(fn, runs: int = RUNS) -> float:
 
 
 def _state_at(traj, path: JointPath, sigma: np.ndarray, i: int) -> State:
-    """The commanded state at sample i of ``traj`` as an execution reads it (backward
-    differences at 1 kHz, σ̈ along the motion, the three samples up to i)."""
-    q = traj.joints
-    qd = (q[i] - q[i - 1]) * 1000.0
-    qdd = (q[i] - 2 * q[i - 1] + q[i - 2]) * 1e6
-    sd = float(np.linalg.norm(qd))
-    return State(i, q[i], qd, qdd, path, float(sigma[i]), sd, float(qdd @ qd) / sd,
-                 q[i - 2:i + 1])
+    """The commanded state at sample i of ``traj`` as an execution reads it."""
+    return State.of_history(i, traj.joints[i - 2:i + 1], path, float(sigma[i]), 1000.0)
 
 
 def planning_rows(arm) -> list[tuple[str, float, int]]:

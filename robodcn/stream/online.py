@@ -72,7 +72,6 @@ from robodcn.stream.online_path import (
     check_limits_named,
     controllable_speed,
     evenly_spaced,
-    excess,
     retime,
 )
 from robodcn.stream.options import ExecutionOptions
@@ -106,9 +105,6 @@ JERK_PLAN_S = {"retarget": 0.12, "stop smoothly": 0.03, "pause": 0.03, "resume":
                "change speed": 0.15}
 #: rest a retarget's end keeper keeps ahead of the loop while the retarget plans (s)
 KEEP_AHEAD_S = 0.1
-#: a planned retarget tail may exceed a limit by this much on the wire (finite differences
-#: of a law sampled at the stream rate) before the way through rest is taken instead
-TAIL_SLACK = 1e-6
 
 
 #: planning times of this process's last operations, per operation and kind of arm (jerk
@@ -278,6 +274,18 @@ class State:
     #: the commanded joints (3, k) of samples index − 2 … index (jerk checks across a switch)
     history: NDArray[np.float64] | None = None
 
+    @classmethod
+    def of_history(cls, index: int, history: NDArray[np.float64], path: JointPath,
+                   sigma: float, rate_hz: float) -> State:
+        """The state at the last of three commanded samples (3, k): q̇ and q̈ their backward
+        differences at the stream rate, σ̇ = ‖q̇‖, σ̈ = q̈·q̇/σ̇ (along the motion)."""
+        q2, q1, q0 = history
+        qd = (q0 - q1) * rate_hz
+        qdd = (q0 - 2.0 * q1 + q2) * rate_hz * rate_hz
+        sd = float(np.linalg.norm(qd))
+        sdd = float(qdd @ qd) / sd if sd > 1e-12 else 0.0
+        return cls(index, q0, qd, qdd, path, sigma, sd, sdd, np.asarray(history))
+
 
 class Execution:
     """A running execution (:func:`start`); every method is thread-safe.
@@ -349,11 +357,7 @@ class Execution:
         if _RETARGET_WARM.is_set() or self._jerk or self.arm is None or i < 2:
             return
         _RETARGET_WARM.set()
-        qd = (q[i] - q[i - 1]) * rate
-        qdd = (q[i] - 2.0 * q[i - 1] + q[i - 2]) * rate * rate
-        sd = float(np.linalg.norm(qd))
-        state = State(i, q[i], qd, qdd, path, float(sigma[i]), sd,
-                      float(qdd @ qd) / sd if sd > 1e-12 else 0.0, q[i - 2:i + 1])
+        state = State.of_history(i, q[i - 2:i + 1], path, float(sigma[i]), rate)
         end = tuple(kinematics.fk(self.arm.links, q[-1:])[0])
         self._streamer = types.SimpleNamespace(period=1.0 / rate,
                                                source=types.SimpleNamespace(rate_hz=rate))
@@ -466,12 +470,8 @@ class Execution:
         q0 = src.joint(index)
         q1 = src.joint(index - 1) if index > 0 else q0
         q2 = src.joint(index - 2) if index > 1 else q1
-        qd = (q0 - q1) * rate
-        qdd = (q0 - 2.0 * q1 + q2) * rate * rate
         path, sigma = src.path_at(index)
-        sd = float(np.linalg.norm(qd))
-        sdd = float(qdd @ qd) / sd if sd > 1e-12 else 0.0
-        return State(index, q0, qd, qdd, path, sigma, sd, sdd, np.vstack([q2, q1, q0]))
+        return State.of_history(index, np.vstack([q2, q1, q0]), path, sigma, rate)
 
     def _apply(self, what: str, tail: Callable[[State], list[Segment]], *,
                hold: int = 0) -> int:
@@ -570,12 +570,6 @@ class Execution:
                              "robodcn.plan or pass arm=)", field="arm", value=None)
         return self._limits
 
-    def jerk_limited(self) -> list[str]:
-        """Names of the arm's joints with a jerk limit."""
-        if self.arm is None:
-            return []
-        return [j.name for j in self.arm.joints if getattr(j, "max_jerk", None) is not None]
-
     @property
     def _jerk(self) -> bool:
         return self._limits is not None and self._limits.j is not None
@@ -629,9 +623,7 @@ class Execution:
         pre = np.zeros(0)
 
         def allow(at: float) -> float:
-            """The fastest start at σ = ``at``: the controllable speed, under the cap."""
-            top = controllable_speed(path, at, limits)
-            return top if cap is None else min(top, float(cap(np.array([at]))[0]))
+            return self._allowed(path, at, limits, cap)
 
         if allowed is None:
             allowed = allow(s0) if sd > 0 else math.inf
@@ -678,6 +670,14 @@ class Execution:
                                  "before a brake could reach the scaled limits",
                                  field="speed", value=self.speed)
         return np.concatenate([pre, rest])
+
+    @staticmethod
+    def _allowed(path: JointPath, sigma: float, limits: Limits,
+                 cap: Callable[[NDArray[np.float64]], NDArray[np.float64]] | None) -> float:
+        """The fastest σ̇ a re-timing may start with at ``sigma``: the controllable speed
+        under ``limits``, and under the speed ``cap`` when there is one."""
+        top = controllable_speed(path, sigma, limits)
+        return top if cap is None else min(top, float(cap(np.array([sigma]))[0]))
 
     def _register_law(self, path: JointPath, sigma: NDArray, rate_hz: float,
                       scale: float) -> None:
@@ -749,9 +749,7 @@ class Execution:
         except InputError:
             pass
         if st.sd > 0.0:
-            allowed = controllable_speed(path, st.sigma, limits)
-            if cap is not None:
-                allowed = min(allowed, float(cap(np.array([st.sigma]))[0]))
+            allowed = self._allowed(path, st.sigma, limits, cap)
             if 0.0 < allowed < st.sd:
                 pre = self._brake(st, until_sd=0.9 * allowed)
                 if pre is not None:
@@ -993,14 +991,6 @@ class Execution:
                        "rate_hz": rate, "start_state": start}
             trajectory = plan(self.arm, waypoints, **options)
         path, sigma = JointPath.of_samples(trajectory.joints)
-        if self._jerk:
-            # the planner joins the moving state within its own sampled model: check the
-            # joints on the wire, across the switch, before they are sent
-            over = excess(np.vstack([state.history, trajectory.joints[1:]]), self._limits,
-                          rate)
-            if over > 1.0 + TAIL_SLACK:
-                raise InputError(f"the retarget from the moving state exceeds a joint limit "
-                                 f"({over:.4g} × it)", field="limits", value=over)
         return [(trajectory.joints[1:], sigma[1:], path)]
 
     def _retarget_through_rest(self, state: State, target: Any,
