@@ -41,21 +41,29 @@ def running(server: Any) -> Iterator[Any]:
         thread.join(5)
 
 
-#: A service on a simulated arm (fast timing) with its controller; the simulator must end
-#: without protocol errors. Test modules import it to use it.
-@pytest.fixture
-def arm_server() -> Iterator[tuple[Any, Any]]:
+@contextlib.contextmanager
+def serving_arm(arm: Any = ARM, request_timeout: float = 2.0) -> Iterator[tuple[Any, Any]]:
+    """A service on a simulated ``arm`` (fast timing) with its controller: (server, the
+    simulated arm). The simulator must end without protocol errors."""
     from robodcn.controller import ArmController
     from robodcn.simulated import simulated_arm
 
-    with simulated_arm(ARM, timing="fast") as sa:
-        controller = ArmController(ARM, sa.bus, execute_options=LOADED_MACHINE)
+    with simulated_arm(arm, timing="fast") as sa:
+        controller = ArmController(arm, sa.bus, execute_options=LOADED_MACHINE)
         try:
-            with running(make_server(ARM, controller, request_timeout=2.0)) as server:
+            with running(make_server(arm, controller,
+                                     request_timeout=request_timeout)) as server:
                 yield server, sa
         finally:
             controller.close()
     assert not sa.sim.errors, sa.sim.errors
+
+
+#: :func:`serving_arm` on the example arm as a fixture. Test modules import it to use it.
+@pytest.fixture
+def arm_server() -> Iterator[tuple[Any, Any]]:
+    with serving_arm() as pair:
+        yield pair
 
 
 def address(server: Any) -> tuple[str, int]:
@@ -65,8 +73,9 @@ def address(server: Any) -> tuple[str, int]:
 
 def call(server: Any, method: str, path: str, body: Any = None, *,
          headers: dict[str, str] | None = None, raw: bytes | None = None,
-         timeout: float = 10.0) -> tuple[int, dict[str, str], Any]:
-    """One request on a fresh connection; the JSON body decoded (None for HEAD)."""
+         timeout: float = 10.0, require_body: bool = False) -> tuple[int, dict[str, str], Any]:
+    """One request on a fresh connection; the JSON body decoded (None for HEAD, unless
+    ``require_body``: then every answer must carry one)."""
     conn = http.client.HTTPConnection(*address(server), timeout=timeout)
     try:
         data = raw if raw is not None else (None if body is None else json.dumps(body).encode())
@@ -76,6 +85,7 @@ def call(server: Any, method: str, path: str, body: Any = None, *,
         resp = conn.getresponse()
         payload = resp.read()
         assert resp.getheader("Content-Type") == "application/json"
+        assert payload or not require_body, (method, path, resp.status)
         return resp.status, dict(resp.getheaders()), json.loads(payload) if payload else None
     finally:
         conn.close()

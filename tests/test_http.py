@@ -7,6 +7,7 @@ library itself (the planner, FK, servo units), never from a previous run.
 
 from __future__ import annotations
 
+import functools
 import http.client
 import json
 import math
@@ -21,6 +22,7 @@ import time
 from collections.abc import Iterator
 from typing import Any
 
+import http_helpers
 import numpy as np
 import pytest
 from http_helpers import (  # arm_server: a fixture
@@ -51,22 +53,8 @@ def planner_server() -> Iterator[Any]:
         yield server
 
 
-def call(server: Any, method: str, path: str, body: Any = None, *,
-         headers: dict[str, str] | None = None, raw: bytes | None = None,
-         timeout: float = 10.0) -> tuple[int, dict[str, str], Any]:
-    """One request on a fresh connection; the JSON body decoded."""
-    conn = http.client.HTTPConnection(*address(server), timeout=timeout)
-    try:
-        data = raw if raw is not None else (None if body is None else json.dumps(body).encode())
-        hdrs = {"Content-Type": "application/json"} if data is not None else {}
-        hdrs.update(headers or {})
-        conn.request(method, path, body=data, headers=hdrs)
-        resp = conn.getresponse()
-        payload = resp.read()
-        assert resp.getheader("Content-Type") == "application/json"
-        return resp.status, dict(resp.getheaders()), json.loads(payload)
-    finally:
-        conn.close()
+#: every answer of these tests carries a JSON body
+call = functools.partial(http_helpers.call, require_body=True)
 
 
 # -- plan-only endpoints -----------------------------------------------------------------------

@@ -10,10 +10,9 @@ from typing import Any
 
 import numpy as np
 import pytest
-from http_helpers import ARM, HOME, LOADED_MACHINE, call, error_of, poll_move, running
+from http_helpers import ARM, HOME, call, error_of, poll_move, serving_arm
 
 from robodcn import kinematics, servo_units
-from robodcn.http import make_server
 
 # Real-time assertions (switch samples, latency in periods): run alone (pyproject markers).
 pytestmark = pytest.mark.serial
@@ -24,17 +23,8 @@ OTHER = [0.22, -0.05, 0.3]
 
 @pytest.fixture
 def arm_server() -> Iterator[tuple[Any, Any]]:
-    from robodcn.controller import ArmController
-    from robodcn.simulated import simulated_arm
-
-    with simulated_arm(ARM, timing="fast") as sa:
-        controller = ArmController(ARM, sa.bus, execute_options=LOADED_MACHINE)
-        try:
-            with running(make_server(ARM, controller, request_timeout=5.0)) as server:
-                yield server, sa
-        finally:
-            controller.close()
-    assert not sa.sim.errors, sa.sim.errors
+    with serving_arm(request_timeout=5.0) as pair:
+        yield pair
 
 
 def _pose_of(sa: Any) -> np.ndarray:
@@ -153,32 +143,24 @@ def test_a_jerk_limited_arm_moves_online_over_http() -> None:
     operation and the replacement ends at its goal."""
     import dataclasses
 
-    from robodcn.controller import ArmController
-    from robodcn.simulated import simulated_arm
-
     jerk_arm = dataclasses.replace(ARM, joints=tuple(
         dataclasses.replace(j, max_jerk=20.0 * j.max_acceleration) for j in ARM.joints))
-    with simulated_arm(jerk_arm, timing="fast") as sa:
-        controller = ArmController(jerk_arm, sa.bus, execute_options=LOADED_MACHINE)
-        try:
-            with running(make_server(jerk_arm, controller, request_timeout=5.0)) as server:
-                old = _start(server)
-                status, _, paused = call(server, "POST", "/v1/pause")
-                assert status == 200 and paused["paused"] is True, paused
-                status, _, body = call(server, "PUT", "/v1/speed", {"scale": 0.5})
-                assert status == 200 and body["speed_scale"] == 0.5, body
-                status, _, resumed = call(server, "POST", "/v1/resume", {})
-                assert status == 200 and resumed["paused"] is False, resumed
-                status, _, new = call(server, "POST", "/v1/moves",
-                                      {"waypoints": [HOME, OTHER], "rate_hz": 200,
-                                       "replace": True})
-                assert status == 202, new
-                status, _, before = call(server, "GET", f"/v1/moves/{old['id']}")
-                assert before["status"] == "replaced", before
-                done = poll_move(server, new["id"], lambda b: b["status"] != "running",
-                                 timeout=30.0)
-                assert done["status"] in ("done", "degraded"), done
-                end = _pose_of(sa)
-                assert np.allclose(end[:2], OTHER[:2], atol=2e-3)
-        finally:
-            controller.close()
+    with serving_arm(jerk_arm, request_timeout=5.0) as (server, sa):
+        old = _start(server)
+        status, _, paused = call(server, "POST", "/v1/pause")
+        assert status == 200 and paused["paused"] is True, paused
+        status, _, body = call(server, "PUT", "/v1/speed", {"scale": 0.5})
+        assert status == 200 and body["speed_scale"] == 0.5, body
+        status, _, resumed = call(server, "POST", "/v1/resume", {})
+        assert status == 200 and resumed["paused"] is False, resumed
+        status, _, new = call(server, "POST", "/v1/moves",
+                              {"waypoints": [HOME, OTHER], "rate_hz": 200,
+                               "replace": True})
+        assert status == 202, new
+        status, _, before = call(server, "GET", f"/v1/moves/{old['id']}")
+        assert before["status"] == "replaced", before
+        done = poll_move(server, new["id"], lambda b: b["status"] != "running",
+                         timeout=30.0)
+        assert done["status"] in ("done", "degraded"), done
+        end = _pose_of(sa)
+        assert np.allclose(end[:2], OTHER[:2], atol=2e-3)
