@@ -75,11 +75,16 @@ def _serve(token: str | None, target: tuple[str, ...] = ("--sim",),
         assert found, proc.stderr.read()
         yield Service(found.group(0), token, proc)
     finally:
-        proc.send_signal(signal.SIGTERM)
-        try:
-            proc.wait(timeout=15)
-        except subprocess.TimeoutExpired:
-            proc.kill()
+        _terminate(proc)
+
+
+def _terminate(proc: subprocess.Popen) -> None:
+    """SIGTERM (the service holds and closes its bus), then kill after 15 s."""
+    proc.send_signal(signal.SIGTERM)
+    try:
+        proc.wait(timeout=15)
+    except subprocess.TimeoutExpired:
+        proc.kill()
 
 
 @pytest.fixture(scope="module")
@@ -115,11 +120,7 @@ def device_service() -> Iterator[Service]:
         assert device.startswith("/dev/"), sim.stderr.read()
         yield from _serve(None, ("--device", device))
     finally:
-        sim.send_signal(signal.SIGTERM)
-        try:
-            sim.wait(timeout=15)
-        except subprocess.TimeoutExpired:
-            sim.kill()
+        _terminate(sim)
 
 
 @pytest.fixture(scope="session")

@@ -88,6 +88,15 @@ def click_move_and_wait_running(driver: Any, until: Any, service: Any) -> str:
     return move_id
 
 
+def start_slow_move(driver: Any, until: Any, service: Any, target: Any = None) -> str:
+    """Type a far target (or ``target``) with a 6 s duration, so that what the test does
+    next lands mid-move, click Move and wait until it runs; its move id."""
+    type_target(driver, far_target(service) if target is None else target, duration="6")
+    move_id = click_move_and_wait_running(driver, until, service)
+    until(lambda d: el(d, "move-status").text == "running", 10)
+    return move_id
+
+
 def test_page_loads_without_console_errors(driver: Any, until: Any, service: Any) -> None:
     driver.get_log("browser")  # drop what earlier pages logged
     open_console(driver, until, service)
@@ -167,10 +176,7 @@ def test_move_runs_to_done(driver: Any, until: Any, service: Any, tmp_path: Path
 def test_stop_during_a_move_stops_it(driver: Any, until: Any, service: Any) -> None:
     service.wait_idle()
     open_console(driver, until, service)
-    # Slowly, so that the stop lands mid-move.
-    type_target(driver, far_target(service), duration="6")
-    move_id = click_move_and_wait_running(driver, until, service)
-    until(lambda d: el(d, "move-status").text == "running", 10)
+    move_id = start_slow_move(driver, until, service)  # the stop lands mid-move
     time.sleep(0.5)
     el(driver, "stop").click()
     until(lambda d: el(d, "move-status").text == "stopped", 10)
@@ -354,9 +360,7 @@ def test_pause_resume_and_the_speed_slider_drive_the_move(driver: Any, until: An
     open_console(driver, until, service)
     for testid in ("pause", "resume", "speed"):
         assert el(driver, testid).is_displayed(), testid
-    type_target(driver, far_target(service), duration="6")
-    move_id = click_move_and_wait_running(driver, until, service)
-    until(lambda d: el(d, "move-status").text == "running", 10)
+    move_id = start_slow_move(driver, until, service)
     driver.execute_script("""
         const s = arguments[0];
         s.value = '0.5';
@@ -389,9 +393,7 @@ def test_hold_holds_at_once_and_stop_stops_smoothly(driver: Any, until: Any,
     for button, smooth in (("stop", True), ("hold", False)):
         service.wait_idle()
         open_console(driver, until, service)
-        type_target(driver, far_target(service), duration="6")
-        move_id = click_move_and_wait_running(driver, until, service)
-        until(lambda d: el(d, "move-status").text == "running", 10)
+        move_id = start_slow_move(driver, until, service)
         time.sleep(0.5)
         el(driver, button).click()
         until(lambda d: el(d, "move-status").text == "stopped", 10)
@@ -408,9 +410,7 @@ def test_move_while_moving_replaces_the_running_move(driver: Any, until: Any,
     open_console(driver, until, service)
     assert driver.execute_script("return window.robodcnConsole.S.features.replace") is True
     target = far_target(service)
-    type_target(driver, target, duration="6")
-    first = click_move_and_wait_running(driver, until, service)
-    until(lambda d: el(d, "move-status").text == "running", 10)
+    first = start_slow_move(driver, until, service, target)
     time.sleep(0.5)
     assert el(driver, "move").is_enabled()
     type_target(driver, (0.2, 0.15, 30.0))
