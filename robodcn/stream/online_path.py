@@ -194,34 +194,21 @@ def brake(path: JointPath, sigma0: float, sd0: float, a: NDArray[np.float64], ra
     earlier one). Uses ``BRAKE_SHARE`` of ``a``. Returns σ (m,), m ≥ 0.
     """
     dt = 1.0 / rate_hz
-    dq, ddq = path.derivatives()
+    derivs = path.derivatives()
     grid = path.sigma
     amax = np.asarray(a, dtype=np.float64) * BRAKE_SHARE
     out: list[float] = []
     s, sd = float(sigma0), float(sd0)
-    last = len(grid) - 1
     while sd > until_sd and len(out) < max_samples:
-        i = min(max(int(np.searchsorted(grid, s, side="right")) - 1, 0), last - 1)
-        w = min(max((s - grid[i]) / (grid[i + 1] - grid[i]), 0.0), 1.0)
-        d1 = dq[i] + w * (dq[i + 1] - dq[i])
-        d2 = ddq[i] + w * (ddq[i + 1] - ddq[i])
-        moving = np.abs(d1) > 1e-9
-        if moving.any():
-            c = d2[moving] * sd * sd
-            lo = np.where(d1[moving] > 0, (-amax[moving] - c) / d1[moving],
-                          (amax[moving] - c) / d1[moving])
-            u = float(lo.max())
-        else:
-            u = -math.inf
-        u = min(u, 0.0)
+        d1, d2 = _local(derivs, grid, s)
+        u = min(_bounds(d1, d2 * sd * sd, amax)[0], 0.0)
         nxt = sd + u * dt
         if nxt <= until_sd or not math.isfinite(nxt):
             if until_sd > 0.0:
                 nxt = until_sd
             else:
                 # the last step to rest has no centripetal part: |q'|·σ̇/Δt within a
-                final = float((amax[moving] / np.abs(d1[moving])).min()) * dt \
-                    if moving.any() else math.inf
+                final = _bounds(d1, np.zeros_like(d1), amax)[1] * dt
                 if sd <= final:
                     break
                 nxt = final
