@@ -112,6 +112,9 @@ def jerk_rows(arm) -> list[tuple[str, float, int, float, str]]:
     traj = robodcn.plan(jerk_arm, [START, GOAL], rate_hz=1000, duration=2.0, start_joints=q0)
     limits = Limits.of_arm(jerk_arm)
     ex = Execution(traj, None, None, jerk_arm)
+    # the execution's helpers read the rate and the source from its streamer
+    ex._streamer = types.SimpleNamespace(period=0.001,
+                                         source=types.SimpleNamespace(rate_hz=1000.0))
     path, sigma = JointPath.of_samples(traj.joints)
     plain_path, plain_sigma = JointPath.of_samples(plain.joints)
     rows = []
@@ -119,9 +122,6 @@ def jerk_rows(arm) -> list[tuple[str, float, int, float, str]]:
         i = int(frac * (len(traj.t) - 1))
         state = _state_at(traj, path, sigma, i)
         sd = state.sd
-        # the execution's helpers read the rate and the source from its streamer
-        ex._streamer = types.SimpleNamespace(period=0.001,
-                                             source=types.SimpleNamespace(rate_hz=1000.0))
         stop = brake_jerk_checked(path, state.sigma, sd, state.sdd, limits, 1000.0,
                                   state.history)
         ms = _median_ms(lambda st=state: brake_jerk_checked(
