@@ -37,6 +37,7 @@ test-browser: $(STAMP)
 
 lint: $(STAMP)
 	$(VENV)/bin/ruff check robodcn firmware_sim tests bench tests_browser
+	$(VENV)/bin/lint-imports
 
 # The showcase: three waypoints, KenLERP β = 0.5, auto duration, on a simulated arm.
 demo: $(STAMP)
