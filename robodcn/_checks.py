@@ -1,4 +1,4 @@
-"""Argument checks shared by the algebra modules: shapes, finiteness, names, unit norms.
+"""Argument checks shared by every layer: number kinds, shapes, finiteness, names, unit norms.
 
 Every failure raises :class:`robodcn.errors.InputError` (or ``DegenerateError``) naming the
 argument and showing the offending value, so callers never have to guess which input was bad.
@@ -6,6 +6,7 @@ argument and showing the offending value, so callers never have to guess which i
 
 from __future__ import annotations
 
+import math
 from collections.abc import Iterable
 from typing import Any
 
@@ -16,6 +17,27 @@ from robodcn.errors import InputError
 
 #: Norm deviation accepted (and silently repaired) before an input counts as non-unit.
 UNIT_TOLERANCE = 1e-9
+
+
+def is_int(value: Any) -> bool:
+    """True for a Python or numpy integer that is not a bool (True is an int in Python)."""
+    return isinstance(value, int | np.integer) and not isinstance(value, bool | np.bool_)
+
+
+def is_real(value: Any) -> bool:
+    """True for an int or float (numpy's too) that is not a bool; NaN and inf included."""
+    return isinstance(value, int | float | np.integer | np.floating) \
+        and not isinstance(value, bool | np.bool_)
+
+
+def is_finite_real(value: Any) -> bool:
+    """:func:`is_real` and finite (an int too large for a float is not finite)."""
+    if not is_real(value):
+        return False
+    try:
+        return math.isfinite(float(value))
+    except OverflowError:
+        return False
 
 
 def show(value: Any, limit: int = 80) -> str:

@@ -26,6 +26,17 @@ def _columns(servos: Sequence[ServoSpec]) -> tuple[NDArray[np.float64], ...]:
     return offset, direction, per_radian
 
 
+def radians_per_tick(servos: Sequence[ServoSpec]) -> NDArray[np.float64]:
+    """One tick of each servo in joint radians (k,): 2π / ticks_per_turn."""
+    return 2.0 * np.pi / np.array([s.ticks_per_turn for s in servos], dtype=np.float64)
+
+
+def half_tick(servos: Sequence[ServoSpec]) -> float:
+    """The smallest half tick among ``servos`` in radians: how far a rounded goal can be
+    from its angle (π / ticks_per_turn)."""
+    return float(np.min(radians_per_tick(servos))) / 2.0
+
+
 def _shape(name: str, array: NDArray, servos: Sequence[ServoSpec]) -> None:
     if array.ndim not in (1, 2) or array.shape[-1] != len(servos):
         raise InputError(f"{name} must have shape (n, {len(servos)}) or ({len(servos)},) "
