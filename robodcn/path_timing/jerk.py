@@ -4,7 +4,6 @@ from __future__ import annotations
 
 import itertools
 import math
-from collections.abc import Callable
 
 import numpy as np
 from numpy.typing import NDArray
@@ -12,8 +11,11 @@ from numpy.typing import NDArray
 from robodcn.errors import InputError
 from robodcn.path_timing import reachability
 from robodcn.path_timing.law import ChainTiming, PathTiming
+from robodcn.path_timing.topp import solve, stage_times
 
 # share of the jerk limit the term |q'''| ṡ³ may take; the rest is left to q' s⃛ + 3 q'' ṡ s̈
+#: inner margin of the jerk pass: it aims for (1 - margin) × every limit
+JERK_MARGIN = 0.005
 _CURVATURE_SHARE = 0.5
 _WINDOWS = (1.0, 0.75, 0.55, 0.4, 0.3)
 _MOVING_ATTEMPTS = 8
@@ -96,7 +98,7 @@ def _corner_cap(s: NDArray, jumps: NDArray, dq: NDArray, ddq: NDArray, v: NDArra
 
 def _rest_piece(s: NDArray, derivs: list[NDArray], sg: NDArray, dq: NDArray, ddq: NDArray,
                 cap: NDArray, v: NDArray, a: NDArray, j: NDArray, accel_share: float,
-                finite: NDArray, rate_hz: float, solve: Callable, stage_times: Callable
+                finite: NDArray, rate_hz: float
                 ) -> PathTiming:
     """Rest to rest without stops: the shortest over acceleration shares and windows of the
     filtered optimum, each stretched just enough to keep every limit."""
@@ -176,10 +178,8 @@ def _filtered(sg: NDArray, x: NDArray, u: NDArray, dt: NDArray, stop_breaks: NDA
 def jerk_limited(s: NDArray, derivs: list[NDArray], grid: NDArray, cap: NDArray, v: NDArray,
                  a: NDArray, j: NDArray, *, sd_start: float, sdd_start: float,
                  stop_idx: NDArray, rate_hz: float, accel_share: float,
-                 solve: Callable, stage_times: Callable, smooth: bool = False) -> PathTiming:
+                 smooth: bool = False) -> PathTiming:
     """Filtered time-optimal law within v, a, j (module doc of ``optimal``)."""
-    from robodcn.path_timing.optimal import JERK_MARGIN
-
     inner = 1.0 - JERK_MARGIN
     lim_v, lim_a, lim_j = v * inner, a * inner, j * inner
     finite = np.isfinite(j)
@@ -212,7 +212,7 @@ def jerk_limited(s: NDArray, derivs: list[NDArray], grid: NDArray, cap: NDArray,
             sl = slice(g0, g1 + 1)
             pieces.append(_rest_piece(s[lo:hi + 1], [d[lo:hi + 1] for d in derivs], sg[sl],
                                       dq[sl], ddq[sl], cap[sl], lim_v, lim_a, lim_j,
-                                      accel_share, finite, rate_hz, solve, stage_times))
+                                      accel_share, finite, rate_hz))
         return pieces[0] if len(pieces) == 1 else ChainTiming(pieces)
 
     # A moving start cannot be stretched (ṡ(0) would change): shrink the limits instead.

@@ -137,6 +137,16 @@ class PathTiming:
                          stretch_factor=max(1.0, duration / self._base_duration))
         return out
 
+    def compressed(self, factor: float) -> PathTiming:
+        """This law run in ``factor`` < 1 times its duration: s(t / factor), unchecked.
+
+        The inverse of :meth:`stretch` without its checks: velocities scale by 1/factor,
+        accelerations by 1/factor², jerks by 1/factor³, so limits may be exceeded (a fixed
+        duration shorter than the optimum: validation names the first sample past one).
+        """
+        return PathTiming(self._tb, self._sb, self._vb, self._u, window=self.window,
+                          s_start=self.s_start, stretch_factor=self.stretch_factor * factor)
+
     def __repr__(self) -> str:
         return (f"PathTiming(duration={self.duration:.6g} s, window={self.window:.4g} s, "
                 f"stretch_factor={self.stretch_factor:.6g})")
@@ -191,6 +201,10 @@ class ChainTiming(PathTiming):
         _check_stretch(duration, self.duration)
         lam = duration / self.duration
         return ChainTiming([p.stretch(p.duration * lam) for p in self.pieces])
+
+    def compressed(self, factor: float) -> ChainTiming:
+        """Every piece run in ``factor`` times its duration (PathTiming.compressed)."""
+        return ChainTiming([p.compressed(factor) for p in self.pieces])
 
     def __repr__(self) -> str:
         return f"ChainTiming(duration={self.duration:.6g} s, pieces={len(self.pieces)})"

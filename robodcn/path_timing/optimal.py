@@ -35,130 +35,30 @@ every bench path.
 
 from __future__ import annotations
 
-import itertools
 import math
 from collections.abc import Sequence
 
 import numpy as np
-from numpy.typing import ArrayLike, NDArray
+from numpy.typing import ArrayLike
 
 from robodcn.errors import InputError
 from robodcn.path_timing import reachability
+from robodcn.path_timing.jerk import jerk_limited
 from robodcn.path_timing.law import PathTiming
+from robodcn.path_timing.topp import (
+    INTERPOLATED,
+    MAX_STAGES,
+    check_limits,
+    check_number,
+    grid_of,
+    interpolated,
+    path_derivatives,
+    solve,
+    stage_times,
+)
 
-#: stages of the reachability grid at most (the samples are subsampled evenly above this)
-MAX_STAGES = 1000
-#: TOPP-RA's "interpolation" discretisation (acceleration bounded at both ends of each stage)
-INTERPOLATED = True
 #: stream rate the jerk pass checks at when the caller gives none, Hz
 CHECK_RATE_HZ = 1000.0
-#: inner margin of the jerk pass: it aims for (1 - margin) × every limit
-JERK_MARGIN = 0.005
-_WINDOW_FRACTIONS = (1.0, 0.7, 0.5, 0.35, 0.25)
-
-
-def _limits(name: str, value: ArrayLike | None, k: int, n: int | None = None
-            ) -> NDArray[np.float64]:
-    """(k,) per-joint limits, inf where None; with ``n``, (n, k) per-sample limits too."""
-    if value is None:
-        return np.full(k, np.inf)
-    if n is not None and np.ndim(value) == 2:
-        raw = np.asarray(value, dtype=np.float64)
-        if raw.shape != (n, k):
-            raise InputError(f"{name} per sample must have shape ({n}, {k}), got {raw.shape}",
-                             field=name, value=raw.shape)
-    else:
-        raw = np.asarray([np.inf if v is None else v for v in np.atleast_1d(value).tolist()],
-                         dtype=np.float64) if np.ndim(value) else np.full(k, float(value))
-    if raw.shape != (k,) and not (n is not None and raw.shape == (n, k)):
-        raise InputError(f"{name} must have one entry per joint ({k}), got shape {raw.shape}",
-                         field=name, value=value)
-    if np.isnan(raw).any() or (raw <= 0).any():
-        raise InputError(f"{name} must be positive (None = unlimited), got {raw.tolist()}",
-                         field=name, value=value)
-    return raw
-
-
-def _number(name: str, value: float, lo: float, hi: float, *, lo_open: bool = False) -> float:
-    ok = isinstance(value, int | float | np.floating | np.integer) and math.isfinite(value)
-    if ok:
-        ok = (lo < value if lo_open else lo <= value) and value <= hi
-    if not ok:
-        raise InputError(f"{name} must be a number in {'(' if lo_open else '['}{lo:g}, {hi:g}], "
-                         f"got {value!r}", field=name, value=value)
-    return float(value)
-
-
-def path_derivatives(q: NDArray[np.float64], s: NDArray[np.float64], cuts: Sequence[int],
-                     order: int) -> list[NDArray[np.float64]]:
-    """q', q'', … (``order`` of them) by second-order finite differences on the samples.
-
-    The path is differentiated piece by piece between the sample indices ``cuts`` (stops,
-    where q' may have a corner); a cut sample takes its outgoing piece's derivatives.
-    """
-    edges = [0, *sorted(set(int(c) for c in cuts if 0 < c < q.shape[0] - 1)), q.shape[0] - 1]
-    out = [np.empty_like(q) for _ in range(order)]
-    for a, b in itertools.pairwise(edges):
-        f, x = q[a:b + 1], s[a:b + 1]
-        for d in range(order):
-            f = np.gradient(f, x, axis=0, edge_order=2 if f.shape[0] > 2 else 1)
-            out[d][a:b + 1] = f
-    return out
-
-
-def _grid(n: int, stop_idx: NDArray[np.int64], max_stages: int) -> NDArray[np.int64]:
-    if n - 1 <= max_stages:
-        return np.arange(n)
-    even = np.round(np.linspace(0, n - 1, max_stages + 1)).astype(np.int64)
-    return np.union1d(even, stop_idx)
-
-
-def _interpolated(sg: NDArray, dq: NDArray, ddq: NDArray, v: NDArray, a: NDArray
-                  ) -> tuple[NDArray, NDArray, NDArray, NDArray]:
-    """The "interpolation" discretisation of TOPP-RA (Pham & Pham 2018, §V-B): stage i also
-    bounds the acceleration at its end point, q'_{i+1} u + q''_{i+1} x_{i+1} with
-    x_{i+1} = x + 2Δ_i u, i.e. a virtual joint with q' = q'_{i+1} + 2Δ_i q''_{i+1} and
-    q'' = q''_{i+1} (no velocity bound of its own: stage i + 1 bounds it). So the law keeps the
-    acceleration limits at both ends of every stage, not only at the grid points it starts
-    from (collocation), and the stream's samples between grid points stay within them."""
-    delta = np.diff(sg)
-    nxt_dq = np.vstack([dq[1:], dq[-1:]])
-    nxt_ddq = np.vstack([ddq[1:], ddq[-1:]])
-    step = np.concatenate([delta, [0.0]])[:, None]
-    dq2 = np.hstack([dq, nxt_dq + 2.0 * step * nxt_ddq])
-    ddq2 = np.hstack([ddq, nxt_ddq])
-    # per-stage limits (N, k) work alike: the virtual joint takes its own stage's limits (the
-    # tighter ones where a blend-out window ends and the limits rise along the path)
-    return (dq2, ddq2, np.concatenate([v, np.full(v.shape, np.inf)], axis=-1),
-            np.concatenate([a, a], axis=-1))
-
-
-def _solve(sg: NDArray, dq: NDArray, ddq: NDArray, v: NDArray, a: NDArray, extra_cap: NDArray,
-           x_start: float, x_end: float) -> tuple[NDArray, NDArray]:
-    """x (N + 1,), u (N,) of TOPP-RA on grid sg; raises when the start is not controllable."""
-    if INTERPOLATED:
-        dq, ddq, v, a = _interpolated(sg, dq, ddq, v, a)
-    p_lo, p_hi, r, x_cap = reachability.stage_constraints(dq, ddq, v, a)
-    x_cap = np.minimum(x_cap, extra_cap)
-    delta = np.diff(sg)
-    x_max = reachability.controllable(delta, p_lo, r, x_cap, x_end)
-    if x_start > x_max[0] * (1 + 1e-9) + 1e-15:
-        raise InputError(f"sd_start {math.sqrt(x_start):.6g} /s is faster than the path allows"
-                         f" there: at most {math.sqrt(x_max[0]):.6g} /s can still keep every "
-                         "joint within its limits and come to rest by the end",
-                         field="sd_start", value=math.sqrt(x_start))
-    return reachability.greedy_forward(delta, p_hi, r, x_max, min(x_start, x_max[0]))
-
-
-def _stage_times(sg: NDArray, x: NDArray) -> NDArray[np.float64]:
-    sd = np.sqrt(np.maximum(x, 0.0))
-    speed = sd[:-1] + sd[1:]
-    if (speed <= 0).any():
-        i = int(np.argmax(speed <= 0))
-        raise InputError(f"the path cannot move from s = {sg[i]:.6g}: every joint limit forbids"
-                         " it (a stop next to a stop, or a zero limit)", field="stops",
-                         value=float(sg[i]))
-    return 2.0 * np.diff(sg) / speed
 
 
 def time_optimal(q: ArrayLike, s: ArrayLike, v_max: ArrayLike, a_max: ArrayLike,
@@ -213,17 +113,17 @@ def time_optimal(q: ArrayLike, s: ArrayLike, v_max: ArrayLike, a_max: ArrayLike,
     if s.shape != (n,) or not np.isfinite(s).all() or (np.diff(s) <= 0).any():
         raise InputError(f"s must be {n} strictly increasing finite path parameters, got shape "
                          f"{s.shape}", field="s", value=s.shape)
-    scale = _number("scale", scale, 0.0, 1.0, lo_open=True)
-    v = _limits("v_max", v_max, k, n) * scale
-    a = _limits("a_max", a_max, k, n) * scale ** 2
-    jerk = j_max is not None and np.isfinite(_limits("j_max", j_max, k)).any()
+    scale = check_number("scale", scale, 0.0, 1.0, lo_open=True)
+    v = check_limits("v_max", v_max, k, n) * scale
+    a = check_limits("a_max", a_max, k, n) * scale ** 2
+    jerk = j_max is not None and np.isfinite(check_limits("j_max", j_max, k)).any()
     if jerk and (v.ndim == 2 or a.ndim == 2):
         raise InputError("per-sample v_max/a_max are not supported with a jerk limit",
                          field="v_max", value=v.shape)
-    j = _limits("j_max", j_max, k) * scale ** 3
-    sd_start = _number("sd_start", sd_start, 0.0, math.inf)
-    sdd_start = _number("sdd_start", sdd_start, -math.inf, math.inf)
-    sd_end = _number("sd_end", sd_end, 0.0, math.inf)
+    j = check_limits("j_max", j_max, k) * scale ** 3
+    sd_start = check_number("sd_start", sd_start, 0.0, math.inf)
+    sdd_start = check_number("sdd_start", sdd_start, -math.inf, math.inf)
+    sd_end = check_number("sd_end", sd_end, 0.0, math.inf)
     if jerk and sd_end != 0.0:
         raise InputError("sd_end must be 0 (to rest) when jerk is limited", field="sd_end",
                          value=sd_end)
@@ -235,7 +135,7 @@ def time_optimal(q: ArrayLike, s: ArrayLike, v_max: ArrayLike, a_max: ArrayLike,
     stop_idx = np.unique(np.abs(s[None, :] - stop_s[:, None]).argmin(axis=1)
                          if stop_s.size else np.empty(0, np.int64))
     derivs = path_derivatives(q, s, stop_idx.tolist(), 3 if jerk else 2)
-    grid = _grid(n, stop_idx, max(1, int(max_stages)))
+    grid = grid_of(n, stop_idx, max(1, int(max_stages)))
     sg = s[grid]
     dq, ddq = derivs[0][grid], derivs[1][grid]
     cap = np.full(grid.shape[0], np.inf)
@@ -248,15 +148,13 @@ def time_optimal(q: ArrayLike, s: ArrayLike, v_max: ArrayLike, a_max: ArrayLike,
     cap[np.searchsorted(grid, stop_idx)] = 0.0
     if not jerk:
         v, a = (lim[grid] if lim.ndim == 2 else lim for lim in (v, a))
-        x, u = _solve(sg, dq, ddq, v, a, cap, sd_start ** 2, sd_end ** 2)
-        dt = _stage_times(sg, x)
+        x, u = solve(sg, dq, ddq, v, a, cap, sd_start ** 2, sd_end ** 2)
+        dt = stage_times(sg, x)
         tb = np.concatenate([[0.0], np.cumsum(dt)])
         return PathTiming(tb, sg, np.sqrt(x), u)
-    from robodcn.path_timing.jerk import jerk_limited
     return jerk_limited(s, derivs, grid, cap, v, a, j, sd_start=sd_start, sdd_start=sdd_start,
                         stop_idx=stop_idx, rate_hz=rate_hz or CHECK_RATE_HZ,
-                        accel_share=accel_share, solve=_solve, stage_times=_stage_times,
-                        smooth=smooth)
+                        accel_share=accel_share, smooth=smooth)
 
 
 def max_start_speed(q: ArrayLike, s: ArrayLike, v_max: ArrayLike, a_max: ArrayLike, *,
@@ -269,17 +167,17 @@ def max_start_speed(q: ArrayLike, s: ArrayLike, v_max: ArrayLike, a_max: ArrayLi
     q = np.asarray(q, dtype=np.float64)
     s = np.asarray(s, dtype=np.float64)
     n, k = q.shape
-    v = _limits("v_max", v_max, k, n) * scale
-    a = _limits("a_max", a_max, k, n) * scale ** 2
+    v = check_limits("v_max", v_max, k, n) * scale
+    a = check_limits("a_max", a_max, k, n) * scale ** 2
     stop_s = np.atleast_1d(np.asarray(stops, dtype=np.float64))
     stop_idx = np.unique(np.abs(s[None, :] - stop_s[:, None]).argmin(axis=1)
                          if stop_s.size else np.empty(0, np.int64))
     dq, ddq = path_derivatives(q, s, stop_idx.tolist(), 2)
-    grid = _grid(q.shape[0], stop_idx, max(1, int(max_stages)))
+    grid = grid_of(q.shape[0], stop_idx, max(1, int(max_stages)))
     dq, ddq = dq[grid], ddq[grid]
     v, a = (lim[grid] if lim.ndim == 2 else lim for lim in (v, a))
     if INTERPOLATED:  # the same discretisation as time_optimal's
-        dq, ddq, v, a = _interpolated(s[grid], dq, ddq, v, a)
+        dq, ddq, v, a = interpolated(s[grid], dq, ddq, v, a)
     p_lo, _, r, x_cap = reachability.stage_constraints(dq, ddq, v, a)
     x_cap[np.searchsorted(grid, stop_idx)] = 0.0
     x_max = reachability.controllable(np.diff(s[grid]), p_lo, r, x_cap, 0.0)

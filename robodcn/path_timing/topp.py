@@ -1,0 +1,130 @@
+"""The jerk-free TOPP-RA solve on a grid, shared by :func:`~robodcn.path_timing.time_optimal`
+and its jerk pass (:mod:`robodcn.path_timing.jerk`).
+
+TOPP-RA: H. Pham and Q.-C. Pham, "A New Approach to Time-Optimal Path Parameterization Based
+on Reachability Analysis", IEEE T-RO 34(3), 2018, with the per-stage LPs in closed form
+(:mod:`robodcn.path_timing.reachability`) and the paper's "interpolation" discretisation
+(§V-B; :data:`INTERPOLATED`). Also the argument checks of the public entry points and the
+path derivatives (q′, q″, q‴) by finite differences.
+"""
+
+from __future__ import annotations
+
+import itertools
+import math
+from collections.abc import Sequence
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from robodcn.errors import InputError
+from robodcn.path_timing import reachability
+
+#: stages of the reachability grid at most (the samples are subsampled evenly above this)
+MAX_STAGES = 1000
+#: TOPP-RA's "interpolation" discretisation (acceleration bounded at both ends of each stage)
+INTERPOLATED = True
+
+
+def check_limits(name: str, value: ArrayLike | None, k: int, n: int | None = None
+            ) -> NDArray[np.float64]:
+    """(k,) per-joint limits, inf where None; with ``n``, (n, k) per-sample limits too."""
+    if value is None:
+        return np.full(k, np.inf)
+    if n is not None and np.ndim(value) == 2:
+        raw = np.asarray(value, dtype=np.float64)
+        if raw.shape != (n, k):
+            raise InputError(f"{name} per sample must have shape ({n}, {k}), got {raw.shape}",
+                             field=name, value=raw.shape)
+    else:
+        raw = np.asarray([np.inf if v is None else v for v in np.atleast_1d(value).tolist()],
+                         dtype=np.float64) if np.ndim(value) else np.full(k, float(value))
+    if raw.shape != (k,) and not (n is not None and raw.shape == (n, k)):
+        raise InputError(f"{name} must have one entry per joint ({k}), got shape {raw.shape}",
+                         field=name, value=value)
+    if np.isnan(raw).any() or (raw <= 0).any():
+        raise InputError(f"{name} must be positive (None = unlimited), got {raw.tolist()}",
+                         field=name, value=value)
+    return raw
+
+
+def check_number(name: str, value: float, lo: float, hi: float, *, lo_open: bool = False) -> float:
+    ok = isinstance(value, int | float | np.floating | np.integer) and math.isfinite(value)
+    if ok:
+        ok = (lo < value if lo_open else lo <= value) and value <= hi
+    if not ok:
+        raise InputError(f"{name} must be a number in {'(' if lo_open else '['}{lo:g}, {hi:g}], "
+                         f"got {value!r}", field=name, value=value)
+    return float(value)
+
+
+def path_derivatives(q: NDArray[np.float64], s: NDArray[np.float64], cuts: Sequence[int],
+                     order: int) -> list[NDArray[np.float64]]:
+    """q', q'', … (``order`` of them) by second-order finite differences on the samples.
+
+    The path is differentiated piece by piece between the sample indices ``cuts`` (stops,
+    where q' may have a corner); a cut sample takes its outgoing piece's derivatives.
+    """
+    edges = [0, *sorted(set(int(c) for c in cuts if 0 < c < q.shape[0] - 1)), q.shape[0] - 1]
+    out = [np.empty_like(q) for _ in range(order)]
+    for a, b in itertools.pairwise(edges):
+        f, x = q[a:b + 1], s[a:b + 1]
+        for d in range(order):
+            f = np.gradient(f, x, axis=0, edge_order=2 if f.shape[0] > 2 else 1)
+            out[d][a:b + 1] = f
+    return out
+
+
+def grid_of(n: int, stop_idx: NDArray[np.int64], max_stages: int) -> NDArray[np.int64]:
+    if n - 1 <= max_stages:
+        return np.arange(n)
+    even = np.round(np.linspace(0, n - 1, max_stages + 1)).astype(np.int64)
+    return np.union1d(even, stop_idx)
+
+
+def interpolated(sg: NDArray, dq: NDArray, ddq: NDArray, v: NDArray, a: NDArray
+                  ) -> tuple[NDArray, NDArray, NDArray, NDArray]:
+    """The "interpolation" discretisation of TOPP-RA (Pham & Pham 2018, §V-B): stage i also
+    bounds the acceleration at its end point, q'_{i+1} u + q''_{i+1} x_{i+1} with
+    x_{i+1} = x + 2Δ_i u, i.e. a virtual joint with q' = q'_{i+1} + 2Δ_i q''_{i+1} and
+    q'' = q''_{i+1} (no velocity bound of its own: stage i + 1 bounds it). So the law keeps the
+    acceleration limits at both ends of every stage, not only at the grid points it starts
+    from (collocation), and the stream's samples between grid points stay within them."""
+    delta = np.diff(sg)
+    nxt_dq = np.vstack([dq[1:], dq[-1:]])
+    nxt_ddq = np.vstack([ddq[1:], ddq[-1:]])
+    step = np.concatenate([delta, [0.0]])[:, None]
+    dq2 = np.hstack([dq, nxt_dq + 2.0 * step * nxt_ddq])
+    ddq2 = np.hstack([ddq, nxt_ddq])
+    # per-stage limits (N, k) work alike: the virtual joint takes its own stage's limits (the
+    # tighter ones where a blend-out window ends and the limits rise along the path)
+    return (dq2, ddq2, np.concatenate([v, np.full(v.shape, np.inf)], axis=-1),
+            np.concatenate([a, a], axis=-1))
+
+
+def solve(sg: NDArray, dq: NDArray, ddq: NDArray, v: NDArray, a: NDArray, extra_cap: NDArray,
+           x_start: float, x_end: float) -> tuple[NDArray, NDArray]:
+    """x (N + 1,), u (N,) of TOPP-RA on grid sg; raises when the start is not controllable."""
+    if INTERPOLATED:
+        dq, ddq, v, a = interpolated(sg, dq, ddq, v, a)
+    p_lo, p_hi, r, x_cap = reachability.stage_constraints(dq, ddq, v, a)
+    x_cap = np.minimum(x_cap, extra_cap)
+    delta = np.diff(sg)
+    x_max = reachability.controllable(delta, p_lo, r, x_cap, x_end)
+    if x_start > x_max[0] * (1 + 1e-9) + 1e-15:
+        raise InputError(f"sd_start {math.sqrt(x_start):.6g} /s is faster than the path allows"
+                         f" there: at most {math.sqrt(x_max[0]):.6g} /s can still keep every "
+                         "joint within its limits and come to rest by the end",
+                         field="sd_start", value=math.sqrt(x_start))
+    return reachability.greedy_forward(delta, p_hi, r, x_max, min(x_start, x_max[0]))
+
+
+def stage_times(sg: NDArray, x: NDArray) -> NDArray[np.float64]:
+    sd = np.sqrt(np.maximum(x, 0.0))
+    speed = sd[:-1] + sd[1:]
+    if (speed <= 0).any():
+        i = int(np.argmax(speed <= 0))
+        raise InputError(f"the path cannot move from s = {sg[i]:.6g}: every joint limit forbids"
+                         " it (a stop next to a stop, or a zero limit)", field="stops",
+                         value=float(sg[i]))
+    return 2.0 * np.diff(sg) / speed
