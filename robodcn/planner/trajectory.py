@@ -13,9 +13,8 @@ from numpy.typing import NDArray
 
 from robodcn import _checks
 from robodcn.config import RATE_RANGE, Arm
-from robodcn.contract import is_number as _is_number
+from robodcn.contract.request import PlanRequest, StartState
 from robodcn.errors import InputError
-from robodcn.planner.request import PlanRequest, StartState
 
 
 @dataclass(eq=False)
@@ -98,7 +97,7 @@ class Trajectory:
         if len(self.servo_ids) != k:
             raise InputError(f"servo_ids must name {k} servos, got {len(self.servo_ids)}",
                              field="servo_ids", value=self.servo_ids)
-        if not _is_number(self.rate_hz) or not RATE_RANGE[0] <= self.rate_hz <= RATE_RANGE[1]:
+        if not _checks.is_real(self.rate_hz) or not RATE_RANGE[0] <= self.rate_hz <= RATE_RANGE[1]:
             raise InputError(f"rate_hz must be within {RATE_RANGE[0]:g}..{RATE_RANGE[1]:g} Hz, "
                              f"got {self.rate_hz!r}", field="rate_hz", value=self.rate_hz)
         self.rate_hz = float(self.rate_hz)
