@@ -20,6 +20,7 @@ The classes map onto CLI exit codes and HTTP statuses through ``exit_code`` and
     ├── BusError                      exit 4   503  servo or bus fault
     │   ├── CommError                               no/garbled status packet
     │   ├── ServoMismatchError                      missing servo, wrong model
+    │   │   └── FeedbackMapError                    a servo ignores the indirect feedback map
     │   ├── HardwareAlertError                      Hardware Error Status non-zero
     │   └── StartMismatchError                      arm far from the first sample
     ├── BusyError                     exit 4   409  another move is running
@@ -232,6 +233,28 @@ class CommError(BusError):
 
 class ServoMismatchError(BusError):
     code = "servo_mismatch"
+
+
+class FeedbackMapError(ServoMismatchError):
+    """A servo does not serve the indirect feedback map :meth:`ServoBus.configure` wrote
+    (an older firmware, a clone): streaming through it would read wrong positions.
+
+    ``servo_id`` names the servo, ``item`` what differs (``"indirect_address"``: the map
+    read back is not the map written; ``"present_position"``: a read through the map is
+    not the Present Position read directly), ``expected`` and ``got`` the two values.
+    """
+
+    code = "feedback_map"
+
+    def __init__(self, message: str, *, servo_id: int, item: str, expected: Any,
+                 got: Any) -> None:
+        super().__init__(message, field=f"servo[{servo_id}]",
+                         value={"servo_id": servo_id, "item": item, "expected": expected,
+                                "got": got})
+        self.servo_id = servo_id
+        self.item = item
+        self.expected = expected
+        self.got = got
 
 
 class HardwareAlertError(BusError):

@@ -2,10 +2,13 @@
 
 One concept a module: ``control_table`` (addresses, models, baud, error bits), ``records``
 (ServoInfo, StreamProfile), ``port`` (opening a PortHandler; serial failures as CommError),
-``groups`` (Fast Sync Read decoding, goal rows), ``latency`` (USB latency timer), ``wire``
-(wire time of a cycle), ``servo_bus`` (:class:`ServoBus`: transactions, retries, group
-reads/writes) and ``scan``. Every public
-name is importable from ``robodcn.bus``.
+``groups`` (Fast Sync Read decoding, goal rows), ``feedback`` (the indirect feedback map and
+its decoding), ``latency`` (USB latency timer), ``wire`` (wire time of a cycle), ``scan``,
+and :class:`ServoBus` (``servo_bus``) built from ``connection`` (port, lock, lost device),
+``retry`` (the one retry helper), ``transactions`` (one servo's READ/WRITE),
+``verification`` (ping, verify), ``reads`` (group reads, feedback), ``writes`` (goals,
+torque, reboot, watchdog) and ``configuration`` (configure, the feedback map's check).
+Every public name is importable from ``robodcn.bus``.
 """
 
 from __future__ import annotations

@@ -6,6 +6,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import Any
 
+from robodcn import _checks
 from robodcn.errors import InputError
 
 
@@ -43,6 +44,6 @@ class StreamProfile:
         for name, value, high in (("velocity", self.velocity, 32767),
                                   ("acceleration", self.acceleration, 32767),
                                   ("return_delay_us", self.return_delay_us, 508)):
-            if isinstance(value, bool) or not isinstance(value, int) or not 0 <= value <= high:
+            if not _checks.is_int(value) or not 0 <= value <= high:
                 raise InputError(f"profile.{name} must be an integer in [0, {high}], "
                                  f"got {value!r}", field=f"profile.{name}", value=value)

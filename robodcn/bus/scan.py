@@ -4,6 +4,7 @@ from __future__ import annotations
 
 from collections.abc import Iterable
 
+from robodcn import _checks
 from robodcn.bus.control_table import BAUD_INDEX, MODEL_NAMES
 from robodcn.bus.port import raw_port
 from robodcn.bus.records import ServoInfo
@@ -28,8 +29,7 @@ def scan(port: str, bauds: Iterable[int] = (1_000_000,), *,
                              f", got {baud!r}", field="baud", value=baud)
     id_list = None if ids is None else list(ids)
     if id_list is not None:
-        bad = [i for i in id_list if isinstance(i, bool) or not isinstance(i, int)
-               or not 0 <= i <= 252]
+        bad = [i for i in id_list if not _checks.is_int(i) or not 0 <= i <= 252]
         if bad:
             raise InputError(f"ids must be integers in [0, 252], got {bad}", field="ids",
                              value=bad)

@@ -13,6 +13,7 @@ Firmware turnaround and the USB adapter come on top: the model is a floor, not a
 
 from __future__ import annotations
 
+from robodcn import _checks
 from robodcn.errors import InputError
 
 #: Feedback kinds: no read-back, Sync Read (0x82), Fast Sync Read (0x8A).
@@ -43,10 +44,10 @@ def cycle_wire_time(n_servos: int, baud: int, *, feedback: str = "fast",
     Sync Read and 0 without feedback (module docstring; dynamixel-notes §5 table: N = 3 at
     1 Mbps gives 290 µs write only, 910 µs with Sync Read, 780 µs with Fast Sync Read).
     """
-    if isinstance(n_servos, bool) or not isinstance(n_servos, int) or n_servos < 1:
+    if not _checks.is_int(n_servos) or n_servos < 1:
         raise InputError(f"n_servos must be an integer ≥ 1, got {n_servos!r}",
                          field="n_servos", value=n_servos)
-    if not isinstance(baud, int | float) or isinstance(baud, bool) or not baud > 0:
+    if not _checks.is_real(baud) or not baud > 0:
         raise InputError(f"baud must be a positive number, got {baud!r}", field="baud",
                          value=baud)
     if feedback not in FEEDBACK:

@@ -1,0 +1,127 @@
+"""Group reads (the streaming hot path's read side): (Fast) Sync Read of one item from every
+servo, and the readings built on it (positions, feedback, hardware errors, watchdog).
+
+Fast Sync Read (0x8A) when every servo's firmware has it, plain Sync Read (0x82)
+otherwise. The SDK's fast-sync-read parser ignores the per-servo ERR byte, hiding the Alert
+bit (dynamixel-notes §1.7), so the blocks are decoded here
+(:func:`robodcn.bus.groups.fast_sync_read_blocks`); every servo's ERR byte and data length
+are checked before anything is decoded.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from dynamixel_sdk import COMM_SUCCESS, GroupSyncRead, PortHandler
+from numpy.typing import NDArray
+
+from robodcn.bus.control_table import (
+    ADDR_BUS_WATCHDOG,
+    ADDR_HARDWARE_ERROR,
+    ADDR_PRESENT_POSITION,
+    ADDR_TORQUE_ENABLE,
+)
+from robodcn.bus.feedback import ADDR_FEEDBACK, FEEDBACK_LENGTH, Feedback, decode_feedback
+from robodcn.bus.groups import fast_sync_read_blocks
+from robodcn.bus.transactions import Transactions
+from robodcn.errors import BusError, CommError
+
+
+class Reads(Transactions):
+    """(Fast) Sync Reads with bounded retries, and what is read through them."""
+
+    #: Fast Sync Read for group reads (ServoBus; decided by ``verify`` when None).
+    fast_read: bool | None
+    #: Ids whose last status packet carried the Alert bit (hardware error present).
+    last_alert_ids: tuple[int, ...]
+    #: Amperes per Present Current unit, bus order (:func:`robodcn.bus.feedback.current_units`).
+    _current_units: NDArray[np.float64]
+
+    def _group(self, address: int, length: int) -> GroupSyncRead:
+        def make(port: PortHandler) -> GroupSyncRead:
+            group = GroupSyncRead(port, self._packet, address, length)
+            for servo_id in self.ids:
+                group.addParam(servo_id)
+            return group
+
+        return self._bound(("sync read", address, length), make)
+
+    def _sync_read_once(self, group: GroupSyncRead, length: int) -> list[bytes]:
+        """One (Fast) Sync Read; raw data per servo in bus order, ERR/length checked."""
+        port = self._port()
+        fast = bool(self.fast_read)
+        result = group.fastSyncReadTxPacket() if fast else group.txPacket()
+        if result != COMM_SUCCESS:
+            raise CommError(f"sync read: {self._packet.getTxRxResult(result)}", field="bus",
+                            value=result)
+        if self.rx_timeout_ms is not None:
+            port.setPacketTimeoutMillis(self.rx_timeout_ms)
+        alerts = []
+        out: list[bytes] = []
+        if fast:
+            raw, result, _ = self._packet.fastSyncReadRx(port, 0xFE,
+                                                         (length + 4) * len(self.ids))
+            if result != COMM_SUCCESS:
+                raise CommError(f"fast sync read: {self._packet.getTxRxResult(result)}",
+                                field="bus", value=result)
+            blocks = fast_sync_read_blocks(raw, self.ids, length)
+            for servo_id, (error, data) in zip(self.ids, blocks, strict=True):
+                if self._status(servo_id, "fast sync read", COMM_SUCCESS, error):
+                    alerts.append(servo_id)
+                out.append(data)
+        else:
+            for servo_id in self.ids:
+                data, result, error = self._packet.readRx(port, servo_id, length)
+                if self._status(servo_id, "sync read", result, error):
+                    alerts.append(servo_id)
+                if len(data) != length:
+                    raise CommError(f"servo {servo_id}: sync read returned {len(data)} "
+                                    f"byte(s), expected {length}", field=f"servo[{servo_id}]",
+                                    value=len(data))
+                out.append(bytes(data))
+        self.last_alert_ids = tuple(alerts)
+        return out
+
+    def sync_read(self, address: int, length: int) -> list[bytes]:
+        """(Fast) Sync Read of one item from every servo, with bounded retries.
+
+        Returns raw bytes per servo in bus order; :attr:`last_alert_ids` lists the servos
+        whose status carried the Alert bit.
+        """
+        with self.claim():
+            group = self._group(address, length)
+            what = ("fast sync read" if self.fast_read else "sync read") + \
+                f" {length} byte(s) at {address}"
+            return self._retry(what, None, lambda: self._sync_read_once(group, length))
+
+    def read_positions(self) -> NDArray[np.int64]:
+        """Present Position of every servo (ticks, signed), shape (k,) in bus order."""
+        raw = self.sync_read(ADDR_PRESENT_POSITION, 4)
+        return np.frombuffer(b"".join(raw), dtype="<i4").astype(np.int64)
+
+    def read_feedback(self) -> Feedback:
+        """Present Position, Velocity, Current and Hardware Error Status of every servo in
+        one (Fast) Sync Read of the Indirect Data block (needs ``configure()``)."""
+        if not self.feedback_mapped:
+            raise BusError("read_feedback needs configure() first (the feedback map)",
+                           field="bus", value=self.port)
+        return decode_feedback(self.sync_read(ADDR_FEEDBACK, FEEDBACK_LENGTH),
+                               self._current_units)
+
+    def hardware_errors(self) -> dict[int, int]:
+        """Hardware Error Status (address 70) per servo id; 0 means healthy."""
+        raw = self.sync_read(ADDR_HARDWARE_ERROR, 1)
+        return {servo_id: data[0] for servo_id, data in zip(self.ids, raw, strict=True)}
+
+    def watchdog_status(self) -> dict[int, int]:
+        """Bus Watchdog (address 98) per servo id, signed: -1 means it expired."""
+        raw = self.sync_read(ADDR_BUS_WATCHDOG, 1)
+        return {servo_id: int.from_bytes(data, "little", signed=True)
+                for servo_id, data in zip(self.ids, raw, strict=True)}
+
+    def torque_enabled(self) -> dict[int, bool]:
+        """Torque Enable (address 64) per servo id."""
+        return {servo_id: bool(self._read_int(servo_id, ADDR_TORQUE_ENABLE, 1))
+                for servo_id in self.ids}
+
+
+__all__ = ["Reads"]

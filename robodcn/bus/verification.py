@@ -1,0 +1,105 @@
+"""Verification: are the expected servos on the bus, of the configured model?
+
+:meth:`Verification.verify` pings every expected id, compares the model numbers with the
+config's, reads each servo's own position limits and decides whether group reads may use
+Fast Sync Read (firmware ≥ 45, dynamixel-notes §1.4).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+
+import numpy as np
+
+from robodcn.bus.connection import check_ids
+from robodcn.bus.control_table import (
+    ADDR_FIRMWARE_VERSION,
+    ADDR_MAX_POSITION_LIMIT,
+    ADDR_MIN_POSITION_LIMIT,
+    FAST_SYNC_READ_MIN_FIRMWARE,
+    MODEL_NAMES,
+    MODEL_NUMBERS,
+)
+from robodcn.bus.records import ServoInfo
+from robodcn.bus.transactions import Transactions
+from robodcn.config import ServoSpec
+from robodcn.errors import CommError, ServoMismatchError
+
+
+class Verification(Transactions):
+    """PING and the check of the expected servos (ids, models, limits, firmware)."""
+
+    #: Position limits (ticks) per servo, bus order (set by ServoBus, narrowed by verify).
+    limits: np.ndarray
+    #: Fast Sync Read for group reads; None: decided by :meth:`verify`.
+    fast_read: bool | None
+
+    def ping(self, servo_id: int) -> ServoInfo | None:
+        """PING one id (with retries); its model, firmware and the bus baud, or None if silent."""
+        def once() -> int:
+            model_number, result, error = self._packet.ping(self._port(), servo_id)
+            self._status(servo_id, "ping", result, error)
+            return model_number
+
+        with self.claim():
+            try:
+                model_number = self._retry("ping", servo_id, once)
+            except CommError:
+                if self.lost:
+                    raise
+                return None
+            firmware = self._read_int(servo_id, ADDR_FIRMWARE_VERSION, 1)
+            return ServoInfo(servo_id, model_number, MODEL_NAMES.get(model_number),
+                             firmware, self.baud)
+
+    def ping_all(self) -> dict[int, ServoInfo]:
+        """Ping every configured id; the servos that answered, by id."""
+        found = {}
+        for servo_id in self.ids:
+            info = self.ping(servo_id)
+            if info is not None:
+                found[servo_id] = info
+        return found
+
+    def verify(self, servos: Sequence[ServoSpec] | None = None) -> dict[int, ServoInfo]:
+        """Check that every expected servo answers with the configured model.
+
+        Also reads each servo's Min/Max Position Limit into :attr:`limits` (intersected
+        with the spec's tick limits: the servo refuses goals outside its own limits) and,
+        when ``fast_read`` is None, enables Fast Sync Read iff every firmware is ≥ 45.
+
+        Raises
+        ------
+        ServoMismatchError naming the missing ids and the ids with the wrong model.
+        """
+        servos = self.servos if servos is None else tuple(servos)
+        check_ids(servos)
+        found = self.ping_all()
+        missing = [s.id for s in servos if s.id not in found]
+        wrong = [(s.id, s.model, found[s.id]) for s in servos
+                 if s.id in found and found[s.id].model_number != MODEL_NUMBERS.get(s.model)]
+        if missing or wrong:
+            parts = []
+            if missing:
+                parts.append(f"no reply from servo id(s) {missing} on {self.port} at "
+                             f"{self.baud} baud (check power, wiring, id and baud rate; "
+                             "`robodcn scan` lists what is there)")
+            for servo_id, model, info in wrong:
+                parts.append(f"servo {servo_id} is model {info.model or '?'} "
+                             f"(number {info.model_number}), the config says {model} "
+                             f"(number {MODEL_NUMBERS.get(model, '?')})")
+            raise ServoMismatchError("; ".join(parts), field="servos",
+                                     value={"missing": missing,
+                                            "wrong_model": [w[0] for w in wrong]})
+        with self.claim():
+            for row, spec in enumerate(self.servos):
+                high = self._read_int(spec.id, ADDR_MAX_POSITION_LIMIT, 4, signed=True)
+                low = self._read_int(spec.id, ADDR_MIN_POSITION_LIMIT, 4, signed=True)
+                self.limits[row] = (max(spec.min_tick, low), min(spec.max_tick, high))
+            if self.fast_read is None:
+                self.fast_read = all((found[i].firmware or 0) >= FAST_SYNC_READ_MIN_FIRMWARE
+                                     for i in self.ids)
+        return found
+
+
+__all__ = ["Verification"]
