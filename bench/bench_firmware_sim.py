@@ -23,11 +23,12 @@ from pathlib import Path
 from dynamixel_sdk import COMM_SUCCESS, GroupSyncRead, PacketHandler, PortHandler
 
 from firmware_sim.bus import SimBus
+from firmware_sim.bus_config import SimBusConfig
 from firmware_sim.dynamics import PHYSICS_STEP_S
 
 BAUD = 1_000_000
 BYTE_S = 10 / BAUD
-TURNAROUND_S = 30e-6        # SimBus default turnaround_s
+TURNAROUND_S = SimBusConfig().turnaround_s
 PH = PacketHandler(2.0)
 ROOT = Path(__file__).resolve().parent.parent
 
@@ -79,7 +80,8 @@ def _bus(where: str, n_servos: int, timing: str) -> Iterator[str]:
     """Port path of a bus served in this interpreter or by ``python -m firmware_sim``."""
     ids = list(range(1, n_servos + 1))
     if where == "in-process":
-        with SimBus(ids=ids, timing=timing, baud=BAUD, log=False) as bus:
+        with SimBus(config=SimBusConfig(ids=tuple(ids), timing=timing, baud=BAUD,
+                                        log=False)) as bus:
             yield bus.port_path
         return
     proc = subprocess.Popen(

@@ -29,6 +29,7 @@ import time
 from collections.abc import Callable
 
 from firmware_sim.bus import SimBus
+from firmware_sim.bus_config import SimBusConfig
 from firmware_sim.control_socket import ControlServer
 from firmware_sim.faults import FaultInjector
 
@@ -171,10 +172,10 @@ def main(argv: list[str] | None = None) -> int:
     if args.arm and "--ids" not in (argv if argv is not None else sys.argv[1:]):
         ids = None                          # the arm file's servo ids
     try:
-        bus = SimBus(ids, model, baud=args.baud, timing=args.timing, firmware=firmware,
-                     link=args.link, log=False, log_file=args.log, fault_seed=args.seed,
-                     dynamics=args.dynamics == "on", arm=args.arm,
-                     supply_voltage=args.supply)
+        bus = SimBus(config=SimBusConfig(
+            ids=ids, model=model, baud=args.baud, timing=args.timing, firmware=firmware,
+            link=args.link, log=False, log_file=args.log, fault_seed=args.seed,
+            dynamics=args.dynamics == "on", arm=args.arm, supply_voltage=args.supply))
     except ValueError as exc:
         p.error(str(exc))
     _check_targets(p, args, [s.id for s in bus.servos])

@@ -16,7 +16,7 @@ Faults with physical causes (the firmware's rules, times are this model's choice
 * **Overheating** (bit 2): the winding temperature above Temperature Limit (31).
 * **Input voltage** (bit 0): the supply outside Min/Max Voltage Limit (32, 34).
 
-A fault's bits go to the owner's ``_physical_fault(bits, t)``, which applies Shutdown (63).
+A fault's bits go to the ``on_fault(bits, t)`` callback, which applies Shutdown (63).
 """
 
 from __future__ import annotations

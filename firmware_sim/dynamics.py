@@ -75,10 +75,14 @@ class Plant:
         Couples the shafts (in the arm's joint order, which ``drives`` must follow).
     step : float
         Integration step, s.
+    load_inertia : sequence of float, optional
+        Per shaft, the inertia of what it carries besides an arm's bodies, kg·m² at the
+        output (e.g. a gripper's jaws); default 0.
     """
 
     def __init__(self, drives: Sequence[Drive], theta: Sequence[float], t0: float,
-                 arm: ArmModel | None = None, step: float = PHYSICS_STEP_S) -> None:
+                 arm: ArmModel | None = None, step: float = PHYSICS_STEP_S,
+                 load_inertia: Sequence[float] | None = None) -> None:
         if arm is not None and arm.dof != len(drives):
             raise ValueError(f"arm has {arm.dof} joints but {len(drives)} servos were given")
         self.drives = list(drives)
@@ -88,7 +92,12 @@ class Plant:
         self.t = float(t0)
         self.step = float(step)
         self.arm = arm
-        self.inertia = [d.motor.inertia for d in self.drives]
+        loads = [0.0] * self.n if load_inertia is None else [float(x) for x in load_inertia]
+        if len(loads) != self.n:
+            raise ValueError(f"load_inertia needs {self.n} values, got {len(loads)}")
+        #: Per shaft: the rotor's reflected inertia J_rotor·N² plus its own load, kg·m².
+        self.inertia = [d.motor.inertia + load for d, load in zip(self.drives, loads,
+                                                                   strict=True)]
         if arm is not None:
             self.rho = [jm.direction * jm.ticks_per_turn / 4096 for jm in arm.joints]
             self.theta0 = [jm.zero_offset / PULSES_PER_RAD for jm in arm.joints]
@@ -122,13 +131,13 @@ class Plant:
     # ---- time -----------------------------------------------------------------------
     def advance(self, t: float) -> None:
         """Step up to time ``t`` (the last partial step waits for the next call); the
-        owners snapshot their control tables first (``_configure_drive``)."""
+        owners snapshot their control tables first (``configure_drive``)."""
         h = self.step
         steps = int((t - self.t) / h + 1e-9)
         if steps <= 0:
             return
         for owner in self.owners:
-            owner._configure_drive()
+            owner.configure_drive()
         omega = self.omega
         drives = self.drives
         for k in range(steps):

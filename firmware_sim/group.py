@@ -9,9 +9,9 @@ later servos still append their blocks is undocumented (``fast_chain_stops``).
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING
+from typing import Protocol
 
-from firmware_sim.faults import FaultKind
+from firmware_sim.faults import FaultInjector, FaultKind
 from firmware_sim.protocol import (
     BROADCAST_ID,
     FastStatusWriter,
@@ -22,12 +22,30 @@ from firmware_sim.protocol import (
 from firmware_sim.replies import Reply
 from firmware_sim.servo import Servo
 
-if TYPE_CHECKING:
-    from firmware_sim.dispatch import Dispatcher
-
 #: Firmware version from which X430 servos answer Fast Sync/Bulk Read (e-manual).
 FAST_READ_MIN_FIRMWARE = 45
 _FAST_READS = (Instruction.FAST_SYNC_READ, Instruction.FAST_BULK_READ)
+
+
+class Dispatcher(Protocol):
+    """What the group instructions need of the dispatcher that runs them
+    (:class:`firmware_sim.dispatch.Dispatcher`; a protocol, so this module does not
+    import it back)."""
+
+    faults: FaultInjector
+    fast_chain_stops: bool
+
+    def answers(self, servo: Servo, instruction: int) -> bool:
+        """Whether ``servo`` replies to ``instruction`` at its Status Return Level."""
+        ...
+
+    def status(self, servo: Servo, instruction: int, code: int, params: bytes = b"") -> Reply:
+        """The status packet of ``servo`` with result ``code``."""
+        ...
+
+    def write(self, servo: Servo, address: int, data: bytes) -> int:
+        """WRITE ``data`` at ``address`` of ``servo``, noting an accepted goal."""
+        ...
 
 
 def _by_id(servos: list[Servo]) -> dict[int, Servo]:

@@ -21,6 +21,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from firmware_sim.bus import SimBus
+from firmware_sim.bus_config import SimBusConfig
 from robodcn import kinematics, servo_units
 from robodcn.bus import ServoBus
 from robodcn.config import Arm
@@ -129,9 +130,10 @@ def simulated_arm(arm: Arm, *, timing: str = "realistic", start_joints: ArrayLik
     models = {s.id: s.model for s in arm.servos}
     with contextlib.ExitStack() as stack:
         positions = {i: int(t) for i, t in zip(arm.servo_ids, ticks, strict=True)}
-        sim = SimBus(arm.servo_ids, models, baud=arm.bus.baud, timing=timing,
-                     firmware=firmware, log=False, dynamics=dynamics,
-                     arm=sim_arm_document(arm) if dynamics else None, positions=positions)
+        sim = SimBus(config=SimBusConfig(
+            ids=tuple(arm.servo_ids), model=models, baud=arm.bus.baud, timing=timing,
+            firmware=firmware, log=False, dynamics=dynamics,
+            arm=sim_arm_document(arm) if dynamics else None, positions=positions))
         _check_placed(sim, arm.servo_ids, ticks)
         sim.start()
         stack.callback(sim.close)

@@ -8,11 +8,37 @@ from contextlib import contextmanager
 
 from dynamixel_sdk import COMM_SUCCESS, PacketHandler, PortHandler
 
+from firmware_sim import control_table as ct
 from firmware_sim.bus import SimBus
+from firmware_sim.clock import VirtualClock
 from firmware_sim.protocol import build_packet
+from firmware_sim.servo import Servo
 
 PH = PacketHandler(2.0)
 READ_TIMEOUT_S = 0.001
+#: One control period of the simulated firmware, s (Realtime Tick resolution).
+PERIOD = 0.001
+
+
+def make(model: str = "xm430-w350", **kw) -> tuple[Servo, VirtualClock]:
+    clock = VirtualClock(100.0)
+    return Servo(1, model, clock=clock, **kw), clock
+
+
+def put(servo: Servo, address: int, value: int) -> None:
+    it = servo.spec.item(address)
+    code = servo.write(address, value.to_bytes(it.size, "little", signed=it.signed))
+    assert code == 0, f"write {it.name}={value} -> error {code:#x}"
+
+
+def setup_move(servo: Servo, velocity: int, acceleration: int, drive_mode: int = 0,
+               mode: int = ct.MODE_POSITION) -> None:
+    put(servo, ct.TORQUE_ENABLE, 0)
+    put(servo, ct.OPERATING_MODE, mode)
+    put(servo, ct.DRIVE_MODE, drive_mode)
+    put(servo, ct.PROFILE_VELOCITY, velocity)
+    put(servo, ct.PROFILE_ACCELERATION, acceleration)
+    put(servo, ct.TORQUE_ENABLE, 1)
 
 
 def open_port(path: str, baud: int = 1_000_000) -> PortHandler:

@@ -95,7 +95,7 @@ def test_free_arm_conserves_energy():
     model = load_arm(_doc(gravity=True, payload_kg=0.1))
     clock = VirtualClock()
     bus = SimBus(arm=_doc(gravity=True, payload_kg=0.1), dynamics=True, clock=clock)
-    plant = bus.servo(1)._plant
+    plant = bus.servo(1).motion.plant
     for d in plant.drives:                      # a frictionless, unmotored arm
         d.motor = type(d.motor)(**{**d.motor.__dict__, "viscous": 0.0, "coulomb": 0.0,
                                    "rotor_inertia": 1e-12})

@@ -166,7 +166,7 @@ def test_overheating_shuts_down():
     with bus, sdk_port(bus) as port:
         start = _torque_on(port)
         servo = bus.servo(1)
-        servo._drive.overload_s = -1e9          # keep the overload timer out of this test
+        servo.motion.drive.overload_s = -1e9          # keep the overload timer out of this test
         servo.set_obstacle(10.0)
         PH.write4ByteTxRx(port, 1, ct.GOAL_POSITION, start + 1024)
         temps = []

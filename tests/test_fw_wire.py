@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 import os
 import signal
 import subprocess
@@ -15,7 +16,7 @@ from dynamixel_sdk import COMM_RX_TIMEOUT, COMM_SUCCESS, GroupSyncRead
 from fw_helpers import PH, open_port, sdk_port
 
 from firmware_sim import __main__ as cli
-from firmware_sim.bus import SimBus, sleep_until
+from firmware_sim.bus import SimBus, SimBusConfig, sleep_until
 from firmware_sim.faults import FaultInjector, FaultKind
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -76,6 +77,26 @@ def test_constructor_rejects_bad_arguments():
         SimBus(ids=[1], model="ax-12")
     with pytest.raises(ValueError, match="id"):
         SimBus(ids=[300])
+
+
+def test_one_frozen_config_builds_the_bus():
+    cfg = SimBusConfig(ids=[3, 1], model={1: "xl430-w250", 3: "xm430-w350"}, firmware=44,
+                       log=False, goal_limit=5)
+    with pytest.raises(dataclasses.FrozenInstanceError):
+        cfg.baud = 57_600                                  # type: ignore[misc]
+    assert cfg.ids == (3, 1) and cfg.model[1] == "xl430-w250"
+    bus = SimBus(config=cfg)
+    assert bus.config is cfg
+    assert [(s.id, s.model, s.firmware_version) for s in bus.servos] == \
+        [(3, "xm430-w350", 44), (1, "xl430-w250", 44)]
+    # keywords on top of a config override it; the keyword form builds the same config
+    assert SimBus(config=cfg, firmware=46).config == cfg.replace(firmware=46)
+    assert SimBus([3, 1], {1: "xl430-w250", 3: "xm430-w350"}, firmware=44, log=False,
+                  goal_limit=5).config == cfg
+    with pytest.raises(TypeError):
+        SimBus(ids=[1], speed=3)
+    with pytest.raises(ValueError, match="timing"):
+        cfg.replace(timing="slow")
 
 
 def test_cli_serves_until_sigterm(tmp_path):
