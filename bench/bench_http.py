@@ -29,7 +29,7 @@ BODY = {"waypoints": [[0.25, 0.10, 0.0], [0.15, 0.20, 1.0]], "duration": 2.0, "r
 _SERVER = """
 import sys
 from robodcn.config import load_arm
-from robodcn.http_server import make_server
+from robodcn.http import make_server
 server = make_server(load_arm(sys.argv[1]), None, port=0)
 print(server.server_address[1], flush=True)
 server.serve_forever()

@@ -1,31 +1,31 @@
 """ArmController: the single owner of a ServoBus in a long-running service.
 
-Every port access runs on one worker thread (robodcn.bus is single-threaded by design): a
-move is streamed on that thread (:func:`robodcn.stream.online.prepare`, so the running
-move can be stopped smoothly, paused, resumed, re-timed and replaced from the request
-threads: :meth:`ArmController.stop_move`, :meth:`~ArmController.pause`,
+Every port access runs on one worker thread (:class:`robodcn.bus_worker.BusWorker`;
+robodcn.bus is single-threaded by design): a move is streamed on that thread
+(:func:`robodcn.stream.online.prepare`), so the running move can be stopped smoothly,
+paused, resumed, re-timed and replaced from the request threads
+(:meth:`ArmController.stop_move`, :meth:`~ArmController.pause`,
 :meth:`~ArmController.resume`, :meth:`~ArmController.set_speed`,
-:meth:`~ArmController.replace_move`), and an idle state read is a job
-queued to it. Other threads only start moves, read records, request stops and read the
-streamer's latest feedback, all under one lock that is never held across I/O.
+:meth:`~ArmController.replace_move`), and an idle state read is a job queued to it. Other
+threads only start moves, read records, request stops and read the streamer's latest
+feedback, all under one lock that is never held across I/O.
 
-Move lifecycle: ``queued`` → ``running`` → ``done`` | ``degraded`` | ``stopped`` |
-``collision`` | ``fault`` | ``failed`` | ``replaced``
-(:data:`robodcn.http.results.MoveState`): the finished status is the report's outcome
-(``degraded``: completed with samples skipped); ``fault`` is a bus or servo fault
-after motion began, ``failed`` a refusal before any sample was sent. One move at a time:
+A move's record and lifecycle are :class:`robodcn.moves.MoveRecord`'s (the finished
+status is the report's outcome; ``fault`` is a bus or servo fault after motion began,
+``failed`` a refusal before any sample was sent). One move at a time:
 :meth:`ArmController.start_move` raises :class:`~robodcn.errors.BusyError` while another is
-queued or running. The most recent ``history`` moves are kept for :meth:`ArmController.move`,
-each with what was measured while it ran (:attr:`MoveRecord.measured`: time and present ticks
-of each progress report, the latest :data:`RECORD_SAMPLES` of them).
+queued or running; a surface admits a move through :func:`robodcn.admission.admit` (read
+the present state once, plan once, start). The most recent ``history`` moves are kept for
+:meth:`ArmController.move`, each with what was measured while it ran. Answers are the typed
+results of :mod:`robodcn.results` (MoveStatus, State, StopAnswer); the surfaces turn them
+into JSON.
 
 Servo admin (:meth:`ArmController.set_torque`, :meth:`ArmController.reboot`) runs on the same
 worker thread through :mod:`robodcn.workflow.admin`, refused (BusyError) while a move runs.
 
-Losing the serial device (unplugged, firmware_sim killed) is a bus fault, never a crash: the
-move ends ``fault`` with a report of what was sent, reads raise CommError (503), and the next
-request after a fault reopens and re-verifies the port, so the service recovers by itself
-once the device is back.
+Losing the serial device is a bus fault, never a crash (:mod:`robodcn.bus_worker`): the
+move ends ``fault`` with a report of what was sent, reads raise CommError (503), and the
+next request after a fault reopens and re-verifies the port.
 """
 
 from __future__ import annotations
@@ -34,24 +34,23 @@ import collections
 import contextlib
 import itertools
 import logging
-import termios
 import threading
 import time
 from collections.abc import Iterator
-from concurrent.futures import ThreadPoolExecutor
-from concurrent.futures import TimeoutError as FutureTimeout
-from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
+from numpy.typing import NDArray
 
 from robodcn import kinematics, servo_units
 from robodcn.bus import ServoBus, describe_hardware_error
+from robodcn.bus_worker import DEVICE_ERRORS, STATE_TIMEOUT, BusWorker, device_fault
 from robodcn.config import Arm
-from robodcn.errors import BusError, BusyError, CommError, InputError, NoMoveError, RobodcnError
-from robodcn.http.results import ApproachInfo, MoveStatus, State, StopAnswer, to_json
+from robodcn.errors import BusError, BusyError, InputError, NoMoveError, RobodcnError
+from robodcn.moves import RECORD_SAMPLES, MoveRecord, move_status
 from robodcn.planner import Trajectory
-from robodcn.stream import STOP_MODES, ExecutionOptions, ExecutionReport, Progress, StopSignal
+from robodcn.results import MoveStatus, State, StopAnswer
+from robodcn.stream import STOP_MODES, ExecutionOptions, ExecutionReport, Progress
 from robodcn.stream.online import prepare
 from robodcn.workflow import admin
 
@@ -60,84 +59,6 @@ log = logging.getLogger("robodcn.controller")
 #: Options the service executes with unless overridden: a move starts wherever the arm is
 #: (the streamer prepends an approach if it has moved since planning) and the arm holds after.
 DEFAULT_EXECUTE = ExecutionOptions(approach=True, release=False)
-#: Measured samples kept per move, the latest (progress reports come at most every 50 ms:
-#: the last 10 minutes or more); with ``history`` moves this bounds the service's memory.
-RECORD_SAMPLES = 12_000
-#: Seconds :meth:`ArmController.state` waits for an idle bus read.
-STATE_TIMEOUT = 5.0
-#: Exceptions of a lost serial device that dynamixel-sdk/pyserial let through (pyserial's
-#: SerialException is an OSError; termios.error is not).
-DEVICE_ERRORS: tuple[type[BaseException], ...] = (OSError, termios.error)
-
-
-def move_status(report: ExecutionReport) -> str:
-    """The move status of a finished execution: the report's ``outcome`` ("done" |
-    "degraded" | "stopped" | "fault", :data:`robodcn.stream.OUTCOMES`)."""
-    return report.outcome
-
-
-def _device_fault(bus: ServoBus, exc: BaseException) -> CommError:
-    return CommError(f"the serial device {bus.port} failed ({type(exc).__name__}: {exc}); "
-                     "it is reopened on the next request", field="bus", value=bus.port)
-
-
-@dataclass
-class MoveRecord:
-    """One move: its trajectory, status and, once finished, the execution report.
-
-    ``progress`` is the fraction of samples sent (0..1). ``tracking_error`` (rad) is the
-    largest over the joints of the streamer's tracking error (robodcn.stream.report
-    ``tracking_error``: one definition for the live readout and the report): while the move
-    runs that of the latest feedback, once it has finished the report's maximum. Times are
-    Unix seconds. ``measured`` holds (seconds since the first write, present ticks) of each
-    progress report with a read, then the final read (the latest RECORD_SAMPLES).
-    """
-
-    id: str
-    trajectory: Trajectory
-    status: str = "queued"
-    created: float = field(default_factory=time.time)
-    started: float | None = None
-    finished: float | None = None
-    progress: float = 0.0
-    elapsed: float = 0.0
-    tracking_error: float | None = None
-    report: ExecutionReport | None = None
-    error: dict[str, Any] | None = None
-    #: The report as JSON when execute() raised (a lost device): what the controller saw.
-    fault_report: dict[str, Any] | None = None
-    stop_signal: StopSignal = field(default_factory=StopSignal, repr=False)
-    done: threading.Event = field(default_factory=threading.Event, repr=False)
-    latest: Progress | None = field(default=None, repr=False)
-    measured: collections.deque[tuple[float, tuple[int, ...]]] = field(
-        default_factory=lambda: collections.deque(maxlen=RECORD_SAMPLES), repr=False)
-    #: The running execution (robodcn.stream.start): pause, resume, speed, replace.
-    execution: Any = field(default=None, repr=False)
-    #: Sample of the execution where this move begins (a replacement starts mid-stream).
-    offset: int = 0
-
-    @property
-    def active(self) -> bool:
-        return self.status in ("queued", "running")
-
-    def to_dict(self) -> dict[str, Any]:
-        report = self.fault_report if self.report is None else self.report.to_dict()
-        return to_json(MoveStatus(
-            id=self.id, status=self.status, progress=self.progress, elapsed=self.elapsed,
-            duration=self.trajectory.duration, samples=len(self.trajectory.t),
-            tracking_error=self.tracking_error, approach=self.approach(), created=self.created,
-            started=self.started, finished=self.finished, report=report, error=None,
-            paused=bool(self.active and self.execution is not None and self.execution.paused),
-            speed_scale=1.0 if self.execution is None else float(self.execution.speed),
-        )) | {"error": self.error}
-
-    def approach(self) -> ApproachInfo | None:
-        """The approach the streamer inserted, else the one the trajectory opens with."""
-        inserted = None if self.report is None else self.report.approach
-        if inserted is not None and inserted.samples:
-            return ApproachInfo(inserted.samples, inserted.duration_s)
-        n = int(getattr(self.trajectory, "approach_samples", 0) or 0)
-        return ApproachInfo(n, n / self.trajectory.rate_hz) if n else None
 
 
 class ArmController:
@@ -185,9 +106,7 @@ class ArmController:
         self._closed = False
         #: The newest positions known without a read (feedback, goals, final reads).
         self._last_ticks: tuple[int, ...] | None = None
-        #: The last bus operation failed: reopen and re-verify the port before the next.
-        self._suspect = False
-        self._worker = ThreadPoolExecutor(max_workers=1, thread_name_prefix="robodcn-arm")
+        self._worker = BusWorker(bus)
 
     # -- moves --------------------------------------------------------------------------------
 
@@ -211,8 +130,9 @@ class ArmController:
     @contextlib.contextmanager
     def admitting(self) -> Iterator[None]:
         """Hold the arm for one move request, from reading its present pose to
-        :meth:`start_move`: a second request meanwhile gets BusyError (409) at once, instead
-        of waiting behind the first move and then starting from wherever that one ended."""
+        :meth:`start_move` (:func:`robodcn.admission.admit`): a second request meanwhile
+        gets BusyError (409) at once, instead of waiting behind the first move and then
+        starting from wherever that one ended."""
         with self._lock:
             self._check_free()
             self._admitting = threading.get_ident()
@@ -222,8 +142,12 @@ class ArmController:
             with self._lock:
                 self._admitting = None
 
-    def start_move(self, trajectory: Trajectory) -> MoveRecord:
+    def start_move(self, trajectory: Trajectory, *,
+                   present_ticks: tuple[int, ...] | None = None) -> MoveRecord:
         """Queue ``trajectory`` for execution on the worker thread; returns its record.
+
+        ``present_ticks``: Present Position as read for planning it (admission), so the
+        executor need not read it again; None when the executor is to read it.
 
         Raises BusyError while another move is queued or running, InputError when the
         trajectory drives other servos than the arm's or the controller is closed.
@@ -237,7 +161,8 @@ class ArmController:
                              field="servo_ids", value=list(trajectory.servo_ids))
         with self._lock:
             self._check_free()
-            record = MoveRecord(id=str(next(self._ids)), trajectory=trajectory)
+            record = MoveRecord(id=str(next(self._ids)), trajectory=trajectory,
+                                present_ticks=present_ticks)
             self._current = record
             self._moves[record.id] = record
             self._trim()
@@ -262,11 +187,11 @@ class ArmController:
         with self._lock:
             return self._moves.get(str(move_id))
 
-    def move_info(self, move_id: str) -> dict[str, Any] | None:
-        """A consistent JSON-ready snapshot of a move (:meth:`MoveRecord.to_dict`), or None."""
+    def move_info(self, move_id: str) -> MoveStatus | None:
+        """A consistent snapshot of a move (:meth:`MoveRecord.snapshot`), or None."""
         with self._lock:
             record = self._moves.get(str(move_id))
-            return None if record is None else record.to_dict()
+            return None if record is None else record.snapshot()
 
     def moves(self) -> list[MoveRecord]:
         """Remembered moves, oldest first."""
@@ -287,31 +212,29 @@ class ArmController:
         if record is not None:
             record.stop_signal.request(reason)
 
-    def stop(self, *, wait: float = 1.0) -> dict[str, Any]:
+    def stop(self, *, wait: float = 1.0) -> StopAnswer:
         """Stop the current move, if any; the streamer holds the arm where it is.
 
         Thread-safe; sets the move's stop signal (acted on within one sample period) and
-        waits up to ``wait`` seconds for the hold to be written. Returns a
-        :class:`~robodcn.http.results.StopAnswer` as JSON.
+        waits up to ``wait`` seconds for the hold to be written.
         """
         with self._lock:
             record = self._current
         if record is None:
-            return to_json(StopAnswer(stopped=False, move=None, status=None))
+            return StopAnswer(stopped=False, move=None, status=None)
         record.stop_signal.request("stop requested")
         record.done.wait(wait)
         with self._lock:
-            return to_json(StopAnswer(stopped=True, move=record.id, status=record.status))
+            return StopAnswer(stopped=True, move=record.id, status=record.status)
 
     # -- online operations (robodcn.stream.online): stop modes, pause, speed, replace ------
 
     def _live(self) -> MoveRecord:
-        """The running move with its execution; BusyError-free InputError when none."""
+        """The running move with its execution; NoMoveError when none."""
         with self._lock:
             record = self._current
         if record is not None and record.execution is None:
             # queued: the worker is about to start it
-            record.done.wait(0.0)
             deadline = time.monotonic() + 2.0
             while record.execution is None and not record.done.is_set() \
                     and time.monotonic() < deadline:
@@ -320,7 +243,7 @@ class ArmController:
             raise NoMoveError("no move is running", field="move", value=None)
         return record
 
-    def stop_move(self, mode: str = "smooth", *, wait: float = 1.0) -> dict[str, Any]:
+    def stop_move(self, mode: str = "smooth", *, wait: float = 1.0) -> StopAnswer:
         """Stop the current move: ``"smooth"`` decelerates along its path within the limits
         and holds there, ``"hold"`` holds where the arm is at once (:meth:`stop`)."""
         if mode not in STOP_MODES:
@@ -333,25 +256,29 @@ class ArmController:
         record.execution.stop("smooth")
         record.done.wait(wait)
         with self._lock:
-            return to_json(StopAnswer(stopped=True, move=record.id, status=record.status))
+            return StopAnswer(stopped=True, move=record.id, status=record.status)
 
-    def pause(self) -> dict[str, Any]:
+    def _snapshot(self, record: MoveRecord) -> MoveStatus:
+        with self._lock:
+            return record.snapshot()
+
+    def pause(self) -> MoveStatus:
         """Pause the running move (a smooth stop on its path; the stream goes on)."""
         record = self._live()
         record.execution.pause()
-        return self.move_info(record.id) or {}
+        return self._snapshot(record)
 
-    def resume(self) -> dict[str, Any]:
+    def resume(self) -> MoveStatus:
         """Resume a paused move along the same path, timed from rest."""
         record = self._live()
         record.execution.resume()
-        return self.move_info(record.id) or {}
+        return self._snapshot(record)
 
-    def set_speed(self, scale: float) -> dict[str, Any]:
+    def set_speed(self, scale: float) -> MoveStatus:
         """Re-time the rest of the running move with the limits scaled by ``scale``."""
         record = self._live()
         record.execution.set_speed(scale)
-        return self.move_info(record.id) or {}
+        return self._snapshot(record)
 
     def replace_move(self, request: Any) -> MoveRecord:
         """Retarget the running move to ``request`` (a PlanRequest) from its moving state:
@@ -375,6 +302,8 @@ class ArmController:
             self._trim()
         return new
 
+    # -- the worker: streaming a move ---------------------------------------------------------
+
     def _on_progress(self, record: MoveRecord, p: Progress) -> None:
         error = None
         if p.tracking_error_rad:
@@ -392,15 +321,16 @@ class ArmController:
             if p.present is not None and p.sample >= record.offset:
                 # seconds since this move's first sample (a replacement starts mid-stream;
                 # a read of a sample before it was the replaced move's)
-                record.measured.append((float(p.elapsed_s) - self._start_s(record),
+                record.measured.append((float(p.elapsed_s) - record.start_s(),
                                         tuple(int(v) for v in p.present)))
 
     def _run(self, record: MoveRecord) -> None:
         with self._lock:
             record.status = "running"
             record.started = time.time()
+        worker = self._worker
         try:
-            self._recover()
+            worker.recover()
             # streamed on this (the worker) thread: the execution's online operations
             # (pause, speed, replace) come from the request threads
             execution = prepare(record.trajectory, self.bus, self.execute_options,
@@ -411,12 +341,12 @@ class ArmController:
             report = execution.run()
             record = self._live_of(record)
         except RobodcnError as exc:
-            self._suspect = self._suspect or isinstance(exc, BusError)
+            worker.suspect = worker.suspect or isinstance(exc, BusError)
             log.info("move %s ended: %s", record.id, exc.message)
             self._finish(record, self._failed_or_fault(record), None, exc.to_dict())
         except DEVICE_ERRORS as exc:
-            self._suspect = True
-            fault = _device_fault(self.bus, exc)
+            worker.suspect = True
+            fault = device_fault(self.bus, exc)
             log.warning("move %s: %s", record.id, fault.message)
             self._finish(record, self._failed_or_fault(record), None, fault.to_dict())
         except Exception as exc:  # a bug: keep the service up, say what happened
@@ -425,15 +355,10 @@ class ArmController:
                 "code": "internal", "message": f"{type(exc).__name__}: {exc}", "field": None})
         else:
             status = move_status(report)
-            self._suspect = status == "fault"
+            worker.suspect = status == "fault"
             error = None if status != "fault" else {
                 "code": report.stop_reason, "message": report.message, "field": None}
             self._finish(record, status, report, error)
-
-    @staticmethod
-    def _start_s(record: MoveRecord) -> float:
-        """Stream time (s) of the move's first sample: 0, or where a replacement began."""
-        return record.offset / record.trajectory.rate_hz
 
     def _live_of(self, record: MoveRecord) -> MoveRecord:
         """The record now running ``record``'s execution (a replacement), else ``record``."""
@@ -448,7 +373,8 @@ class ArmController:
         """``fault`` once a sample went out (the arm moved), ``failed`` before."""
         return "failed" if record.latest is None else "fault"
 
-    def _fault_report(self, record: MoveRecord, error: dict[str, Any]) -> dict[str, Any]:
+    @staticmethod
+    def _fault_report(record: MoveRecord, error: dict[str, Any]) -> dict[str, Any]:
         """What is known of a move that execute() could not report on (a lost device)."""
         p = record.latest
         return {"outcome": "fault", "stop_reason": error["code"], "message": error["message"],
@@ -457,46 +383,6 @@ class ArmController:
                 "duration_s": record.elapsed, "last_goals": None if p is None else
                 list(p.goals), "last_present": None if p is None or p.present is None else
                 list(p.present)}
-
-    def _recover(self) -> None:
-        """After a bus fault: reopen and re-verify the port (worker thread only).
-
-        Raises CommError saying the device is still unavailable."""
-        if not self._suspect:
-            return
-        with self.bus.claim():
-            try:
-                self.bus.close()
-                self.bus.open()
-                self.bus.verify()
-            except (RobodcnError, *DEVICE_ERRORS) as exc:
-                message = exc.message if isinstance(exc, RobodcnError) else str(exc)
-                raise CommError(f"the servo bus on {self.bus.port} is unavailable ({message});"
-                                " the service retries on each request until it is back",
-                                field="bus", value=self.bus.port) from None
-        log.info("servo bus on %s reopened", self.bus.port)
-        self._suspect = False
-
-    def _on_worker(self, fn: Any, what: str) -> Any:
-        """Run ``fn`` on the worker thread (recovering the bus first); bus faults and lost
-        devices become CommError/BusError, a slow read CommError after STATE_TIMEOUT."""
-        def job() -> Any:
-            self._recover()
-            try:
-                return fn()
-            except BusError:
-                self._suspect = True
-                raise
-            except DEVICE_ERRORS as exc:
-                self._suspect = True
-                raise _device_fault(self.bus, exc) from None
-
-        future = self._worker.submit(job)
-        try:
-            return future.result(STATE_TIMEOUT)
-        except FutureTimeout:
-            raise CommError(f"{what} took over {STATE_TIMEOUT:g} s", field="bus",
-                            value=None) from None
 
     def _finish(self, record: MoveRecord, status: str, report: ExecutionReport | None,
                 error: dict[str, Any] | None) -> None:
@@ -514,7 +400,7 @@ class ArmController:
                 if report.final_positions is not None:
                     last = record.measured[-1][0] if record.measured else 0.0
                     record.measured.append((max(last, float(report.duration_s)
-                                                - self._start_s(record)),
+                                                - record.start_s()),
                                             tuple(int(v) for v in report.final_positions)))
                 record.elapsed = report.duration_s
                 if report.completed:
@@ -529,26 +415,29 @@ class ArmController:
     # -- state ----------------------------------------------------------------------------------
 
     def _state_from(self, ticks: Any, *, torque: bool | None, alerts: dict[int, int],
-                    source: str, move: str | None) -> dict[str, Any]:
+                    source: str, record: MoveRecord | None) -> State:
         ticks = np.asarray(ticks, dtype=np.int64)
         joints = servo_units.ticks_to_radians(ticks[None, :], self.arm.servos)[0]
         pose = kinematics.fk(self.arm.links, joints[None, :])[0]
-        return to_json(State(
+        return State(
             joints=joints.tolist(), pose=pose.tolist(), ticks=ticks.tolist(),
             joint_names=list(self.arm.joint_names), torque=torque,
             alerts={str(i): describe_hardware_error(e) for i, e in alerts.items() if e},
-            moving=move is not None, move=move, source=source))
+            moving=record is not None, move=None if record is None else record.id,
+            source=source,  # type: ignore[arg-type]
+            paused=False if record is None else record.paused,
+            speed_scale=None if record is None else record.speed_scale)
 
-    def _read_state(self) -> dict[str, Any]:
+    def _read_state(self) -> State:
         with self.bus.claim():
             ticks = self.bus.read_positions()
             torque = all(self.bus.torque_enabled().values())
             alerts = self.bus.hardware_errors()
         with self._lock:
             self._last_ticks = tuple(int(v) for v in ticks)
-        return self._state_from(ticks, torque=torque, alerts=alerts, source="bus", move=None)
+        return self._state_from(ticks, torque=torque, alerts=alerts, source="bus", record=None)
 
-    def state(self) -> dict[str, Any]:
+    def state(self) -> State:
         """Present joints (rad), pose (FK), ticks, torque, hardware alerts.
 
         While a move runs: from the streamer's latest feedback (the last goals before the
@@ -564,23 +453,23 @@ class ArmController:
             if record is not None and ticks is None:
                 ticks = tuple(record.trajectory.ticks[0])
         if record is not None:
-            state = self._state_from(ticks, torque=True, alerts={}, source="stream",
-                                     move=record.id)
-            if record.execution is not None:
-                state.update(paused=bool(record.execution.paused),
-                             speed_scale=float(record.execution.speed))
-            return state
-        return self._on_worker(self._read_state, "reading the arm's state")
+            return self._state_from(ticks, torque=True, alerts={}, source="stream",
+                                    record=record)
+        return self._worker.call(self._read_state, "reading the arm's state")
 
-    def present_joints(self) -> np.ndarray:
-        """The arm's present joint angles (k,) rad, read on the worker thread.
+    def present_ticks(self) -> NDArray[np.int64]:
+        """The arm's Present Position (k,) ticks, read once on the worker thread.
 
         Raises BusyError while a move is queued or running (the arm is not where it will
         start from), BusError when the servos do not answer.
         """
         with self._lock:
             self._check_free()
-        ticks = self._on_worker(self._read_ticks, "reading the arm's position")
+        return self._worker.call(self._read_ticks, "reading the arm's position")
+
+    def present_joints(self) -> NDArray[np.float64]:
+        """The arm's present joint angles (k,) rad (:meth:`present_ticks` converted)."""
+        ticks = self.present_ticks()
         return servo_units.ticks_to_radians(ticks[None, :], self.arm.servos)[0]
 
     def recording(self, move_id: str) -> list[tuple[float, tuple[int, ...]]] | None:
@@ -601,7 +490,7 @@ class ArmController:
             with self.bus.claim():
                 return fn()
 
-        return self._on_worker(job, what)
+        return self._worker.call(job, what)
 
     def set_torque(self, on: bool, joint: str | None = None) -> tuple[int, ...]:
         """Torque on (holding where the arm is) or off, for ``joint`` or every joint
@@ -621,7 +510,7 @@ class ArmController:
         return self._admin(lambda: admin.reboot(self.bus, self.arm, joint),
                            "rebooting the servos")
 
-    def _read_ticks(self) -> np.ndarray:
+    def _read_ticks(self) -> NDArray[np.int64]:
         ticks = self.bus.read_positions()
         with self._lock:
             self._last_ticks = tuple(int(v) for v in ticks)
@@ -638,10 +527,14 @@ class ArmController:
         if record is not None:
             record.stop_signal.request("the service is shutting down")
             record.done.wait(timeout)
-        self._worker.shutdown(wait=True, cancel_futures=True)
+        self._worker.shutdown()
 
     def __enter__(self) -> ArmController:
         return self
 
     def __exit__(self, *exc: object) -> None:
         self.close()
+
+
+__all__ = ["DEFAULT_EXECUTE", "DEVICE_ERRORS", "RECORD_SAMPLES", "STATE_TIMEOUT",
+           "ArmController", "MoveRecord", "move_status"]

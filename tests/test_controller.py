@@ -17,6 +17,7 @@ from robodcn.config import load_arm
 from robodcn.controller import ArmController
 from robodcn.errors import BusyError, CommError, InputError
 from robodcn.planner import plan
+from robodcn.results import State, StopAnswer
 from robodcn.simulated import SimulatedArm, simulated_arm
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -75,14 +76,15 @@ def test_move_runs_to_completion_and_state_reads_back(rig: Any) -> None:
     assert data["samples"] == len(traj.t)
     wait_until(lambda: np.abs(np.array(present(sa)) - traj.ticks[-1]).max() <= 1)
     state = controller.state()
-    assert state["source"] == "bus" and state["moving"] is False and state["torque"] is True
-    assert state["ticks"] == present(sa)
-    joints = servo_units.ticks_to_radians(np.array([state["ticks"]]), ARM.servos)[0]
-    np.testing.assert_allclose(state["joints"], joints)
-    np.testing.assert_allclose(state["pose"], kinematics.fk(ARM.links, joints[None])[0])
+    assert isinstance(state, State)
+    assert state.source == "bus" and state.moving is False and state.torque is True
+    assert state.ticks == present(sa)
+    joints = servo_units.ticks_to_radians(np.array([state.ticks]), ARM.servos)[0]
+    np.testing.assert_allclose(state.joints, joints)
+    np.testing.assert_allclose(state.pose, kinematics.fk(ARM.links, joints[None])[0])
     # Within a tick of the plan's end: the pose within the FK of one tick per joint.
-    np.testing.assert_allclose(state["joints"], traj.joints[-1], atol=2 * 2 * np.pi / 4096)
-    assert state["alerts"] == {}
+    np.testing.assert_allclose(state.joints, traj.joints[-1], atol=2 * 2 * np.pi / 4096)
+    assert state.alerts == {}
 
 
 def test_second_move_is_busy_while_one_runs(rig: Any) -> None:
@@ -135,11 +137,11 @@ def test_stop_holds_the_arm(rig: Any) -> None:
     record = controller.start_move(traj)
     wait_until(lambda: record.progress > 0.1)
     state = controller.state()
-    assert state["source"] == "stream" and state["moving"] and state["move"] == record.id
+    assert state.source == "stream" and state.moving and state.move == record.id
     t0 = time.monotonic()
     result = controller.stop()
     assert time.monotonic() - t0 < 1.0
-    assert result == {"stopped": True, "move": record.id, "status": "stopped"}
+    assert result == StopAnswer(stopped=True, move=record.id, status="stopped")
     assert record.report is not None and record.report.stop_reason == "stopped"
     assert 0.1 < record.progress < 1.0
     # Holding: no more goals arrive and the servos stay where they stopped.
@@ -150,7 +152,7 @@ def test_stop_holds_the_arm(rig: Any) -> None:
     assert np.abs(np.array(present(sa)) - held).max() <= 1
     assert list(record.report.hold_goals) == [sa.sim.servo(i).goal_position
                                               for i in ARM.servo_ids]
-    assert controller.stop()["stopped"] is False
+    assert controller.stop().stopped is False
 
 
 def test_present_joints_reads_the_servos_and_is_busy_while_moving(rig: Any) -> None:
@@ -212,7 +214,7 @@ def test_refused_move_fails_with_the_bus_error(rig: Any) -> None:
     assert record.error["code"] == "hardware_alert"
     assert "overheating" in record.error["message"]
     state = controller.state()
-    assert state["alerts"] == {"2": "overheating"}
+    assert state.alerts == {"2": "overheating"}
     assert not controller.busy
 
 
@@ -277,9 +279,9 @@ def test_a_move_keeps_what_it_measured(rig: Any) -> None:
 
 def test_what_a_move_keeps_is_bounded(rig: Any, monkeypatch: Any) -> None:
     """A long move keeps its latest RECORD_SAMPLES measurements, the final read last."""
-    import robodcn.controller
+    import robodcn.moves
 
-    monkeypatch.setattr(robodcn.controller, "RECORD_SAMPLES", 4)
+    monkeypatch.setattr(robodcn.moves, "RECORD_SAMPLES", 4)
     _, controller = rig
     record = controller.start_move(short_move())
     controller.wait(record.id, 10)
@@ -307,4 +309,4 @@ def test_a_lost_device_is_a_comm_error_and_the_next_read_reopens(rig: Any,
     assert "reopen" in exc.value.message  # the bus (or the controller) says it is reopened
     monkeypatch.setattr(controller.bus, "read_positions", real)
     state = controller.state()  # reopens and re-verifies the port first
-    assert state["ticks"] == present(sa) and calls["n"] == 1
+    assert state.ticks == present(sa) and calls["n"] == 1

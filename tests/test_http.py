@@ -41,7 +41,7 @@ from hypothesis import strategies as st
 from robodcn import kinematics, servo_units
 from robodcn.config import arm_from_dict
 from robodcn.errors import InputError, PlanError
-from robodcn.http_server import MAX_BODY, PLAN_FIELDS, ROUTES, make_server
+from robodcn.http import MAX_BODY, PLAN_FIELDS, ROUTES, make_server
 from robodcn.planner import MAX_SAMPLES, Trajectory, plan
 
 pytest_plugins = ["http_helpers"]     # fixtures: arm_server
@@ -336,7 +336,7 @@ def test_any_body_gets_a_json_answer_not_a_crash(planner_server: Any, body: Any)
 
 
 def parse_plan_body_for_test(body: dict[str, Any]) -> Any:
-    from robodcn.http_server import parse_plan_body
+    from robodcn.http import parse_plan_body
 
     return parse_plan_body(ARM, body)
 
@@ -576,7 +576,7 @@ def test_a_refused_move_reports_its_fault(arm_server: Any) -> None:
 
 
 def _serve_subprocess(extra: str) -> subprocess.Popen:
-    code = ("from robodcn.config import load_arm; from robodcn.http_server import serve; "
+    code = ("from robodcn.config import load_arm; from robodcn.http import serve; "
             f"serve(load_arm({str(ROOT / 'configs' / 'arm3r.toml')!r}), port=0, {extra}"
             "ready=lambda url: print(url, flush=True))")
     env = {**os.environ, "PYTHONPATH": str(ROOT)}

@@ -21,7 +21,7 @@ from http_helpers import running
 
 from robodcn.config import load_arm
 from robodcn.errors import CommError
-from robodcn.http_server import make_server
+from robodcn.http import make_server
 from robodcn.web import assets, events
 
 ROOT = Path(__file__).resolve().parent.parent

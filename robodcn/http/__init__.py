@@ -33,18 +33,24 @@ server full; a console file unchanged since its ETag is 304.
 
 Modules: :mod:`~robodcn.http.limits` (every limit), :mod:`~robodcn.http.framing` (request
 reader, responses), :mod:`~robodcn.http.jsonbody`, :mod:`~robodcn.http.routes`,
-:mod:`~robodcn.http.results` (result dataclasses and their schemas),
-:mod:`~robodcn.http.planbody`, :mod:`~robodcn.http.openapi`, :mod:`~robodcn.http.ops` (the
-operations), :mod:`~robodcn.http.server` (selector loop, caps, pools),
+:mod:`~robodcn.http.auth` (the bearer token), :mod:`~robodcn.http.context` (what an
+operation sees of the server), :mod:`~robodcn.http.planbody`,
+:mod:`~robodcn.http.planning` (size check, planning lanes), :mod:`~robodcn.http.openapi`,
+:mod:`~robodcn.http.ops` and :mod:`~robodcn.http.online_ops` (the operations; a move goes
+through :func:`robodcn.admission.admit`), :mod:`~robodcn.http.answer` (the edge: typed
+results of :mod:`robodcn.results` and errors as replies), :mod:`~robodcn.http.server`
+(selector loop, caps, pools), :mod:`~robodcn.http.listen` (``make_server``),
 :mod:`~robodcn.http.service` (``serve``).
 """
 
+from robodcn.http.auth import TOKEN_ENV
 from robodcn.http.framing import HTTPError
 from robodcn.http.limits import MAX_BODY, MAX_CONNECTIONS, MAX_PER_CLIENT, REQUEST_TIMEOUT
+from robodcn.http.listen import ListenError, make_server
 from robodcn.http.openapi import openapi, schemas
 from robodcn.http.planbody import MOVE_FIELDS, PLAN_FIELDS, parse_plan_body
 from robodcn.http.routes import ROUTES, Route
-from robodcn.http.server import TOKEN_ENV, ListenError, RobodcnHTTPServer, make_server
+from robodcn.http.server import RobodcnHTTPServer
 from robodcn.http.service import serve
 
 __all__ = ["MAX_BODY", "MAX_CONNECTIONS", "MAX_PER_CLIENT", "MOVE_FIELDS", "PLAN_FIELDS",

@@ -12,7 +12,7 @@ from __future__ import annotations
 import json
 from typing import Any
 
-from robodcn.http.framing import HTTPError
+from robodcn.http.framing import HTTPError, Request
 from robodcn.http.limits import MAX_JSON_DEPTH
 
 
@@ -72,3 +72,20 @@ def decode_json(body: bytes, content_type: str | None) -> Any:
         raise HTTPError(400, "malformed_json", f"the body nests deeper than "
                         f"{MAX_JSON_DEPTH} levels", "body")
     return value
+
+
+def read_json(request: Request, *, required: bool = True) -> Any:
+    """The request body as JSON (411 when required and absent; 415, 400 from decode_json)."""
+    if "content-length" not in request.headers and not request.body:
+        if required:
+            raise HTTPError(411, "length_required", "a JSON body with Content-Length is "
+                            "required", "Content-Length")
+        return None
+    if not request.body and not required:
+        return None
+    return decode_json(request.body, request.headers.get("content-type"))
+
+
+def read_optional(request: Request) -> Any:
+    """The body of a request whose body may be omitted: ``{}`` when there is none."""
+    return read_json(request, required=False) if request.body else {}

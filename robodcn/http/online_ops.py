@@ -1,9 +1,10 @@
 """Online control of the running move over HTTP: replace, stop modes, pause, resume, speed.
 
 * ``POST /v1/moves`` with ``"replace": true`` while a move runs: the new request is planned
-  from the running move's commanded state (:meth:`robodcn.stream.Execution.retarget`);
-  202 with the new move, and the old one ends ``replaced``. Without ``replace`` a running
-  move still answers 409; with it and nothing running, the move starts as usual.
+  from the running move's commanded state (:meth:`robodcn.stream.Execution.retarget`,
+  through :func:`robodcn.admission.admit`); 202 with the new move, and the old one ends
+  ``replaced``. Without ``replace`` a running move still answers 409; with it and nothing
+  running, the move starts as usual. :func:`take_replace` reads the flag.
 * ``POST /v1/stop`` ``{"mode": "smooth" | "hold"}`` (default smooth: decelerate along the
   path within the limits, then hold; hold: at once).
 * ``POST /v1/pause``, ``POST /v1/resume`` (empty body), ``PUT /v1/speed {"scale": k}``,
@@ -17,16 +18,15 @@ The routes are in :data:`robodcn.http.routes.ROUTES`, the body schemas in
 from __future__ import annotations
 
 import copy
-import math
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
+from robodcn._checks import is_finite_real, show
 from robodcn.errors import InputError
+from robodcn.http.context import Service, controller_of
 from robodcn.http.framing import Request
-from robodcn.planner import PlanRequest
+from robodcn.http.jsonbody import read_json, read_optional
 from robodcn.stream import STOP_MODES
 
-if TYPE_CHECKING:
-    from robodcn.http.server import RobodcnHTTPServer
 
 def body_schemas(move_body: dict[str, Any]) -> dict[str, dict[str, Any]]:
     """Component schemas of the online bodies; ``move_body`` gains ``replace``."""
@@ -90,50 +90,29 @@ def speed_scale(body: Any) -> float:
     if "scale" not in fields:
         raise InputError("scale is required: a number in (0, 1]", field="scale", value=None)
     k = fields["scale"]
-    if isinstance(k, bool) or not isinstance(k, int | float) or not math.isfinite(k) \
-            or not 0.0 < k <= 1.0:
-        raise InputError(f"scale must be a number in (0, 1], got {k!r}", field="scale",
+    if not is_finite_real(k) or not 0.0 < k <= 1.0:
+        raise InputError(f"scale must be a number in (0, 1], got {show(k)}", field="scale",
                          value=k)
     return float(k)
 
 
-def replace_move(server: RobodcnHTTPServer, controller: Any, req: PlanRequest
-                 ) -> tuple[int, Any]:
-    """Retarget the running move to ``req``; 202 with the new move."""
-    from robodcn.http.ops import planning_lane
-    with planning_lane(server, req):
-        record = controller.replace_move(req)
-    return 202, controller.move_info(record.id)
-
-
-def _read(request: Request) -> Any:
-    from robodcn.http.ops import read_json
-    return read_json(request, required=False) if request.body else {}
-
-
-def _controller(server: RobodcnHTTPServer) -> Any:
-    from robodcn.http.ops import _controller as controller_of
-    return controller_of(server)
-
-
-def op_pause(server: RobodcnHTTPServer, request: Request, params: dict[str, str]
+def op_pause(server: Service, request: Request, params: dict[str, str]
              ) -> tuple[int, Any]:
-    controller = _controller(server)
-    _fields(_read(request), (), "pause")
+    controller = controller_of(server)
+    _fields(read_optional(request), (), "pause")
     return 200, controller.pause()
 
 
-def op_resume(server: RobodcnHTTPServer, request: Request, params: dict[str, str]
+def op_resume(server: Service, request: Request, params: dict[str, str]
               ) -> tuple[int, Any]:
-    controller = _controller(server)
-    _fields(_read(request), (), "resume")
+    controller = controller_of(server)
+    _fields(read_optional(request), (), "resume")
     return 200, controller.resume()
 
 
-def op_set_speed(server: RobodcnHTTPServer, request: Request, params: dict[str, str]
+def op_set_speed(server: Service, request: Request, params: dict[str, str]
                  ) -> tuple[int, Any]:
-    from robodcn.http.ops import read_json
-    controller = _controller(server)
+    controller = controller_of(server)
     return 200, controller.set_speed(speed_scale(read_json(request)))
 
 

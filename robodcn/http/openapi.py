@@ -1,6 +1,6 @@
 """The OpenAPI 3.1 document, generated from :data:`~robodcn.http.routes.ROUTES`, the request
 contract (:func:`robodcn.contract.request_schema`) and :func:`robodcn.contract.schema_of` of
-the result dataclasses (:mod:`robodcn.http.results`, the Trajectory)."""
+the result dataclasses (:mod:`robodcn.results`, the Trajectory)."""
 
 from __future__ import annotations
 
@@ -12,9 +12,9 @@ from robodcn.config import Arm
 from robodcn.contract import schema_of
 from robodcn.http import online_ops
 from robodcn.http.planbody import move_body_schema, plan_body_schema, trajectory_move_schema
-from robodcn.http.results import RESULTS
 from robodcn.http.routes import ROUTES, TRANSPORT_ERRORS, Route
 from robodcn.planner import Trajectory
+from robodcn.results import RESULTS
 
 
 def schemas(arm: Arm | None = None) -> dict[str, dict[str, Any]]:

@@ -1,130 +1,48 @@
 """The operations: one function per :class:`~robodcn.http.routes.Route` name.
 
-Each takes the :class:`~robodcn.http.server.RobodcnHTTPServer` (arm, controller, locks), the
-framed request and its path parameters, and returns ``(status, payload)``: a JSON-ready
-object or ready bytes. They raise :class:`~robodcn.http.framing.HTTPError` or a
-:class:`~robodcn.errors.RobodcnError`; the server turns either into a JSON error.
+Each takes the server (as :class:`~robodcn.http.context.Service`: arm, controller, locks),
+the framed request and its path parameters, and returns ``(status, payload)``: a typed
+result, a JSON-ready object or ready bytes. They raise
+:class:`~robodcn.http.framing.HTTPError` or a :class:`~robodcn.errors.RobodcnError`;
+:func:`robodcn.http.answer.answer` turns either into the reply.
 """
 
 from __future__ import annotations
 
-import contextlib
-import hmac
-import threading
-from collections.abc import Callable, Iterator
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
 import robodcn
+from robodcn.admission import MoveOrder, admit
 from robodcn.errors import InputError, RobodcnError, TooLargeError
 from robodcn.http import online_ops
+from robodcn.http.answer import Operation
+from robodcn.http.context import Service, controller_of
 from robodcn.http.framing import HTTPError, Reply, Request, stream_head
-from robodcn.http.jsonbody import decode_json
-from robodcn.http.limits import LARGE_PLAN_SAMPLES, LARGE_PLAN_WAYPOINTS, MAX_RESPONSE
+from robodcn.http.jsonbody import read_json, read_optional
+from robodcn.http.limits import MAX_RESPONSE
 from robodcn.http.planbody import parse_move, parse_plan, parse_trajectory_move
-from robodcn.http.results import ArmInfo, Health, RebootAnswer, TorqueAnswer, to_json
-from robodcn.planner import PlanRequest, Trajectory, plan_request
-from robodcn.present import plan_from_present
+from robodcn.http.planning import check_response_size, planning_lane
+from robodcn.planner import Trajectory, plan_request
+from robodcn.results import ArmInfo, Health, RebootAnswer, TorqueAnswer
 from robodcn.web import assets, events
 from robodcn.workflow import files, record
 
-if TYPE_CHECKING:
-    from robodcn.http.server import RobodcnHTTPServer
 
-Operation = Callable[["RobodcnHTTPServer", Request, dict[str, str]], tuple[int, Any]]
-
-
-def authorize(server: RobodcnHTTPServer, request: Request) -> None:
-    """401 unless a POST carries ``Authorization: Bearer <token>`` (when a token is set).
-
-    Tokens are visible ASCII (checked at startup), so the header's bytes compare exactly.
-    """
-    token = server.token
-    if token is None or request.method != "POST":
-        return
-    given = request.headers.get("authorization", "")
-    scheme, _, value = given.partition(" ")
-    if scheme.lower() != "bearer" or not hmac.compare_digest(
-            value.strip().encode("latin-1"), token.encode("ascii")):
-        raise HTTPError(401, "unauthorized", "this server needs 'Authorization: Bearer "
-                        "<token>' on every POST" + (" (the token given is wrong)"
-                                                    if given else ""),
-                        "Authorization", {"WWW-Authenticate": "Bearer"})
-
-
-def read_json(request: Request, *, required: bool = True) -> Any:
-    """The request body as JSON (411 when required and absent; 415, 400 from decode_json)."""
-    if "content-length" not in request.headers and not request.body:
-        if required:
-            raise HTTPError(411, "length_required", "a JSON body with Content-Length is "
-                            "required", "Content-Length")
-        return None
-    if not request.body and not required:
-        return None
-    return decode_json(request.body, request.headers.get("content-type"))
-
-
-def _controller(server: RobodcnHTTPServer) -> Any:
-    if server.controller is None:
-        raise HTTPError(503, "no_arm", "this server only plans: it has no arm attached")
-    return server.controller
-
-
-def _estimated_samples(req: PlanRequest) -> int | None:
-    if req.duration == "auto":
-        return None
-    return int(req.duration * req.rate_hz) + 1
-
-
-def _bytes_per_sample(req: PlanRequest) -> int:
-    # t, x, y, θ, k joints (≥ 10 characters each as JSON) and k ticks (≥ 5).
-    return 10 * (4 + req.arm.dof) + 5 * req.arm.dof
-
-
-def check_response_size(req: PlanRequest) -> None:
-    """413 before planning when the Trajectory JSON would exceed MAX_RESPONSE."""
-    samples = _estimated_samples(req)
-    if samples is not None and samples * _bytes_per_sample(req) > MAX_RESPONSE:
-        most = MAX_RESPONSE // _bytes_per_sample(req)
-        raise TooLargeError(f"{samples} samples ({req.duration:g} s at {req.rate_hz:g} Hz) "
-                            f"would answer over {MAX_RESPONSE >> 20} MiB of JSON; at most "
-                            f"about {most} samples per plan: shorten duration or lower rate_hz",
-                            field="duration", value=req.duration)
-
-
-@contextlib.contextmanager
-def planning_lane(server: RobodcnHTTPServer, req: PlanRequest) -> Iterator[None]:
-    """Take turns planning: small plans on one lock, large ones on another.
-
-    Planning is CPU-bound under the GIL, so taking turns on a lock lets waiting handlers
-    sleep instead of contending (measured +40 % plans/s, 3× lower p99 with 8 clients,
-    bench_http). A large plan (many samples or waypoints, or "auto" over many segments)
-    takes the other lock, so it never makes the small ones queue behind it.
-    """
-    samples = _estimated_samples(req)
-    large = (len(req.waypoints) > LARGE_PLAN_WAYPOINTS
-             or (samples is not None and samples > LARGE_PLAN_SAMPLES)
-             or (samples is None and len(req.waypoints) > 16))
-    lock: threading.Lock = server.large_plan_lock if large else server.plan_lock
-    with lock:
-        yield
-
-
-def op_health(server: RobodcnHTTPServer, request: Request, params: dict[str, str]
+def op_health(server: Service, request: Request, params: dict[str, str]
               ) -> tuple[int, Any]:
     controller = server.controller
-    return 200, to_json(Health(status="ok", version=robodcn.__version__, arm=server.arm.name,
-                               moving=bool(controller is not None and controller.busy)))
+    return 200, Health(status="ok", version=robodcn.__version__, arm=server.arm.name,
+                       moving=bool(controller is not None and controller.busy))
 
 
-def op_arm(server: RobodcnHTTPServer, request: Request, params: dict[str, str]
+def op_arm(server: Service, request: Request, params: dict[str, str]
            ) -> tuple[int, Any]:
     arm = server.arm
-    return 200, to_json(ArmInfo(name=arm.name, dof=arm.dof, joint_names=list(arm.joint_names),
-                                servo_ids=list(arm.servo_ids), source=arm.source,
-                                config=arm.to_dict()))
+    return 200, ArmInfo(name=arm.name, dof=arm.dof, joint_names=list(arm.joint_names),
+                        servo_ids=list(arm.servo_ids), source=arm.source, config=arm.to_dict())
 
 
-def op_plan(server: RobodcnHTTPServer, request: Request, params: dict[str, str]
+def op_plan(server: Service, request: Request, params: dict[str, str]
             ) -> tuple[int, Any]:
     req = parse_plan(server.arm, read_json(request))
     check_response_size(req)
@@ -138,7 +56,7 @@ def op_plan(server: RobodcnHTTPServer, request: Request, params: dict[str, str]
     return 200, body
 
 
-def _given_trajectory(server: RobodcnHTTPServer, body: dict[str, Any]) -> Trajectory:
+def _given_trajectory(server: Service, body: dict[str, Any]) -> Trajectory:
     """The ``trajectory`` of a move body (Trajectory or JointTrajectory JSON), checked for
     the arm; errors name their JSON path under ``trajectory``."""
     value, rate = parse_trajectory_move(server.arm, body)
@@ -150,58 +68,47 @@ def _given_trajectory(server: RobodcnHTTPServer, body: dict[str, Any]) -> Trajec
         raise
 
 
-def op_start_move(server: RobodcnHTTPServer, request: Request, params: dict[str, str]
+def move_order(server: Service, body: Any) -> MoveOrder:
+    """The :class:`~robodcn.admission.MoveOrder` of a ``POST /v1/moves`` body: waypoints to
+    plan, or a given trajectory; with or without ``replace``."""
+    body, replace = online_ops.take_replace(body)
+    if isinstance(body, dict) and "trajectory" in body:
+        return MoveOrder(trajectory=_given_trajectory(server, body), replace=replace)
+    return MoveOrder(request=parse_move(server.arm, body), replace=replace)
+
+
+def op_start_move(server: Service, request: Request, params: dict[str, str]
                   ) -> tuple[int, Any]:
-    controller = _controller(server)
-    body, replace = online_ops.take_replace(read_json(request))
-    given = _given_trajectory(server, body) if isinstance(body, dict) and \
-        "trajectory" in body else None
-    req = None if given is not None else parse_move(server.arm, body)
-    if replace and controller.busy:
-        if given is not None:
-            raise InputError("replace takes waypoints: a given trajectory cannot take over a "
-                             "running move in flight (stop it first)", field="replace",
-                             value=True)
-        return online_ops.replace_move(server, controller, req)
-    # Plan from where the arm is (409 at once if it is moving), so an infeasible approach
-    # is a 422 now rather than a failed move later, and the record shows what will run.
-    with controller.admitting():
-        present = controller.present_joints()
-        if given is not None:
-            trajectory = files.with_approach(given, server.arm, present)
-            if trajectory is not given:  # the samples prepended are the approach
-                trajectory.approach_samples = len(trajectory.t) - len(given.t)
-        else:
-            with planning_lane(server, req):
-                trajectory = plan_from_present(server.arm, None, req, joints=present)
-        moving = controller.start_move(trajectory)
+    controller = controller_of(server)
+    order = move_order(server, read_json(request))
+    moving = admit(controller, order, planning=lambda req: planning_lane(server, req))
     return 202, controller.move_info(moving.id)
 
 
-def _move(server: RobodcnHTTPServer, move_id: str) -> Any:
-    found = _controller(server).move(move_id)
+def _move(server: Service, move_id: str) -> Any:
+    found = controller_of(server).move(move_id)
     if found is None:
         raise HTTPError(404, "not_found", f"no move {move_id!r} (the service keeps the most "
                         "recent moves only)", "id")
     return found
 
 
-def op_move_trajectory(server: RobodcnHTTPServer, request: Request, params: dict[str, str]
+def op_move_trajectory(server: Service, request: Request, params: dict[str, str]
                        ) -> tuple[int, Any]:
     return 200, _move(server, params["id"]).trajectory.to_json().encode()
 
 
-def op_move_record(server: RobodcnHTTPServer, request: Request, params: dict[str, str]
+def op_move_record(server: Service, request: Request, params: dict[str, str]
                    ) -> tuple[int, Any]:
     _move(server, params["id"])
-    samples = server.controller.recording(params["id"]) or []
+    samples = controller_of(server).recording(params["id"]) or []
     if "text/csv" in request.headers.get("accept", "").lower():
         return 200, Reply(record.recording_csv(server.arm, samples).encode(),
                           "text/csv; charset=utf-8")
     return 200, {"move": params["id"], **record.recording(server.arm, samples)}
 
 
-def _admin_body(server: RobodcnHTTPServer, body: Any, fields: tuple[str, ...],
+def _admin_body(server: Service, body: Any, fields: tuple[str, ...],
                 what: str) -> dict[str, Any]:
     """A torque/reboot body: an object of ``fields`` only, ``joint`` one of the arm's."""
     if not isinstance(body, dict):
@@ -217,30 +124,28 @@ def _admin_body(server: RobodcnHTTPServer, body: Any, fields: tuple[str, ...],
     return body
 
 
-def op_torque(server: RobodcnHTTPServer, request: Request, params: dict[str, str]
+def op_torque(server: Service, request: Request, params: dict[str, str]
               ) -> tuple[int, Any]:
-    controller = _controller(server)
+    controller = controller_of(server)
     body = _admin_body(server, read_json(request), ("on", "joint"), "torque")
     if not isinstance(body.get("on"), bool):
         raise InputError(f"on must be true or false, got {body.get('on')!r}"
                          if "on" in body else "on is missing: true or false", field="on")
     ids = controller.set_torque(body["on"], body.get("joint"))
-    return 200, to_json(TorqueAnswer(on=body["on"], joint=body.get("joint"),
-                                     servo_ids=list(ids)))
+    return 200, TorqueAnswer(on=body["on"], joint=body.get("joint"), servo_ids=list(ids))
 
 
-def op_reboot(server: RobodcnHTTPServer, request: Request, params: dict[str, str]
+def op_reboot(server: Service, request: Request, params: dict[str, str]
               ) -> tuple[int, Any]:
-    controller = _controller(server)
-    body = read_json(request, required=False) if request.body else {}
-    body = _admin_body(server, body, ("joint",), "reboot")
+    controller = controller_of(server)
+    body = _admin_body(server, read_optional(request), ("joint",), "reboot")
     ids = controller.reboot(body.get("joint"))
-    return 200, to_json(RebootAnswer(joint=body.get("joint"), servo_ids=list(ids)))
+    return 200, RebootAnswer(joint=body.get("joint"), servo_ids=list(ids))
 
 
-def op_events(server: RobodcnHTTPServer, request: Request, params: dict[str, str]
+def op_events(server: Service, request: Request, params: dict[str, str]
               ) -> tuple[int, Any]:
-    _controller(server)
+    controller_of(server)
     head = stream_head(content_type="text/event-stream; charset=utf-8",
                        headers=events.STREAM_HEADERS, server=f"robodcn/{robodcn.__version__}")
     if request.method == "HEAD":
@@ -262,35 +167,34 @@ def _asset(request: Request, name: str) -> tuple[int, Any]:
     return status, Reply(body, content_type, headers)
 
 
-def op_console(server: RobodcnHTTPServer, request: Request, params: dict[str, str]
+def op_console(server: Service, request: Request, params: dict[str, str]
                ) -> tuple[int, Any]:
     return _asset(request, assets.INDEX)
 
 
-def op_static(server: RobodcnHTTPServer, request: Request, params: dict[str, str]
+def op_static(server: Service, request: Request, params: dict[str, str]
               ) -> tuple[int, Any]:
     return _asset(request, params["name"])
 
 
-def op_get_move(server: RobodcnHTTPServer, request: Request, params: dict[str, str]
+def op_get_move(server: Service, request: Request, params: dict[str, str]
                 ) -> tuple[int, Any]:
     _move(server, params["id"])
-    return 200, server.controller.move_info(params["id"])
+    return 200, controller_of(server).move_info(params["id"])
 
 
-def op_stop(server: RobodcnHTTPServer, request: Request, params: dict[str, str]
+def op_stop(server: Service, request: Request, params: dict[str, str]
             ) -> tuple[int, Any]:
-    controller = _controller(server)
-    body = read_json(request, required=False) if request.body else {}
-    return 200, controller.stop_move(online_ops.stop_mode(body))
+    controller = controller_of(server)
+    return 200, controller.stop_move(online_ops.stop_mode(read_optional(request)))
 
 
-def op_state(server: RobodcnHTTPServer, request: Request, params: dict[str, str]
+def op_state(server: Service, request: Request, params: dict[str, str]
              ) -> tuple[int, Any]:
-    return 200, _controller(server).state()
+    return 200, controller_of(server).state()
 
 
-def op_openapi(server: RobodcnHTTPServer, request: Request, params: dict[str, str]
+def op_openapi(server: Service, request: Request, params: dict[str, str]
                ) -> tuple[int, Any]:
     return 200, server.openapi_bytes
 

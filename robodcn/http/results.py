@@ -1,173 +1,23 @@
-"""The service's result types, declared once: the controller builds them, the handlers send
-``to_json()`` of them and ``/openapi.json`` documents :func:`robodcn.contract.schema_of` of
-them, so the documented schema and the answer cannot drift apart.
-"""
+"""The service's result types moved to :mod:`robodcn.results` (the service layer, below the
+HTTP edge); these names stay here."""
 
-from __future__ import annotations
+from robodcn.results import (  # re-export (transitional)
+    RESULTS,
+    ApproachInfo,
+    ArmInfo,
+    ErrorDetail,
+    ErrorResponse,
+    Health,
+    MoveState,
+    MoveStatus,
+    RebootAnswer,
+    Recording,
+    State,
+    StopAnswer,
+    TorqueAnswer,
+    to_json,
+)
 
-import dataclasses
-from dataclasses import dataclass, field
-from typing import Any, Literal
-
-#: Move lifecycle. ``done``: every sample sent; ``degraded``: completed with samples skipped;
-#: ``stopped``: stopped by a request (the arm holds); ``fault``: a bus or servo fault ended
-#: it after motion began; ``collision``: the collision stop ended it; ``failed``: refused
-#: before any sample was sent; ``replaced``: a move with ``"replace": true`` took over the
-#: rest of it in flight.
-MoveState = Literal["queued", "running", "done", "degraded", "stopped", "collision", "fault",
-                    "failed", "replaced"]
-
-
-def _doc(text: str, **schema: Any) -> dict[str, Any]:
-    """Field metadata for contract.schema_of: a description, and a schema when bounds are
-    given."""
-    return {"description": text, **({"schema": schema} if schema else {})}
-
-
-@dataclass
-class ErrorDetail:
-    """What went wrong: a stable ``code``, a message and the request field at fault."""
-
-    code: str
-    message: str
-    field: str | None
-    sample: int | None = dataclasses.field(default=None, metadata=_doc("first failing sample"))
-    t: float | None = dataclasses.field(default=None, metadata=_doc("its time (s)"))
-    joint: str | None = None
-
-
-@dataclass
-class ErrorResponse:
-    """Every error answer: ``{"error": {code, message, field, ...}}``."""
-
-    error: ErrorDetail
-
-
-@dataclass
-class ApproachInfo:
-    """A joint-space approach from where the arm was to the start of the path: the first
-    ``samples`` sample periods, ``duration_s`` seconds."""
-
-    samples: int
-    duration_s: float
-
-
-@dataclass
-class MoveStatus:
-    """A move: status, progress (fraction of samples sent) and, once finished, its report
-    (robodcn.stream.ExecutionReport.to_dict(), as is). Times are Unix seconds."""
-
-    id: str
-    status: MoveState
-    progress: float = field(metadata=_doc("fraction of samples sent", type="number",
-                                          minimum=0, maximum=1))
-    elapsed: float = 0.0
-    duration: float = 0.0
-    samples: int = 0
-    tracking_error: float | None = field(default=None, metadata=_doc(
-        "rad, largest over the joints (robodcn.stream tracking error: present outside the "
-        "last commanded step); the latest while running, the report's maximum once finished"))
-    approach: ApproachInfo | None = field(default=None, metadata=_doc(
-        "the joint-space approach that opens the move (planned from the present joints, or "
-        "inserted by the streamer), or null"))
-    created: float = 0.0
-    started: float | None = None
-    finished: float | None = None
-    report: dict[str, Any] | None = None
-    error: ErrorDetail | None = None
-    paused: bool = field(default=False, metadata=_doc("paused (POST /v1/pause)"))
-    speed_scale: float = field(default=1.0, metadata=_doc(
-        "speed scale k of the limits (PUT /v1/speed)", type="number", exclusiveMinimum=0,
-        maximum=1))
-
-
-@dataclass
-class State:
-    """Where the arm is: joints (rad), pose (FK, metres and radians), ticks, torque, alerts.
-    ``source`` is ``bus`` for a read, ``stream`` for the streamer's latest feedback."""
-
-    joints: list[float]
-    pose: list[float]
-    ticks: list[int]
-    joint_names: list[str]
-    torque: bool | None
-    alerts: dict[str, str]
-    moving: bool
-    move: str | None
-    source: Literal["bus", "stream"]
-    paused: bool = field(default=False, metadata=_doc("the running move is paused"))
-    speed_scale: float | None = field(default=None, metadata=_doc(
-        "speed scale of the running move (null when none runs)"))
-
-
-@dataclass
-class StopAnswer:
-    """Whether a running move was stopped, which, and its status after the stop."""
-
-    stopped: bool
-    move: str | None
-    status: MoveState | None
-
-
-@dataclass
-class Health:
-    """Liveness: the version, the arm served and whether a move runs."""
-
-    status: Literal["ok"]
-    version: str
-    arm: str
-    moving: bool
-
-
-@dataclass
-class ArmInfo:
-    """The arm configuration (SI units): name, joints, servos and the whole config."""
-
-    name: str
-    dof: int
-    joint_names: list[str]
-    servo_ids: list[int]
-    source: str | None
-    config: dict[str, Any] = field(metadata=_doc("robodcn.config.Arm.to_dict()"))
-
-
-@dataclass
-class TorqueAnswer:
-    """Torque switched: on or off, for which joint (None: every joint), on which servos."""
-
-    on: bool
-    joint: str | None
-    servo_ids: list[int]
-
-
-@dataclass
-class RebootAnswer:
-    """Servos rebooted (hardware errors cleared; torque is off afterwards)."""
-
-    joint: str | None
-    servo_ids: list[int]
-
-
-@dataclass
-class Recording:
-    """What a move measured (robodcn.workflow.record.recording): per feedback read, the time
-    since the first write (s), the present ticks, joints (rad) and pose (FK, m and rad)."""
-
-    move: str
-    joint_names: list[str]
-    servo_ids: list[int]
-    t: list[float]
-    ticks: list[list[int]]
-    joints: list[list[float]]
-    poses: list[list[float]]
-
-
-RESULTS: dict[str, type] = {"Move": MoveStatus, "State": State, "Stop": StopAnswer,
-                            "Health": Health, "Arm": ArmInfo, "Torque": TorqueAnswer,
-                            "Reboot": RebootAnswer, "Record": Recording,
-                            "Error": ErrorResponse}
-
-
-def to_json(result: Any) -> dict[str, Any]:
-    """A result dataclass as the JSON object its schema describes."""
-    return dataclasses.asdict(result)
+__all__ = ["RESULTS", "ApproachInfo", "ArmInfo", "ErrorDetail", "ErrorResponse", "Health",
+           "MoveState", "MoveStatus", "RebootAnswer", "Recording", "State", "StopAnswer",
+           "TorqueAnswer", "to_json"]

@@ -20,15 +20,15 @@ header line every few seconds) hold every thread, ``POST /v1/stop`` included. He
   thread each out of ``stream_slots``; exempt from the deadline once their head is in).
 
 Every request is logged (one INFO line on ``robodcn.http``: client, method, path, status,
-milliseconds). Binding a non-loopback address needs a token of visible ASCII.
+milliseconds). :func:`robodcn.http.listen.make_server` binds it (a non-loopback address
+needs a token, :mod:`robodcn.http.auth`); :func:`robodcn.http.answer.answer` runs an
+operation and makes its reply.
 """
 
 from __future__ import annotations
 
 import collections
 import contextlib
-import errno
-import ipaddress
 import logging
 import queue
 import selectors
@@ -37,12 +37,12 @@ import threading
 import time
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field
-from typing import Any
 
 import robodcn
 from robodcn.config import Arm
-from robodcn.errors import BusError, InputError, RobodcnError
+from robodcn.controller import ArmController
 from robodcn.http import limits
+from robodcn.http.answer import Operation, answer
 from robodcn.http.framing import (
     HTTPError,
     Reply,
@@ -53,21 +53,13 @@ from robodcn.http.framing import (
     response,
 )
 from robodcn.http.openapi import openapi
-from robodcn.http.ops import OPERATIONS, Operation, authorize
+from robodcn.http.ops import OPERATIONS
 from robodcn.http.routes import ROUTES, Route, match
 from robodcn.web.events import EventHub
 
 log = logging.getLogger("robodcn.http")
 
-TOKEN_ENV = "ROBODCN_TOKEN"
 _SERVER = f"robodcn/{robodcn.__version__}"
-
-
-class ListenError(RobodcnError):
-    """The service cannot listen on its TCP address (in use, not local): exit code 6."""
-
-    code = "cannot_listen"
-    exit_code = 6
 
 
 @dataclass(eq=False)
@@ -81,35 +73,14 @@ class Connection:
     closing: bool = False    # answered and half-closed: draining until EOF or deadline
 
 
-def _is_loopback(host: str) -> bool:
-    if host == "localhost":
-        return True
-    try:
-        return ipaddress.ip_address(host).is_loopback
-    except ValueError:
-        return False
-
-
-def check_token(token: Any) -> None:
-    """A token is 1..256 visible ASCII characters (RFC 6750 b64token-like): clients send
-    headers as bytes, so anything else could not be compared reliably. Raises InputError."""
-    if token is None:
-        return
-    if not isinstance(token, str) or not token or len(token) > 256 \
-            or not all("\x21" <= c <= "\x7e" for c in token):
-        raise InputError("the token must be 1 to 256 visible ASCII characters (letters, "
-                         "digits, punctuation; no spaces or non-ASCII)", field="token",
-                         value=None)
-
-
 class RobodcnHTTPServer:
     """The HTTP service for ``arm`` (and ``controller``, or None to plan only).
 
-    Use :func:`make_server`; then ``serve_forever()`` in one thread, ``shutdown()`` from
-    another, ``server_close()`` at the end.
+    Use :func:`robodcn.http.listen.make_server`; then ``serve_forever()`` in one thread,
+    ``shutdown()`` from another, ``server_close()`` at the end.
     """
 
-    def __init__(self, address: tuple[str, int], arm: Arm, controller: Any, *,
+    def __init__(self, address: tuple[str, int], arm: Arm, controller: ArmController | None, *,
                  token: str | None, request_timeout: float,
                  max_connections: int = limits.MAX_CONNECTIONS,
                  max_per_client: int = limits.MAX_PER_CLIENT,
@@ -425,27 +396,7 @@ class RobodcnHTTPServer:
 
     def _answer(self, route: Route, request: Request, params: dict[str, str]
                 ) -> tuple[int, Reply]:
-        """Run the operation; every failure becomes its JSON error, never a traceback."""
-        try:
-            authorize(self, request)
-            status, payload = self.operations[route.name](self, request, params)
-            if isinstance(payload, Reply):
-                return status, payload
-            headers = {}
-            if route.name == "start_move":
-                headers["Location"] = f"/v1/moves/{payload['id']}"
-            return status, Reply(payload if isinstance(payload, bytes) else dumps(payload),
-                                 headers=headers)
-        except HTTPError as exc:
-            return exc.status, Reply(dumps({"error": exc.body}), headers=exc.headers)
-        except RobodcnError as exc:
-            if isinstance(exc, BusError):
-                log.warning("bus fault: %s", exc.message)
-            return exc.http_status, Reply(dumps({"error": exc.to_dict()}))
-        except Exception as exc:  # a bug: answer 500, keep the traceback in the log
-            log.exception("internal error on %s %s", request.method, request.path)
-            return 500, Reply(error_body(500, "internal",
-                                         f"internal error: {type(exc).__name__}"))
+        return answer(self, self.operations[route.name], route, request, params)
 
     def _run(self, conn: Connection, request: Request, route: Route, params: dict[str, str],
              started: float) -> None:
@@ -544,72 +495,3 @@ class RobodcnHTTPServer:
     def _log(request: Request, status: int, started: float) -> None:
         log.info("%s %s %s %d %.1f ms", request.client, request.method, request.path, status,
                  1e3 * (time.monotonic() - started))
-
-
-def _positive_int(name: str, value: Any) -> None:
-    if isinstance(value, bool) or not isinstance(value, int) or value < 1:
-        raise InputError(f"{name} must be a positive integer, got {value!r}", field=name,
-                         value=value)
-
-
-def make_server(arm: Arm, controller: Any, *, host: str = "127.0.0.1", port: int = 0,
-                token: str | None = None, request_timeout: float = limits.REQUEST_TIMEOUT,
-                max_connections: int = limits.MAX_CONNECTIONS,
-                max_per_client: int = limits.MAX_PER_CLIENT,
-                workers: int = limits.WORKERS, stream_slots: int = limits.STREAM_SLOTS,
-                routes: tuple[Route, ...] = ROUTES,
-                operations: dict[str, Operation] | None = None) -> RobodcnHTTPServer:
-    """A bound, not yet serving, HTTP server for ``arm`` (call ``serve_forever()``).
-
-    Parameters
-    ----------
-    arm : Arm
-    controller : robodcn.controller.ArmController, or None for a plan-only service (the
-        move, stop and state endpoints then answer 503)
-    host, port : address to bind; port 0 picks a free port (``server.server_address``)
-    token : bearer token every POST must carry (visible ASCII); required when ``host`` is
-        not loopback
-    request_timeout : seconds from a connection being ready for a request to the request's
-        last byte (an absolute deadline)
-    max_connections, max_per_client : open connections in all and from one address
-    workers : threads for the ordinary operations
-    stream_slots : long-lived (``pool="stream"``) responses at once
-    routes, operations : the route table and extra operations by route name (a later
-        endpoint adds its Route and its function here, or in routes.ROUTES/ops.OPERATIONS)
-
-    Raises
-    ------
-    InputError
-        A non-loopback host without a token, a malformed token, a bad port or timeout.
-    ListenError
-        The address cannot be bound (in use, not local): exit code 6.
-    """
-    check_token(token)
-    if not _is_loopback(host) and token is None:
-        raise InputError(f"binding {host} exposes the arm to the network: give a token "
-                         f"(--token or {TOKEN_ENV}) that every POST must carry",
-                         field="token", value=None)
-    if isinstance(port, bool) or not isinstance(port, int) or not 0 <= port <= 65535:
-        raise InputError(f"port must be an integer 0..65535, got {port!r}", field="port",
-                         value=port)
-    for name, value in (("max_connections", max_connections),
-                        ("max_per_client", max_per_client), ("workers", workers),
-                        ("stream_slots", stream_slots)):
-        _positive_int(name, value)
-    if isinstance(request_timeout, bool) or not isinstance(request_timeout, int | float) \
-            or not request_timeout > 0:
-        raise InputError(f"request_timeout must be a positive number of seconds, got "
-                         f"{request_timeout!r}", field="request_timeout",
-                         value=request_timeout)
-    try:
-        return RobodcnHTTPServer((host, port), arm, controller, token=token,
-                                 request_timeout=float(request_timeout),
-                                 max_connections=max_connections,
-                                 max_per_client=max_per_client, workers=workers,
-                                 stream_slots=stream_slots, routes=routes,
-                                 operations=operations)
-    except OSError as exc:
-        reason = "address in use" if exc.errno == errno.EADDRINUSE else \
-            (exc.strerror or str(exc)).lower()
-        raise ListenError(f"cannot listen on {host}:{port}: {reason}", field="port",
-                          value=port) from exc

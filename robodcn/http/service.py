@@ -11,14 +11,18 @@ from collections.abc import Callable, Iterator
 from typing import Any
 
 from robodcn.config import Arm
-from robodcn.http.server import TOKEN_ENV, RobodcnHTTPServer, check_token, make_server
+from robodcn.controller import ArmController
+from robodcn.http.auth import TOKEN_ENV, check_token
+from robodcn.http.listen import make_server
+from robodcn.http.server import RobodcnHTTPServer
 
 #: Seconds a signal waits for the running move to hold before the server shuts down.
 STOP_WAIT = 2.0
 
 
 @contextlib.contextmanager
-def signals_stop(server: RobodcnHTTPServer, controller: Any = None) -> Iterator[None]:
+def signals_stop(server: RobodcnHTTPServer, controller: ArmController | None = None
+                 ) -> Iterator[None]:
     """SIGINT/SIGTERM: first stop the motion (the arm holds), then shut the server down.
 
     Main thread only (others cannot set handlers). The handler hands the work to a thread:
@@ -57,8 +61,6 @@ def serve(arm: Arm, *, host: str = "127.0.0.1", port: int = 8080, token: str | N
     ``token`` defaults to ``$ROBODCN_TOKEN`` (visible ASCII, checked first); ``ready(url)``
     is called once the socket listens. Raises ListenError (exit 6) when the address is busy.
     """
-    from robodcn.controller import ArmController  # the bus stack only when serving
-
     if token is None:
         token = os.environ.get(TOKEN_ENV) or None
     check_token(token)

@@ -34,6 +34,7 @@ from collections.abc import Callable
 from typing import Any
 
 from robodcn.errors import RobodcnError
+from robodcn.results import to_json
 
 log = logging.getLogger("robodcn.web.events")
 
@@ -208,12 +209,15 @@ class EventHub:
 
     def _latest_move(self) -> dict[str, Any] | None:
         records = self.controller.moves()
-        return self.controller.move_info(records[-1].id) if records else None
+        if not records:
+            return None
+        info = self.controller.move_info(records[-1].id)
+        return None if info is None else to_json(info)
 
     def _read_state(self) -> tuple[dict[str, Any] | None, dict[str, Any] | None]:
         self.samples += 1
         try:
-            return self.controller.state(), None
+            return to_json(self.controller.state()), None
         except RobodcnError as exc:
             log.info("state read for the event stream failed: %s", exc.message)
             return None, exc.to_dict()

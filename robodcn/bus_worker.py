@@ -1,0 +1,104 @@
+"""The one thread a service touches its serial port from, and how it recovers from a fault.
+
+robodcn.bus is single-threaded by design: every port access of an
+:class:`~robodcn.controller.ArmController` runs as a job on a :class:`BusWorker` (a move's
+whole stream, an idle state read, a servo admin step). Losing the serial device
+(unplugged, firmware_sim killed) is a bus fault, never a crash: the job raises CommError
+(503), the worker marks the port suspect, and the next job reopens and re-verifies it first,
+so the service recovers by itself once the device is back.
+"""
+
+from __future__ import annotations
+
+import logging
+import termios
+from collections.abc import Callable
+from concurrent.futures import Future, ThreadPoolExecutor
+from concurrent.futures import TimeoutError as FutureTimeout
+from typing import Any, TypeVar
+
+from robodcn.bus import ServoBus
+from robodcn.errors import BusError, CommError, RobodcnError
+
+log = logging.getLogger("robodcn.controller")
+
+#: Seconds :meth:`BusWorker.call` waits for a job (an idle state read, an admin step).
+STATE_TIMEOUT = 5.0
+#: Exceptions of a lost serial device that dynamixel-sdk/pyserial let through (pyserial's
+#: SerialException is an OSError; termios.error is not).
+DEVICE_ERRORS: tuple[type[BaseException], ...] = (OSError, termios.error)
+
+T = TypeVar("T")
+
+
+def device_fault(bus: ServoBus, exc: BaseException) -> CommError:
+    """The CommError of a lost serial device (``exc`` as dynamixel-sdk/pyserial raised it)."""
+    return CommError(f"the serial device {bus.port} failed ({type(exc).__name__}: {exc}); "
+                     "it is reopened on the next request", field="bus", value=bus.port)
+
+
+class BusWorker:
+    """Runs jobs for ``bus`` one at a time on one thread; reopens the port after a fault.
+
+    Parameters
+    ----------
+    bus : the open, verified ServoBus (the worker does not close it)
+    """
+
+    def __init__(self, bus: ServoBus) -> None:
+        self.bus = bus
+        #: The last bus operation failed: reopen and re-verify the port before the next.
+        self.suspect = False
+        self._pool = ThreadPoolExecutor(max_workers=1, thread_name_prefix="robodcn-arm")
+
+    def submit(self, fn: Callable[..., Any], *args: Any) -> Future[Any]:
+        """Queue ``fn(*args)`` (it calls :meth:`recover` itself when it touches the port)."""
+        return self._pool.submit(fn, *args)
+
+    def recover(self) -> None:
+        """After a bus fault: reopen and re-verify the port (on the worker thread only).
+
+        Raises CommError saying the device is still unavailable."""
+        if not self.suspect:
+            return
+        with self.bus.claim():
+            try:
+                self.bus.close()
+                self.bus.open()
+                self.bus.verify()
+            except (RobodcnError, *DEVICE_ERRORS) as exc:
+                message = exc.message if isinstance(exc, RobodcnError) else str(exc)
+                raise CommError(f"the servo bus on {self.bus.port} is unavailable ({message});"
+                                " the service retries on each request until it is back",
+                                field="bus", value=self.bus.port) from None
+        log.info("servo bus on %s reopened", self.bus.port)
+        self.suspect = False
+
+    def call(self, fn: Callable[[], T], what: str, timeout: float | None = None) -> T:
+        """Run ``fn`` on the worker thread (recovering the port first) and wait for it.
+
+        Bus faults and lost devices become CommError/BusError (and mark the port suspect);
+        a job that does not finish within ``timeout`` (default :data:`STATE_TIMEOUT`)
+        CommError naming ``what``.
+        """
+        def job() -> T:
+            self.recover()
+            try:
+                return fn()
+            except BusError:
+                self.suspect = True
+                raise
+            except DEVICE_ERRORS as exc:
+                self.suspect = True
+                raise device_fault(self.bus, exc) from None
+
+        wait = STATE_TIMEOUT if timeout is None else timeout
+        future = self._pool.submit(job)
+        try:
+            return future.result(wait)
+        except FutureTimeout:
+            raise CommError(f"{what} took over {wait:g} s", field="bus", value=None) from None
+
+    def shutdown(self) -> None:
+        """Finish the job in flight, drop the queued ones, end the thread."""
+        self._pool.shutdown(wait=True, cancel_futures=True)
