@@ -6,6 +6,8 @@ Subcommands
     sim     the same as move, against an in-process simulated bus (a dry-run)
     serve   the HTTP trajectory service
     scan    list the servos on a serial device: id, model, firmware, baud
+    calibrate, teach, run, pose, torque, reboot, servo, check-config, config
+            the everyday workflow around a real arm (over :mod:`robodcn.workflow`)
 
 A command module's ``register(subparsers)`` adds its parser and sets ``func`` (``args → exit
 code``); :data:`COMMANDS` lists the modules in help order: a new command is one more module
@@ -33,11 +35,12 @@ from robodcn.cli.options import DEFAULT_ARM, NEGATIVE_POSE, Parser, parse_pose
 from robodcn.cli.output import silence_stdout
 from robodcn.errors import RobodcnError
 
-#: The command modules, in help order; each has ``register(subparsers)``. Commands of other
-#: modules (calibrate, teach, run, pose, ...) are added here.
+#: The command modules, in help order; each has ``register(subparsers)``.
 COMMANDS: tuple[str, ...] = ("robodcn.cli.plan_cmd", "robodcn.cli.motion_cmd",
                              "robodcn.cli.jog_cmd", "robodcn.cli.serve_cmd", "robodcn.cli.scan_cmd",
-                             "robodcn.workflow.commands")
+                             "robodcn.cli.calibrate_cmd", "robodcn.cli.teach_cmd",
+                             "robodcn.cli.run_cmd", "robodcn.cli.admin_cmd",
+                             "robodcn.cli.config_cmd")
 
 
 def build_parser() -> argparse.ArgumentParser:

@@ -73,6 +73,20 @@ def non_negative_int(text: str) -> int:
     return int(text)
 
 
+def positive_int(text: str) -> int:
+    if not re.fullmatch(r"\+?[0-9]{1,9}", text.strip()) or int(text) < 1:
+        raise _Bad(f"must be an integer ≥ 1, got {_shown(text)}")
+    return int(text)
+
+
+def servo_id(text: str) -> int:
+    from robodcn.config import MAX_SERVO_ID
+
+    if not re.fullmatch(r"[0-9]{1,3}", text.strip()) or int(text) > MAX_SERVO_ID:
+        raise _Bad(f"must be a servo id 0..{MAX_SERVO_ID}, got {_shown(text)}")
+    return int(text)
+
+
 def positive_float(text: str) -> float:
     value = _number_or_nan(text)
     if not value > 0:
@@ -116,10 +130,15 @@ def duration(text: str) -> float | str:
     return value
 
 
-def baud(text: str) -> int:
+def host_bauds() -> list[int]:
+    """The Dynamixel baud rates dynamixel-sdk's Python port can open (not 4.5 Mbps)."""
     from robodcn.bus import BAUD_INDEX
 
-    rates = sorted(set(BAUD_INDEX.values()))
+    return sorted(set(BAUD_INDEX.values()) - {4_500_000})
+
+
+def baud(text: str) -> int:
+    rates = host_bauds()
     if not re.fullmatch(r"[0-9]{1,8}", text.strip()) or int(text) not in rates:
         raise _Bad(f"must be one of {', '.join(map(str, rates))}, got {_shown(text)}")
     return int(text)
@@ -187,9 +206,10 @@ def parse_pose(text: str, option: str, *, radians: bool = False,
     return x, y, theta if radians else math.radians(theta)
 
 
-def check_output_path(path: str, option: str) -> Path:
+def check_output_path(path: str, option: str, *, overwrite: bool = True) -> Path:
     """A file ``option`` may write: its directory exists and is writable, it is not a
-    directory, and an existing file is writable. Checked before any planning or motion."""
+    directory, and an existing file is writable (and, unless ``overwrite``, refused: the
+    user passes ``--force``). Checked before any planning, motion or bus I/O."""
     if not str(path).strip():
         raise InputError(f"{option} needs a file name", field=option, value=path)
     out = Path(path)
@@ -200,6 +220,9 @@ def check_output_path(path: str, option: str) -> Path:
     if not parent.is_dir():
         raise InputError(f"{option} {path}: no such directory {str(parent)!r}", field=option,
                          value=path)
+    if out.exists() and not overwrite:
+        raise InputError(f"{option} {path}: exists; pass --force to overwrite it",
+                         field=option, value=path)
     writable = os.access(parent, os.W_OK | os.X_OK) and (not out.exists()
                                                          or os.access(out, os.W_OK))
     if not writable:
@@ -222,15 +245,20 @@ def check_plot_path(path: str, option: str = "--plot") -> Path:
     return out
 
 
-def split_list(text: str, option: str, allowed: Sequence[str], segments: int
-               ) -> str | list[str]:
-    """``"a"`` or ``"a,b"`` (one per segment), each one of ``allowed``."""
+def choice_list(text: str, option: str, allowed: Sequence[str]) -> list[str]:
+    """``"a"`` or ``"a,b"``: the comma list, each one of ``allowed``."""
     items = [t.strip() for t in str(text).split(",")]
     for item in items:
         if item not in allowed:
             raise InputError(f"{option}: {_shown(item)} is not one of {', '.join(allowed)}",
                              field=option, value=text)
-    return one_or_per_segment(items, option, segments)
+    return items
+
+
+def split_list(text: str, option: str, allowed: Sequence[str], segments: int
+               ) -> str | list[str]:
+    """``"a"`` or ``"a,b"`` (one per segment), each one of ``allowed``."""
+    return one_or_per_segment(choice_list(text, option, allowed), option, segments)
 
 
 def one_or_per_segment(items: list[Any], option: str, segments: int) -> Any:
@@ -331,7 +359,8 @@ def add_arm_option(p: argparse.ArgumentParser) -> None:
 
 
 __all__ = ["DEFAULT_ARM", "NEGATIVE_POSE", "Parser", "add_arm_option", "add_device_options",
-           "add_logging_options", "baud", "check_output_path", "check_plot_path",
-           "configure_logging", "device", "duration", "finite_float", "finite_floats", "id_list",
+           "add_logging_options", "baud", "check_output_path", "check_plot_path", "choice_list",
+           "configure_logging", "device", "duration", "finite_float", "finite_floats", "host_bauds",
+           "id_list",
            "load_arm", "non_negative_int", "number", "one_or_per_segment", "parse_pose",
-           "positive_float", "rate", "split_list", "tcp_port"]
+           "positive_float", "positive_int", "rate", "servo_id", "split_list", "tcp_port"]

@@ -34,7 +34,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from robodcn.bus import BAUD_INDEX, lower_latency_timer, scan
+    from robodcn.bus import lower_latency_timer, scan
 
     device, bauds = args.device, args.baud
     if args.config is not None:
@@ -45,7 +45,7 @@ def run(args: argparse.Namespace) -> int:
         raise InputError("scan needs --device DEV (or --config with a [bus] port)",
                          field="--device")
     if args.all_bauds:
-        bauds = sorted(b for b in BAUD_INDEX.values() if b != 4_500_000)
+        bauds = options.host_bauds()
     bauds = bauds or [1_000_000]
     note = lower_latency_timer(device).message(device)
     if note:

@@ -1,7 +1,7 @@
 """Calibrate an arm by hand: zero offsets, directions and tick ranges from present positions.
 
-The procedure (issue 12 §1), driven by a ``prompt`` callback so that a terminal, a script
-(stdin) and a test drive it alike:
+The procedure (issue 12 §1), one :class:`Calibrator` method per step so that a surface
+(``robodcn calibrate``: a terminal, a script on stdin, a test) drives the dialogue:
 
 1. torque off on every servo (the arm can be moved by hand);
 2. the user puts the arm in the reference pose — every joint angle 0 as the config defines
@@ -28,24 +28,17 @@ import logging
 import math
 import threading
 import tomllib
-from collections.abc import Callable
 from dataclasses import dataclass, field
 
 import numpy as np
 from numpy.typing import NDArray
 
+from robodcn._checks import is_finite_real
 from robodcn.bus import ServoBus
 from robodcn.config import Arm, arm_from_dict
 from robodcn.errors import InputError
 
 log = logging.getLogger(__name__)
-
-#: Shows a message and returns the user's answer (one line, without the newline); raises
-#: EOFError when the input has ended.
-Prompt = Callable[[str], str]
-
-SKIP_ANSWERS = ("s", "skip")
-
 
 @dataclass(frozen=True)
 class JointCalibration:
@@ -68,14 +61,6 @@ class Calibration:
 
     joints: tuple[JointCalibration, ...]
     notes: tuple[str, ...] = field(default=())
-
-
-def _ask(prompt: Prompt, message: str) -> str:
-    try:
-        return prompt(message).strip().lower()
-    except EOFError:
-        raise InputError(f"input ended before calibration finished (at: {message!r}); "
-                         "nothing was written", field="stdin", value=None) from None
 
 
 class _Sampler:
@@ -142,74 +127,124 @@ def _range(arm: Arm, j: int, zero: int, direction: int, seen: NDArray[np.int64],
     return JointCalibration(name, zero, direction, lo, hi, a, b)
 
 
-def calibrate(bus: ServoBus, arm: Arm, prompt: Prompt, *, ranges: bool = True,
-              margin_deg: float = 2.0, min_motion_deg: float = 5.0,
-              sample_period_s: float = 0.02) -> Calibration:
-    """Run the calibration procedure (module docstring) on an open ``bus`` for ``arm``.
+@dataclass(frozen=True)
+class Motion:
+    """What the direction step saw of one joint: ticks moved since the reference pose and
+    the direction that gives (None: less than the least motion, ask again)."""
+
+    joint: int
+    moved_ticks: int
+    moved_deg: float
+    direction: int | None
+
+
+class Calibrator:
+    """The calibration procedure (module docstring) on an open ``bus`` for ``arm``, step by
+    step: :meth:`read_reference`, then per joint :meth:`motion` (direction) and, optionally,
+    :meth:`sampling` + :meth:`joint_range` (whole range), then :meth:`result`.
 
     Parameters
     ----------
     bus : open ServoBus whose servos are the arm's (in joint order)
-    prompt : asks the user; an answer of ``s`` skips a joint's range step
-    ranges : ask for each joint's whole range (step 4)
     margin_deg : the tick range is the range seen, this much inside at each end
     min_motion_deg : least motion that counts as "moved in the positive direction"
     sample_period_s : Present Position sampling period during a range step
 
-    Raises
-    ------
-    InputError
-        A joint moved less than ``min_motion_deg``, input ended early, the reference pose
-        lies outside the range moved through, a servo reads outside 0..ticks_per_turn−1 at
-        the reference pose. Nothing is written to any servo but Torque Enable = 0.
+    Nothing is written to any servo but Torque Enable = 0 (when the session starts).
     """
-    for name, value in (("margin_deg", margin_deg), ("min_motion_deg", min_motion_deg),
-                        ("sample_period_s", sample_period_s)):
-        if not (isinstance(value, int | float) and math.isfinite(value) and value > 0):
-            raise InputError(f"{name} must be a positive number, got {value!r}", field=name,
-                             value=value)
-    bus.torque(False)
-    _ask(prompt, "Torque is off. Put the arm in its reference pose (every joint angle 0) "
-                 "and press Enter")
-    zero = bus.read_positions()
-    for j, spec in enumerate(arm.joints):
-        if not 0 <= zero[j] <= spec.servo.ticks_per_turn - 1:
-            raise InputError(f"joint {spec.name!r}: servo {spec.servo.id} reads tick "
-                             f"{int(zero[j])} at the reference pose, outside 0.."
-                             f"{spec.servo.ticks_per_turn - 1}: reboot it (robodcn reboot) so "
-                             "it reports a single turn, then calibrate again",
-                             field=f"joints[{j}].servo.zero_offset", value=int(zero[j]))
-    results: list[JointCalibration] = []
-    notes: list[str] = []
-    for j, spec in enumerate(arm.joints):
-        ticks = spec.servo.ticks_per_turn
-        _ask(prompt, f"Turn joint {spec.name!r} (servo {spec.servo.id}) a little in its "
-                     "positive direction and press Enter")
-        moved = int(bus.read_positions()[j]) - int(zero[j])
-        least = min_motion_deg / 360.0 * ticks
-        if abs(moved) < least:
-            raise InputError(f"joint {spec.name!r} moved {moved} ticks "
-                             f"({moved * 360.0 / ticks:.1f}°): turn it at least "
-                             f"{min_motion_deg:g}° in its positive direction",
-                             field=f"joints[{j}].servo.direction", value=moved)
-        direction = 1 if moved > 0 else -1
-        result = JointCalibration(spec.name, int(zero[j]), direction)
-        if ranges:
-            with _Sampler(bus, sample_period_s) as sampler:
-                answer = _ask(prompt, f"Move joint {spec.name!r} slowly through its whole "
-                                      "range and press Enter (s: skip)")
-            seen = sampler.result()
-            if answer not in SKIP_ANSWERS:
-                end = bus.read_positions()
-                column = np.concatenate([seen[:, j] if seen.size else [], [end[j]]])
-                margin = math.ceil(margin_deg / 360.0 * ticks)
-                result = _range(arm, j, int(zero[j]), direction, column.astype(np.int64),
-                                margin)
-                if result.note:
-                    notes.append(result.note)
-        results.append(result)
-        log.info("calibrated %s: %s", spec.name, result)
-    return Calibration(tuple(results), tuple(notes))
+
+    def __init__(self, bus: ServoBus, arm: Arm, *, margin_deg: float = 2.0,
+                 min_motion_deg: float = 5.0, sample_period_s: float = 0.02) -> None:
+        for name, value in (("margin_deg", margin_deg), ("min_motion_deg", min_motion_deg),
+                            ("sample_period_s", sample_period_s)):
+            if not (is_finite_real(value) and value > 0):
+                raise InputError(f"{name} must be a positive number, got {value!r}",
+                                 field=name, value=value)
+        self.bus = bus
+        self.arm = arm
+        self.margin_deg = float(margin_deg)
+        self.min_motion_deg = float(min_motion_deg)
+        self.sample_period_s = float(sample_period_s)
+        self.zero: NDArray[np.int64] | None = None
+        self._joints: dict[int, JointCalibration] = {}
+        self._notes: list[str] = []
+        self._skipped: set[int] = set()
+        bus.torque(False)
+
+    def read_reference(self) -> NDArray[np.int64]:
+        """Present Position of every servo at the reference pose: the zero offsets.
+
+        InputError when a servo reads outside 0..ticks_per_turn−1 (a multi-turn reading).
+        """
+        zero = self.bus.read_positions()
+        for j, spec in enumerate(self.arm.joints):
+            if not 0 <= zero[j] <= spec.servo.ticks_per_turn - 1:
+                raise InputError(f"joint {spec.name!r}: servo {spec.servo.id} reads tick "
+                                 f"{int(zero[j])} at the reference pose, outside 0.."
+                                 f"{spec.servo.ticks_per_turn - 1}: reboot it (robodcn reboot) "
+                                 "so it reports a single turn, then calibrate again",
+                                 field=f"joints[{j}].servo.zero_offset", value=int(zero[j]))
+        self.zero = zero
+        return zero
+
+    def _zero(self, j: int) -> int:
+        if self.zero is None:
+            raise RuntimeError("read_reference() first")
+        return int(self.zero[j])
+
+    def motion(self, j: int) -> Motion:
+        """How far joint ``j`` has turned from the reference pose, and its direction when
+        that is at least ``min_motion_deg`` (recorded for :meth:`result`)."""
+        ticks = self.arm.joints[j].servo.ticks_per_turn
+        moved = int(self.bus.read_positions()[j]) - self._zero(j)
+        direction = None
+        if abs(moved) >= self.min_motion_deg / 360.0 * ticks:
+            direction = 1 if moved > 0 else -1
+            self._joints[j] = JointCalibration(self.arm.joints[j].name, self._zero(j), direction)
+        return Motion(j, moved, moved * 360.0 / ticks, direction)
+
+    def skip(self, j: int) -> None:
+        """Leave joint ``j``'s direction and range as configured (its zero offset is the
+        reference pose's); noted in the result."""
+        spec = self.arm.joints[j]
+        note = (f"joint {spec.name!r}: skipped; its direction ({spec.servo.direction:+d}) and "
+                "range are the config's")
+        self._joints[j] = JointCalibration(spec.name, self._zero(j), spec.servo.direction,
+                                           note=note)
+        self._skipped.add(j)
+        self._notes.append(note)
+
+    def sampling(self) -> _Sampler:
+        """A context that samples Present Position while the user moves a joint; the bus is
+        the sampler's until the context ends."""
+        return _Sampler(self.bus, self.sample_period_s)
+
+    def joint_range(self, j: int, sampler: _Sampler) -> JointCalibration:
+        """Tick range and joint limits of joint ``j`` from what ``sampler`` saw and one read
+        at the end (after :meth:`motion` gave its direction); recorded for :meth:`result`."""
+        done = self._joints.get(j)
+        if done is None or j in self._skipped:
+            raise RuntimeError(f"joint {j}: no direction measured")
+        seen = sampler.result()
+        end = self.bus.read_positions()
+        column = np.concatenate([seen[:, j] if seen.size else [], [end[j]]])
+        ticks = self.arm.joints[j].servo.ticks_per_turn
+        margin = math.ceil(self.margin_deg / 360.0 * ticks)
+        result = _range(self.arm, j, self._zero(j), done.direction, column.astype(np.int64),
+                        margin)
+        if result.note:
+            self._notes.append(result.note)
+        self._joints[j] = result
+        log.info("calibrated %s: %s", result.name, result)
+        return result
+
+    def result(self) -> Calibration:
+        """Every joint's calibration, in joint order (each joint calibrated or skipped)."""
+        missing = [self.arm.joints[j].name for j in range(self.arm.dof) if j not in self._joints]
+        if missing:
+            raise RuntimeError(f"joints not calibrated yet: {missing}")
+        return Calibration(tuple(self._joints[j] for j in range(self.arm.dof)),
+                           tuple(self._notes))
 
 
 def _set_angle(table, key: str, value: float) -> None:

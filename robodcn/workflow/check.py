@@ -1,13 +1,13 @@
 """``check-config``: validate an arm file and summarise it in the user's units (degrees).
 
-:func:`summary` is data (a dict, SI) and :func:`summary_text` its one-screen rendering;
+:func:`summary` is data (a dict, SI; ``robodcn check-config`` renders it,
+:func:`robodcn.cli.config_cmd.summary_text`);
 :func:`workspace_samples` gives the tool points reachable inside the joint limits for
 :func:`robodcn.plots.plot_workspace`.
 """
 
 from __future__ import annotations
 
-import math
 from typing import Any
 
 import numpy as np
@@ -41,33 +41,6 @@ def summary(arm: Arm) -> dict[str, Any]:
             "elbow": arm.elbow, "home": list(arm.home), "joints": joints,
             "bus": {"port": arm.bus.port, "baud": arm.bus.baud, "protocol": arm.bus.protocol,
                     "rate_hz": arm.bus.rate_hz}}
-
-
-def summary_text(arm: Arm) -> str:
-    """The :func:`summary` as lines for a terminal: metres, degrees, deg/s, ticks."""
-    s = summary(arm)
-    d = math.degrees
-    kind = "full pose x, y, θ" if s["full_pose"] else "position x, y (θ free)"
-    lines = [f"{s['source']}: OK — arm {s['name']!r}, {s['dof']} joints ({kind})",
-             "links: " + ", ".join(f"{v:.3f}" for v in s["links"]) + " m",
-             f"reach: wrist point {s['reach']['wrist_inner']:.3f}..{s['reach']['wrist_outer']:.3f}"
-             f" m from the base, tool up to {s['reach']['tool_max']:.3f} m; elbow {s['elbow']}",
-             f"home: x={s['home'][0]:.3f} m, y={s['home'][1]:.3f} m, θ={d(s['home'][2]):.1f}°",
-             f"{'joint':<10} {'limits [°]':>17} {'vel [°/s]':>9} {'acc [°/s²]':>10}  "
-             f"{'id':>3} {'model':<11} {'zero':>5} {'dir':>3} {'ticks':>11} {'ticks as [°]':>17}"]
-    for j in s["joints"]:
-        sv = j["servo"]
-        lo, hi = j["tick_range_angles"]
-        warn = "" if j["limits_inside_ticks"] else "  ! joint limits exceed the tick range"
-        lines.append(f"{j['name']:<10} {d(j['min']):8.1f}..{d(j['max']):<7.1f} "
-                     f"{d(j['max_velocity']):9.1f} {d(j['max_acceleration']):10.1f}  "
-                     f"{sv['id']:>3} {sv['model']:<11} {sv['zero_offset']:>5} "
-                     f"{sv['direction']:>+3d} {sv['min_tick']:>5}..{sv['max_tick']:<5} "
-                     f"{d(lo):8.1f}..{d(hi):.1f}{warn}")
-    b = s["bus"]
-    lines.append(f"bus: {b['port']} at {b['baud']} baud, protocol {b['protocol']:g}, stream "
-                 f"{b['rate_hz']:g} Hz")
-    return "\n".join(lines)
 
 
 def workspace_samples(arm: Arm, per_joint: int = 41) -> NDArray[np.float64]:

@@ -30,6 +30,8 @@ from __future__ import annotations
 import json
 import math
 import tomllib
+from collections.abc import Iterator, Mapping
+from contextlib import contextmanager
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -38,8 +40,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from robodcn import contract, kinematics, servo_units
-from robodcn.config import RATE_RANGE, Arm
-from robodcn.dcn import TURNS
+from robodcn.config import Arm
 from robodcn.errors import (
     AccelerationLimitError,
     InputError,
@@ -47,8 +48,7 @@ from robodcn.errors import (
     TickLimitError,
     VelocityLimitError,
 )
-from robodcn.interpolate import METHODS
-from robodcn.planner import MAX_SAMPLES, PROFILES, Trajectory
+from robodcn.planner import MAX_SAMPLES, Trajectory
 
 #: Slack on limits for float rounding only (as the planner's).
 _SLACK = 1e-9
@@ -85,35 +85,39 @@ class WaypointsPlan:
         return fields
 
 
-def _number(path: str, where: str, value: Any) -> float:
-    if isinstance(value, bool) or not isinstance(value, int | float) or not math.isfinite(value):
-        raise _fail(path, where, f"must be a finite number, got {value!r}", value)
-    return float(value)
+@contextmanager
+def _in_file(source: str, where: str) -> Iterator[None]:
+    """An InputError of :mod:`robodcn.contract`'s field checks inside, restated naming the
+    file and the key (``poses.toml: plan.beta: must be within 0..10, got 12``)."""
+    try:
+        yield
+    except InputError as exc:
+        reason = getattr(exc, "reason", None) or exc.message
+        raise _fail(source, where, reason, exc.value) from None
 
 
-def _beta(path: str, where: str, value: Any) -> float:
-    beta = _number(path, where, value)
-    lo, hi = contract.BETA_RANGE
-    if not lo <= beta <= hi:
-        raise _fail(path, where, f"must be within {lo:g}..{hi:g}, got {value!r}", value)
-    return beta
+def _number(source: str, where: str, value: Any, schema: Mapping[str, Any] | None = None,
+            unit: str | None = None) -> float:
+    with _in_file(source, where):
+        return contract.check_number(where, value, schema or {}, unit)
 
 
-def _choice(path: str, where: str, value: Any, allowed: tuple[str, ...]) -> str:
-    if value not in allowed:
-        raise _fail(path, where, f"must be one of {', '.join(allowed)}, got {value!r}", value)
-    return value
+def _plan_value(source: str, where: str, key: str, value: Any) -> Any:
+    """A value of the file's ``[plan]`` (or a waypoint's method, turn or beta), checked as
+    the request field ``key`` is (:mod:`robodcn.contract`): one value, not a list."""
+    f = contract.field(key)
+    with _in_file(source, where):
+        if key in ("method", "turn"):
+            return contract.check_choice(where, value, f.choices)
+        if key == "beta" or (key == "duration" and not isinstance(value, str)):
+            return contract.check_number(where, value, f.schema["oneOf"][0], f.unit)
+        if key == "duration":
+            return contract.check_choice(where, value, ("auto",))
+        return contract.check_field(key, value)     # profile, rate_hz, blend
 
 
-#: What a segment takes when neither its waypoint nor ``[plan]`` says (the planner's).
-SEGMENT_DEFAULTS = {"method": "sclerp", "turn": "shortest", "beta": 1.0}
-
-
-def _segment_value(path: str, where: str, key: str, value: Any) -> Any:
-    """A waypoint's method, turn or beta for the segment that leads to it."""
-    if key == "beta":
-        return _beta(path, where, value)
-    return _choice(path, where, value, METHODS if key == "method" else TURNS)
+#: What a segment takes when neither its waypoint nor ``[plan]`` says (the contract's).
+SEGMENT_DEFAULTS = {key: contract.field(key).default for key in ("method", "turn", "beta")}
 
 
 def load_waypoints(path: str | Path) -> WaypointsPlan:
@@ -132,32 +136,10 @@ def load_waypoints(path: str | Path) -> WaypointsPlan:
         raise _fail(source, "plan", "must be a table", plan)
     options: dict[str, Any] = {}
     for key, value in plan.items():
-        where = f"plan.{key}"
-        if key == "method":
-            options[key] = _choice(source, where, value, METHODS)
-        elif key == "turn":
-            options[key] = _choice(source, where, value, TURNS)
-        elif key == "profile":
-            options[key] = _choice(source, where, value, PROFILES)
-        elif key == "beta":
-            options[key] = _beta(source, where, value)
-        elif key == "rate_hz":
-            rate = _number(source, where, value)
-            if not RATE_RANGE[0] <= rate <= RATE_RANGE[1]:
-                raise _fail(source, where, f"must be within {RATE_RANGE[0]:g}.."
-                            f"{RATE_RANGE[1]:g} Hz, got {value!r}", value)
-            options[key] = rate
-        elif key == "duration":
-            if value != "auto" and not (_number(source, where, value) > 0):
-                raise _fail(source, where, f"must be positive seconds or \"auto\", got "
-                            f"{value!r}", value)
-            options[key] = value
-        elif key == "blend":
-            if not isinstance(value, bool):
-                raise _fail(source, where, f"must be true or false, got {value!r}", value)
-            options[key] = value
-        else:
-            raise _fail(source, where, f"unknown key (allowed: {', '.join(PLAN_KEYS)})", value)
+        if key not in PLAN_KEYS:
+            raise _fail(source, f"plan.{key}", f"unknown key (allowed: {', '.join(PLAN_KEYS)})",
+                        value)
+        options[key] = _plan_value(source, f"plan.{key}", key, value)
     rows = data.get("waypoints")
     if not isinstance(rows, list) or len(rows) < 2:
         raise _fail(source, "waypoints", "needs at least two [[waypoints]] tables, got "
@@ -179,18 +161,19 @@ def load_waypoints(path: str | Path) -> WaypointsPlan:
         if "theta" in row and "theta_deg" in row:
             raise _fail(source, f"{where}.theta_deg", "give theta_deg or theta, not both",
                         row["theta_deg"])
+        x_item, y_item, theta_item = contract.field("waypoints").schema["items"]["prefixItems"]
         theta = (math.radians(_number(source, f"{where}.theta_deg", row["theta_deg"]))
                  if "theta_deg" in row else _number(source, f"{where}.theta",
-                                                    row.get("theta", 0.0)))
-        poses[i] = (_number(source, f"{where}.x", row["x"]),
-                    _number(source, f"{where}.y", row["y"]), theta)
+                                                    row.get("theta", 0.0), theta_item, "rad"))
+        poses[i] = (_number(source, f"{where}.x", row["x"], x_item, "m"),
+                    _number(source, f"{where}.y", row["y"], y_item, "m"), theta)
         for key in per_segment:
             if key in row and i == 0:
                 raise _fail(source, f"{where}.{key}", "the first waypoint starts no segment: "
                             f"give {key} on the waypoint the segment leads to", row[key])
             if i > 0:
                 per_segment[key].append(None if key not in row else
-                                        _segment_value(source, f"{where}.{key}", key, row[key]))
+                                        _plan_value(source, f"{where}.{key}", key, row[key]))
     for key, values in per_segment.items():
         if any(v is not None for v in values):
             default = options.get(key, SEGMENT_DEFAULTS[key])

@@ -1,16 +1,17 @@
 """Teach by hand: with torque off, each confirmation records the present pose as a waypoint.
 
 The pose is the FK of the present joints (robodcn.kinematics.fk of the servo ticks through
-the arm's calibration). :func:`teach` drives the dialogue through a ``prompt`` callback
-(Enter records, ``u`` undoes the last waypoint, ``q`` or end of input finishes);
-:func:`waypoints_toml` writes the waypoints file that :func:`robodcn.workflow.files.load_waypoints`
-reads back (``robodcn run poses.toml``).
+the arm's calibration). A :class:`Teaching` session records and undoes poses on an open bus
+(a surface drives the dialogue: ``robodcn teach``); :func:`waypoints_toml` writes the
+waypoints file that :func:`robodcn.workflow.files.load_waypoints` reads back
+(``robodcn run poses.toml``).
 """
 
 from __future__ import annotations
 
+import logging
 import math
-from collections.abc import Callable, Sequence
+from collections.abc import Sequence
 
 import numpy as np
 from numpy.typing import NDArray
@@ -18,40 +19,40 @@ from numpy.typing import NDArray
 from robodcn.bus import ServoBus
 from robodcn.config import Arm
 from robodcn.workflow.admin import present_state
-from robodcn.workflow.calibrate import Prompt
 
-PROMPT = "Enter: record the present pose, u: undo the last one, q: finish"
+log = logging.getLogger(__name__)
 
 
-def teach(bus: ServoBus, arm: Arm, prompt: Prompt,
-          say: Callable[[str], None] = lambda text: None) -> NDArray[np.float64]:
-    """Torque off, then record poses until ``q`` or end of input; returns them, (m, 3).
+class Teaching:
+    """Poses taught by hand on an open ``bus``: torque goes off when the session starts."""
 
-    ``say`` receives one line per event (recorded pose, undo, unknown answer).
-    """
-    bus.torque(False)
-    poses: list[NDArray[np.float64]] = []
-    while True:
-        try:
-            answer = prompt(f"[{len(poses)} recorded] {PROMPT}").strip().lower()
-        except EOFError:
-            break
-        if answer == "":
-            pose = present_state(bus, arm).pose
-            poses.append(pose)
-            say(f"waypoint {len(poses) - 1}: x={pose[0]:.4f} m, y={pose[1]:.4f} m, "
-                f"θ={math.degrees(pose[2]):.2f}°")
-        elif answer == "u":
-            if poses:
-                poses.pop()
-                say(f"undone; {len(poses)} recorded")
-            else:
-                say("nothing to undo")
-        elif answer == "q":
-            break
-        else:
-            say(f"unknown answer {answer!r}: {PROMPT}")
-    return np.array(poses, dtype=np.float64).reshape(-1, 3)
+    def __init__(self, bus: ServoBus, arm: Arm) -> None:
+        self.bus = bus
+        self.arm = arm
+        self._poses: list[NDArray[np.float64]] = []
+        bus.torque(False)
+
+    def record(self) -> NDArray[np.float64]:
+        """Record the present pose (x, y, θ) as the next waypoint and return it."""
+        pose = present_state(self.bus, self.arm).pose
+        self._poses.append(pose)
+        log.info("waypoint %d: %s", len(self._poses) - 1, pose)
+        return pose
+
+    def undo(self) -> bool:
+        """Drop the last waypoint; False when there was none."""
+        if not self._poses:
+            return False
+        self._poses.pop()
+        return True
+
+    @property
+    def poses(self) -> NDArray[np.float64]:
+        """The waypoints recorded so far, (m, 3): metres and radians."""
+        return np.array(self._poses, dtype=np.float64).reshape(-1, 3)
+
+    def __len__(self) -> int:
+        return len(self._poses)
 
 
 def _toml_string(text: str) -> str:

@@ -1,0 +1,208 @@
+"""Servo administration: ``robodcn pose``, ``torque``, ``reboot`` and ``servo info | set-id |
+set-baud`` over :mod:`robodcn.workflow.admin`; the tables and lines printed are made here."""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import time
+
+from robodcn.cli import options
+from robodcn.cli.dialogue import confirm
+from robodcn.cli.exit_codes import Exit
+from robodcn.cli.servo_session import add_bus_options, baud_of, device_of, open_bus
+from robodcn.config import Arm
+from robodcn.errors import InputError, StoppedError
+
+
+def register(subparsers: argparse._SubParsersAction) -> None:
+    for add in (_add_pose, _add_torque, _add_reboot, _add_servo):
+        add(subparsers)
+
+
+# -- pose ----------------------------------------------------------------------------------------
+
+def _add_pose(sub) -> None:
+    p = sub.add_parser("pose", help="print the present joints, ticks and pose",
+                       description="Read every servo's Present Position and print the joint "
+                                   "angles (degrees), ticks and the tool pose (FK).")
+    options.add_arm_option(p)
+    add_bus_options(p)
+    p.add_argument("--watch", action="store_true", help="refresh until Ctrl-C")
+    p.add_argument("--interval", type=options.positive_float, default=0.5, metavar="SECONDS",
+                   help="refresh period with --watch (default 0.5 s)")
+    p.add_argument("--count", type=options.positive_int, metavar="N",
+                   help="with --watch: stop after N")
+    p.add_argument("--json", action="store_true", help="one JSON object (SI) per reading")
+    p.set_defaults(func=run_pose)
+
+
+def pose_line(arm: Arm, state) -> str:
+    """One reading: the pose (m, °), the joints (°) and the ticks."""
+    joints = ", ".join(f"{n} {math.degrees(q):8.2f}°" for n, q in
+                       zip(arm.joint_names, state.joints, strict=True))
+    x, y, theta = state.pose
+    return (f"x={x:.4f} m, y={y:.4f} m, θ={math.degrees(theta):.2f}°  |  {joints}  |  ticks "
+            + ",".join(str(int(t)) for t in state.ticks))
+
+
+def run_pose(args: argparse.Namespace) -> int:
+    from robodcn.workflow.admin import present_state
+
+    arm = options.load_arm(args)
+    with open_bus(args, arm) as bus:
+        n = 0
+        try:
+            while True:
+                state = present_state(bus, arm)
+                print(json.dumps(state.to_dict(arm)) if args.json else pose_line(arm, state),
+                      flush=True)
+                n += 1
+                if not args.watch or (args.count is not None and n >= args.count):
+                    return Exit.DONE
+                time.sleep(args.interval)
+        except KeyboardInterrupt:
+            return Exit.DONE     # the way out of --watch
+
+
+# -- torque, reboot ------------------------------------------------------------------------------
+
+def _add_torque(sub) -> None:
+    p = sub.add_parser("torque", help="switch servo torque on or off",
+                       description="Torque Enable on or off, on every joint or one (--joint). "
+                                   "Off releases the arm: it may fall. On holds the present "
+                                   "position.")
+    p.add_argument("state", choices=("on", "off"), help="on or off")
+    p.add_argument("--joint", metavar="NAME", help="only this joint (default: every joint)")
+    options.add_arm_option(p)
+    add_bus_options(p)
+    p.set_defaults(func=run_torque)
+
+
+def run_torque(args: argparse.Namespace) -> int:
+    from robodcn.workflow.admin import joint_ids, set_torque
+
+    arm = options.load_arm(args)
+    ids = joint_ids(arm, args.joint)
+    with open_bus(args, arm) as bus:
+        set_torque(bus, arm, args.state == "on", args.joint)
+    print(f"torque {args.state}: servo(s) {', '.join(map(str, ids))}")
+    return Exit.DONE
+
+
+def _add_reboot(sub) -> None:
+    p = sub.add_parser("reboot", help="reboot servos (clears a hardware error)",
+                       description="REBOOT every servo or one joint's (--joint) and wait until "
+                                   "it answers. Clears Hardware Error Status (overload, "
+                                   "overheating); the servo comes back with torque off.")
+    p.add_argument("--joint", metavar="NAME", help="only this joint (default: every joint)")
+    options.add_arm_option(p)
+    add_bus_options(p)
+    p.set_defaults(func=run_reboot)
+
+
+def run_reboot(args: argparse.Namespace) -> int:
+    from robodcn.workflow.admin import joint_ids, reboot
+
+    arm = options.load_arm(args)
+    joint_ids(arm, args.joint)
+    with open_bus(args, arm) as bus:
+        ids = reboot(bus, arm, args.joint)
+    print(f"rebooted servo(s) {', '.join(map(str, ids))} (torque is off)")
+    return Exit.DONE
+
+
+# -- servo ---------------------------------------------------------------------------------------
+
+def _add_servo(sub) -> None:
+    p = sub.add_parser("servo", help="servo info, set-id, set-baud",
+                       description="Servo administration on --device.")
+    ssub = p.add_subparsers(dest="servo_command", metavar="ACTION", required=True)
+    info = ssub.add_parser("info", help="model, firmware, id, baud, mode, errors, voltage, "
+                                        "temperature of the arm's servos",
+                           description="Ping and read every servo of the arm.")
+    options.add_arm_option(info)
+    add_bus_options(info)
+    info.add_argument("--json", action="store_true", help="print JSON")
+    info.set_defaults(func=run_servo_info)
+    sid = ssub.add_parser("set-id", help="change a servo's id",
+                          description="Give the servo at id OLD the id NEW. Refused when no "
+                                      "servo answers at OLD or NEW is taken. Only that servo "
+                                      "is touched (torque off, then the EEPROM ID item).")
+    sid.add_argument("old", type=options.servo_id, metavar="OLD", help="present id")
+    sid.add_argument("new", type=options.servo_id, metavar="NEW", help="new id, 0..252, free")
+    options.add_arm_option(sid)
+    add_bus_options(sid)
+    sid.add_argument("--yes", action="store_true", help="do not ask for confirmation")
+    sid.set_defaults(func=run_servo_set_id)
+    sb = ssub.add_parser("set-baud", help="change the baud rate of the arm's servos",
+                         description="Switch every servo of the arm from --baud to BAUD. "
+                                     "Refused when a servo with one of the arm's ids already "
+                                     "answers at BAUD. Update [bus] baud in the arm TOML after.")
+    sb.add_argument("new_baud", type=options.baud, metavar="BAUD", help="new baud rate")
+    options.add_arm_option(sb)
+    add_bus_options(sb)
+    sb.add_argument("--yes", action="store_true", help="do not ask for confirmation")
+    sb.set_defaults(func=run_servo_set_baud)
+
+
+def servo_table(arm: Arm, rows: list[dict]) -> str:
+    """:func:`robodcn.workflow.admin.servo_info`'s rows as a table, one line per servo."""
+    names = dict(zip(arm.servo_ids, arm.joint_names, strict=True))
+    lines = [f"{'ID':>3} {'joint':<10} {'model':<11} {'fw':>3} {'baud':>8} {'mode':<18} "
+             f"{'torque':<6} {'volt':>5} {'temp':>5}  errors"]
+    for r in rows:
+        if not r["answered"]:
+            lines.append(f"{r['id']:>3} {names[r['id']]:<10} no answer")
+            continue
+        lines.append(f"{r['id']:>3} {names[r['id']]:<10} {r['model'] or r['model_number']!s:<11} "
+                     f"{r['firmware']:>3} {r['baud']:>8} {r['operating_mode_name']:<18} "
+                     f"{'on' if r['torque'] else 'off':<6} {r['voltage_v']:5.1f} "
+                     f"{r['temperature_c']:4d}°  {r['hardware_error_names'] or 'none'}")
+    return "\n".join(lines)
+
+
+def run_servo_info(args: argparse.Namespace) -> int:
+    from robodcn.workflow.admin import servo_info
+
+    arm = options.load_arm(args)
+    with open_bus(args, arm) as bus:
+        rows = servo_info(bus)
+    if args.json:
+        print(json.dumps({"device": device_of(args, arm), "servos": rows}, indent=2))
+    else:
+        print(servo_table(arm, rows))
+    return Exit.DONE if all(r["answered"] for r in rows) else Exit.FAULT
+
+
+def run_servo_set_id(args: argparse.Namespace) -> int:
+    from robodcn.workflow.admin import set_id
+
+    arm = options.load_arm(args)
+    if args.old == args.new:
+        raise InputError(f"NEW must differ from OLD, both are {args.old}", field="new",
+                         value=args.new)
+    device, baud = device_of(args, arm), baud_of(args, arm)
+    if not confirm(f"change servo id {args.old} to {args.new} on {device}?", yes=args.yes):
+        raise StoppedError("not changed", field="yes")
+    set_id(device, baud, args.old, args.new)
+    print(f"servo {args.old} is now id {args.new}")
+    return Exit.DONE
+
+
+def run_servo_set_baud(args: argparse.Namespace) -> int:
+    from robodcn.workflow.admin import set_baud
+
+    arm = options.load_arm(args)
+    device, baud = device_of(args, arm), baud_of(args, arm)
+    if args.new_baud == baud:
+        raise InputError(f"BAUD {baud} is the present baud rate already", field="baud",
+                         value=baud)
+    if not confirm(f"switch servo(s) {list(arm.servo_ids)} on {device} from {baud} to "
+                   f"{args.new_baud} baud?", yes=args.yes):
+        raise StoppedError("not changed", field="yes")
+    set_baud(device, baud, args.new_baud, arm.servo_ids)
+    print(f"servo(s) {', '.join(map(str, arm.servo_ids))} now at {args.new_baud} baud; set "
+          f"[bus] baud = {args.new_baud} in the arm TOML")
+    return Exit.DONE
