@@ -45,6 +45,7 @@ from robodcn.kinematics._yawed import (
     try_ik_yawed_path,
     unreachable_error,
     unwrap_yaw,
+    why_unreachable,
     wrist_radius_yawed,
 )
 
@@ -76,6 +77,7 @@ __all__ = [
     "try_ik_yawed_path",
     "unreachable_error",
     "unwrap_yaw",
+    "why_unreachable",
     "workspace",
     "wrap",
     "wrist_points",

@@ -190,24 +190,33 @@ def reachable_yawed(chain: Chain, poses: ArrayLike) -> NDArray[np.bool_]:
     return ok
 
 
+def why_unreachable(chain: Chain, pose: ArrayLike) -> str | None:
+    """Why one pose (x, y, z, pitch) cannot be reached, as a phrase ("is on the yaw axis
+    …", "points the tool back over the base …", "is out of reach: …"); None if it can."""
+    pose = _poses(np.reshape(_checks.finite("pose", pose), (1, 4)))
+    if reachable_yawed(chain, pose)[0]:
+        return None
+    x, y, _, pitch = (float(v) for v in pose[0])
+    r = math.hypot(x, y)
+    if r < AXIS_TOLERANCE:
+        return (f"is on the yaw axis (r = {r:.2g} m from it): its yaw is undefined; move it "
+                f"at least {AXIS_TOLERANCE:g} m off the axis")
+    if len(chain.links) == 3 and abs(float(wrap(pitch))) > MAX_PITCH:
+        return ("points the tool back over the base (|pitch| > 90°): the arm does not reach "
+                "over the top; turn the yaw instead")
+    inner, outer = chain.workspace()
+    w = float(wrist_radius_yawed(chain, pose)[0])
+    return (f"is out of reach: the wrist point is {w:.4f} m from the shoulder, the arm "
+            f"reaches {inner:.4f}..{outer:.4f} m")
+
+
 def unreachable_error(chain: Chain, poses: ArrayLike, i: int) -> UnreachableError:
     """The error (not raised) saying why pose ``i`` of ``poses`` (n, 4) cannot be reached."""
     poses = _poses(poses)
     x, y, z, pitch = (float(v) for v in poses[i])
     where = (f"sample {i} (x={x:.4f} m, y={y:.4f} m, z={z:.4f} m, "
              f"pitch={math.degrees(pitch):.1f}°)")
-    r = math.hypot(x, y)
-    if r < AXIS_TOLERANCE:
-        why = (f"is on the yaw axis (r = {r:.2g} m from it): its yaw is undefined; move it "
-               f"at least {AXIS_TOLERANCE:g} m off the axis")
-    elif len(chain.links) == 3 and abs(float(wrap(pitch))) > MAX_PITCH:
-        why = ("points the tool back over the base (|pitch| > 90°): the arm does not reach "
-               "over the top; turn the yaw instead")
-    else:
-        inner, outer = chain.workspace()
-        w = float(wrist_radius_yawed(chain, poses[i:i + 1])[0])
-        why = (f"is out of reach: the wrist point is {w:.4f} m from the shoulder, the arm "
-               f"reaches {inner:.4f}..{outer:.4f} m")
+    why = why_unreachable(chain, poses[i]) or "cannot be reached"
     return UnreachableError(f"{where} {why}", field="poses", value=poses[i].tolist(),
                             sample=i, pose=poses[i].tolist())
 
@@ -231,9 +240,12 @@ def ik_yawed_branches(chain: Chain, poses: ArrayLike
     plane = to_plane(poses)
     ok = reachable_yawed(chain, poses)
     up_t, down_t, _ = _planar.ik_branches(chain.lengths, _plane_targets(chain, plane))
-    yaw = np.where(ok, plane[:, 0], np.nan)[:, None]
     d = chain.offsets
-    return (np.hstack([yaw, wrap(d - up_t)]), np.hstack([yaw, wrap(d - down_t)]), ok)
+    up = np.hstack([plane[:, :1], wrap(d - up_t)])
+    down = np.hstack([plane[:, :1], wrap(d - down_t)])
+    up[~ok] = np.nan
+    down[~ok] = np.nan
+    return up, down, ok
 
 
 def ik_yawed(chain: Chain, poses: ArrayLike, elbow: str = "up") -> NDArray[np.float64]:
