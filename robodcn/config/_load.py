@@ -8,13 +8,13 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
+
+from robodcn import kinematics
 from robodcn.config._dynamics import dynamics
 from robodcn.config._geometry import geometry
 from robodcn.config._parts import bus, gripper, joint
 from robodcn.config._reader import Reader
 from robodcn.config._specs import Arm
-
-from robodcn import kinematics
 from robodcn.errors import ConfigError
 
 
@@ -89,7 +89,7 @@ def _check_pose(arm: Arm, which: str, pose: tuple[float, ...]) -> None:
         return
     chain = arm.chain
     assert chain is not None
-    shown = {"x": pose[0], "y": pose[1], "z": pose[2], "pitch_deg": math.degrees(pose[3])}
+    shown = {"x": pose[0], "y": pose[1], "z": pose[2], "pitch_deg": round(math.degrees(pose[3]), 9)}
     why = kinematics.why_unreachable(chain, pose)
     if why is not None:
         raise ConfigError(f"key {key!r} = {shown!r}: the {which} pose {why}", file=arm.source,
