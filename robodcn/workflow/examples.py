@@ -18,13 +18,15 @@ from robodcn.errors import InputError
 EXAMPLES: dict[str, str] = {
     "arm3r": "3 joints (shoulder, elbow, wrist), XM430-W350: full poses x, y, θ",
     "arm2r": "2 joints (shoulder, elbow), XL430-W250: positions x, y (θ free)",
+    "omx": "OpenMANIPULATOR-X: base yaw + 3 joints in a vertical plane, XM430-W350 ids 11–15, "
+           "gripper: poses x, y, z, pitch",
 }
 #: Used when neither --arm nor $ROBODCN_ARM is given.
 DEFAULT_EXAMPLE = "arm3r"
 
 
 def example_path(name: str) -> Path:
-    """Path of the packaged example ``name`` (``"arm3r"`` or ``"arm2r"``)."""
+    """Path of the packaged example ``name`` (``"arm3r"``, ``"arm2r"`` or ``"omx"``)."""
     if name not in EXAMPLES:
         raise InputError(f"unknown example arm {name!r} (examples: {', '.join(EXAMPLES)})",
                          field="example", value=name)
