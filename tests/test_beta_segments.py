@@ -60,8 +60,8 @@ def test_each_segment_is_interpolated_with_its_own_beta(profile: str) -> None:
 
 
 def test_path_segments_carry_their_beta_blended_and_from_a_moving_start() -> None:
-    from robodcn.planner import optimal
     from robodcn.planner.path import blended_path, segments_of
+    from robodcn.planner.pieces import segments_from_start
 
     req = PlanRequest(ARM3R, WAYPOINTS, method="kenlerp", beta=BETAS)
     assert [seg.beta for seg in segments_of(req)] == list(BETAS)
@@ -78,7 +78,7 @@ def test_path_segments_carry_their_beta_blended_and_from_a_moving_start() -> Non
     q0 = np.radians([-20.0, 40.0, 0.0])
     moving = PlanRequest(ARM3R, WAYPOINTS, method="kenlerp", beta=BETAS,
                          start_state=StartState(tuple(q0)))
-    assert [seg.beta for seg in optimal._segments(moving)] == [BETAS[0], *BETAS]
+    assert [seg.beta for seg in segments_from_start(moving)] == [BETAS[0], *BETAS]
 
 
 def test_one_float_is_unchanged() -> None:

@@ -21,15 +21,19 @@ from numpy.typing import NDArray
 
 from robodcn import kinematics, servo_units
 from robodcn.config import Arm
+from robodcn.contract.request import PlanRequest
 from robodcn.errors import QUANTITY_UNITS, VIOLATION_ERRORS, UnreachableError, Violation
 from robodcn.messages import describe_violation
-from robodcn.planner.request import PlanRequest
+from robodcn.path_timing.limits import JointLimits
 
 #: Relative slack on velocity/acceleration/jerk limits, for float rounding only (auto timing
 #: itself uses the exact limits, so auto plans never rely on it).
 LIMIT_SLACK = 1e-9
 #: Slack on joint position limits (rad), float rounding only.
 ANGLE_SLACK = 1e-9
+#: The finite-difference order of each dynamic quantity (what a uniform stretch λ divides by
+#: λ^order).
+ORDER = {"velocity": 1, "acceleration": 2, "jerk": 3}
 
 
 def fmt_pose(pose: Sequence[float]) -> str:
@@ -54,12 +58,35 @@ def check_waypoints(req: PlanRequest) -> None:
 
 def dynamic_limits(arm: Arm) -> tuple[NDArray, NDArray, NDArray]:
     """Per-joint velocity, acceleration and jerk limits (inf where no jerk limit is set)."""
-    jerk = [math.inf if j.max_jerk is None else j.max_jerk for j in arm.joints]
-    return (np.array([j.max_velocity for j in arm.joints]),
-            np.array([j.max_acceleration for j in arm.joints]), np.array(jerk))
+    lim = JointLimits.of(arm)
+    return lim.v, lim.a, lim.jerk
 
 
-def _differences(joints: NDArray, order: int, history: NDArray | None = None) -> NDArray:
+def reach_violation(req: PlanRequest, sample: int, pose: Sequence[float],
+                    segment: tuple[int, int] | None = None) -> Violation:
+    """The "reach" Violation of a sample whose pose the arm cannot reach: its wrist radius
+    against the workspace annulus (kinematics.workspace)."""
+    pose = tuple(float(x) for x in pose)
+    inner, outer = kinematics.workspace(req.arm.links)
+    r = float(kinematics.wrist_radius(req.arm.links, [pose])[0])
+    return Violation(sample=sample, t=sample / req.rate_hz, pose=pose, quantity="reach",
+                     value=r, limit=outer if r > outer else inner, unit="m", segment=segment,
+                     field="waypoints")
+
+
+def raise_unreachable_pose(req: PlanRequest, pose: Sequence[float]) -> NoReturn:
+    """UnreachableError for a path pose that no sample names (the geometry leaves the
+    workspace before any timing)."""
+    pose = [float(x) for x in pose]
+    inner, outer = kinematics.workspace(req.arm.links)
+    r = float(kinematics.wrist_radius(req.arm.links, [pose])[0])
+    raise UnreachableError(f"the path leaves the workspace at {fmt_pose(pose)}: the wrist "
+                           f"point is {r:.4f} m from the base, the arm reaches "
+                           f"{inner:.4f}..{outer:.4f} m", field="waypoints", value=pose,
+                           pose=pose)
+
+
+def differences(joints: NDArray, order: int, history: NDArray | None = None) -> NDArray:
     """|Δ^order q| at rest on both sides (or after the samples ``history`` before t = 0), row
     r charged to sample min(r, n − 1)."""
     pre = np.repeat(joints[:1], order, axis=0) if history is None else history[-order:]
@@ -95,7 +122,7 @@ def _fine(joints: NDArray, ticks: NDArray, lo: NDArray, hi: NDArray, tmin: NDArr
         if step * rate * rate > a[j] * slack:
             return False
         if math.isfinite(jk[j]):
-            d3 = _differences(q[:, None], 3)
+            d3 = differences(q[:, None], 3)
             if d3.max() * rate ** 3 > jk[j] * slack:
                 return False
     return True
@@ -142,7 +169,7 @@ def check(req: PlanRequest, poses: NDArray, joints: NDArray, *, dynamics: bool =
                                        (3, jk, "jerk")):
             if order == 3 and not np.isfinite(limit).any():
                 continue
-            rates.append((quantity, _differences(joints, order, history) * rate ** order,
+            rates.append((quantity, differences(joints, order, history) * rate ** order,
                           limit))
     pos_excess = np.maximum(lo - joints, joints - hi)
     tick_excess = np.maximum(tmin - ticks, ticks - tmax).astype(np.float64)

@@ -1,0 +1,141 @@
+"""The optimal law's pieces: the path cut at its stops, each with its dense joint path q(s).
+
+The path is cut at every via where it stops (``blend=False``): ṡ = 0 there, so the
+time-optimal law of the whole path is the concatenation of the pieces' own rest-to-rest laws
+(the stops decouple them exactly); each piece is timed on ``DENSE`` IK samples of its joint
+path q(s). With ``blend=True`` the whole path is one piece that passes every via. A
+joint-space approach from ``start_joints`` (or a moving start's brake) is a piece of its own
+(a straight joint line). With a start state the path runs from FK(q0) first
+(:func:`segments_from_start`).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import NDArray
+
+from robodcn import kinematics
+from robodcn.config import Arm
+from robodcn.contract.request import PlanRequest
+from robodcn.interpolate import turn_angle
+from robodcn.path_timing import PathTiming
+from robodcn.planner.path import Path, Segment, blended_path, joints_of, segments_of, within_limits
+
+#: IK samples per path segment the law is timed on (the whole path at most DENSE_MAX).
+DENSE = 400
+DENSE_MAX = 4000
+
+
+@dataclass
+class DensePiece:
+    """A stretch of the plan with its own law: path pieces map s → poses, the approach
+    s → joints (s ∈ [0, 1])."""
+
+    path: Path | None
+    segment0: int  # index of the first waypoint segment (−1 on the approach)
+    q_from: NDArray | None = None
+    q_to: NDArray | None = None
+    s: NDArray | None = None
+    q: NDArray | None = None
+    law: PathTiming | None = None
+    count: int = 0
+
+    def poses(self, s: NDArray, arm: Arm) -> NDArray:
+        if self.path is None:
+            return kinematics.fk(arm.links, self.joints_line(s))
+        return self.path(np.clip(s, 0.0, 1.0))
+
+    def joints_line(self, s: NDArray) -> NDArray:
+        return self.q_from + np.outer(np.clip(s, 0.0, 1.0), self.q_to - self.q_from)
+
+
+def _dense_s(path: Path, count: int) -> NDArray:
+    """Path parameters for the dense samples: uniform per segment, every knot included."""
+    knots = path.knots
+    parts = [np.linspace(knots[i], knots[i + 1], count + 1)[:-1] for i in range(len(knots) - 1)]
+    return np.concatenate([*parts, [1.0]])
+
+
+def _pieces(req: PlanRequest, segments: list[Segment]) -> list[DensePiece]:
+    if req.blend:
+        start = None if req.start_state is None else req.start_state.arrays()[0]
+        return [DensePiece(blended_path(req, segments, start), 0)]
+    return [DensePiece(Path([seg], np.array([0.0, 1.0]), None), j)
+            for j, seg in enumerate(segments)]
+
+
+def segments_from_start(req: PlanRequest) -> list[Segment]:
+    """The request's segments; with a start state, from FK(q0) first (request docstring):
+    the prepended segment takes segment 0's method, turn and β, θ chained on from the arm's."""
+    if req.start_state is None:
+        return segments_of(req)
+    q0 = req.start_state.arrays()[0]
+    pose = kinematics.fk(req.arm.links, q0[None, :])[0]
+    wp = req.waypoints_array
+    if req.position_only:
+        wp[:, 2] = 0.0
+        pose[2] = 0.0
+    gap = abs((wp[0, 2] - pose[2] + math.pi) % (2 * math.pi) - math.pi)
+    close = np.abs(pose[:2] - wp[0, :2]).max() <= 1e-4 and gap <= 1.75e-4
+    methods = [req.segment_method(j) for j in range(req.segments)]
+    turns = [req.segment_turn(j) for j in range(req.segments)]
+    betas = [req.segment_beta(j) for j in range(req.segments)]
+    if close:
+        wp = wp[1:]
+    else:
+        methods, turns, betas = ([methods[0], *methods], [turns[0], *turns],
+                                 [betas[0], *betas])
+    out = []
+    start = pose.copy()
+    for j in range(wp.shape[0]):
+        end = wp[j].copy()
+        end[2] = start[2] + turn_angle(start[2], wp[j, 2], turns[j])
+        out.append(Segment(start, end, methods[j], turns[j], betas[j]))
+        start = end
+    return out
+
+
+def build_pieces(req: PlanRequest) -> tuple[list[DensePiece] | None, NDArray | None]:
+    """The pieces with their dense joint paths (None, first bad pose if the path leaves the
+    workspace)."""
+    arm = req.arm
+    segments = segments_from_start(req)
+    pieces = _pieces(req, segments)
+    state = req.start_state
+    ref = None if state is None else state.arrays()[0]
+    if req.start_joints is not None:
+        ref = np.asarray(req.start_joints)
+    limits_ = [(jt.min_angle, jt.max_angle) for jt in arm.joints]
+    # dense geometry, branch-continuous across pieces
+    per = max(16, min(DENSE, DENSE_MAX // max(1, len(segments))))
+    first_q = None
+    for piece in pieces:
+        s = _dense_s(piece.path, per)
+        poses = piece.path(s)
+        q, bad = joints_of(arm, poses, ref, req.branch)
+        if q is None:
+            return None, poses[bad]
+        if first_q is None:
+            first_q = q[0]
+        piece.s, piece.q = s, q
+        ref = q[-1]
+    # a piece along which no joint moves (coincident waypoints) takes no time: drop it
+    moving_pieces = [p for p in pieces if float(np.ptp(p.q, axis=0).max()) > 1e-12]
+    pieces = moving_pieces or pieces[:1]
+    if req.start_joints is not None:
+        start = np.asarray(req.start_joints)
+        target = within_limits(first_q, limits_)
+        tolerance = min(math.pi / jt.servo.ticks_per_turn for jt in arm.joints)
+        if np.max(np.abs(target - start)) > tolerance:
+            if np.max(np.abs(target - first_q)) > 0:  # the path's turn follows the approach
+                shift = target - first_q
+                for piece in pieces:
+                    piece.q = piece.q + shift
+            approach = DensePiece(None, -1, q_from=start, q_to=target)
+            approach.s = np.linspace(0.0, 1.0, 3)
+            approach.q = approach.joints_line(approach.s)
+            pieces.insert(0, approach)
+    return pieces, None

@@ -1,0 +1,198 @@
+"""The uniform timing laws (linear, quintic, trapezoid): one law per piece, whole periods.
+
+Pieces (:class:`~robodcn.planner.path.Piece`): each stop segment, or the blended path, and
+a joint-space approach from ``start_joints``. Their sample periods come from the auto
+search (:mod:`~robodcn.planner.search`) or a numeric duration split over them; the pipeline
+(:mod:`robodcn.planner.build`) samples and validates them through :class:`UniformTiming`,
+which slows every path piece by a violation's ratio when their joins fail (uniform time
+scaling: v ∝ 1/T, a ∝ 1/T², jerk ∝ 1/T³).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+import warnings
+
+import numpy as np
+from numpy.typing import NDArray
+
+from robodcn import kinematics, timing
+from robodcn.contract import MAX_SAMPLES, intervals
+from robodcn.contract.request import PlanRequest, StartState
+from robodcn.errors import TooLargeError, Violation
+from robodcn.planner import search, validate
+from robodcn.planner.path import (
+    COARSE,
+    Path,
+    Piece,
+    blended_path,
+    joints_of,
+    segments_of,
+    shape_trapezoid,
+    within_limits,
+)
+from robodcn.planner.samples import Sampled
+
+
+def _pieces(req: PlanRequest) -> tuple[list[Piece], NDArray | None]:
+    arm = req.arm
+    start = None if req.start_joints is None else np.asarray(req.start_joints)
+    limits = [(j.min_angle, j.max_angle) for j in arm.joints]
+    segments = segments_of(req)
+    if req.blend:
+        paths = [blended_path(req, segments, start)]
+    else:
+        paths = [Path([seg], np.array([0.0, 1.0]), None) for seg in segments]
+    pieces = [Piece(path=p, profile=req.profile, elbow=req.branch) for p in paths]
+    first = kinematics.ik_path(arm.links, np.array([segments[0][0]]), reference=start,
+                               elbow=req.branch, limits=limits)[0]
+    if start is not None:
+        first = within_limits(first, limits)
+    # Half the finest servo step: closer than that the servos cannot tell the difference.
+    tolerance = min(math.pi / j.servo.ticks_per_turn for j in arm.joints)
+    if start is not None and np.max(np.abs(first - start)) > tolerance:
+        pieces.insert(0, Piece(q_from=start, q_to=first, elbow=req.branch))
+    return pieces, start
+
+
+def _counts(req: PlanRequest, pieces: list[Piece], start: NDArray | None) -> list[int]:
+    """Sample periods per piece; the joint reference threads through the pieces."""
+    arm = req.arm
+    rate = req.rate_hz
+    counts: list[int] = []
+    estimates: list[float] = []
+    ref = start
+    for piece in pieces:
+        shape_trapezoid(piece, arm, ref)
+        last = None
+        if req.duration == "auto" or piece.path is None:
+            counts.append(search.search(piece, arm, ref, rate))
+        else:
+            need, last = search.estimate(piece, arm, ref)
+            estimates.append(need)
+            counts.append(0)
+        if last is None:
+            q = piece.sample(counts[-1] or COARSE, arm, ref)[1]
+            last = ref if q is None else q[-1]
+        ref = last
+    if req.duration != "auto":
+        shares = iter(search.split(intervals(req.duration, rate), estimates))
+        counts = [c if c else next(shares) for c in counts]
+    return counts
+
+
+class UniformTiming:
+    """A uniform law per piece (module doc), for the pipeline's loop."""
+
+    rounds = 1 + search.MAX_SEARCH_STEPS
+    #: a uniform law starts from rest (a start state at rest is not carried on)
+    start_state: StartState | None = None
+
+    def __init__(self, req: PlanRequest, counts: list[int] | None = None) -> None:
+        self.req = req
+        self.pieces, self.reference = _pieces(req)
+        if counts is not None and len(counts) != len(self.pieces):
+            counts = [COARSE] * len(self.pieces)  # an approach on one branch, not the other
+        self.counts = _counts(req, self.pieces, self.reference) if counts is None else counts
+
+    def sample(self) -> Sampled | Violation:
+        """Every piece sampled at its count; or the first sample out of reach (or an earlier
+        sample's other violation)."""
+        req, arm, counts = self.req, self.req.arm, self.counts
+        rate = req.rate_hz
+        total = 1 + sum(counts)
+        if total > MAX_SAMPLES:
+            raise TooLargeError(f"the plan needs {total} samples at {rate:g} Hz, more than "
+                                f"{MAX_SAMPLES}: lower rate_hz or shorten the motion",
+                                field="duration", value=req.duration)
+        poses = np.empty((total, 3))
+        joints = np.empty((total, arm.dof))
+        segment_of = np.full(total, -1, dtype=np.int64)
+        offset = 0
+        ref = self.reference
+        marks: dict[int, int] = {}  # sample index → waypoint index, where one is sampled
+        starts = []
+        segment = 0
+        for piece, n in zip(self.pieces, counts, strict=True):
+            if piece.path is not None:
+                last = segment + len(piece.path.segments)
+                marks[offset], marks[offset + n] = segment, last
+                u = timing.profile(piece.profile, np.arange(n + 1) / n, piece.accel_fraction)
+                inner = np.searchsorted(piece.path.knots[1:-1], u, side="right")
+                segment_of[offset:offset + n + 1] = segment + np.minimum(
+                    inner, len(piece.path.segments) - 1)
+                segment = last
+            p, q, bad = piece.sample(n, arm, ref)
+            if q is None:
+                assert bad is not None
+                return self._unreachable(piece, ref, offset, poses, joints, segment_of, p, bad)
+            lo = 0 if offset == 0 else 1
+            poses[offset + lo: offset + n + 1] = p[lo:]
+            joints[offset + lo: offset + n + 1] = q[lo:]
+            starts.append(offset)
+            offset += n
+            ref = q[-1]
+        approach = counts[0] if self.pieces[0].path is None else 0
+        return Sampled(poses, joints, segment_of, marks, np.asarray(starts, dtype=np.int64),
+                       approach)
+
+    def _unreachable(self, piece: Piece, ref: NDArray | None, offset: int, poses: NDArray,
+                     joints: NDArray, segment_of: NDArray, piece_poses: NDArray,
+                     local: int) -> Violation:
+        """The violation at the piece's sample ``local`` (out of reach), or an earlier
+        sample's other violation."""
+        req = self.req
+        # The piece's sample 0 is the plan's sample ``offset`` (shared with the piece before).
+        i = offset + local
+        if local > 0:
+            p = piece_poses[:local]
+            q, _ = joints_of(req.arm, p, ref, piece.elbow)
+            if req.position_only:
+                p = p.copy()
+                p[:, 2] = q[:, 0] + q[:, 1]
+            poses[offset:i] = p
+            joints[offset:i] = q
+        if i > 0:
+            # With "auto" the search could not time a path that leaves the workspace, so
+            # speeds before the gap say nothing: report the gap itself.
+            _, earlier = validate.check(req, poses[:i], joints[:i], segment_of=segment_of[:i],
+                                        dynamics=req.duration != "auto")
+            if earlier is not None:
+                return earlier
+        segment = (int(segment_of[i]), int(segment_of[i]) + 1) if segment_of[i] >= 0 else None
+        return validate.reach_violation(req, i, piece_poses[local], segment)
+
+    def slow(self, violation: Violation, sampled: Sampled | None) -> bool:
+        """Auto pieces are each minimal; their joins can still fail (a linear profile's
+        velocity step between segments): every path piece slowed by the violation's ratio
+        (uniform time scaling). False when that changes nothing."""
+        ratio = max(1.0, violation.value / violation.limit)
+        factor = ratio ** (1.0 / validate.ORDER[violation.quantity]) * (1.0 + 1e-6)
+        scaled = [math.ceil(c * factor) if p.path is not None else c
+                  for c, p in zip(self.counts, self.pieces, strict=True)]
+        if scaled == self.counts:
+            return False
+        self.counts = scaled
+        return True
+
+    def annotate(self, violation: Violation) -> Violation:
+        """A position or tick violation says whether the other elbow branch would pass."""
+        if violation.quantity not in ("position", "ticks"):
+            return violation
+        return dataclasses.replace(violation, other_branch_ok=self._other_branch_ok())
+
+    def _other_branch_ok(self) -> bool:
+        """Whether the same request on the other elbow branch passes position and tick limits
+        (sampled as the failed plan was: timing plays no part in these checks)."""
+        req = self.req
+        other = "down" if req.branch == "up" else "up"
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            alt = dataclasses.replace(req, elbow=other)
+        sampled = UniformTiming(alt, self.counts).sample()
+        if isinstance(sampled, Violation):
+            return False
+        _, violation = validate.check(alt, sampled.poses, sampled.joints, marks=sampled.marks,
+                                      segment_of=sampled.segment_of, dynamics=False)
+        return violation is None
