@@ -1,8 +1,7 @@
 """Moving from the present pose: read where the arm is, plan from there.
 
 The one place robodcn turns the servos' present positions into a start for a plan, shared
-by ``robodcn move``/``sim`` (CLI), ``POST /v1/moves`` (HTTP) and the streamer's
-``approach`` option:
+by ``robodcn move``/``sim`` (CLI) and ``POST /v1/moves`` (HTTP):
 
 * :func:`present_joints` reads Present Position and converts ticks to joint angles
   (θ = direction·(tick − zero_offset)·2π/ticks_per_turn, robodcn.servo_units), after
@@ -13,14 +12,14 @@ by ``robodcn move``/``sim`` (CLI), ``POST /v1/moves`` (HTTP) and the streamer's
   None starts at the present pose (FK of the present joints). The planner prepends a
   joint-space approach when the arm is not at the IK of the first waypoint.
 * :func:`approach_of` gives that approach (samples and duration, as the planner recorded it
-  in ``Trajectory.approach_samples``), for reports.
+  in ``Trajectory.approach_samples``), for reports (:mod:`robodcn.stream.report`, re-exported
+  here). The streamer's own ``approach`` option plans through the planner directly.
 """
 
 from __future__ import annotations
 
 import dataclasses
 from collections.abc import Sequence
-from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
@@ -31,18 +30,7 @@ from robodcn.bus import ServoBus
 from robodcn.config import Arm
 from robodcn.errors import InputError, ServoMismatchError
 from robodcn.planner import PlanRequest, Trajectory, plan, plan_request
-
-
-@dataclass(frozen=True)
-class Approach:
-    """A joint-space approach at the start of a trajectory: ``samples`` periods long (sample 0
-    to sample ``samples``, where the planned path begins), ``duration_s`` seconds."""
-
-    samples: int
-    duration_s: float
-
-    def to_dict(self) -> dict[str, Any]:
-        return {"samples": self.samples, "duration_s": self.duration_s}
+from robodcn.stream.report import Approach, approach_of  # re-export: the report's types
 
 
 def check_servos(arm: Arm, bus: ServoBus) -> None:
@@ -113,20 +101,6 @@ def plan_from_present(arm: Arm, bus: ServoBus | None,
     if waypoints and waypoints[0] is None:
         waypoints[0] = tuple(kinematics.fk(arm.links, q[None, :])[0])
     return plan(arm, waypoints, start_joints=start, **plan_options)
-
-
-def approach_of(trajectory: Trajectory) -> Approach | None:
-    """The joint-space approach the planner put at the start of ``trajectory``, or None.
-
-    The planner records it (:attr:`Trajectory.approach_samples`, the sample periods of the
-    approach from the request's start_joints, whatever law times it: the uniform profiles'
-    quintic or the time-optimal law of ``profile="optimal"``); a plan without one starts
-    on the path itself.
-    """
-    n = int(getattr(trajectory, "approach_samples", 0) or 0)
-    if n <= 0:
-        return None
-    return Approach(samples=n, duration_s=float(n) / trajectory.rate_hz)
 
 
 __all__ = ["Approach", "approach_of", "check_servos", "plan_from_present", "present_joints"]

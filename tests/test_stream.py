@@ -508,7 +508,8 @@ def test_execution_options_are_one_validated_object(sim):
                        ({"watchdog_ms": -1}, "watchdog_ms"), ({"release": "yes"}, "release"),
                        ({"progress": 3}, "progress")):
         with pytest.raises(InputError) as err:
-            ExecutionOptions(**bad)
+            # (data fields on the options, hooks such as progress on its ExecutionHooks)
+            ExecutionOptions.build(None, bad)
         assert err.value.field == field
     with open_bus(sim) as bus:
         place(bus, TRAJ.ticks[0])

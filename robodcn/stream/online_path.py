@@ -160,6 +160,15 @@ class JointPath:
         return tuple(path_derivatives(self.q, self.sigma, cuts, order))
 
 
+class LawExceedsLimits(InputError):
+    """A sampled law keeps exceeding a joint limit (``excess``: the worst ratio to it) at
+    every share of the limits tried."""
+
+    def __init__(self, message: str, excess: float) -> None:
+        super().__init__(message, field="limits", value=float(excess))
+        self.excess = float(excess)
+
+
 @dataclass(frozen=True)
 class Limits:
     """Per-joint velocity (rad/s), acceleration (rad/s²) and optional jerk (rad/s³) limits."""
@@ -324,8 +333,8 @@ def brake_jerk_checked(path: JointPath, sigma0: float, sd0: float, sdd0: float,
 
     Raises
     ------
-    InputError
-        ``field="limits"``: no share within :data:`BRAKE_TRIES` keeps them."""
+    LawExceedsLimits
+        no share within :data:`BRAKE_TRIES` keeps them."""
     share, over = BRAKE_SHARE, math.inf
     for _ in range(BRAKE_TRIES):
         out = brake_jerk(path, sigma0, sd0, sdd0, limits, rate_hz, until_sd=until_sd,
@@ -337,8 +346,8 @@ def brake_jerk_checked(path: JointPath, sigma0: float, sd0: float, sdd0: float,
         if over <= 1.0:
             return out
         share *= 0.99 / over
-    raise InputError(f"the jerk-limited brake keeps exceeding a joint limit ({over:.4g} × "
-                     "it)", field="limits", value=float(over))
+    raise LawExceedsLimits(f"the jerk-limited brake keeps exceeding a joint limit "
+                           f"({over:.4g} × it)", over)
 
 
 def controllable_speed(path: JointPath, sigma0: float, limits: Limits, *,
@@ -364,7 +373,8 @@ def retime(path: JointPath, sigma0: float, sd0: float, limits: Limits, rate_hz: 
     Raises
     ------
     InputError
-        σ̇₀ faster than the rest of the path allows (``sd_start``; brake first).
+        σ̇₀ faster than the rest of the path allows (``sd_start``; brake first);
+        LawExceedsLimits when the sampled law keeps exceeding a limit.
     """
     q, s, stops = path.rest_from(sigma0)
     if s.shape[0] < 3 or s[-1] - s[0] < 1e-9:
@@ -388,8 +398,8 @@ def retime(path: JointPath, sigma0: float, sd0: float, limits: Limits, rate_hz: 
         if over <= 1.0:
             return out
         share *= 0.995 / over
-    raise InputError(f"the re-timed path keeps exceeding a joint limit ({over:.4g} × it)",
-                     field="limits", value=float(over))
+    raise LawExceedsLimits(f"the re-timed path keeps exceeding a joint limit ({over:.4g} × "
+                           "it)", over)
 
 
 def excess(joints: NDArray[np.float64], limits: Limits, rate_hz: float, *,
@@ -417,9 +427,11 @@ def _law(q: NDArray, s: NDArray, v: NDArray, a: NDArray, j: NDArray | None, sd0:
     try:
         return time_optimal(q, s, v, a, j, sd_start=sd0, sdd_start=sdd0, stops=stops,
                             rate_hz=rate_hz, max_stages=ONLINE_STAGES, sd_cap=sd_cap)
-    except InputError as exc:
+    except InputError:
+        # (time_optimal refuses a σ̇₀ above the controllable speed before anything else:
+        # within rounding of it, start at it)
         top = controllable_at(q, s, v, a, stops)
-        if exc.field != "sd_start" or not top < sd0 <= top * 1.001:
+        if not top < sd0 <= top * 1.001:
             raise
         return time_optimal(q, s, v, a, j, sd_start=top, sdd_start=sdd0, stops=stops,
                             rate_hz=rate_hz, max_stages=ONLINE_STAGES, sd_cap=sd_cap)
@@ -467,11 +479,6 @@ def evenly_spaced(q: NDArray[np.float64], count: int) -> NDArray[np.float64]:
             keep.append(i)
     keep.append(len(q) - 1)
     return q[keep]
-
-
-def first_stop(stops: Sequence[float], sigma: float) -> float | None:
-    after = [t for t in stops if t > sigma + 1e-9]
-    return after[0] if after else None
 
 
 def check_limits_named(name: str, value: float) -> float:

@@ -14,7 +14,6 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from robodcn.present import Approach
 from robodcn.stream.trace import ExecutionTrace
 
 STOP_REASONS = ("completed", "stopped", "comm_failure", "hardware_alert", "tracking_error",
@@ -22,6 +21,51 @@ STOP_REASONS = ("completed", "stopped", "comm_failure", "hardware_alert", "track
 #: ``ExecutionReport.outcome``: every sample sent / completed with samples left out / stopped
 #: on request / stopped by a bus, servo or tracking fault.
 OUTCOMES = ("done", "degraded", "stopped", "fault", "collision")
+
+
+@dataclass(frozen=True)
+class Approach:
+    """A joint-space approach at the start of a trajectory: ``samples`` periods long (sample 0
+    to sample ``samples``, where the planned path begins), ``duration_s`` seconds."""
+
+    samples: int
+    duration_s: float
+
+    def to_dict(self) -> dict[str, Any]:
+        return {"samples": self.samples, "duration_s": self.duration_s}
+
+
+def approach_of(trajectory: Any) -> Approach | None:
+    """The joint-space approach the planner put at the start of ``trajectory``, or None.
+
+    The planner records it (:attr:`Trajectory.approach_samples`, the sample periods of the
+    approach from the request's start_joints, whatever law times it: the uniform profiles'
+    quintic or the time-optimal law of ``profile="optimal"``); a plan without one starts
+    on the path itself.
+    """
+    n = int(getattr(trajectory, "approach_samples", 0) or 0)
+    if n <= 0:
+        return None
+    return Approach(samples=n, duration_s=float(n) / trajectory.rate_hz)
+
+
+@dataclass(frozen=True)
+class Ending:
+    """Why a stream ended: ``reason`` (:data:`STOP_REASONS`), a message, and what stopped
+    it as data (SI units) for the surfaces to word in their units, or None."""
+
+    reason: str = "completed"
+    message: str = "all samples sent"
+    detail: dict[str, Any] | None = None
+
+
+class StreamStop(Exception):
+    """Raised inside the streaming loop (its feedback, health and failure checks) to end it
+    with an :class:`Ending`; the loop catches it, nothing outside sees it."""
+
+    def __init__(self, reason: str, message: str, detail: dict[str, Any] | None = None) -> None:
+        super().__init__(message)
+        self.ending = Ending(reason, message, detail)
 
 
 def tracking_error(present: NDArray[np.int64], previous_goal: NDArray[np.int64] | None,
@@ -217,5 +261,6 @@ class ExecutionReport:
         return data
 
 
-__all__ = ["NEAR_SHARE", "OUTCOMES", "STOP_REASONS", "ExecutionReport", "Progress",
-           "near_limits", "outcome_of", "tracking_error"]
+__all__ = ["NEAR_SHARE", "OUTCOMES", "STOP_REASONS", "Approach", "Ending", "ExecutionReport",
+           "Progress", "StreamStop", "approach_of", "near_limits", "outcome_of",
+           "tracking_error"]

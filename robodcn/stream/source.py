@@ -63,6 +63,12 @@ class PlannedSamples:
         """Goal ticks (k,) of sample i."""
         return self.ticks[i]
 
+    @property
+    def encoded_rows(self) -> list:
+        """Every sample as :meth:`ServoBus.write_encoded` takes it (a source built on this
+        one shares them)."""
+        return self._encoded
+
     def encoded(self, i: int) -> Sequence[Sequence[int]]:
         """Sample i as :meth:`ServoBus.write_encoded` takes it."""
         return self._encoded[i]

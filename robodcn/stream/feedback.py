@@ -1,0 +1,275 @@
+"""What the streaming loop reads back: present positions, tracking, collisions, health.
+
+Present positions are read after the write on every ``feedback_every``-th sample and on
+the last one (0: only at the end), in one place (:meth:`Feedback.read`). Tracking error
+(:func:`robodcn.stream.report.tracking_error`, the same for Progress and the report) of
+joint j is how far the present position lies outside the last planned step, [previous
+planned goal, the plan at the end of the read] (the plan, not the compensated goals
+actually sent: :mod:`robodcn.stream.compensation`). With the feedback map
+(:meth:`ServoBus.read_feedback`) the same packet brings velocities, currents and hardware
+errors: peaks per joint in the report and the collision stop ("collision": |current|
+above its threshold for ``collision_cycles`` reads, reported with joint, current, sample,
+time and pose; :mod:`robodcn.stream.collision`). Every read is recorded in preallocated
+arrays (:mod:`robodcn.stream.trace`). Every ``health_interval`` seconds the loop polls
+Hardware Error Status (70) and Bus Watchdog (98) in turn (:meth:`Feedback.health`): Fast
+Sync Read hides a servo's Alert bit in the SDK, so the bus decodes the ERR bytes itself.
+A stop is a :class:`~robodcn.stream.report.StreamStop` carrying its reason and data.
+"""
+
+from __future__ import annotations
+
+import logging
+import math
+from collections.abc import Sequence
+from typing import Any, Protocol
+
+import numpy as np
+from numpy.typing import NDArray
+
+from robodcn.bus import ServoBus, describe_hardware_error
+from robodcn.errors import BusError, CommError
+from robodcn.kinematics import fk
+from robodcn.planner import Trajectory
+from robodcn.servo_units import radians_per_tick
+from robodcn.stream.clock import Clock
+from robodcn.stream.collision import predicted_currents, thresholds
+from robodcn.stream.options import ExecutionOptions
+from robodcn.stream.report import StreamStop, tracking_error
+from robodcn.stream.trace import TraceRecorder
+
+log = logging.getLogger("robodcn.stream")
+
+
+class Timeline(Protocol):
+    """What a read needs of the loop: where the plan is now (its clock and source)."""
+
+    source: Any
+    n: int
+    period: float
+    t_start: float
+
+
+class CommFailures:
+    """Failed transactions: counted, and a stop after ``limit`` in a row (at once when the
+    serial device is lost)."""
+
+    def __init__(self, bus: ServoBus, limit: int) -> None:
+        self.bus = bus
+        self.limit = limit
+        self.total = 0
+        self.in_a_row = 0
+
+    def ok(self) -> None:
+        self.in_a_row = 0
+
+    def failed(self, exc: BusError) -> None:
+        self.total += 1
+        self.in_a_row += 1
+        log.debug("communication failure %d in a row: %s", self.in_a_row, exc.message)
+        if self.bus.lost:
+            raise StreamStop("comm_failure", exc.message)
+        if self.in_a_row >= self.limit:
+            raise StreamStop("comm_failure", f"{self.in_a_row} consecutive communication "
+                             f"failures; last: {exc.message}")
+
+
+class Feedback:
+    """The reads of one execution and what they found (peaks, errors, the collision)."""
+
+    def __init__(self, bus: ServoBus, opts: ExecutionOptions, trajectory: Trajectory,
+                 failures: CommFailures, clock: Clock, samples: int) -> None:
+        self.bus = bus
+        self.failures = failures
+        self.clock = clock
+        self.joint_names = tuple(trajectory.joint_names)
+        self.rad_per_tick = radians_per_tick(bus.servos)
+        self.tracking_limit = opts.tracking_limit
+        self.tick_limit = (None if self.tracking_limit is None
+                           else self.tracking_limit / self.rad_per_tick)
+        self.collision_on = opts.collision
+        self.collision_cycles = opts.collision_cycles
+        request = trajectory.request
+        self.arm = None if request is None else request.arm
+        self.poses = trajectory.poses
+        self.reads = 0
+        self.health_polls = 0
+        self.last_present: NDArray[np.int64] | None = None
+        self.last_error: NDArray[np.float64] | None = None
+        self.hardware: dict[int, int] = {}
+        self.errors: list[NDArray[np.float64]] = []
+        self.read_samples: list[int] = []
+        # richer feedback (one Fast Sync Read of the Indirect Data block), collision stop
+        self.velocities: list[NDArray[np.float64]] = []
+        self.currents: list[NDArray[np.float64]] = []
+        self.feedback_samples: list[int] = []
+        self.threshold: NDArray[np.float64] | None = None
+        self.predicted: NDArray[np.float64] | None = None
+        self.over = np.zeros(len(bus.ids), dtype=np.int64)
+        self.collision: dict[str, Any] | None = None
+        #: every feedback read (:mod:`robodcn.stream.trace`), for ``ExecutionReport.trace``
+        self.trace = TraceRecorder(samples, [s.direction for s in bus.servos],
+                                   self.rad_per_tick)
+
+    def plan_limits(self, trajectory: Trajectory, opts: ExecutionOptions,
+                    period: float) -> list[dict[str, Any]]:
+        """Predicted currents along the plan and the collision thresholds (A per joint);
+        the warnings they give (a joint whose stop is off)."""
+        self.predicted = predicted_currents(trajectory.joints, period, self.bus.servos,
+                                            self.arm)
+        limits = self.bus.current_limits or tuple(2.3 for _ in self.bus.ids)
+        if opts.collision_current is not None:     # its length was checked before
+            self.threshold = np.asarray(opts.collision_current, dtype=np.float64)
+        else:
+            self.threshold = thresholds(self.predicted, limits, self.arm,
+                                        self.bus.position_d_gains)
+        off = [self.joint_names[j] for j in np.nonzero(np.isinf(self.threshold))[0]]
+        if not (off and opts.collision):
+            return []
+        message = (f"collision stop off for joint(s) {off}: their servos have a Position "
+                   "D Gain, whose kick on each streamed goal step reads as current at the "
+                   "limit; set collision_current_a per joint to use one")
+        log.warning("%s", message)
+        return [{"code": "collision_stop_off", "message": message}]
+
+    # -- reads ----------------------------------------------------------------------------
+
+    def read(self, timeline: Timeline, sample: int, goal: NDArray[np.int64],
+             previous_goal: NDArray[np.int64] | None) -> None:
+        """The one place feedback is read and checked: present positions and, with the
+        feedback map, velocities, currents and hardware errors from the same packet;
+        tracking error against the plan; the collision stop."""
+        bus = self.bus
+        try:
+            if bus.feedback_mapped:
+                fb = bus.read_feedback()
+                present = fb.positions
+            else:
+                fb = None
+                present = bus.read_positions()
+        except CommError as exc:
+            self.failures.failed(exc)
+            return
+        self.failures.ok()
+        self.reads += 1
+        self.last_present = present
+        error = tracking_error(present, previous_goal, self.plan_at_read(timeline, sample, goal))
+        self.trace.record(sample, self.clock.now() - timeline.t_start, present, error,
+                          None if fb is None else fb.currents)
+        if fb is not None:
+            self.velocities.append(np.abs(fb.velocities))
+            self.currents.append(np.abs(fb.currents))
+            self.feedback_samples.append(sample)
+        if bus.last_alert_ids or (fb is not None and fb.hardware_errors.any()):
+            self.alert(bus.last_alert_ids
+                       or [i for i, e in zip(bus.ids, fb.hardware_errors, strict=True) if e])
+        if fb is not None and self.collision_on and self.threshold is not None:
+            self._collision(timeline, sample, np.abs(fb.currents))
+        self.last_error = error
+        self.errors.append(error)
+        self.read_samples.append(sample)
+        if self.tick_limit is not None:
+            self._tracking(sample, error)
+
+    def plan_at_read(self, timeline: Timeline, sample: int,
+                     goal: NDArray[np.int64]) -> NDArray[np.float64]:
+        """The plan where it is at the end of this read (ticks, linear between samples):
+        a read that lands late on a loaded host compares with where the plan is by then,
+        so host lateness does not pass for servo lag (never earlier than ``goal``)."""
+        s = (self.clock.now() - timeline.t_start) / timeline.period
+        if s <= sample:
+            return goal.astype(np.float64)
+        source, n = timeline.source, timeline.n
+        s = min(s, n - 1)
+        lo = int(s)
+        hi = min(lo + 1, n - 1)
+        below = source.goal(lo)
+        return below + (s - lo) * (source.goal(hi) - below).astype(np.float64)
+
+    def _tracking(self, sample: int, error: NDArray[np.float64]) -> None:
+        assert self.tick_limit is not None and self.tracking_limit is not None
+        over = np.abs(error) > self.tick_limit
+        if not over.any():
+            return
+        j = int(np.argmax(over))
+        value = float(abs(error[j]) * self.rad_per_tick[j])
+        raise StreamStop("tracking_error",
+                         f"tracking error {value:.3f} rad ({int(error[j])} ticks) at joint "
+                         f"{self.joint_names[j]!r}, sample {sample}, limit "
+                         f"{self.tracking_limit:.3f} rad",
+                         {"quantity": "tracking_error", "joint": self.joint_names[j],
+                          "sample": int(sample), "value": value, "ticks": int(error[j]),
+                          "limit": float(self.tracking_limit), "unit": "rad"})
+
+    def _collision(self, timeline: Timeline, sample: int,
+                   current: NDArray[np.float64]) -> None:
+        """Stop when a joint's |current| stayed above its threshold for N reads in a row."""
+        assert self.threshold is not None
+        above = current > self.threshold
+        self.over = np.where(above, self.over + 1, 0)
+        hit = self.over >= self.collision_cycles
+        if not hit.any():
+            return
+        j = int(np.argmax(hit))
+        period = timeline.period
+        pose = self._pose_at(timeline.source, sample)
+        self.collision = {
+            "joint": self.joint_names[j], "servo_id": int(self.bus.ids[j]),
+            "current_a": float(current[j]), "threshold_a": float(self.threshold[j]),
+            "sample": int(sample), "time_s": sample * period,
+            "pose": [float(pose[0]), float(pose[1]), float(pose[2])]}
+        raise StreamStop("collision",
+                         f"collision at joint {self.joint_names[j]!r}: current "
+                         f"{current[j]:.2f} A above {self.threshold[j]:.2f} A for "
+                         f"{self.collision_cycles} cycles at sample {sample} "
+                         f"(t = {sample * period:.3f} s, pose x {pose[0]:.3f} m, "
+                         f"y {pose[1]:.3f} m, θ {math.degrees(pose[2]):.1f}°)")
+
+    def _pose_at(self, source: Any, sample: int) -> NDArray[np.float64]:
+        """Planned tool pose of sample i: the trajectory's, or of the commanded joints when
+        an online operation swapped the source (its samples may outrun the plan's)."""
+        joint = getattr(source, "joint", None)
+        if joint is not None and self.arm is not None:
+            return fk(self.arm.links, np.asarray(joint(sample))[None, :])[0]
+        return self.poses[min(sample, len(self.poses) - 1)]
+
+    # -- health ---------------------------------------------------------------------------
+
+    def alert(self, ids: Sequence[int]) -> None:
+        """Stop on a hardware alert of ``ids`` (reading what each servo reports)."""
+        try:
+            self.hardware = self.bus.hardware_errors()
+        except BusError:
+            self.hardware = {i: -1 for i in ids}
+        described = {i: describe_hardware_error(e) if e > 0 else "alert bit set"
+                     for i, e in self.hardware.items() if e}
+        raise StreamStop("hardware_alert",
+                         f"hardware alert on servo(s) {described or list(ids)}")
+
+    def health(self) -> None:
+        """One health poll in place of a position read: Hardware Error Status and the Bus
+        Watchdog in turn."""
+        self.health_polls += 1
+        try:
+            if self.health_polls % 2:
+                errors = self.bus.hardware_errors()
+                alerts = self.bus.last_alert_ids
+                self.failures.ok()
+                if any(errors.values()) or alerts:
+                    self.alert(alerts or [i for i, e in errors.items() if e])
+            else:
+                self.check_watchdog()
+        except CommError as exc:
+            self.failures.failed(exc)
+
+    def check_watchdog(self) -> None:
+        """Stop when a servo's Bus Watchdog expired (it stopped by itself)."""
+        status = self.bus.watchdog_status()
+        self.failures.ok()
+        tripped = [i for i, v in status.items() if v < 0]
+        if tripped:
+            raise StreamStop("hardware_alert",
+                             f"bus watchdog expired on servo(s) {tripped} (no instruction "
+                             f"for {self.bus.watchdog_ms} ms); they stopped by themselves")
+
+
+__all__ = ["CommFailures", "Feedback", "Timeline"]

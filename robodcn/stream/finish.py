@@ -1,0 +1,138 @@
+"""After the loop: hold, disarm, recover, read the final positions, release.
+
+On every stop the arm holds: the Bus Watchdog is disarmed (which also makes goals writable
+after a trip) and the freshly read present positions become the goals (if they cannot be
+read, the last goals sent: the arm is already within a sample of them, so it does not
+reverse). With ``recover=True`` an overload alert reboots that servo, holds it where it is
+and enables its torque again (the move stays stopped). Torque goes off only with
+``release=True`` (also after a completed move). With the device lost, none of this can
+reach the servos: the Bus Watchdog stops them by themselves. Nothing here raises a
+BusError: with the link down each step is skipped.
+"""
+
+from __future__ import annotations
+
+import logging
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from robodcn.bus import ADDR_GOAL_POSITION, ADDR_PRESENT_POSITION, ADDR_TORQUE_ENABLE, ServoBus
+from robodcn.errors import BusError
+from robodcn.stream.clock import Clock
+
+log = logging.getLogger("robodcn.stream")
+
+#: Hardware Error Status bit of an overload (what ``recover=True`` acts on).
+OVERLOAD_BIT = 0x20
+#: A final reading one tick off its target counts once unchanged for this long (s).
+REST_S = 0.05
+#: Time between two final reads while settling (s).
+SETTLE_POLL_S = 0.005
+
+
+@dataclass
+class Finished:
+    """What the end of an execution did: the hold goals written (None without a hold), the
+    final positions read, whether torque went off, the servos recovered."""
+
+    hold_goals: NDArray[np.int64] | None = None
+    final: NDArray[np.int64] | None = None
+    released: bool = False
+    recovered: list[dict[str, Any]] = field(default_factory=list)
+
+
+def finish(bus: ServoBus, clock: Clock, *, hold: bool, release: bool, settle: float,
+           last_goal: NDArray[np.int64] | None, last_present: NDArray[np.int64] | None,
+           hardware: dict[int, int] | None = None) -> Finished:
+    """Hold (when stopped), disarm the watchdog, recover (``hardware``: the errors found,
+    given only with ``recover``), read the final positions, release."""
+    done = Finished()
+    try:
+        bus.disarm_watchdog()
+    except BusError:
+        pass  # a dead link cannot be disarmed; the hold below may still get through
+    if hardware and not bus.lost:
+        done.recovered = _recover(bus, hardware)
+    if hold and not bus.lost:
+        try:
+            goals = bus.read_positions()
+        except BusError:
+            goals = last_goal if last_goal is not None else last_present
+        if goals is not None and not bus.lost:
+            goals = np.clip(goals, bus.limits[:, 0], bus.limits[:, 1])
+            try:
+                bus.write_encoded(bus.encode_goals(goals[None, :])[0])
+                done.hold_goals = goals
+            except BusError:
+                pass
+    if not bus.lost:
+        done.final = _final(bus, clock, settle, done.hold_goals if hold else last_goal)
+    if release and not bus.lost:
+        try:
+            bus.torque(False)
+            done.released = True
+        except BusError:
+            pass
+    return done
+
+
+def _recover(bus: ServoBus, hardware: dict[int, int]) -> list[dict[str, Any]]:
+    """Overload recovery: reboot each servo reporting overload, hold it where it is
+    (goal := present position), torque on again; report it. Never resumes the motion."""
+    overloaded = [i for i, e in hardware.items() if e > 0 and e & OVERLOAD_BIT]
+    recovered: list[dict[str, Any]] = []
+    if not overloaded:
+        return recovered
+    for servo_id in overloaded:
+        entry: dict[str, Any] = {"servo_id": servo_id, "hardware_error": int(hardware[servo_id])}
+        try:
+            bus.reboot([servo_id])
+            present = int.from_bytes(bus.read(servo_id, ADDR_PRESENT_POSITION, 4),
+                                     "little", signed=True)
+            bus.write(servo_id, ADDR_GOAL_POSITION, list(present.to_bytes(4, "little",
+                                                                          signed=True)))
+            bus.write(servo_id, ADDR_TORQUE_ENABLE, [1])
+            entry.update(recovered=True, position=present)
+        except BusError as exc:
+            entry.update(recovered=False, error=exc.message)
+        log.warning("overload recovery of servo %d: %s", servo_id, entry)
+        recovered.append(entry)
+    try:
+        bus.configure()   # the rebooted servos came back at RAM defaults
+    except BusError:
+        pass
+    return recovered
+
+
+def _final(bus: ServoBus, clock: Clock, settle: float,
+           target: NDArray[np.int64] | None) -> NDArray[np.int64] | None:
+    """The final positions, read for up to ``settle`` seconds until the arm is on its
+    target or at rest within one tick of it (None if they cannot be read).
+
+    One tick off is returned only at rest (the same reading for :data:`REST_S`): a motor
+    still closing its last tick would otherwise be reported a tick short of where it comes
+    to rest."""
+    now = clock.now()
+    deadline = now + settle
+    final = None
+    last, since = None, now
+    while True:
+        try:
+            final = bus.read_positions()
+        except BusError:
+            return final
+        now = clock.now()
+        if last is None or not np.array_equal(final, last):
+            last, since = final, now
+        if target is None or now >= deadline:
+            return final
+        error = np.abs(final - target).max()
+        if error == 0 or (error <= 1 and now - since >= REST_S):
+            return final
+        clock.sleep(SETTLE_POLL_S)
+
+
+__all__ = ["OVERLOAD_BIT", "REST_S", "Finished", "finish"]

@@ -1,0 +1,403 @@
+"""A running execution: the stream on a thread, and the online operations applied to it.
+
+``start(trajectory, bus, options)`` runs :func:`robodcn.stream.execute` on its own thread and
+returns an :class:`Execution` at once (:func:`prepare`: not started, :meth:`Execution.run`
+streams on the calling thread). The execution's sample source is an
+:class:`~robodcn.stream.online.samples.OnlineSamples` chain: each operation plans a new
+tail from the commanded state at a switch sample a few periods ahead and swaps it in before
+the loop gets there (:mod:`robodcn.stream.online.switch`). Operations (thread-safe, from
+any thread): :meth:`Execution.stop` (``"smooth"``: brake along the path, then hold;
+``"hold"``: hold at once), :meth:`Execution.pause` / :meth:`Execution.resume`
+(:mod:`~robodcn.stream.online.stop`), :meth:`Execution.set_speed`
+(:mod:`~robodcn.stream.online.speed`) and :meth:`Execution.retarget`
+(:mod:`~robodcn.stream.online.retarget`).
+
+On an arm with jerk limits every law keeps them too, across the switch: the brake ramps
+the path acceleration within the jerk bound, the re-timing starts from (σ̇, σ̈), and every
+new tail is checked with the three samples before it. A retarget under jerk limits goes
+through rest. Where the present path ends before a brake could stop, the move's own end is
+the stop.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import logging
+import sys
+import threading
+from collections.abc import Callable, Sequence
+from typing import Any
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from robodcn import kinematics
+from robodcn.bus import ServoBus
+from robodcn.config import Arm
+from robodcn.errors import InputError, RobodcnError
+from robodcn.planner import PlanRequest, Trajectory
+from robodcn.stream.online.planning_times import PlanningTimes
+from robodcn.stream.online.retarget import Retargeting
+from robodcn.stream.online.samples import OnlineSamples, Segment
+from robodcn.stream.online.speed import KeepPlanned, resume_tail, speed_scale, speed_tail
+from robodcn.stream.online.state import State
+from robodcn.stream.online.stop import PathEnds, PauseKeeper, brake_to_rest, pause_hold
+from robodcn.stream.online.switch import Switch, Switcher
+from robodcn.stream.online.timing import Timing
+from robodcn.stream.online_path import JointPath, Limits, brake, retime
+from robodcn.stream.options import ExecutionOptions
+from robodcn.stream.report import ExecutionReport
+from robodcn.stream.signal import StopSignal
+from robodcn.stream.streamer import execute
+
+log = logging.getLogger("robodcn.stream")
+
+#: stop modes of :meth:`Execution.stop`
+STOP_MODES = ("smooth", "hold")
+#: GIL switch interval while an online execution streams (s)
+SWITCH_INTERVAL_S = 0.0002
+#: how long an operation waits for the stream to start (s)
+ATTACH_TIMEOUT_S = 10.0
+
+
+def warm_up(trajectory: Trajectory, arm: Arm | None, planning_times: PlanningTimes) -> None:
+    """Pay the first calls of the online laws before a stream starts: a re-timing and a
+    brake on the plan's path, and (once per ``planning_times``) a retarget from the path's
+    middle to its end, through the same code an operation runs (numpy's and the planner's
+    first calls cost several times a later one's)."""
+    if arm is None:
+        return
+    limits = Limits.of_arm(arm)
+    rate = trajectory.rate_hz
+    path, sigma = JointPath.of_samples(trajectory.joints)
+    if path.length <= 0:
+        return
+    mid = float(sigma[len(sigma) // 2])
+    retime(path, mid, 0.0, limits, rate)
+    brake(path, mid, 1e-3, limits.a, rate)
+    q = trajectory.joints
+    i = len(q) // 2
+    if planning_times.warmed or limits.j is not None or i < 2:
+        return
+    planning_times.warmed = True
+    state = State.of_history(i, q[i - 2:i + 1], path, float(sigma[i]), rate)
+    end = tuple(kinematics.fk(arm.links, q[-1:])[0])
+    try:
+        # (its time is not a guess for a switch: planning beside a running stream, which
+        # shares the interpreter, takes about twice as long)
+        Retargeting(arm, Timing(limits, rate), None).tail(state, [None, end], {})
+    except RobodcnError:
+        pass
+
+
+class Execution:
+    """A running execution (:func:`start`); every method is thread-safe.
+
+    Attributes
+    ----------
+    status : "starting" | "running" | "paused" | "stopping" | "finished"
+    speed : the present speed scale k (1: the plan's limits)
+    paused : True while paused (or braking into a pause)
+    report : the :class:`ExecutionReport` once finished (None before)
+    error : the exception :func:`execute` raised (a refusal before any write), or None
+    planning_times : the :class:`PlanningTimes` that places the switches (shared when the
+        creator passed one)
+    on_change : called with the operation's name after each switch (or None)
+    """
+
+    def __init__(self, trajectory: Trajectory, bus: ServoBus, stop: StopSignal,
+                 arm: Arm | None = None, *, options: ExecutionOptions | None = None,
+                 planning_times: PlanningTimes | None = None,
+                 present_ticks: ArrayLike | None = None) -> None:
+        self.trajectory = trajectory
+        self.bus = bus
+        self.arm = arm if arm is not None else (
+            trajectory.request.arm if trajectory.request is not None else None)
+        self.stop_signal = stop
+        self.status = "starting"
+        self.speed = 1.0
+        self.paused = False
+        self.report: ExecutionReport | None = None
+        self.error: BaseException | None = None
+        self.on_change: Callable[[str], None] | None = None
+        self.planning_times = planning_times if planning_times is not None else PlanningTimes()
+        self._present_ticks = present_ticks
+        self._smooth_stopped = False
+        self._lock = threading.RLock()
+        self._attached = threading.Event()
+        self._done = threading.Event()
+        self._stream: Any = None
+        self._switcher: Switcher | None = None
+        self._timing: Timing | None = None
+        self._thread: threading.Thread | None = None
+        opts = ExecutionOptions.build(options)
+        self._options = ExecutionOptions.build(opts, {"stop": stop, "attach": self._attach})
+
+    # -- lifecycle ------------------------------------------------------------------------
+
+    def _attach(self, stream: Any) -> None:
+        """Called by the streamer before the first sample: take over its source."""
+        planned = stream.source
+        root = OnlineSamples.of_planned(planned, self.bus)
+        stream.swap(root)
+        if self.arm is None and planned.trajectory.request is not None:
+            self.arm = planned.trajectory.request.arm
+        if self.arm is not None:
+            self._timing = Timing(Limits.of_arm(self.arm), root.rate_hz)
+            self._timing.register_law(root.path, root.sigma, 1.0)
+            self._switcher = Switcher(stream, self.bus, self._timing, self.planning_times,
+                                      self._done, self._lock)
+        self._stream = stream
+        self.status = "running"
+        self._attached.set()
+
+    def run(self) -> ExecutionReport | None:
+        """Stream on the calling thread until the end (:func:`prepare`); the report, or
+        raise what :func:`execute` raised."""
+        # Planning runs on other threads while this one streams: a short GIL switch
+        # interval keeps the loop's wake-ups on time (the default 5 ms is five periods).
+        interval = sys.getswitchinterval()
+        sys.setswitchinterval(min(interval, SWITCH_INTERVAL_S))
+        try:
+            report = execute(self.trajectory, self.bus, self._options,
+                             present_ticks=self._present_ticks)
+            if self._smooth_stopped and report.stop_reason == "completed":
+                report = dataclasses.replace(
+                    report, stop_reason="stopped",
+                    message="stopped smoothly along the path (decelerated within the limits)")
+            self.report = report
+        except BaseException as exc:  # reported through .error and wait()
+            self.error = exc
+        finally:
+            sys.setswitchinterval(interval)
+            self.status = "finished"
+            self.paused = False
+            self._attached.set()
+            self._done.set()
+        return self.wait(0)
+
+    def wait(self, timeout: float | None = None) -> ExecutionReport | None:
+        """Block until finished (or ``timeout``); the report, or raise what execute raised."""
+        self._done.wait(timeout)
+        if self.error is not None:
+            raise self.error
+        return self.report
+
+    @property
+    def done(self) -> bool:
+        return self._done.is_set()
+
+    @property
+    def stream(self) -> Any:
+        """The streaming loop (:class:`~robodcn.stream.loop.Stream`) once attached."""
+        return self._stream
+
+    @property
+    def switches(self) -> list[Switch]:
+        """(request time, first changed sample, its due time, planning seconds, the planning
+        time the switch was placed for) of every operation applied, on the stream's clock
+        (planning seconds: real time), for latency measurements."""
+        return [] if self._switcher is None else list(self._switcher.switches)
+
+    @property
+    def sample(self) -> int:
+        """Index of the last sample sent (−1 before the first)."""
+        return -1 if self._stream is None else self._stream.records.last_index()
+
+    def sent(self) -> tuple[NDArray[np.int64], NDArray[np.float64], NDArray[np.float64]]:
+        """Every sample sent so far: indices, send times (the stream's clock) and the
+        commanded joints (rad, before rounding to ticks)."""
+        s = self._stream
+        if s is None:
+            return np.zeros(0, np.int64), np.zeros(0), np.zeros((0, 0))
+        n = s.records.count
+        index = np.array(s.records.index[:n], dtype=np.int64)
+        src = s.source
+        joints = np.array([src.joint(int(i)) for i in index]) if n else np.zeros((0, 0))
+        return index, np.array(s.records.at[:n]), joints
+
+    def latencies(self) -> list[tuple[float, float, float, float]]:
+        """Per operation applied: (planning s, request → due time of the first changed
+        sample s, request → that sample actually sent s, the planning time the switch was
+        placed for s). Sent − due is the loop's own lateness at that moment (a loaded
+        machine); due ≈ placed-for + 2 periods."""
+        index, at, _ = self.sent()
+        out = []
+        for requested, first, due, took, ahead in self.switches:
+            hit = np.flatnonzero(index >= first)
+            if hit.size:
+                out.append((took, due - requested, float(at[hit[0]] - requested), ahead))
+        return out
+
+    def remaining(self, first: int, request: PlanRequest | None = None) -> Trajectory:
+        """The commanded samples from ``first`` to the end as a Trajectory (t from 0): what a
+        retarget put in place, for records and reports."""
+        src: OnlineSamples = self._stream.source
+        end = max(first + 1, src.end)
+        index = range(first, end)
+        joints = np.array([src.joint(i) for i in index])
+        ticks = np.array([src.goal(i) for i in index])
+        poses = kinematics.fk(self.arm.links, joints)
+        poses[:, 2] = np.unwrap(poses[:, 2])
+        method = request.method if request is not None else "sclerp"
+        if isinstance(method, tuple):
+            method = list(method)
+        return Trajectory(np.arange(len(joints)) / src.rate_hz, poses, joints, ticks,
+                          src.joint_names, tuple(self.bus.ids), src.rate_hz, method, request)
+
+    # -- applying an operation ------------------------------------------------------------
+
+    def _apply(self, what: str, tail: Callable[[State], list[Segment]], *,
+               hold: int = 0) -> int:
+        """Plan ``tail`` at a switch ahead of the loop and swap it in (:class:`Switcher`);
+        the first changed sample. InputError when the execution is not running;
+        :class:`~robodcn.stream.online.switch.SwitchMissed` when no attempt landed."""
+        requested = self._options.clock.now()
+        if not self._attached.wait(ATTACH_TIMEOUT_S) or self.done or self._switcher is None:
+            raise InputError(f"cannot {what}: the execution is not running",
+                             field="execution", value=self.status)
+        first = self._switcher.apply(what, tail, requested=requested, hold=hold,
+                                     speed=self.speed, status=self.status)
+        if self.on_change is not None:
+            self.on_change(what)
+        return first
+
+    def _need_arm(self, what: str) -> Timing | None:
+        """The time laws (None before the stream started); InputError without an arm."""
+        if self.arm is None and self._timing is None:
+            raise InputError(f"cannot {what}: the trajectory carries no arm (plan it with "
+                             "robodcn.plan or pass arm=)", field="arm", value=None)
+        return self._timing
+
+    def _laws(self) -> Timing:
+        assert self._timing is not None
+        return self._timing
+
+    # -- operations -----------------------------------------------------------------------
+
+    def stop(self, mode: str = "smooth", reason: str = "stop requested") -> None:
+        """Stop: ``"smooth"`` brakes along the path then holds; ``"hold"`` holds at once."""
+        if mode not in STOP_MODES:
+            raise InputError(f"mode must be one of {', '.join(STOP_MODES)}, got {mode!r}",
+                             field="mode", value=mode)
+        if mode == "hold" or self.done or self._stream is None or self._timing is None:
+            self.stop_signal.request(reason)
+            return
+        self.paused = False
+        self._smooth_stopped = True
+        self.status = "stopping"
+        try:
+            self._apply("stop smoothly", lambda st: brake_to_rest(self._laws(), st))
+        except PathEnds:
+            log.info("smooth stop: the move's own end is the fastest stop")
+        except RobodcnError:
+            self.stop_signal.request(reason)
+
+    def pause(self) -> None:
+        """Brake along the path to rest and stay there (the stream goes on)."""
+        self._need_arm("pause")
+        with self._lock:
+            if self.paused:
+                return
+            rate = self._stream.source.rate_hz if self._stream else 1.0
+            try:
+                self._apply("pause", lambda st: brake_to_rest(self._laws(), st),
+                            hold=pause_hold(rate))
+            except PathEnds:
+                log.info("pause: the move ends before a brake could stop it")
+                return
+            self.paused = True
+            self.status = "paused"
+        assert self._switcher is not None
+        PauseKeeper(self._switcher, lambda: self.paused, self._done)
+
+    def resume(self) -> None:
+        """Continue the same path from where the pause left it, timed from there."""
+        self._need_arm("resume")
+        with self._lock:
+            if not self.paused:
+                return
+            self.paused = False
+            k = self.speed
+            try:
+                self._apply("resume", lambda st: resume_tail(self._laws(), st, k))
+            except KeepPlanned as exc:
+                log.info("resume: %s; the held end of the path stands", exc.reason)
+            self.status = "running"
+
+    def set_speed(self, scale: float) -> None:
+        """Re-time the rest of the path with the limits scaled by ``scale`` ∈ (0, 1].
+
+        Near the end, where the move already brakes to its end at the full limits and no
+        brake reaches the scaled ones first, the move ends as planned (``speed`` is still
+        set: a resume uses it)."""
+        k = speed_scale(scale)
+        self._need_arm("change speed")
+        with self._lock:
+            self.speed = k
+            if self.paused or self.status == "stopping" or self.done:
+                return
+            try:
+                self._apply("change speed", lambda st: speed_tail(self._laws(), st, k))
+            except KeepPlanned as exc:
+                log.info("speed %.3g: %s; the move ends as planned", k, exc.reason)
+
+    def retarget(self, target: PlanRequest | Sequence[ArrayLike | None],
+                 **plan_options: Any) -> int:
+        """Replace the rest of the motion by a path to ``target``, from the moving state.
+
+        ``target``: a PlanRequest (planned from the switch joints: an approach to its first
+        waypoint if the arm is not there) or waypoints whose first entry None is the switch
+        pose. ``plan_options``: keywords of :func:`robodcn.plan` (method, turn, blend,
+        elbow, …). Returns the first changed sample. Raises the planner's errors (nothing
+        changes)."""
+        self._need_arm("retarget")
+        with self._lock:
+            self.paused = False
+            first = self._apply("retarget", lambda st: self._retarget_tail(st, target,
+                                                                           plan_options))
+            self.status = "running"
+            return first
+
+    def _retarget_tail(self, state: State, target: Any,
+                       plan_options: dict[str, Any]) -> list[Segment]:
+        """The new samples of a retarget from ``state`` (:class:`Retargeting`)."""
+        assert self.arm is not None
+        return Retargeting(self.arm, self._laws(), self._stream.source,
+                           self.speed).tail(state, target, plan_options)
+
+
+def prepare(trajectory: Trajectory, bus: ServoBus, options: ExecutionOptions | None = None,
+            *, arm: Arm | None = None, planning_times: PlanningTimes | None = None,
+            present_ticks: ArrayLike | None = None, **kwargs: Any) -> Execution:
+    """An :class:`Execution` of ``trajectory`` not yet started: :meth:`Execution.run` streams
+    it on the calling thread (a service's bus worker), :func:`start` on a thread of its own.
+
+    Options as :func:`robodcn.stream.execute` (the stop signal is the execution's: one is
+    made when none is given; ``present_ticks`` as there). ``planning_times``: where the
+    switches are placed from — pass one :class:`PlanningTimes` to every execution of a
+    process so each places its first operations from measurements (default: a new one)."""
+    opts = ExecutionOptions.build(options, kwargs)
+    stop = opts.stop if isinstance(opts.stop, StopSignal) else StopSignal()
+    execution = Execution(trajectory, bus, stop, arm, options=opts,
+                          planning_times=planning_times, present_ticks=present_ticks)
+    warm_up(trajectory, execution.arm, execution.planning_times)
+    return execution
+
+
+def start(trajectory: Trajectory, bus: ServoBus, options: ExecutionOptions | None = None,
+          *, arm: Arm | None = None, planning_times: PlanningTimes | None = None,
+          present_ticks: ArrayLike | None = None, **kwargs: Any) -> Execution:
+    """Start streaming ``trajectory`` on its own thread; the :class:`Execution` at once.
+
+    Same options as :func:`prepare`. Refusals before the first write are raised by
+    :meth:`Execution.wait` (and kept in ``Execution.error``)."""
+    execution = prepare(trajectory, bus, options, arm=arm, planning_times=planning_times,
+                        present_ticks=present_ticks, **kwargs)
+    thread = threading.Thread(target=execution.run, daemon=True, name="robodcn-stream")
+    execution._thread = thread
+    thread.start()
+    return execution
+
+
+__all__ = ["STOP_MODES", "Execution", "prepare", "start", "warm_up"]

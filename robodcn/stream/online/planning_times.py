@@ -1,0 +1,67 @@
+"""How long online operations take to plan: where the next switch is placed.
+
+An operation's switch is placed its expected planning time ahead of the loop (then two
+periods for the swap). The expectation is measured: a :class:`PlanningTimes` keeps the last
+few planning times of each operation, per kind of arm (with jerk limits or not: their laws
+take longer), and whoever creates executions may share one across them (a service: its
+first retarget of each move is then placed from measurements, not from a guess).
+"""
+
+from __future__ import annotations
+
+import threading
+
+#: first guesses (s) before anything was measured, per operation (others: DEFAULT_S)
+FIRST_GUESS_S = {"retarget": 0.01}
+#: on a jerk-limited arm its laws take longer, and a first switch placed too close is
+#: planned twice
+JERK_FIRST_GUESS_S = {"retarget": 0.12, "stop smoothly": 0.03, "pause": 0.03, "resume": 0.1,
+                      "change speed": 0.15}
+DEFAULT_S = 0.003
+#: measurements kept per operation and kind of arm
+KEEP = 5
+
+
+class PlanningTimes:
+    """Recent planning times of online operations (thread-safe; share it across executions).
+
+    :meth:`expected` is optimistic on an arm without jerk limits (the fastest of the last
+    few: a miss is planned again from further ahead) and the slowest of them with jerk
+    limits (those laws take long and vary). :attr:`warmed` says a retarget was planned with
+    this estimator already (its first one pays the planner's and numpy's first calls)."""
+
+    def __init__(self) -> None:
+        self._seen: dict[tuple[str, bool], list[float]] = {}
+        self._lock = threading.Lock()
+        self.warmed = False
+
+    def times(self, what: str, jerk: bool) -> list[float]:
+        """The planning times kept for ``what``: the first guess, then the measurements
+        (the guess drops out after :data:`KEEP` − 1 of them)."""
+        with self._lock:
+            return list(self._kept(what, jerk))
+
+    def _kept(self, what: str, jerk: bool) -> list[float]:
+        seen = self._seen.get((what, jerk))
+        if seen:
+            return seen
+        return [(JERK_FIRST_GUESS_S if jerk else FIRST_GUESS_S).get(what, DEFAULT_S)]
+
+    def expected(self, what: str, jerk: bool) -> float:
+        """Seconds to place the switch of ``what`` ahead of the loop."""
+        return (max if jerk else min)(self.times(what, jerk))
+
+    def record(self, what: str, jerk: bool, seconds: float) -> None:
+        """One measured planning time of ``what``."""
+        with self._lock:
+            guesses = JERK_FIRST_GUESS_S if jerk else FIRST_GUESS_S
+            kept = self._seen.get((what, jerk)) or ([guesses[what]] if what in guesses else [])
+            self._seen[(what, jerk)] = [*kept[-(KEEP - 1):], float(seconds)]
+
+    def set(self, what: str, jerk: bool, times: list[float]) -> None:
+        """Replace what is kept for ``what`` (tests, a caller that knows better)."""
+        with self._lock:
+            self._seen[(what, jerk)] = [float(t) for t in times][-KEEP:]
+
+
+__all__ = ["PlanningTimes"]
