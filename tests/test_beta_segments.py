@@ -254,7 +254,7 @@ def test_run_plans_a_waypoints_file_with_its_per_segment_beta(monkeypatch, tmp_p
     # --beta overrides the file's, one value or one per segment
     for value, want in (("0.7", 0.7), ("0.3,0.9", (0.3, 0.9))):
         from robodcn.cli import build_parser
-        from robodcn.workflow.commands import load_run_file
+        from robodcn.cli.run_cmd import load_run_file
 
         args = build_parser().parse_args(["run", str(path), "--beta", value])
         kind, fields = load_run_file(args, ARM3R)

@@ -46,17 +46,22 @@ q_{n} = q_{n−1}: a velocity step at either end, as the linear profile has, is 
 like any other (the end one is charged to the last sample). A joint with a jerk limit is
 checked the same way with third differences.
 
-Modules: :mod:`~robodcn.planner.request` (PlanRequest), :mod:`~robodcn.planner.trajectory`
-(Trajectory, JSON/CSV), :mod:`~robodcn.planner.path` (segments, blending, IK),
-:mod:`~robodcn.planner.search` (auto timing), :mod:`~robodcn.planner.validate` (checks that
-return :class:`~robodcn.errors.Violation` data), :mod:`~robodcn.planner.build` (assembly).
+Modules: :mod:`~robodcn.planner.build` (the one pipeline: pieces → timing law → sample →
+validate, one retry loop, one assembly; :func:`plan`), :mod:`~robodcn.planner.uniform` and
+:mod:`~robodcn.planner.optimal` (the two timing laws, :mod:`~robodcn.planner.samples`' Timing),
+:mod:`~robodcn.planner.pieces` (the optimal law's dense pieces), :mod:`~robodcn.planner.path`
+(segments, blending, IK), :mod:`~robodcn.planner.search` (auto timing of uniform laws),
+:mod:`~robodcn.planner.validate` (checks that return :class:`~robodcn.errors.Violation`
+data), :mod:`~robodcn.planner.trajectory` (Trajectory, JSON/CSV). PlanRequest and StartState
+are the contract's (:mod:`robodcn.contract.request`; :mod:`~robodcn.planner.request`
+re-exports them); a moving start joins its path by :mod:`robodcn.path_timing.moving_start`.
 """
 
 from robodcn.contract import MAX_SAMPLES
+from robodcn.contract.request import PlanRequest, StartState
 from robodcn.dcn import TURNS
 from robodcn.errors import BetaIgnoredWarning, BranchSwitchWarning
 from robodcn.planner.build import plan, plan_request
-from robodcn.planner.request import PlanRequest, StartState
 from robodcn.planner.trajectory import Trajectory
 from robodcn.planner.validate import ANGLE_SLACK, LIMIT_SLACK
 from robodcn.timing import PROFILES, UNIFORM_PROFILES

@@ -11,8 +11,9 @@ from numpy.typing import NDArray
 
 from robodcn import kinematics, timing
 from robodcn.config import Arm
+from robodcn.contract.request import PlanRequest
 from robodcn.interpolate import interpolate, turn_angle
-from robodcn.planner.request import PlanRequest
+from robodcn.path_timing.limits import JointLimits
 
 #: Samples of the coarse uniform grid used for estimates and path shaping.
 COARSE = 128
@@ -111,8 +112,9 @@ def joints_of(arm: Arm, poses: NDArray[np.float64], reference: NDArray | None, e
 
 
 def rate_limits(arm: Arm) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
-    return (np.array([j.max_velocity for j in arm.joints]),
-            np.array([j.max_acceleration for j in arm.joints]))
+    """The arm's per-joint velocity and acceleration limits (JointLimits.of)."""
+    lim = JointLimits.of(arm)
+    return lim.v, lim.a
 
 
 def shape_trapezoid(piece: Piece, arm: Arm, reference: NDArray | None) -> None:

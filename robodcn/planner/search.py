@@ -17,7 +17,8 @@ from robodcn import timing
 from robodcn.config import Arm
 from robodcn.contract import MAX_SAMPLES, intervals
 from robodcn.errors import TooLargeError
-from robodcn.planner.path import COARSE, Piece, rate_limits
+from robodcn.path_timing.limits import JointLimits
+from robodcn.planner.path import COARSE, Piece
 
 MAX_SEARCH_STEPS = 40
 
@@ -25,10 +26,8 @@ MAX_SEARCH_STEPS = 40
 def fd_need(q: NDArray[np.float64], arm: Arm) -> float:
     """Shortest duration (s) of the sampled joints q under the arm's limits (jerk included
     where a joint sets one)."""
-    v, a = rate_limits(arm)
-    jerk = [math.inf if j.max_jerk is None else j.max_jerk for j in arm.joints]
-    return timing.fd_min_duration(q, v, a, j_max=None if all(x == math.inf for x in jerk)
-                                  else np.array(jerk))
+    lim = JointLimits.of(arm)
+    return timing.fd_min_duration(q, lim.v, lim.a, j_max=lim.j)
 
 
 def estimate(piece: Piece, arm: Arm, reference: NDArray | None
