@@ -51,7 +51,7 @@ from robodcn.moves import RECORD_SAMPLES, MoveRecord, move_status
 from robodcn.planner import Trajectory
 from robodcn.results import MoveStatus, State, StopAnswer
 from robodcn.stream import STOP_MODES, ExecutionOptions, ExecutionReport, Progress
-from robodcn.stream.online import prepare
+from robodcn.stream.online import Execution, PlanningTimes, SwitchMissed, prepare
 from robodcn.workflow import admin
 
 log = logging.getLogger("robodcn.controller")
@@ -59,6 +59,8 @@ log = logging.getLogger("robodcn.controller")
 #: Options the service executes with unless overridden: a move starts wherever the arm is
 #: (the streamer prepends an approach if it has moved since planning) and the arm holds after.
 DEFAULT_EXECUTE = ExecutionOptions(approach=True, release=False)
+#: Seconds an online operation on a queued move waits for its stream to start.
+QUEUED_WAIT = 1.0
 
 
 class ArmController:
@@ -107,6 +109,9 @@ class ArmController:
         #: The newest positions known without a read (feedback, goals, final reads).
         self._last_ticks: tuple[int, ...] | None = None
         self._worker = BusWorker(bus)
+        #: Where every move's online operations place their switches from (measured once
+        #: for the service, not again per move).
+        self._planning_times = PlanningTimes()
 
     # -- moves --------------------------------------------------------------------------------
 
@@ -216,7 +221,7 @@ class ArmController:
         """Stop the current move, if any; the streamer holds the arm where it is.
 
         Thread-safe; sets the move's stop signal (acted on within one sample period) and
-        waits up to ``wait`` seconds for the hold to be written.
+        waits until the hold is written and the move has ended (at most ``wait`` seconds).
         """
         with self._lock:
             record = self._current
@@ -229,32 +234,60 @@ class ArmController:
 
     # -- online operations (robodcn.stream.online): stop modes, pause, speed, replace ------
 
-    def _live(self) -> MoveRecord:
-        """The running move with its execution; NoMoveError when none."""
+    def _live(self) -> tuple[MoveRecord, Execution]:
+        """The running move and its execution; NoMoveError when none runs.
+
+        A queued move is waited for until its stream is prepared (:data:`QUEUED_WAIT` at
+        most: the worker starts it at once unless a bus read is in flight)."""
         with self._lock:
             record = self._current
-        if record is not None and record.execution is None:
-            # queued: the worker is about to start it
-            deadline = time.monotonic() + 2.0
-            while record.execution is None and not record.done.is_set() \
-                    and time.monotonic() < deadline:
-                time.sleep(0.002)
-        if record is None or record.execution is None or record.done.is_set():
+        if record is not None:
+            record.prepared.wait(QUEUED_WAIT)
+        execution = None if record is None else record.execution
+        if record is None or execution is None or record.done.is_set():
             raise NoMoveError("no move is running", field="move", value=None)
-        return record
+        return record, execution
+
+    @staticmethod
+    def _raced(record: MoveRecord, execution: Execution, exc: InputError) -> RobodcnError:
+        """The error of an online operation that lost a race with the stream: NoMoveError
+        when the move has ended meanwhile, BusyError when no switch could be placed ahead
+        of the stream in time (409 both: nothing changed, nothing was wrong with the
+        request); else ``exc`` itself."""
+        if execution.done or record.done.is_set():
+            return NoMoveError(f"move {record.id} has ended: {exc.message}", field="move",
+                               value=record.id)
+        if isinstance(exc, SwitchMissed):
+            return BusyError(f"move {record.id}: {exc.message}; nothing changed, try again",
+                             field="move", value=record.id)
+        return exc
+
+    def _online(self, record: MoveRecord, execution: Execution, op: Any) -> Any:
+        """``op()`` on the running execution, its lost races 409 (:meth:`_raced`)."""
+        try:
+            return op()
+        except InputError as exc:
+            raced = self._raced(record, execution, exc)
+            if raced is exc:
+                raise
+            raise raced from exc
 
     def stop_move(self, mode: str = "smooth", *, wait: float = 1.0) -> StopAnswer:
         """Stop the current move: ``"smooth"`` decelerates along its path within the limits
-        and holds there, ``"hold"`` holds where the arm is at once (:meth:`stop`)."""
+        and holds there, ``"hold"`` holds where the arm is at once (:meth:`stop`).
+
+        A smooth stop answers once its brake is in the stream (the move then ends
+        ``stopped`` at rest), without waiting for the arm to get there; a hold once it is
+        written (at most ``wait`` seconds)."""
         if mode not in STOP_MODES:
             raise InputError(f"mode must be one of {', '.join(STOP_MODES)}, got {mode!r}",
                              field="mode", value=mode)
         with self._lock:
             record = self._current
-        if mode == "hold" or record is None or record.execution is None:
+        execution = None if record is None else record.execution
+        if mode == "hold" or record is None or execution is None:
             return self.stop(wait=wait)
-        record.execution.stop("smooth")
-        record.done.wait(wait)
+        execution.stop("smooth")
         with self._lock:
             return StopAnswer(stopped=True, move=record.id, status=record.status)
 
@@ -263,21 +296,27 @@ class ArmController:
             return record.snapshot()
 
     def pause(self) -> MoveStatus:
-        """Pause the running move (a smooth stop on its path; the stream goes on)."""
-        record = self._live()
-        record.execution.pause()
+        """Pause the running move (a smooth stop on its path; the stream goes on).
+
+        Raises NoMoveError (409) when nothing runs, or when the move reaches its own end
+        before a brake could stop it (it ends at rest, not paused)."""
+        record, execution = self._live()
+        self._online(record, execution, execution.pause)
+        if not execution.paused:
+            raise NoMoveError(f"move {record.id} ends before a pause could stop it: it comes "
+                              "to rest at its own end", field="move", value=record.id)
         return self._snapshot(record)
 
     def resume(self) -> MoveStatus:
         """Resume a paused move along the same path, timed from rest."""
-        record = self._live()
-        record.execution.resume()
+        record, execution = self._live()
+        self._online(record, execution, execution.resume)
         return self._snapshot(record)
 
     def set_speed(self, scale: float) -> MoveStatus:
         """Re-time the rest of the running move with the limits scaled by ``scale``."""
-        record = self._live()
-        record.execution.set_speed(scale)
+        record, execution = self._live()
+        self._online(record, execution, lambda: execution.set_speed(scale))
         return self._snapshot(record)
 
     def replace_move(self, request: Any) -> MoveRecord:
@@ -285,15 +324,21 @@ class ArmController:
         a new move record (running), the old one ends ``replaced``. Raises NoMoveError when
         nothing runs, the planner's errors when the new path cannot be planned (the old
         move goes on unchanged)."""
-        record = self._live()
-        execution = record.execution
-        first = execution.retarget(request)
+        record, execution = self._live()
+        first = self._online(record, execution, lambda: execution.retarget(request))
         trajectory = execution.remaining(first, request)
         now = time.time()
         with self._lock:
+            if self._current is not record or record.done.is_set() or execution.done:
+                # the stream ended meanwhile (its report is the old move's): nothing to
+                # take over, and no record that would never finish
+                raise NoMoveError(f"move {record.id} ended before the replacement could take "
+                                  "over; start the new move without replace",
+                                  field="move", value=record.id)
             new = MoveRecord(id=str(next(self._ids)), trajectory=trajectory, status="running",
                              started=now, execution=execution, offset=first,
                              stop_signal=record.stop_signal)
+            new.prepared.set()
             record.status = "replaced"
             record.finished = now
             record.done.set()
@@ -336,22 +381,24 @@ class ArmController:
             execution = prepare(record.trajectory, self.bus, self.execute_options,
                                 stop=record.stop_signal,
                                 progress=lambda p: self._on_progress(self._live_of(record), p),
-                                arm=self.arm)
-            record.execution = execution
+                                arm=self.arm, planning_times=self._planning_times,
+                                present_ticks=record.present_ticks)
+            with self._lock:
+                record.execution = execution
+            record.prepared.set()
             report = execution.run()
-            record = self._live_of(record)
         except RobodcnError as exc:
             worker.suspect = worker.suspect or isinstance(exc, BusError)
             log.info("move %s ended: %s", record.id, exc.message)
-            self._finish(record, self._failed_or_fault(record), None, exc.to_dict())
+            self._finish(record, None, None, exc.to_dict())
         except DEVICE_ERRORS as exc:
             worker.suspect = True
             fault = device_fault(self.bus, exc)
             log.warning("move %s: %s", record.id, fault.message)
-            self._finish(record, self._failed_or_fault(record), None, fault.to_dict())
+            self._finish(record, None, None, fault.to_dict())
         except Exception as exc:  # a bug: keep the service up, say what happened
             log.exception("move %s crashed", record.id)
-            self._finish(record, self._failed_or_fault(record), None, {
+            self._finish(record, None, None, {
                 "code": "internal", "message": f"{type(exc).__name__}: {exc}", "field": None})
         else:
             status = move_status(report)
@@ -361,37 +408,27 @@ class ArmController:
             self._finish(record, status, report, error)
 
     def _live_of(self, record: MoveRecord) -> MoveRecord:
-        """The record now running ``record``'s execution (a replacement), else ``record``."""
+        """The record now running ``record``'s execution (a replacement), else ``record``
+        (read ``self._current`` under the lock for a decision that must hold)."""
         current = self._current
         if current is not None and current.execution is not None \
                 and current.execution is record.execution:
             return current
         return record
 
-    @staticmethod
-    def _failed_or_fault(record: MoveRecord) -> str:
-        """``fault`` once a sample went out (the arm moved), ``failed`` before."""
-        return "failed" if record.latest is None else "fault"
-
-    @staticmethod
-    def _fault_report(record: MoveRecord, error: dict[str, Any]) -> dict[str, Any]:
-        """What is known of a move that execute() could not report on (a lost device)."""
-        p = record.latest
-        return {"outcome": "fault", "stop_reason": error["code"], "message": error["message"],
-                "samples_total": len(record.trajectory.t),
-                "samples_sent": 0 if p is None else p.sample + 1,
-                "duration_s": record.elapsed, "last_goals": None if p is None else
-                list(p.goals), "last_present": None if p is None or p.present is None else
-                list(p.present)}
-
-    def _finish(self, record: MoveRecord, status: str, report: ExecutionReport | None,
+    def _finish(self, record: MoveRecord, status: str | None, report: ExecutionReport | None,
                 error: dict[str, Any] | None) -> None:
+        """End the move running ``record``'s execution (``record``, or the replacement that
+        took it over); ``status`` None: failed or fault (:meth:`MoveRecord.failure`)."""
         with self._lock:
+            record = self._live_of(record)
+            if status is None:
+                status = record.failure()
             record.status = status
             record.report = report
             record.error = error
             if report is None and status == "fault" and error is not None:
-                record.fault_report = self._fault_report(record, error)
+                record.fault_report = record.known_report(error)
             record.finished = time.time()
             if report is not None:
                 final = report.final_positions or report.hold_goals
@@ -410,6 +447,7 @@ class ArmController:
             if self._current is record:
                 self._current = None
             self._trim()
+        record.prepared.set()
         record.done.set()
 
     # -- state ----------------------------------------------------------------------------------

@@ -64,6 +64,8 @@ class MoveRecord:
     fault_report: dict[str, Any] | None = None
     stop_signal: StopSignal = field(default_factory=StopSignal, repr=False)
     done: threading.Event = field(default_factory=threading.Event, repr=False)
+    #: Set once ``execution`` is there (or the move has ended without one).
+    prepared: threading.Event = field(default_factory=threading.Event, repr=False)
     latest: Progress | None = field(default=None, repr=False)
     measured: collections.deque[tuple[float, tuple[int, ...]]] = field(
         default_factory=_measured, repr=False)
@@ -85,14 +87,13 @@ class MoveRecord:
         return bool(self.active and self.execution is not None and self.execution.paused)
 
     @property
-    def speed_scale(self) -> float | None:
-        """The running execution's speed scale k, None before it has started."""
-        return None if self.execution is None else float(self.execution.speed)
+    def speed_scale(self) -> float:
+        """The execution's speed scale k (1 for a queued move: it starts at the plan's)."""
+        return 1.0 if self.execution is None else float(self.execution.speed)
 
     def snapshot(self) -> MoveStatus:
         """The move as it is now (call under the controller's lock for a consistent one)."""
         report = self.fault_report if self.report is None else self.report.to_dict()
-        speed = self.speed_scale
         return MoveStatus(
             id=self.id, status=self.status, progress=self.progress,
             elapsed=self.elapsed, duration=self.trajectory.duration,
@@ -100,7 +101,7 @@ class MoveRecord:
             approach=self.approach(), created=self.created, started=self.started,
             finished=self.finished, report=report,
             error=None if self.error is None else ErrorDetail.of(self.error),
-            paused=self.paused, speed_scale=1.0 if speed is None else speed)
+            paused=self.paused, speed_scale=self.speed_scale)
 
     def to_dict(self) -> dict[str, Any]:
         """:meth:`snapshot` as JSON (``GET /v1/moves/{id}``)."""
@@ -113,6 +114,22 @@ class MoveRecord:
             return ApproachInfo(inserted.samples, inserted.duration_s)
         n = int(getattr(self.trajectory, "approach_samples", 0) or 0)
         return ApproachInfo(n, n / self.trajectory.rate_hz) if n else None
+
+    def failure(self) -> str:
+        """The status of a move that raised: ``fault`` once a sample went out (the arm
+        moved), ``failed`` before."""
+        return "failed" if self.latest is None else "fault"
+
+    def known_report(self, error: dict[str, Any]) -> dict[str, Any]:
+        """What is known of a move that execute() could not report on (a lost device): the
+        report's keys from the latest progress and ``error``'s code and message."""
+        p = self.latest
+        return {"outcome": "fault", "stop_reason": error["code"], "message": error["message"],
+                "samples_total": len(self.trajectory.t),
+                "samples_sent": 0 if p is None else p.sample + 1,
+                "duration_s": self.elapsed, "last_goals": None if p is None else
+                list(p.goals), "last_present": None if p is None or p.present is None else
+                list(p.present)}
 
     def start_s(self) -> float:
         """Stream time (s) of the move's first sample: 0, or where a replacement began."""

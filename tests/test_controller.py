@@ -310,3 +310,62 @@ def test_a_lost_device_is_a_comm_error_and_the_next_read_reopens(rig: Any,
     monkeypatch.setattr(controller.bus, "read_positions", real)
     state = controller.state()  # reopens and re-verifies the port first
     assert state.ticks == present(sa) and calls["n"] == 1
+
+
+def test_admission_reads_the_present_position_once(rig: Any, monkeypatch: Any) -> None:
+    """admit → read Present Position once → plan once → start: the executor is handed the
+    ticks read for planning and does not read them again."""
+    import robodcn.present
+    from robodcn.admission import MoveOrder, admit
+    from robodcn.planner import PlanRequest
+
+    sa, controller = rig
+    reads: list[str] = []
+    real_read = ServoBus.read_positions
+
+    def counted(bus: ServoBus, *args: Any, **kwargs: Any) -> Any:
+        # (thread, goals written so far): the reads before the move are those before its
+        # first goal; the streamer's final read comes after the last
+        reads.append((threading.current_thread().name, len(sa.sim.goal_history(1))))
+        return real_read(bus, *args, **kwargs)
+
+    plans: list[Any] = []
+    real_plan = robodcn.present.plan_from_present
+
+    def planned(*args: Any, **kwargs: Any) -> Any:
+        plans.append(args)
+        return real_plan(*args, **kwargs)
+
+    monkeypatch.setattr(ServoBus, "read_positions", counted)
+    monkeypatch.setattr("robodcn.admission.plan_from_present", planned)
+    request = PlanRequest(arm=ARM, waypoints=(tuple(ARM.home), TARGET), duration=0.6)
+    before = tuple(present(sa))
+    goals = len(sa.sim.goal_history(1))
+    record = admit(controller, MoveOrder(request=request))
+    assert record.present_ticks == before
+    done = controller.wait(record.id, timeout=10)
+    assert done.status in COMPLETED, done.error
+    assert len(plans) == 1
+    # one read, on the bus thread, before the move (feedback comes from the indirect map)
+    ahead = [thread for thread, written in reads if written == goals]
+    assert len(ahead) == 1 and ahead[0].startswith("robodcn-arm"), reads
+
+
+def test_a_move_order_is_a_request_or_a_trajectory() -> None:
+    from robodcn.admission import MoveOrder
+
+    with pytest.raises(InputError):
+        MoveOrder()
+    with pytest.raises(InputError):
+        MoveOrder(request=object(), trajectory=short_move())  # type: ignore[arg-type]
+
+
+def test_a_queued_move_has_speed_scale_one(rig: Any) -> None:
+    """State and move status of a queued move say speed 1 (not null), not paused."""
+    _, controller = rig
+    record = controller.start_move(short_move())
+    state, info = controller.state(), controller.move_info(record.id)
+    assert state.speed_scale == 1.0 and state.paused is False and state.move == record.id
+    assert info is not None and info.speed_scale == 1.0
+    controller.wait(record.id, 10)
+    assert controller.state().speed_scale is None  # nothing runs
