@@ -1,0 +1,157 @@
+"""The streaming loop's schedule on virtual time (:class:`robodcn.stream.VirtualClock`):
+which sample goes out when, late samples sent or skipped, a stop acted on between two
+samples — the logic of :mod:`robodcn.stream.loop`, through the real dynamixel-sdk against
+firmware_sim (kinematic), without depending on the host's timing. The clock moves only when
+the loop waits, so every sample is exactly on time unless a test makes it late
+(``clock.advance``: a stalled host)."""
+
+from __future__ import annotations
+
+import functools
+import threading
+
+import conftest
+import numpy as np
+import pytest
+from conftest import ARM3R
+
+import robodcn
+from firmware_sim.bus import SimBus
+from robodcn.bus import ServoBus
+from robodcn.stream import Progress, StopSignal, VirtualClock
+from robodcn.stream import execute as _execute
+
+# the kinematic model: goals sent = goals planned
+execute = functools.partial(_execute, compensation=False)
+
+ARM = ARM3R
+IDS = ARM.servo_ids
+RATE = 100.0
+TRAJ = robodcn.plan(ARM, [ARM.home, (0.22, 0.18, 0.6)], rate_hz=RATE)
+
+
+@pytest.fixture
+def sim(sim3):
+    return sim3
+
+
+def open_bus(sim: SimBus) -> ServoBus:
+    return conftest.open_bus(sim, ARM.servos)
+
+
+def place(bus: ServoBus, ticks) -> None:
+    """The simulated (kinematic) arm at ``ticks``."""
+    bus.verify()
+    bus.configure()
+    bus.write_goals(np.asarray(ticks))
+    assert np.abs(bus.read_positions() - ticks).max() <= 1
+
+
+def history(sim: SimBus) -> np.ndarray:
+    return np.array([sim.goal_history(i) for i in IDS]).T
+
+
+def inject_at(sample: int, action):
+    """A progress callback that runs ``action`` once, at the first report past ``sample``."""
+    done = []
+
+    def callback(p: Progress) -> None:
+        if p.sample >= sample and not done:
+            done.append(p.sample)
+            action()
+
+    return callback
+
+
+def test_every_sample_goes_out_at_its_due_time(sim):
+    clock = VirtualClock(start=10.0)
+    with open_bus(sim) as bus:
+        place(bus, TRAJ.ticks[0])
+        before = len(history(sim))
+        report = execute(TRAJ, bus, clock=clock, watchdog_ms=0)
+    assert report.outcome == "done" and report.overruns == 0, report.headline
+    assert np.array_equal(history(sim)[before:], TRAJ.ticks)
+    # sample i is due at t0 + i/rate, and sent then: no jitter, no lateness, the plan's
+    # duration and rate exactly (the last sample's cycle ends on its slot)
+    assert report.lateness_max_s == 0.0 and report.jitter_max_s == pytest.approx(0, abs=1e-12)
+    assert report.achieved_rate_hz == pytest.approx(RATE, rel=1e-9)
+    assert report.duration_s == pytest.approx((len(TRAJ.t) - 1) / RATE, abs=1e-9)
+
+
+def test_late_samples_are_all_sent_without_skip_late(sim):
+    clock = VirtualClock()
+    with open_bus(sim) as bus:
+        place(bus, TRAJ.ticks[0])
+        before = len(history(sim))
+        report = execute(TRAJ, bus, skip_late=False, clock=clock, watchdog_ms=0,
+                         progress=inject_at(5, lambda: clock.advance(3.5 / RATE)))
+    assert report.completed and report.overruns >= 1 and report.samples_skipped == 0
+    assert np.array_equal(history(sim)[before:], TRAJ.ticks)
+    # 3.5 periods pass after sample 5: samples 6, 7, 8 go out back to back (2.5, 1.5 and
+    # 0.5 periods late), sample 9 on time again
+    assert report.overruns == 3
+    assert report.lateness_max_s == pytest.approx(2.5 / RATE)
+
+
+def test_overruns_skip_ahead_without_accumulating(sim):
+    clock = VirtualClock()
+    with open_bus(sim) as bus:
+        place(bus, TRAJ.ticks[0])
+        before = len(history(sim))
+        report = execute(TRAJ, bus, clock=clock, watchdog_ms=0,
+                         progress=inject_at(5, lambda: clock.advance(3.5 / RATE)))
+    # Skipping samples is not "all samples sent": the outcome and headline say so.
+    assert report.stop_reason == "completed" and not report.completed, report.message
+    assert report.outcome == "degraded" and report.skipped == report.samples_skipped
+    assert report.headline == (f"completed with {report.skipped} of "
+                               f"{report.samples_total} samples skipped")
+    data = report.to_dict()
+    assert data["outcome"] == "degraded" and data["completed"] is False
+    assert data["skipped"] == report.skipped and "all samples sent" not in data["message"]
+    assert report.overruns >= 1 and report.samples_skipped >= 2
+    # 3.5 periods pass after sample 5: the slots of 6 and 7 have passed, 8 goes out half a
+    # period late
+    assert report.overruns == 1 and report.samples_skipped == 2
+    assert report.samples_sent + report.samples_skipped == report.samples_total
+    # The schedule did not slip: the run still ends on the planned clock.
+    assert report.duration_s == pytest.approx(TRAJ.duration, abs=5 / RATE)
+    assert report.duration_s == pytest.approx((len(TRAJ.t) - 1) / RATE, abs=1e-9)
+    # What was sent is the plan with the skipped samples left out, in order, ending on the
+    # last sample.
+    sent = history(sim)[before:]
+    assert len(sent) == report.samples_sent
+    rows, k = [], 0
+    for row in sent:
+        while not np.array_equal(TRAJ.ticks[k], row):
+            k += 1                                  # IndexError: not a subsequence
+        rows.append(k)
+        k += 1
+    assert rows[-1] == len(TRAJ.ticks) - 1
+    assert len(rows) == len(TRAJ.ticks) - report.samples_skipped
+
+
+def test_a_stop_while_the_loop_waits_ends_it_before_the_next_sample(sim):
+    clock = VirtualClock()
+    stop = StopSignal()
+    with open_bus(sim) as bus:
+        place(bus, TRAJ.ticks[0])
+        before = len(history(sim))
+        clock.hold(0.0)
+        result = {}
+        thread = threading.Thread(target=lambda: result.update(
+            report=execute(TRAJ, bus, clock=clock, watchdog_ms=0, stop=stop)))
+        thread.start()
+        try:
+            assert clock.wait_parked()
+            clock.hold(clock.now() + 9.5 / RATE)     # samples 0 … 9 go out, then it waits
+            assert clock.wait_parked()
+            stop.request("operator stop")
+        finally:
+            clock.release()
+        thread.join(10)
+    report = result["report"]
+    assert report.stop_reason == "stopped" and report.message == "operator stop"
+    assert report.samples_sent == 10
+    # the ten samples, then the hold (the present positions: where the last one put it)
+    assert np.array_equal(history(sim)[before:before + 10], TRAJ.ticks[:10])
+    assert report.hold_goals == tuple(int(v) for v in TRAJ.ticks[9])
