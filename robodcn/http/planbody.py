@@ -3,8 +3,8 @@
 The parsing is :func:`robodcn.contract.parse_request` and the schema
 :func:`robodcn.contract.request_schema`; a move body omits
 :data:`robodcn.contract.MOVE_OMIT` (a move starts from the arm's present joints).
-:data:`PLAN_FIELDS`, :data:`MOVE_FIELDS` and :func:`parse_plan_body` are kept for the old
-``robodcn.http_server`` import path, derived from the contract.
+:data:`PLAN_FIELDS`, :data:`MOVE_FIELDS` and :func:`parse_plan_body` (exported by
+:mod:`robodcn.http`) are derived from the contract.
 """
 
 from __future__ import annotations
