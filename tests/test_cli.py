@@ -370,3 +370,69 @@ def test_a_tracking_stop_is_worded_in_degrees(capsys: pytest.CaptureFixture[str]
     assert rc == 4, text
     line = next(ln for ln in text.splitlines() if "tracking error" in ln and "limit" in ln)
     assert "°" in line and "limit 0.50°" in line and " rad" not in line, line
+
+
+# -- one argument vocabulary (issue 16) and the CLI items of issue 17 §4 -----------------------
+
+def test_run_profile_takes_the_contracts_profiles_with_plans_default():
+    from robodcn import contract
+
+    parser = cli.build_parser()
+    sub = parser._subparsers._group_actions[0].choices
+    profile = {c: next(a for a in sub[c]._actions if "--profile" in a.option_strings)
+               for c in ("plan", "run")}
+    assert tuple(profile["run"].choices) == tuple(profile["plan"].choices) \
+        == contract.cli_choices("profile")
+    assert "optimal" in profile["run"].choices
+    assert profile["plan"].default == contract.field("profile").default == "optimal"
+    assert "optimal" in profile["run"].help     # run: the file's [plan], else plan's default
+    assert parser.parse_args(["run", "x.toml", "--profile", "optimal"]).profile == "optimal"
+
+
+def test_scan_takes_arm_and_config_is_a_deprecated_alias(capsys):
+    parser = cli.build_parser()
+    assert parser.parse_args(["scan", "--arm", "arm2r"]).arm == "arm2r"
+    assert "deprecated" not in capsys.readouterr().err
+    assert parser.parse_args(["scan", "--config", "arm2r"]).arm == "arm2r"
+    err = capsys.readouterr().err
+    assert "--config is deprecated, use --arm" in err and err.startswith("robodcn: warning:")
+    # the arm's [bus] port is the device: a missing one is a bus fault naming it
+    out = run("scan", "--arm", str(ARM3R), "--ids", "1")
+    assert out.returncode == 4 and "/dev/ttyUSB0" in out.stderr, out.stderr
+    out = run("scan", "--config", str(ARM3R), "--ids", "1")
+    assert out.returncode == 4 and "deprecated, use --arm" in out.stderr, out.stderr
+
+
+@pytest.mark.parametrize("argv, command, suggestion", [
+    (["plan", "--to", "0.12,0.24,60", "--metod", "dlb"], "robodcn plan", "--method"),
+    (["plan", "--to", "0.12,0.24,60", "--durration=2"], "robodcn plan", "--duration"),
+    (["servo", "info", "--jsn"], "robodcn servo info", "--json"),
+    (["scan", "--device", "/dev/null", "--al-bauds"], "robodcn scan", "--all-bauds"),
+])
+def test_a_typod_option_gets_did_you_mean_and_its_commands_usage(capsys, argv, command,
+                                                                 suggestion):
+    with pytest.raises(SystemExit) as exc:
+        cli.main(argv)
+    err = capsys.readouterr().err
+    lines = err.strip().splitlines()
+    assert exc.value.code == 2 and len(lines) == 1, err
+    assert lines[0].startswith(f"{command}: unrecognized arguments"), err
+    assert f"did you mean {suggestion}?" in err and f"see '{command} --help'" in err, err
+    with pytest.raises(SystemExit):
+        cli.main(["plan", "--to", "0.12,0.24,60", "--zzzzzz"])
+    err = capsys.readouterr().err
+    assert "did you mean" not in err and "see 'robodcn plan --help'" in err
+
+
+def test_plan_csv_headers_carry_units(tmp_path):
+    out = run("plan", "--arm", str(ARM3R), "--to", "0.12,0.24,60", "--rate", "50",
+              "--format", "csv", "-q")
+    assert out.returncode == 0, out.stderr
+    rows = [line.split(",") for line in out.stdout.strip().splitlines()]
+    assert rows[0] == ["t_s", "x_m", "y_m", "theta_rad", "q_shoulder_rad", "q_elbow_rad",
+                       "q_wrist_rad", "tick_1", "tick_2", "tick_3"]
+    traj = robodcn.plan(robodcn.load_arm(ARM3R), [[0.25, 0.10, 0.0],
+                                                  [0.12, 0.24, math.radians(60)]], rate_hz=50)
+    body = np.array(rows[1:], dtype=float)
+    assert np.array_equal(body[:, 0], traj.t) and np.array_equal(body[:, 1:4], traj.poses)
+    assert np.array_equal(body[:, 4:7], traj.joints) and np.array_equal(body[:, 7:], traj.ticks)

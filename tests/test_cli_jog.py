@@ -151,3 +151,21 @@ def test_sim_on_a_terminal_shows_the_keys_and_pauses_and_resumes():
         text = term.close()
     assert "paused" in text and "resumed" in text, text
     assert "space pause/resume" in text
+
+
+def test_ctrl_c_exits_130_with_a_closing_summary(capsys):
+    """Ctrl-C (the key in raw mode) ends jog like sim and move: exit 130, and a summary."""
+    from robodcn.cli import build_parser
+    from robodcn.cli.jog_cmd import run_jog
+
+    args = build_parser().parse_args(["jog", "--sim", "--timing", "fast", "--rate", "100",
+                                      "--arm", str(ARM3R.source)])
+    code = run_jog(args, Script([(0.0, "right"), (0.5, "\x03")]))
+    err = capsys.readouterr().err
+    assert code == 130, err
+    summary = err.strip().splitlines()[-1]
+    assert summary.startswith("jog: 1 move(s), 0 retarget(s)") and "ended at x=+0.2" in summary
+    assert summary.endswith("stopped by Ctrl-C"), summary
+    code = run_jog(args, Script([(0.0, "q")]))            # q: a plain end, exit 0
+    summary = capsys.readouterr().err.strip().splitlines()[-1]
+    assert code == 0 and summary.startswith("jog: 0 move(s)") and "Ctrl-C" not in summary

@@ -196,3 +196,25 @@ def test_commands_as_processes_against_python_m_firmware_sim():
     finally:
         proc.send_signal(signal.SIGTERM)
         assert proc.wait(timeout=10) == 0
+
+
+@pytest.mark.parametrize("argv", [["pose"], ["pose", "--json"], ["torque", "off"],
+                                  ["servo", "info"], ["servo", "info", "--json"]])
+def test_servos_of_another_model_are_warned_about(monkeypatch, capsys, argv):
+    """pose / torque / servo info carry on (they are how one finds out) but say it."""
+    models = {1: "xm430-w350", 2: "xl430-w250", 3: "xm430-w350"}
+    with SimBus((1, 2, 3), model=models, timing="fast", log=False) as other:
+        code = _cli(monkeypatch, other, *argv)
+    captured = capsys.readouterr()
+    assert code == 0, captured.err
+    warnings = [line for line in captured.err.splitlines() if "warning" in line]
+    assert len(warnings) == 1, captured.err
+    assert warnings[0].startswith("robodcn: warning: servo 2 (joint 'elbow') answers as model "
+                                  "xl430-w250") and "the config says xm430-w350" in warnings[0]
+    assert "warning" not in captured.out
+
+
+def test_servos_of_the_configured_model_bring_no_warning(sim, monkeypatch, capsys):
+    for argv in (["pose"], ["torque", "off"], ["servo", "info"]):
+        assert _cli(monkeypatch, sim, *argv) == 0
+        assert "warning" not in capsys.readouterr().err

@@ -160,3 +160,30 @@ def test_updated_toml_keeps_radian_keys_in_radians():
     assert data["joints"][0]["min"] == -1.5 and "min_deg" not in data["joints"][0]
     assert data["joints"][1]["min_deg"] == round(math.degrees(-1.5), 1)
     assert data["joints"][2]["servo"]["direction"] == 1
+
+
+def test_a_joint_that_did_not_move_is_asked_again_and_the_rest_kept(sim, monkeypatch,
+                                                                     tmp_path, capsys):
+    """No motion in a direction step: asked again (the joints done are kept), 's' skips."""
+    out = tmp_path / "arm.toml"
+    steps = _steps(sim)
+    script = [steps[0], steps[1], steps[2],                  # reference, shoulder done
+              "",                                            # elbow: not moved yet
+              steps[3], "s",                                 # moved now; skip its range
+              "", "s"]                                       # wrist never moves: skipped
+    code = run_cli(monkeypatch, ["calibrate", "--arm", ARM3R, "--device", sim.port_path,
+                                 "--out", str(out), "--yes"], script)
+    captured = capsys.readouterr()
+    assert code == 0, captured.err
+    assert "joint 'elbow' moved 0 ticks" in captured.err and "s: skip this joint" in captured.err
+    assert "joint 'wrist': skipped" in captured.err
+    arm = load_arm(out)
+    original = load_arm(ARM3R)
+    assert [s.zero_offset for s in arm.servos] == [TRUE_ZERO[1], TRUE_ZERO[2], TRUE_ZERO[3]]
+    assert [s.direction for s in arm.servos] == [1, -1, original.servos[2].direction]
+    shoulder = arm.joints[0].servo
+    assert (shoulder.min_tick, shoulder.max_tick) == (500 + MARGIN, 3600 - MARGIN)
+    wrist, was = arm.joints[2], original.joints[2]
+    assert (wrist.servo.min_tick, wrist.servo.max_tick) == (was.servo.min_tick,
+                                                            was.servo.max_tick)
+    assert (wrist.min_angle, wrist.max_angle) == (was.min_angle, was.max_angle)

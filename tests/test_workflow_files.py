@@ -136,3 +136,22 @@ def test_per_segment_beta_round_trips_through_the_file(tmp_path):
     path.write_text(waypoints_toml(poses, arm_name="arm3r", method="kenlerp",
                                    beta=[0.2, 1.5]))
     assert files.load_waypoints(path).plan_fields()["beta"] == (0.2, 1.5)
+
+
+def test_waypoints_plan_fields_are_checked_by_the_contract(tmp_path):
+    """[plan] takes what a plan request takes (robodcn.contract), the error naming file and
+    key: the optimal profile, the contract's rate range, blend a boolean."""
+    path = tmp_path / "p.toml"
+    rows = "[[waypoints]]\nx = 0.25\ny = 0.1\n\n[[waypoints]]\nx = 0.12\ny = 0.24\n"
+    path.write_text("[plan]\nprofile = \"optimal\"\nrate_hz = 250\n" + rows)
+    assert files.load_waypoints(path).options == {"profile": "optimal", "rate_hz": 250.0}
+    for plan_line, needle in (("rate_hz = 5000", "plan.rate_hz: must be within 1..1000 Hz, "
+                                                 "got 5000"),
+                              ("blend = 1", "plan.blend: must be true or false, got 1"),
+                              ("profile = \"fast\"", "plan.profile: must be one of optimal, "),
+                              ("duration = -1", "plan.duration: must be greater than 0")):
+        path.write_text(f"[plan]\n{plan_line}\n" + rows)
+        with pytest.raises(InputError) as exc:
+            files.load_waypoints(path)
+        assert str(exc.value).startswith(f"{path}: {needle}"), exc.value
+        assert not hasattr(exc.value, "reason")      # the CLI prints it as is, file named

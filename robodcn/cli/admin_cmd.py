@@ -1,5 +1,9 @@
 """Servo administration: ``robodcn pose``, ``torque``, ``reboot`` and ``servo info | set-id |
-set-baud`` over :mod:`robodcn.workflow.admin`; the tables and lines printed are made here."""
+set-baud`` over :mod:`robodcn.workflow.admin`; the tables and lines printed are made here.
+
+``pose``, ``torque`` and ``servo info`` warn (one line per servo, on stderr) when a servo
+answers as another model than the config's, and carry on: they are how one finds out.
+"""
 
 from __future__ import annotations
 
@@ -11,7 +15,14 @@ import time
 from robodcn.cli import options
 from robodcn.cli.dialogue import confirm
 from robodcn.cli.exit_codes import Exit
-from robodcn.cli.servo_session import add_bus_options, baud_of, device_of, open_bus
+from robodcn.cli.servo_session import (
+    add_bus_options,
+    baud_of,
+    check_models,
+    device_of,
+    open_bus,
+    warn_models,
+)
 from robodcn.config import Arm
 from robodcn.errors import InputError, StoppedError
 
@@ -52,6 +63,7 @@ def run_pose(args: argparse.Namespace) -> int:
 
     arm = options.load_arm(args)
     with open_bus(args, arm) as bus:
+        check_models(bus, arm)
         n = 0
         try:
             while True:
@@ -86,6 +98,7 @@ def run_torque(args: argparse.Namespace) -> int:
     arm = options.load_arm(args)
     ids = joint_ids(arm, args.joint)
     with open_bus(args, arm) as bus:
+        check_models(bus, arm)
         set_torque(bus, arm, args.state == "on", args.joint)
     print(f"torque {args.state}: servo(s) {', '.join(map(str, ids))}")
     return Exit.DONE
@@ -164,11 +177,13 @@ def servo_table(arm: Arm, rows: list[dict]) -> str:
 
 
 def run_servo_info(args: argparse.Namespace) -> int:
-    from robodcn.workflow.admin import servo_info
+    from robodcn.workflow.admin import model_mismatches, servo_info
 
     arm = options.load_arm(args)
     with open_bus(args, arm) as bus:
         rows = servo_info(bus)
+    warn_models(model_mismatches(arm, {r["id"]: r["model_number"] for r in rows
+                                       if r["answered"]}))
     if args.json:
         print(json.dumps({"device": device_of(args, arm), "servos": rows}, indent=2))
     else:

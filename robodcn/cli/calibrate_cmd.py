@@ -2,7 +2,9 @@
 
 The dialogue over :class:`robodcn.workflow.calibrate.Calibrator`: prompts on stderr, one
 answer line each from stdin (:mod:`robodcn.cli.dialogue`); the diff of the arm TOML on
-stdout; ``--out`` written only when confirmed (or ``--yes``).
+stdout; ``--out`` written only when confirmed (or ``--yes``). A joint that did not move
+in the direction step is asked for again (``s`` skips it, keeping its configured direction
+and range); the joints done so far are kept.
 """
 
 from __future__ import annotations
@@ -15,7 +17,7 @@ from robodcn.cli.dialogue import confirm, say, stdin_prompt
 from robodcn.cli.servo_session import add_bus_options, open_bus
 from robodcn.errors import InputError, StoppedError
 
-#: Answers that skip a joint's range step.
+#: Answers that skip a joint's range step, or a joint that did not move.
 SKIP_ANSWERS = ("s", "skip")
 
 
@@ -60,11 +62,17 @@ def dialogue(calibrator, *, ranges: bool):
         _ask(f"Turn joint {spec.name!r} (servo {spec.servo.id}) a little in its positive "
              "direction and press Enter")
         motion = calibrator.motion(j)
+        while motion.direction is None:
+            answer = _ask(f"joint {spec.name!r} moved {motion.moved_ticks} ticks "
+                          f"({motion.moved_deg:.1f}°): turn it at least "
+                          f"{calibrator.min_motion_deg:g}° in its positive direction and press "
+                          "Enter (s: skip this joint, keeping its direction and range)")
+            if answer in SKIP_ANSWERS:
+                calibrator.skip(j)
+                break
+            motion = calibrator.motion(j)
         if motion.direction is None:
-            raise InputError(f"joint {spec.name!r} moved {motion.moved_ticks} ticks "
-                             f"({motion.moved_deg:.1f}°): turn it at least "
-                             f"{calibrator.min_motion_deg:g}° in its positive direction",
-                             field=f"joints[{j}].servo.direction", value=motion.moved_ticks)
+            continue
         if ranges:
             with calibrator.sampling() as sampler:
                 answer = _ask(f"Move joint {spec.name!r} slowly through its whole range and "

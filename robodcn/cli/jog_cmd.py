@@ -6,7 +6,9 @@ from where the arm is commanded to be, moving or not (:meth:`Execution.retarget`
 presses in quick succession blend into one motion. The status line shows the target, the
 commanded pose and the tracking error. ``q`` or Ctrl-C stops smoothly along the path and
 quits; a second Ctrl-C holds at once. ``--sim`` jogs a simulated arm, else the servos on
-``--device``.
+``--device``. It ends with one summary line (moves, retargets, where the arm was
+commanded) and exits 0 after ``q``, 130 after Ctrl-C (as ``sim`` and ``move``), 4 after a
+fault.
 """
 
 from __future__ import annotations
@@ -80,6 +82,8 @@ class Jogger:
         self.reports: list[Any] = []
         #: key presses applied in flight (a retarget of a running move)
         self.retargets = 0
+        #: ended by Ctrl-C (exit code 130, as sim and move), not by q
+        self.interrupted = False
 
     # -- motion ---------------------------------------------------------------------------
 
@@ -123,6 +127,7 @@ class Jogger:
     def key(self, key: str) -> None:
         """One key press."""
         if key in ("q", "\x03"):
+            self.interrupted = self.interrupted or key == "\x03"
             self.stop("smooth")
             return
         if key == " " and self.execution is not None and not self.execution.done:
@@ -146,6 +151,23 @@ class Jogger:
         if self.execution is not None and not self.execution.done:
             self.execution.stop(mode, "stopped by the jog keys")
 
+    def _interrupt(self, mode: str) -> None:
+        self.interrupted = True
+        self.stop(mode)
+
+    def summary(self) -> str:
+        """The closing line: moves, retargets, outcomes and where the arm was commanded."""
+        outcomes: dict[str, int] = {}
+        for report in self.reports:
+            if report is not None:
+                outcomes[report.outcome] = outcomes.get(report.outcome, 0) + 1
+        c = self.commanded
+        ended = ", ".join(f"{n} {k}" for k, n in sorted(outcomes.items())) or "no move"
+        return (f"jog: {len(self.reports)} move(s), {self.retargets} retarget(s) in flight "
+                f"({ended}); ended at x={c[0]:+.3f} m, y={c[1]:+.3f} m, "
+                f"θ={math.degrees(c[2]):+.1f}°"
+                + ("; stopped by Ctrl-C" if self.interrupted else ""))
+
     def finish(self, timeout: float = 10.0) -> None:
         if self.execution is not None:
             self.execution.wait(timeout)
@@ -165,7 +187,7 @@ class Jogger:
 
     def run(self, read_key: Callable[[float], str | None], poll: float = 0.05) -> None:
         """Until q/Ctrl-C: read keys (``read_key(timeout)``) and show the status line."""
-        ctrl_c = keys.CtrlC(lambda: self.stop("smooth"), lambda: self.stop("hold"))
+        ctrl_c = keys.CtrlC(lambda: self._interrupt("smooth"), lambda: self._interrupt("hold"))
         self.out.write(HELP + "\n")
         with ctrl_c.installed():
             while not self.quit:
@@ -210,5 +232,9 @@ def _jog(jogger: Jogger, read_key: Callable[[float], str | None] | None) -> int:
     else:
         with keys.TerminalKeys() as terminal:
             jogger.run(terminal)
+    jogger.out.write(jogger.summary() + "\n")
+    jogger.out.flush()
     faults = [r for r in jogger.reports if r is not None and r.outcome == "fault"]
-    return int(Exit.FAULT if faults else Exit.DONE)
+    if faults:
+        return int(Exit.FAULT)
+    return int(Exit.STOPPED if jogger.interrupted else Exit.DONE)

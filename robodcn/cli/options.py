@@ -35,6 +35,43 @@ class Parser(argparse.ArgumentParser):
 
         self.exit(2, one_line(f"{self.prog}: {message} (see '{self.prog} --help')") + "\n")
 
+    def parse_known_args(self, args=None, namespace=None):  # type: ignore[override]
+        namespace, extras = super().parse_known_args(args, namespace)
+        if extras and self._subparsers is None:
+            return namespace, extras
+        if extras:
+            # argparse leaves a subcommand's unknown options to the top-level parser, which
+            # would point at the top-level help: the (sub)command that got them says it.
+            command = self._command_parser(namespace)
+            command.error(f"unrecognized arguments: {' '.join(extras)}"
+                          + command.suggestion(extras))
+        return namespace, extras
+
+    def _command_parser(self, namespace: argparse.Namespace) -> Parser:
+        """The deepest (sub)command parser ``namespace`` was parsed by."""
+        parser: Parser = self
+        while parser._subparsers is not None:
+            action = next(a for a in parser._subparsers._group_actions
+                          if isinstance(a, argparse._SubParsersAction))
+            chosen = getattr(namespace, action.dest, None)
+            if chosen not in action.choices:
+                break
+            parser = action.choices[chosen]
+        return parser
+
+    def suggestion(self, extras: Sequence[str]) -> str:
+        """``"; did you mean --to?"`` for the first unknown option close to one of ours."""
+        import difflib
+
+        known = [o for a in self._actions for o in a.option_strings if o.startswith("--")]
+        for extra in extras:
+            if extra.startswith("--"):
+                close = difflib.get_close_matches(extra.split("=", 1)[0], known, n=1,
+                                                  cutoff=0.6)
+                if close:
+                    return f"; did you mean {close[0]}?"
+        return ""
+
     def _get_values(self, action, arg_strings):
         # argparse drops a "--" value (``--beta=--``) and hands the option an empty list.
         if action.option_strings and action.nargs is None and arg_strings == ["--"]:
@@ -283,6 +320,17 @@ def add_logging_options(p: argparse.ArgumentParser) -> None:
                    help=f"log level: {', '.join(LOG_LEVELS)} (default WARNING; overrides -v)")
 
 
+class Deprecated(argparse.Action):
+    """An old spelling of an option (``scan --config`` for ``--arm``): stores into the new
+    option's ``dest`` and says on stderr which option to use instead."""
+
+    def __call__(self, parser, namespace, values, option_string=None):
+        new = "--" + self.dest.replace("_", "-")
+        print(f"robodcn: warning: {parser.prog} {option_string} is deprecated, use {new}",
+              file=sys.stderr)
+        setattr(namespace, self.dest, values)
+
+
 class _DeprecatedPort(argparse.Action):
     """``--port DEV`` on move/scan: the old spelling of ``--device`` (a note on stderr)."""
 
@@ -358,7 +406,8 @@ def add_arm_option(p: argparse.ArgumentParser) -> None:
                         f"$ROBODCN_ARM, else {DEFAULT_ARM} here, else the arm3r example")
 
 
-__all__ = ["DEFAULT_ARM", "NEGATIVE_POSE", "Parser", "add_arm_option", "add_device_options",
+__all__ = ["DEFAULT_ARM", "NEGATIVE_POSE", "Deprecated", "Parser", "add_arm_option",
+           "add_device_options",
            "add_logging_options", "baud", "check_output_path", "check_plot_path", "choice_list",
            "configure_logging", "device", "duration", "finite_float", "finite_floats", "host_bauds",
            "id_list",

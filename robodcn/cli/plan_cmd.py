@@ -7,7 +7,7 @@ import sys
 
 from robodcn.cli import motion_cmd, options, planning
 from robodcn.cli.output import emit
-from robodcn.cli.report_text import plan_summary, plan_table
+from robodcn.cli.report_text import plan_csv, plan_summary, plan_table
 from robodcn.errors import InputError
 
 
@@ -19,7 +19,9 @@ def register(subparsers: argparse._SubParsersAction) -> None:
                     "speed and acceleration against its limit) goes to stderr first. Nothing "
                     "is sent to any servo.")
     planning.add_motion_options(p, start_help="start pose (default: the arm's home pose)")
-    p.add_argument("--format", choices=("table", "json", "csv"), default="table")
+    p.add_argument("--format", choices=("table", "json", "csv"), default="table",
+                   help="table (degrees), Trajectory JSON, or CSV (SI; headers carry the "
+                        "units: t_s, x_m, y_m, theta_rad, q_<joint>_rad, tick_<id>)")
     p.add_argument("--out", metavar="FILE", help="write to FILE instead of standard output")
     p.add_argument("-q", "--quiet", action="store_true", help="no summary")
     motion_cmd.add_plot_option(p)
@@ -36,7 +38,7 @@ def run(args: argparse.Namespace) -> int:
     if not args.quiet:
         print(plan_summary(traj, arm), file=sys.stderr, flush=True)
     text = {"table": plan_table, "json": lambda tr: tr.to_json() + "\n",
-            "csv": lambda tr: tr.to_csv()}[args.format](traj)
+            "csv": plan_csv}[args.format](traj)
     if args.out is not None:
         try:
             with open(args.out, "w") as out:

@@ -9,8 +9,12 @@ and the collision-stop threshold; then where a limit came within 10 %.
 
 from __future__ import annotations
 
+import csv
+import io
 import math
 from typing import Any
+
+import numpy as np
 
 _FAULTS = {"comm_failure": "bus fault", "hardware_alert": "hardware alert",
            "tracking_error": "tracking error"}
@@ -164,5 +168,19 @@ def plan_table(traj: Any) -> str:
     return "\n".join(lines) + "\n"
 
 
-__all__ = ["approach_seconds", "headline", "near_limit_line", "plan_summary", "plan_table",
-           "report_dict", "report_text"]
+def plan_csv(traj: Any) -> str:
+    """``plan --format csv``: one row per sample, SI values at full precision, every header
+    naming its unit: t_s, x_m, y_m, theta_rad, q_<joint>_rad, tick_<servo id> (ticks)."""
+    out = io.StringIO()
+    writer = csv.writer(out, lineterminator="\n")
+    writer.writerow(["t_s", "x_m", "y_m", "theta_rad",
+                     *(f"q_{n}_rad" for n in traj.joint_names),
+                     *(f"tick_{i}" for i in traj.servo_ids)])
+    floats = np.column_stack([traj.t, traj.poses, traj.joints])
+    for row, ticks in zip(floats.tolist(), traj.ticks.tolist(), strict=True):
+        writer.writerow([repr(v) for v in row] + ticks)
+    return out.getvalue()
+
+
+__all__ = ["approach_seconds", "headline", "near_limit_line", "plan_csv", "plan_summary",
+           "plan_table", "report_dict", "report_text"]

@@ -22,10 +22,12 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         description="Ping for Dynamixel Protocol 2.0 servos on DEV at each baud rate given. "
                     "Without --ids a broadcast ping is used (about 0.8 s per baud rate). "
                     "Exit code 4 when no servo answers.")
-    options.add_device_options(p, default_help="default: the [bus] port of --config",
+    options.add_device_options(p, default_help="default: the [bus] port of --arm",
                                repeat_baud=True)
-    p.add_argument("--config", metavar="FILE|NAME",
+    p.add_argument("--arm", metavar="FILE|NAME",
                    help="arm TOML (or example name) whose [bus] gives device and baud")
+    p.add_argument("--config", dest="arm", metavar="FILE|NAME", action=options.Deprecated,
+                   help="deprecated spelling of --arm")
     p.add_argument("--all-bauds", action="store_true",
                    help="try every baud rate the Python SDK can set (9600 .. 4000000)")
     p.add_argument("--ids", type=options.id_list, help="ping only these ids, e.g. 1,2,5-8")
@@ -37,12 +39,12 @@ def run(args: argparse.Namespace) -> int:
     from robodcn.bus import lower_latency_timer, scan
 
     device, bauds = args.device, args.baud
-    if args.config is not None:
-        arm = options.load_arm(argparse.Namespace(arm=args.config), option="--config")
+    if args.arm is not None:
+        arm = options.load_arm(args)
         device = device if device is not None else arm.bus.port
         bauds = bauds or [arm.bus.baud]
     if not device:
-        raise InputError("scan needs --device DEV (or --config with a [bus] port)",
+        raise InputError("scan needs --device DEV (or --arm with a [bus] port)",
                          field="--device")
     if args.all_bauds:
         bauds = options.host_bauds()

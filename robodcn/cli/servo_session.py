@@ -40,4 +40,26 @@ def open_bus(args: argparse.Namespace, arm: Arm):
     return ServoBus(device, baud_of(args, arm), servos=arm.servos, retries=3).open()
 
 
-__all__ = ["add_bus_options", "baud_of", "device_of", "open_bus"]
+def model_warning(mismatch) -> str:
+    """One :class:`robodcn.workflow.admin.ModelMismatch` in words."""
+    return (f"servo {mismatch.servo_id} (joint {mismatch.joint!r}) answers as model "
+            f"{mismatch.found or '?'} (number {mismatch.found_number}), the config says "
+            f"{mismatch.configured} (number {mismatch.configured_number or '?'}): its ticks "
+            "and limits may not be the config's; 'robodcn move' refuses this arm")
+
+
+def warn_models(mismatches) -> None:
+    """A ``robodcn: warning:`` line per servo whose model differs from the config's."""
+    for mismatch in mismatches:
+        say(f"robodcn: warning: {model_warning(mismatch)}")
+
+
+def check_models(bus, arm: Arm) -> None:
+    """PING the arm's servos and warn (:func:`warn_models`) about those of another model."""
+    from robodcn.workflow.admin import bus_model_mismatches
+
+    warn_models(bus_model_mismatches(bus, arm))
+
+
+__all__ = ["add_bus_options", "baud_of", "check_models", "device_of", "model_warning",
+           "open_bus", "warn_models"]

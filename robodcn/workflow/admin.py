@@ -10,7 +10,7 @@ first. Each function checks its arguments before the first write.
 from __future__ import annotations
 
 import logging
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from typing import Any
 
@@ -25,6 +25,8 @@ from robodcn.bus import (
     ADDR_OPERATING_MODE,
     ADDR_TORQUE_ENABLE,
     BAUD_INDEX,
+    MODEL_NAMES,
+    MODEL_NUMBERS,
     ServoBus,
     describe_hardware_error,
 )
@@ -126,6 +128,39 @@ def servo_info(bus: ServoBus) -> list[dict[str, Any]]:
             "temperature_c": bus.read(servo_id, ADDR_PRESENT_TEMPERATURE, 1)[0],
         })
     return out
+
+
+# -- models --------------------------------------------------------------------------------------
+
+@dataclass(frozen=True)
+class ModelMismatch:
+    """A servo that answers as another model than the arm's config says."""
+
+    servo_id: int
+    joint: str
+    configured: str
+    configured_number: int | None
+    found: str | None
+    found_number: int
+
+
+def model_mismatches(arm: Arm, found: Mapping[int, int]) -> list[ModelMismatch]:
+    """The servos of ``arm`` whose model number in ``found`` (id → model number, of the
+    servos that answered) is not their configured model's."""
+    out = []
+    for joint in arm.joints:
+        number = found.get(joint.servo.id)
+        want = MODEL_NUMBERS.get(joint.servo.model)
+        if number is not None and number != want:
+            out.append(ModelMismatch(joint.servo.id, joint.name, joint.servo.model, want,
+                                     MODEL_NAMES.get(number), number))
+    return out
+
+
+def bus_model_mismatches(bus: ServoBus, arm: Arm) -> list[ModelMismatch]:
+    """:func:`model_mismatches` of the servos that answer a PING on ``bus``."""
+    found = {i: info.model_number for i, info in bus.ping_all().items()}
+    return model_mismatches(arm, found)
 
 
 # -- id and baud ---------------------------------------------------------------------------------
