@@ -312,8 +312,9 @@ def test_long_messages_are_cut_in_the_middle_keeping_what_is_wrong(capsys, tmp_p
     assert code == 2
     line, = err.strip().splitlines()
     assert len(line) <= len("robodcn: ") + 400
-    assert "arm.bogus" in line and line.endswith("unknown key (allowed: base_yaw, elbow, home, links, name, plane, rest, "
-                                              "shoulder_height)")
+    assert "arm.bogus" in line
+    assert line.endswith("unknown key (allowed: base_yaw, elbow, home, links, name, plane, "
+                         "rest, shoulder_height)")
 
 
 def test_errors_map_onto_the_table_never_1():
