@@ -15,7 +15,8 @@ Fault flags take ``TARGET[:key=value,...]`` where TARGET is a servo ID or ``bus`
 
 Physics (default): the firmware's controller drives a DC motor, gearbox and load;
 ``--dynamics off`` gives the kinematic model (Present Position = the profile).
-``--arm configs/arm3r.toml`` makes the servos drive that arm's rigid bodies;
+``--arm configs/arm3r.toml`` (or a name, ``--arm omx``) makes the servos drive that arm's
+rigid bodies, with its gripper servo if it has one;
 ``--control PATH`` serves "move ID TICKS", "push ID NM", "obstacle ID DEG" on a UNIX socket.
 """
 
@@ -132,7 +133,9 @@ def parser() -> argparse.ArgumentParser:
     p.add_argument("--seed", type=int, help="seed for probabilistic faults")
     p.add_argument("--dynamics", choices=("on", "off"), default="on",
                    help="physics model (on, default) or the kinematic model (off)")
-    p.add_argument("--arm", metavar="TOML", help="arm file whose rigid bodies the servos drive")
+    p.add_argument("--arm", metavar="TOML|NAME",
+                   help="arm file whose rigid bodies the servos drive, or an arm's name "
+                        "(omx: configs/omx.toml, or the copy packaged with robodcn)")
     p.add_argument("--supply", type=float, default=12.0, metavar="V",
                    help="supply voltage, V (default 12)")
     p.add_argument("--control", metavar="PATH",

@@ -1,28 +1,34 @@
-"""Planar serial-chain rigid-body dynamics of an arm, read from its TOML file.
+"""An arm's mass properties and joint ↔ servo maps, read from its TOML file.
 
 firmware_sim reads the arm file itself (``tomllib``): the other side of the wire never
-depends on robodcn. It uses ``[arm] links``, each ``[joints.servo]`` (``id``, ``model``,
-``ticks_per_turn``, ``zero_offset``, ``direction``) and an optional ``[dynamics]`` table::
+depends on robodcn. It uses::
 
-    [dynamics]
-    link_masses = [0.10, 0.10, 0.05]   # kg per link (default 0.10 each)
-    link_com = [0.10, 0.075, 0.025]    # m from the link's joint along it (default l/2)
-    link_inertias = [...]              # kg·m² about the centre of mass (default m·l²/12)
-    payload_kg = 0.0                   # point mass at the tool point
-    gravity = [0.0, -9.81]             # m/s² in the arm's plane (default 0: plane horizontal)
+    [arm]
+    links = [0.20, 0.15, 0.05]        # lengths along each link, m (a planar arm), or
+    links = [[0.024, 0.128], ...]     # each link's vector (r, z) at zero, joint → next
+    base_yaw = false                  # true: the first [[joints]] turns the chain's
+                                      #   (vertical) plane about +z; then the chain's
+                                      #   angles are clockwise-positive in (r, z) (ROBOTIS)
+    shoulder_height = 0.0             # m, where the chain starts on the yaw axis
+    [[joints]] ... [joints.servo] id, model, ticks_per_turn, zero_offset, direction
+    [gripper] id, model, zero_offset, ...    # a servo that is not a joint (optional)
 
-Joint i rotates by q_i (rad) relative to link i−1; link angles φ = S·q with S the lower
-triangular matrix of ones. Body b (a link's centre of mass, or the payload) sits at
-p_b = Σ_s L_bs·(cos φ_s, sin φ_s), L_bs = l_s before its link, c_b on it, 0 after.
-With H_sr = Σ_b m_b·L_bs·L_br the kinetic energy is T = ½·φ̇ᵀ·D(φ)·φ̇, D_sr = H_sr·cos(φ_s −
-φ_r) + δ_sr·I_s, and the Euler–Lagrange equations in joint coordinates are::
+An arm may also be named (``load_arm("omx")``, ``--arm omx``): :mod:`.arm_files`.
 
-    M(q)·q̈ + b(q, q̇) = τ,   M = Sᵀ·D·S,
-    b = Sᵀ·(h + g),  h_s = Σ_r H_sr·sin(φ_s − φ_r)·φ̇_r²,  g_s = −(Σ_b m_b L_bs)·(G · e⊥(φ_s))
+    [dynamics]                        # every key optional
+    link_masses = [...]               # kg per link (default 0.10 each)
+    link_com = [...]                  # per link from its joint: m along it, or [r, z] at zero
+                                      #   (default half the link)
+    link_inertias = [...]             # kg·m² about the centre of mass (default m·l²/12)
+    payload_kg = 0.0                  # point mass at the tool point
+    gravity = [0.0, -9.81]            # m/s² in the arm's plane (or true), or
+    gravity_m_s2 = 9.81               # along −z: in (r, z) of a vertical plane
+    yaw_body_mass, yaw_body_com, yaw_body_inertia   # the body turning with the yaw
+                                      #   (its inertia about the yaw axis; default 0)
+    rotor_inertia_kg_m2 = 0.0125      # the servo's J_rotor·N² (one, or one per joint);
+                                      #   default the motor model's
 
-(e⊥(φ) = (−sin φ, cos φ), G the gravity vector): the centrifugal/Coriolis terms of a planar
-chain written in absolute angles (e.g. Spong, Hutchinson & Vidyasagar, *Robot Modeling and
-Control*, §7.4, generalised to n links).
+The equations are in :mod:`firmware_sim.chain`.
 """
 
 from __future__ import annotations
@@ -34,8 +40,17 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
+from firmware_sim.arm_files import SEARCH_DIRS, find_arm, is_name, known_arms
+from firmware_sim.chain import Chain, Vec
+
 #: Default mass of a link, kg (a bracket with the next servo's share of a light arm).
 DEFAULT_LINK_MASS_KG = 0.10
+#: Inertia a gripper's servo carries, kg·m² at its output: jaws and their rack, ~30 g at
+#: ~2 cm (an estimate; tiny beside the rotor's reflected 0.0125 kg·m²).
+GRIPPER_INERTIA_KG_M2 = 1.2e-5
+_DYNAMICS_KEYS = frozenset({"link_masses", "link_com", "link_inertias", "payload_kg",
+                            "gravity", "gravity_m_s2", "yaw_body_mass", "yaw_body_com",
+                            "yaw_body_inertia", "rotor_inertia_kg_m2"})
 
 
 class ArmConfigError(ValueError):
@@ -55,129 +70,108 @@ class JointMap:
 
 @dataclass(frozen=True)
 class ArmModel:
-    """A planar arm's mass properties and its joint ↔ servo maps (SI units).
+    """An arm's mass properties and its joint ↔ servo maps (SI units).
 
     Attributes
     ----------
-    links : tuple of float
-        Link lengths l_i, m.
-    masses, com, inertias : tuple of float
-        Per link: mass (kg), centre of mass from its joint (m), inertia about it (kg·m²).
+    links : tuple of (float, float)
+        Each chain link's vector at zero, m (a length l reads as (l, 0)).
+    masses, inertias : tuple of float
+        Per link: mass (kg), inertia about its centre of mass (kg·m²).
+    com : tuple of (float, float)
+        Per link: centre of mass at zero from its joint, m.
     payload : float
         Point mass at the tool point, kg.
-    gravity : tuple of float
-        (gx, gy) in the arm's plane, m/s².
+    gravity : (float, float)
+        In the chain's plane, m/s².
     joints : tuple of JointMap
+        In joint order (the yaw first with ``base_yaw``).
+    base_yaw : bool
+        The first joint turns the chain's plane about the vertical.
+    yaw_inertia : float
+        The yaw body's inertia about the yaw axis, kg·m².
+    rotor_inertia : tuple of float or None
+        Per joint the servo's reflected rotor inertia, kg·m² (None: the motor model's).
+    gripper : JointMap or None
+        A servo that is not a joint of the chain.
+    shoulder_height : float
+        The chain's first joint above the base, m.
     """
 
-    links: tuple[float, ...]
+    links: tuple[Vec, ...]
     masses: tuple[float, ...]
-    com: tuple[float, ...]
+    com: tuple[Vec, ...]
     inertias: tuple[float, ...]
     payload: float
-    gravity: tuple[float, float]
+    gravity: Vec
     joints: tuple[JointMap, ...]
+    base_yaw: bool = False
+    yaw_inertia: float = 0.0
+    rotor_inertia: tuple[float, ...] | None = None
+    gripper: JointMap | None = None
+    shoulder_height: float = 0.0
+
+    def __post_init__(self) -> None:
+        chain = Chain(self.links, self.masses, self.com, self.inertias, self.payload,
+                      self.gravity, sign=-1 if self.base_yaw else 1,
+                      yaw_inertia=self.yaw_inertia if self.base_yaw else None,
+                      origin=(0.0, self.shoulder_height))
+        object.__setattr__(self, "chain", chain)
 
     @property
     def dof(self) -> int:
-        return len(self.links)
-
-    def _bodies(self) -> list[tuple[float, list[float]]]:
-        """(mass, L_b·) per body: each link's centre of mass, then the payload."""
-        n = self.dof
-        out = []
-        for b in range(n):
-            out.append((self.masses[b], [self.links[s] if s < b else (self.com[b] if s == b
-                                                                         else 0.0)
-                                         for s in range(n)]))
-        if self.payload > 0:
-            out.append((self.payload, list(self.links)))
-        return out
-
-    def __post_init__(self) -> None:
-        n = self.dof
-        bodies = self._bodies()
-        h = [[sum(m * lb[s] * lb[r] for m, lb in bodies) for r in range(n)] for s in range(n)]
-        first = [sum(m * lb[s] for m, lb in bodies) for s in range(n)]
-        object.__setattr__(self, "_h", h)
-        object.__setattr__(self, "_first", first)
-
-    def link_angles(self, q: Sequence[float]) -> list[float]:
-        """φ = S·q: each link's angle from the base x axis."""
-        out, acc = [], 0.0
-        for qi in q:
-            acc += qi
-            out.append(acc)
-        return out
+        """Joints (the yaw included)."""
+        return len(self.joints)
 
     def dynamics(self, q: Sequence[float], qd: Sequence[float]
                  ) -> tuple[list[list[float]], list[float]]:
-        """(M(q), b(q, q̇)): joint-space mass matrix and bias torques (module equations)."""
-        n = self.dof
-        h: list[list[float]] = self._h          # type: ignore[attr-defined]
-        first: list[float] = self._first        # type: ignore[attr-defined]
-        phi = self.link_angles(q)
-        phid = self.link_angles(qd)
-        c = [math.cos(p) for p in phi]
-        s = [math.sin(p) for p in phi]
-        d = [[h[a][b] * (c[a] * c[b] + s[a] * s[b]) for b in range(n)] for a in range(n)]
-        for a in range(n):
-            d[a][a] += self.inertias[a]
-        gx, gy = self.gravity
-        bias_phi = []
-        for a in range(n):
-            cor = sum(h[a][b] * (s[a] * c[b] - c[a] * s[b]) * phid[b] * phid[b]
-                      for b in range(n))
-            grav = -first[a] * (gx * -s[a] + gy * c[a])
-            bias_phi.append(cor + grav)
-        # M = Sᵀ D S: M_ij = Σ_{a ≥ i, b ≥ j} D_ab; b = Sᵀ·bias_phi: b_i = Σ_{a ≥ i}
-        suffix = [[0.0] * (n + 1) for _ in range(n + 1)]
-        for a in range(n - 1, -1, -1):
-            for b in range(n - 1, -1, -1):
-                suffix[a][b] = (d[a][b] + suffix[a + 1][b] + suffix[a][b + 1]
-                                - suffix[a + 1][b + 1])
-        m = [[suffix[i][j] for j in range(n)] for i in range(n)]
-        bias, acc = [0.0] * n, 0.0
-        for a in range(n - 1, -1, -1):
-            acc += bias_phi[a]
-            bias[a] = acc
-        return m, bias
+        """(M(q), b(q, q̇)): joint-space mass matrix and bias torques (:mod:`.chain`)."""
+        return self.chain.dynamics(q, qd)            # type: ignore[attr-defined]
 
     def body_positions(self, q: Sequence[float]) -> list[tuple[float, float]]:
-        """Centre of each body (links' centres of mass, then the payload), m."""
-        phi = self.link_angles(q)
-        return [(sum(lb[s] * math.cos(phi[s]) for s in range(self.dof)),
-                 sum(lb[s] * math.sin(phi[s]) for s in range(self.dof)))
-                for _, lb in self._bodies()]
+        """Each body's centre in the chain's plane (links' centres of mass, then the
+        payload), m."""
+        return [(p.real, p.imag) for p in self.chain.plane_positions(q)]  # type: ignore[attr-defined]
 
     def energy(self, q: Sequence[float], qd: Sequence[float]) -> float:
         """Kinetic plus potential energy, J (for conservation checks)."""
-        m, _ = self.dynamics(q, [0.0] * self.dof)
-        kinetic = 0.5 * sum(qd[i] * m[i][j] * qd[j] for i in range(self.dof)
-                            for j in range(self.dof))
-        gx, gy = self.gravity
-        potential = -sum(mass * (gx * x + gy * y) for (mass, _), (x, y)
-                         in zip(self._bodies(), self.body_positions(q), strict=True))
-        return kinetic + potential
+        return self.chain.energy(q, qd)              # type: ignore[attr-defined]
 
 
-def _number(table: Mapping[str, Any], key: str, where: str) -> float:
-    value = table[key]
+# ---- reading the file ---------------------------------------------------------------------
+def _number(value: Any, where: str) -> float:
     if isinstance(value, bool) or not isinstance(value, int | float) or not math.isfinite(value):
-        raise ArmConfigError(f"{where}{key} = {value!r}: expected a finite number")
+        raise ArmConfigError(f"{where} = {value!r}: expected a finite number")
     return float(value)
 
 
-def _per_link(table: Mapping[str, Any], key: str, n: int, default: list[float],
+def _vector(value: Any, where: str) -> Vec:
+    if not isinstance(value, list) or len(value) != 2:
+        raise ArmConfigError(f"{where} = {value!r}: expected a vector [r, z] in metres")
+    return _number(value[0], f"{where}[0]"), _number(value[1], f"{where}[1]")
+
+
+def _links(raw: Any) -> tuple[Vec, ...]:
+    if not isinstance(raw, list) or not 2 <= len(raw) <= 6:
+        raise ArmConfigError(f"arm.links = {raw!r}: expected 2 to 6 lengths (m) or [r, z] "
+                             "vectors")
+    links = tuple(_vector(v, f"arm.links[{i}]") if isinstance(v, list)
+                  else (_number(v, f"arm.links[{i}]"), 0.0) for i, v in enumerate(raw))
+    for i, (v, r) in enumerate(zip(links, raw, strict=True)):
+        if (not isinstance(r, list) and v[0] <= 0) or math.hypot(*v) == 0:
+            raise ArmConfigError(f"arm.links[{i}] = {r!r}: a link must have a positive length")
+    return links
+
+
+def _per_link(dyn: Mapping[str, Any], key: str, n: int, default: list[float],
               positive: bool) -> tuple[float, ...]:
-    if key not in table:
+    if key not in dyn:
         return tuple(default)
-    raw = table[key]
+    raw = dyn[key]
     if not isinstance(raw, list) or len(raw) != n:
         raise ArmConfigError(f"dynamics.{key} = {raw!r}: expected a list of {n} numbers "
                              "(one per link)")
-    values = tuple(_number({f"{key}[{i}]": v}, f"{key}[{i}]", "dynamics.")
-                   for i, v in enumerate(raw))
+    values = tuple(_number(v, f"dynamics.{key}[{i}]") for i, v in enumerate(raw))
     for i, v in enumerate(values):
         if v < 0 or (positive and v == 0):
             raise ArmConfigError(f"dynamics.{key}[{i}] = {v!r}: must be "
@@ -185,72 +179,146 @@ def _per_link(table: Mapping[str, Any], key: str, n: int, default: list[float],
     return values
 
 
+def _com(dyn: Mapping[str, Any], links: tuple[Vec, ...]) -> tuple[Vec, ...]:
+    """Per link the centre of mass vector: given as [r, z], or m along the link."""
+    if "link_com" not in dyn:
+        return tuple((v[0] / 2, v[1] / 2) for v in links)
+    raw = dyn["link_com"]
+    if not isinstance(raw, list) or len(raw) != len(links):
+        raise ArmConfigError(f"dynamics.link_com = {raw!r}: expected {len(links)} entries "
+                             "(one per link: m along it, or [r, z])")
+    out = []
+    for i, (c, v) in enumerate(zip(raw, links, strict=True)):
+        if isinstance(c, list):
+            out.append(_vector(c, f"dynamics.link_com[{i}]"))
+            continue
+        along = _number(c, f"dynamics.link_com[{i}]")
+        if along < 0:
+            raise ArmConfigError(f"dynamics.link_com[{i}] = {along!r}: must be non-negative")
+        length = math.hypot(*v)
+        out.append((along * v[0] / length, along * v[1] / length))
+    return tuple(out)
+
+
+def _gravity(dyn: Mapping[str, Any], vertical: bool) -> Vec:
+    if "gravity" in dyn and "gravity_m_s2" in dyn:
+        raise ArmConfigError("dynamics: give gravity or gravity_m_s2, not both")
+    if "gravity_m_s2" in dyn:
+        g = _number(dyn["gravity_m_s2"], "dynamics.gravity_m_s2")
+        if g < 0:
+            raise ArmConfigError(f"dynamics.gravity_m_s2 = {g!r}: must be non-negative "
+                                 "(it acts along −z)")
+        return (0.0, -g) if vertical else (0.0, 0.0)   # a horizontal plane feels none
+    raw = dyn.get("gravity", [0.0, 0.0])
+    if raw is True:
+        raw = [0.0, -9.81]
+    elif raw is False:
+        raw = [0.0, 0.0]
+    if not isinstance(raw, list) or len(raw) != 2:
+        raise ArmConfigError(f"dynamics.gravity = {raw!r}: expected [gx, gy] in m/s² "
+                             "(or true for [0, -9.81])")
+    return _number(raw[0], "dynamics.gravity[0]"), _number(raw[1], "dynamics.gravity[1]")
+
+
+def _non_negative(dyn: Mapping[str, Any], key: str) -> float:
+    value = _number(dyn[key], f"dynamics.{key}") if key in dyn else 0.0
+    if value < 0:
+        raise ArmConfigError(f"dynamics.{key} = {value!r}: must be non-negative")
+    return value
+
+
+def _rotor(dyn: Mapping[str, Any], dof: int) -> tuple[float, ...] | None:
+    if "rotor_inertia_kg_m2" not in dyn:
+        return None
+    raw = dyn["rotor_inertia_kg_m2"]
+    if isinstance(raw, list):
+        if len(raw) != dof:
+            raise ArmConfigError(f"dynamics.rotor_inertia_kg_m2 = {raw!r}: expected one "
+                                 f"number or {dof} (one per joint)")
+        values = tuple(_number(v, f"dynamics.rotor_inertia_kg_m2[{i}]")
+                       for i, v in enumerate(raw))
+    else:
+        values = (_number(raw, "dynamics.rotor_inertia_kg_m2"),) * dof
+    if any(v < 0 for v in values):
+        raise ArmConfigError(f"dynamics.rotor_inertia_kg_m2 = {raw!r}: must be non-negative")
+    return values
+
+
+def _servo_map(servo: Any, where: str) -> JointMap:
+    if not isinstance(servo, Mapping) or "id" not in servo:
+        raise ArmConfigError(f"{where}.id is missing")
+    ticks = int(servo.get("ticks_per_turn", 4096))
+    jm = JointMap(int(servo["id"]), str(servo.get("model", "xm430-w350")), ticks,
+                  int(servo.get("zero_offset", ticks // 2)), int(servo.get("direction", 1)))
+    if jm.direction not in (1, -1) or jm.ticks_per_turn <= 0:
+        raise ArmConfigError(f"{where}: direction must be ±1 and ticks_per_turn positive, "
+                             f"got {jm.direction}, {jm.ticks_per_turn}")
+    return jm
+
+
 def arm_from_dict(data: Mapping[str, Any]) -> ArmModel:
     """An :class:`ArmModel` from a parsed arm TOML document (keys in the module notes)."""
     try:
-        links_raw = data["arm"]["links"]
+        arm = data["arm"]
+        links_raw = arm["links"]
         joints_raw = data["joints"]
     except (KeyError, TypeError):
         raise ArmConfigError("arm file needs [arm] links and [[joints]] tables") from None
-    if not isinstance(links_raw, list) or not 2 <= len(links_raw) <= 6:
-        raise ArmConfigError(f"arm.links = {links_raw!r}: expected 2 to 6 lengths in metres")
-    links = tuple(_number({f"links[{i}]": v}, f"links[{i}]", "arm.")
-                  for i, v in enumerate(links_raw))
-    if any(v <= 0 for v in links):
-        raise ArmConfigError(f"arm.links = {list(links)}: lengths must be positive")
+    links = _links(links_raw)
     n = len(links)
-    if not isinstance(joints_raw, list) or len(joints_raw) != n:
-        raise ArmConfigError(f"joints: expected {n} [[joints]] tables, one per link")
-    joints = []
-    for i, j in enumerate(joints_raw):
-        servo = j.get("servo") if isinstance(j, Mapping) else None
-        if not isinstance(servo, Mapping) or "id" not in servo:
-            raise ArmConfigError(f"joints[{i}].servo.id is missing")
-        jm = JointMap(int(servo["id"]), str(servo.get("model", "xm430-w350")),
-                      int(servo.get("ticks_per_turn", 4096)),
-                      int(servo.get("zero_offset", int(servo.get("ticks_per_turn", 4096)) // 2)),
-                      int(servo.get("direction", 1)))
-        if jm.direction not in (1, -1) or jm.ticks_per_turn <= 0:
-            raise ArmConfigError(f"joints[{i}].servo: direction must be ±1 and ticks_per_turn "
-                                 f"positive, got {jm.direction}, {jm.ticks_per_turn}")
-        joints.append(jm)
-    ids = [jm.servo_id for jm in joints]
+    base_yaw = arm.get("base_yaw", False)
+    if not isinstance(base_yaw, bool):
+        raise ArmConfigError(f"arm.base_yaw = {base_yaw!r}: expected true or false")
+    plane = arm.get("plane", "vertical" if base_yaw else "horizontal")
+    if plane not in ("horizontal", "vertical") or (base_yaw and plane != "vertical"):
+        raise ArmConfigError(f"arm.plane = {plane!r}: expected 'horizontal' or 'vertical' "
+                             "(a base yaw turns a vertical plane)")
+    height = _number(arm.get("shoulder_height", 0.0), "arm.shoulder_height")
+    dof = n + base_yaw
+    if not isinstance(joints_raw, list) or len(joints_raw) != dof:
+        raise ArmConfigError(f"joints: expected {dof} [[joints]] tables, one per "
+                             f"{'joint (the yaw, then one per link)' if base_yaw else 'link'}")
+    joints = tuple(_servo_map(j.get("servo") if isinstance(j, Mapping) else None,
+                              f"joints[{i}].servo") for i, j in enumerate(joints_raw))
+    gripper = _servo_map(data["gripper"], "gripper") if "gripper" in data else None
+    ids = [jm.servo_id for jm in joints] + ([gripper.servo_id] if gripper else [])
     if len(set(ids)) != len(ids):
-        raise ArmConfigError(f"joints[].servo.id = {ids}: ids must be unique")
+        raise ArmConfigError(f"joints[].servo.id and gripper.id = {ids}: ids must be unique")
     dyn = data.get("dynamics", {})
     if not isinstance(dyn, Mapping):
         raise ArmConfigError(f"dynamics = {dyn!r}: expected a table")
-    known = {"link_masses", "link_com", "link_inertias", "payload_kg", "gravity"}
-    unknown = sorted(set(dyn) - known)
+    unknown = sorted(set(dyn) - _DYNAMICS_KEYS)
     if unknown:
         raise ArmConfigError(f"dynamics: unknown key(s) {', '.join(unknown)}; known: "
-                             f"{', '.join(sorted(known))}")
+                             f"{', '.join(sorted(_DYNAMICS_KEYS))}")
     masses = _per_link(dyn, "link_masses", n, [DEFAULT_LINK_MASS_KG] * n, positive=True)
-    com = _per_link(dyn, "link_com", n, [length / 2 for length in links], positive=False)
     inertias = _per_link(dyn, "link_inertias", n,
-                         [m * length ** 2 / 12 for m, length in zip(masses, links, strict=True)],
+                         [m * (v[0] ** 2 + v[1] ** 2) / 12 for m, v in zip(masses, links,
+                                                                             strict=True)],
                          positive=False)
-    payload = _number(dyn, "payload_kg", "dynamics.") if "payload_kg" in dyn else 0.0
-    if payload < 0:
-        raise ArmConfigError(f"dynamics.payload_kg = {payload!r}: must be non-negative")
-    gravity_raw = dyn.get("gravity", [0.0, 0.0])
-    if gravity_raw is True:
-        gravity_raw = [0.0, -9.81]
-    elif gravity_raw is False:
-        gravity_raw = [0.0, 0.0]
-    if not isinstance(gravity_raw, list) or len(gravity_raw) != 2:
-        raise ArmConfigError(f"dynamics.gravity = {gravity_raw!r}: expected [gx, gy] in m/s² "
-                             "(or true for [0, -9.81])")
-    gravity = (_number({"g": gravity_raw[0]}, "g", "dynamics.gravity "),
-               _number({"g": gravity_raw[1]}, "g", "dynamics.gravity "))
-    return ArmModel(links, masses, com, inertias, payload, gravity, tuple(joints))
+    if "yaw_body_com" in dyn:
+        _vector(dyn["yaw_body_com"], "dynamics.yaw_body_com")   # checked; on the axis
+    _non_negative(dyn, "yaw_body_mass")      # a mass on the yaw axis: no yaw inertia of its own
+    return ArmModel(links, masses, _com(dyn, links), inertias,
+                    _non_negative(dyn, "payload_kg"), _gravity(dyn, plane == "vertical"),
+                    joints, base_yaw=base_yaw, yaw_inertia=_non_negative(dyn, "yaw_body_inertia"),
+                    rotor_inertia=_rotor(dyn, dof), gripper=gripper, shoulder_height=height)
 
 
 def load_arm(source: str | Path | Mapping[str, Any]) -> ArmModel:
-    """An :class:`ArmModel` from a TOML path or an already parsed document."""
+    """An :class:`ArmModel` from a TOML path, an arm name (``"omx"``: looked up by
+    :func:`firmware_sim.arm_files.find_arm`) or an already parsed document."""
     if isinstance(source, Mapping):
         return arm_from_dict(source)
     path = Path(source)
+    if not path.exists() and is_name(source):
+        found = find_arm(str(source))
+        if found is None:
+            raise ArmConfigError(
+                f"arm {str(source)!r}: no such file, and no arm of that name in "
+                f"{' or '.join(str(d) for d in SEARCH_DIRS)} (known: "
+                f"{', '.join(known_arms()) or 'none'})")
+        path = found
     try:
         data = tomllib.loads(path.read_text(encoding="utf-8"))
     except OSError as exc:

@@ -10,7 +10,7 @@ from dataclasses import dataclass
 from types import MappingProxyType
 from typing import Any
 
-from firmware_sim.arm_model import ArmModel, load_arm
+from firmware_sim.arm_model import GRIPPER_INERTIA_KG_M2, ArmModel, load_arm
 from firmware_sim.clock import Clock
 from firmware_sim.control_table import BAUD_RATES, MODELS
 from firmware_sim.motor import DEFAULT_SUPPLY_V
@@ -72,7 +72,7 @@ class SimBusConfig:
     arm : path or mapping, optional
         An arm TOML file (or its parsed dict): its servos drive the arm's rigid-body
         dynamics (:mod:`firmware_sim.arm_model`); needs ``dynamics=True``. Each arm servo
-        starts at its zero_offset.
+        (and the file's gripper servo) starts at its zero_offset.
     positions : mapping id -> int, optional
         Initial Present Position per servo (default 2048).
     supply_voltage : float
@@ -165,10 +165,14 @@ def _check_ids(ids: Iterable[int]) -> list[int]:
 
 def layout(config: SimBusConfig) -> BusLayout:
     """The servos ``config`` describes: ids, models, firmware and start positions, with
-    the arm file's servos (ArmConfigError, a ValueError, for a bad arm file)."""
+    the arm file's servos (ArmConfigError, a ValueError, for a bad arm file). An arm
+    file's ``[gripper]`` servo is on the bus by default (a lone shaft carrying the jaws'
+    :data:`~firmware_sim.arm_model.GRIPPER_INERTIA_KG_M2`)."""
     arm = load_arm(config.arm) if config.arm is not None else None
     arm_ids = [jm.servo_id for jm in arm.joints] if arm is not None else []
-    id_list = _check_ids(config.ids if config.ids is not None else (arm_ids or (1,)))
+    gripper = arm.gripper if arm is not None else None
+    own_ids = arm_ids + ([gripper.servo_id] if gripper is not None else [])
+    id_list = _check_ids(config.ids if config.ids is not None else (own_ids or (1,)))
     model = config.model
     models = dict(model) if isinstance(model, Mapping) else dict.fromkeys(id_list, model)
     start = dict(config.positions or {})
@@ -179,9 +183,11 @@ def layout(config: SimBusConfig) -> BusLayout:
         missing = [i for i in arm_ids if i not in id_list]
         if missing:
             raise ValueError(f"arm servo ids {missing} are not among the bus ids {id_list}")
+        maps = [*arm.joints, *([gripper] if gripper is not None and gripper.servo_id in id_list
+                               else [])]
         if not isinstance(model, Mapping):      # the arm file names its servos' models
-            models.update({jm.servo_id: jm.model for jm in arm.joints})
-        for jm in arm.joints:
+            models.update({jm.servo_id: jm.model for jm in maps})
+        for jm in maps:
             start.setdefault(jm.servo_id, jm.zero_offset)
     fw = config.firmware
     firmwares = dict(fw) if isinstance(fw, Mapping) else dict.fromkeys(id_list, fw)
@@ -191,6 +197,8 @@ def layout(config: SimBusConfig) -> BusLayout:
         if models[i] not in MODELS:
             raise ValueError(f"model {models[i]!r} for servo {i} unknown; known: "
                              f"{sorted(MODELS)}")
+    jaws = gripper.servo_id if gripper is not None else None
     specs = tuple(ServoSpec(i, models[i], int(firmwares.get(i, 46)), int(start.get(i, 2048)),
-                            i in arm_ids) for i in id_list)
+                            i in arm_ids, GRIPPER_INERTIA_KG_M2 if i == jaws else 0.0)
+                  for i in id_list)
     return BusLayout(specs, arm)

@@ -7,10 +7,11 @@ shafts' velocities, the semi-implicit (backward in the damping) Euler equation::
 
     (A + h·C)·ω⁺ = A·ω + h·(τ₀ − b − τ_f),     θ⁺ = θ + h·ω⁺
 
-A = diag(J_rotor·N²) + the arm's mass matrix in shaft coordinates, C = diag(c) the motors'
-back-EMF and viscous damping (:mod:`firmware_sim.drive`), b the arm's Coriolis/centrifugal
-and gravity torques (:mod:`firmware_sim.arm_model`), τ_f Coulomb friction with stiction: a
-shaft slower than ``STICTION_RAD_S`` whose net torque is within ±τ_c stays stuck (ω⁺ = 0).
+A = diag(J_rotor·N² + a lone shaft's load) + the arm's mass matrix in shaft coordinates,
+C = diag(c) the motors' back-EMF and viscous damping (:mod:`firmware_sim.drive`), b the
+arm's Coriolis/centrifugal, yaw-coupling and gravity torques (:mod:`firmware_sim.chain`),
+τ_f Coulomb friction with stiction: a shaft slower than ``STICTION_RAD_S`` whose net torque
+is within ±τ_c stays stuck (ω⁺ = 0).
 An obstacle clamps a shaft at its angle and stops it (an inelastic stop).
 
 Joint i of an arm relates to its servo's shaft by θ = θ₀ + ρ·q with ρ = direction·
@@ -95,9 +96,11 @@ class Plant:
         loads = [0.0] * self.n if load_inertia is None else [float(x) for x in load_inertia]
         if len(loads) != self.n:
             raise ValueError(f"load_inertia needs {self.n} values, got {len(loads)}")
+        rotor = [d.motor.inertia for d in self.drives]
+        if arm is not None and arm.rotor_inertia is not None:
+            rotor = list(arm.rotor_inertia)          # the arm file's J_rotor·N²
         #: Per shaft: the rotor's reflected inertia J_rotor·N² plus its own load, kg·m².
-        self.inertia = [d.motor.inertia + load for d, load in zip(self.drives, loads,
-                                                                   strict=True)]
+        self.inertia = [r + load for r, load in zip(rotor, loads, strict=True)]
         if arm is not None:
             self.rho = [jm.direction * jm.ticks_per_turn / 4096 for jm in arm.joints]
             self.theta0 = [jm.zero_offset / PULSES_PER_RAD for jm in arm.joints]

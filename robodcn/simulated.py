@@ -53,7 +53,10 @@ def start_ticks(arm: Arm, start_joints: ArrayLike | None = None) -> NDArray[np.i
     """Servo ticks (k,) of ``start_joints``, or of the IK of the arm's home pose on its
     preferred elbow branch; InputError naming ``start_joints`` outside the joint limits."""
     if start_joints is None:
-        q = kinematics.ik(arm.links, [arm.home], arm.elbow)[0]
+        if arm.chain is not None:                    # a base yaw: x, y, z, pitch
+            q = kinematics.ik_yawed(arm.chain, np.array([arm.home]), arm.elbow)[0]
+        else:
+            q = kinematics.ik(arm.links, [arm.home], arm.elbow)[0]
         field = "arm.home"
     else:
         try:
@@ -113,7 +116,8 @@ def simulated_arm(arm: Arm, *, timing: str = "realistic", start_joints: ArrayLik
         run shows real tracking lag and current; False: the kinematic model (each goal
         reached at once), for protocol tests.
 
-    The bus runs at the arm's baud rate and is opened, verified against the arm's servos
+    A ``[gripper]`` servo is simulated too (at its zero offset), beside the joints. The
+    bus runs at the arm's baud rate and is opened, verified against the arm's servos
     and configured (position mode, Return Delay Time 0, torque on, holding). On exit the
     bus and the simulator are closed: no threads or file descriptors outlive the block.
     """
@@ -127,11 +131,12 @@ def simulated_arm(arm: Arm, *, timing: str = "realistic", start_joints: ArrayLik
         raise InputError(f"firmware must be a version number 0..255, got {firmware!r}",
                          field="firmware", value=firmware)
     ticks = start_ticks(arm, start_joints)
-    models = {s.id: s.model for s in arm.servos}
+    servos = arm.servos if arm.gripper is None else (*arm.servos, arm.gripper.servo)
+    models = {s.id: s.model for s in servos}
     with contextlib.ExitStack() as stack:
         positions = {i: int(t) for i, t in zip(arm.servo_ids, ticks, strict=True)}
         sim = SimBus(config=SimBusConfig(
-            ids=tuple(arm.servo_ids), model=models, baud=arm.bus.baud, timing=timing,
+            ids=tuple(s.id for s in servos), model=models, baud=arm.bus.baud, timing=timing,
             firmware=firmware, log=False, dynamics=dynamics,
             arm=sim_arm_document(arm) if dynamics else None, positions=positions))
         _check_placed(sim, arm.servo_ids, ticks)

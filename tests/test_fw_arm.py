@@ -23,6 +23,7 @@ from firmware_sim.control_socket import execute
 
 ROOT = Path(__file__).resolve().parent.parent
 ARM3 = ROOT / "configs" / "arm3r.toml"
+OMX = ROOT / "configs" / "omx.toml"
 
 
 def _doc(**dynamics) -> dict:
@@ -33,30 +34,51 @@ def _doc(**dynamics) -> dict:
     return data
 
 
+def _omx_doc(**dynamics) -> dict:
+    import tomllib
+    data = tomllib.loads(OMX.read_text())
+    data["dynamics"].update(dynamics)
+    return data
+
+
+def _rot(v, a):
+    return (v[0] * math.cos(a) - v[1] * math.sin(a), v[0] * math.sin(a) + v[1] * math.cos(a))
+
+
 def _fk_points(model, q):
-    """Bodies' positions and link angles from plain trigonometry (no arm_model algebra)."""
-    pts, phi, x, y = [], 0.0, 0.0, 0.0
-    for i, length in enumerate(model.links):
-        phi += q[i]
-        pts.append((x + model.com[i] * math.cos(phi), y + model.com[i] * math.sin(phi)))
-        x, y = x + length * math.cos(phi), y + length * math.sin(phi)
+    """Bodies' positions in the chain's plane and in 3-D, the links' plane angles and the
+    yaw, from plain trigonometry (no arm_model algebra). A yawed chain turns clockwise
+    in (r, z) for positive angles; the yaw turns (r, z) about the vertical."""
+    yaw, qc = (q[0], q[1:]) if model.base_yaw else (0.0, q)
+    sign = -1 if model.base_yaw else 1
+    plane, angles, joint, phi = [], [], (0.0, model.shoulder_height), 0.0
+    for i, link in enumerate(model.links):
+        phi += sign * qc[i]
+        angles.append(phi)
+        c = _rot(model.com[i], phi)
+        plane.append((joint[0] + c[0], joint[1] + c[1]))
+        step = _rot(link, phi)
+        joint = (joint[0] + step[0], joint[1] + step[1])
     if model.payload:
-        pts.append((x, y))
-    return np.array(pts), np.cumsum(q)
+        plane.append(joint)
+    space = [(r * math.cos(yaw), r * math.sin(yaw), z) for r, z in plane]
+    return np.array(plane), np.array(space), np.array(angles), yaw
 
 
 def _lagrangian(model, q, qd):
     eps = 1e-6
-    p1, a1 = _fk_points(model, q + eps * qd)
-    p0, a0 = _fk_points(model, q - eps * qd)
+    _, p1, a1, y1 = _fk_points(model, q + eps * qd)
+    _, p0, a0, y0 = _fk_points(model, q - eps * qd)
     v = (p1 - p0) / (2 * eps)
     w = (a1 - a0) / (2 * eps)
+    wy = (y1 - y0) / (2 * eps)
     masses = list(model.masses) + ([model.payload] if model.payload else [])
     kinetic = 0.5 * sum(m * vi @ vi for m, vi in zip(masses, v, strict=True)) \
-        + 0.5 * sum(i * wi ** 2 for i, wi in zip(model.inertias, w, strict=True))
-    pts, _ = _fk_points(model, q)
+        + 0.5 * sum(i * wi ** 2 for i, wi in zip(model.inertias, w, strict=True)) \
+        + 0.5 * model.yaw_inertia * wy ** 2
+    plane, _, _, _ = _fk_points(model, q)
     potential = -sum(m * (model.gravity[0] * p[0] + model.gravity[1] * p[1])
-                     for m, p in zip(masses, pts, strict=True))
+                     for m, p in zip(masses, plane, strict=True))
     return kinetic - potential
 
 
@@ -74,46 +96,82 @@ def _euler_lagrange(model, q, qd, qdd):
     return ddt - dl_dq
 
 
-@pytest.mark.parametrize("dynamics", [
-    {}, {"gravity": True, "payload_kg": 0.2},
-    {"link_masses": [0.3, 0.2, 0.1], "link_com": [0.05, 0.1, 0.0], "gravity": [1.0, -9.0]},
-])
-def test_dynamics_match_a_numerical_lagrangian(dynamics):
-    model = load_arm(_doc(**dynamics))
+@pytest.mark.parametrize("doc", [
+    _doc(), _doc(gravity=True, payload_kg=0.2),
+    _doc(link_masses=[0.3, 0.2, 0.1], link_com=[0.05, 0.1, 0.0], gravity=[1.0, -9.0]),
+    _omx_doc(), _omx_doc(payload_kg=0.5),
+], ids=["arm3r", "arm3r-gravity", "arm3r-masses", "omx", "omx-payload"])
+def test_dynamics_match_a_numerical_lagrangian(doc):
+    model = load_arm(doc)
+    n = model.dof
     rng = np.random.default_rng(3)
     for _ in range(5):
-        q, qd, qdd = rng.uniform(-2, 2, 3), rng.uniform(-3, 3, 3), rng.uniform(-5, 5, 3)
+        q, qd, qdd = rng.uniform(-2, 2, n), rng.uniform(-3, 3, n), rng.uniform(-5, 5, n)
         m, bias = model.dynamics(q, qd)
         tau = np.array(m) @ qdd + np.array(bias)
         ref = _euler_lagrange(model, q, qd, qdd)
         # nested finite differences carry ~1e-4 relative noise; a wrong term is O(1)
-        assert np.allclose(tau, ref, rtol=5e-3, atol=1e-4), (tau, ref)
+        scale = max(1.0, float(np.abs(ref).max()))
+        assert np.allclose(tau, ref, rtol=5e-3, atol=1e-4 * scale), (tau, ref)
 
 
-def test_free_arm_conserves_energy():
+def test_omx_file_reads_as_a_yawed_vertical_arm_under_gravity():
+    model = load_arm(OMX)
+    assert model.base_yaw and model.dof == 4
+    assert [jm.servo_id for jm in model.joints] == [11, 12, 13, 14]
+    assert model.gripper is not None and model.gripper.servo_id == 15
+    assert model.gravity == (0.0, -9.81)
+    assert model.rotor_inertia == (0.0125,) * 4
+    # shaped like ROBOTIS's arm at zero: the tool point at (0.274, 0.2045) in (r, z)
+    tool = load_arm(_omx_doc(payload_kg=0.1)).body_positions([0.0] * 4)[-1]
+    assert tool == pytest.approx((0.274, 0.2045))
+    # holding torques at zero (omx.md: the shoulder ≈ 0.43 N·m); gravity pulls the arm
+    # forward and down, i.e. towards positive shoulder angles, so holding pushes back
+    _, bias = model.dynamics([0.0] * 4, [0.0] * 4)
+    assert bias[0] == 0.0                                    # gravity does not load the yaw
+    assert bias[1] == pytest.approx(-9.81 * (0.1385 * 0.0103 + 0.1327 * 0.1149
+                                             + 0.1433 * 0.1922), rel=1e-9)
+    assert -0.44 < bias[1] < -0.43
+    # stretched out horizontally (every link level) the shoulder holds ≈ 0.84 N·m
+    level = math.pi / 2 - math.atan2(0.024, 0.128)
+    _, bias = model.dynamics([0.0, level, -level, 0.0], [0.0] * 4)
+    assert 0.80 < -bias[1] < 0.90
+    # the yaw's inertia grows with the reach: Σ m r² of the chain
+    m_folded, _ = model.dynamics([0.0, -1.4, 1.3, 0.8], [0.0] * 4)
+    m_zero, _ = model.dynamics([0.0] * 4, [0.0] * 4)
+    assert m_zero[0][0] > m_folded[0][0] > model.yaw_inertia
+    assert all(m_zero[0][j] == 0.0 for j in range(1, 4))
+
+
+@pytest.mark.parametrize("doc, omega", [
+    (_doc(gravity=True, payload_kg=0.1), [2.0, -1.0, 3.0]),
+    (_omx_doc(payload_kg=0.2), [3.0, 2.0, -1.0, 3.0]),        # the yaw spinning too
+], ids=["arm3r", "omx"])
+def test_free_arm_conserves_energy(doc, omega):
     """The plant with the motors' friction and back-EMF removed keeps the arm's energy."""
-    model = load_arm(_doc(gravity=True, payload_kg=0.1))
+    model = load_arm(doc)
     clock = VirtualClock()
-    bus = SimBus(arm=_doc(gravity=True, payload_kg=0.1), dynamics=True, clock=clock)
-    plant = bus.servo(1).motion.plant
+    bus = SimBus(arm=doc, dynamics=True, clock=clock)
+    plant = bus.servo(model.joints[0].servo_id).motion.plant
+    n = model.dof
     for d in plant.drives:                      # a frictionless, unmotored arm
         d.motor = type(d.motor)(**{**d.motor.__dict__, "viscous": 0.0, "coulomb": 0.0,
                                    "rotor_inertia": 1e-12})
     plant.inertia = [d.motor.inertia for d in plant.drives]
-    plant.omega = [2.0, -1.0, 3.0]
-    q0 = [plant.joint_angle(j) for j in range(3)]
+    plant.omega = list(omega)
+    q0 = [plant.joint_angle(j) for j in range(n)]
 
     def energy():
-        q = [plant.joint_angle(j) for j in range(3)]
-        qd = [plant.omega[j] / plant.rho[j] for j in range(3)]
+        q = [plant.joint_angle(j) for j in range(n)]
+        qd = [plant.omega[j] / plant.rho[j] for j in range(n)]
         return model.energy(q, qd)
 
     e0 = energy()
     plant.step = 1e-5
     clock.advance(0.2)
-    bus.servo(1).update()
+    bus.servo(model.joints[0].servo_id).update()
     assert abs(energy() - e0) <= 1e-2 * abs(e0)     # semi-implicit Euler's drift
-    assert [plant.joint_angle(j) for j in range(3)] != q0
+    assert [plant.joint_angle(j) for j in range(n)] != q0
 
 
 def test_arm_toml_maps_joints_to_servos_and_obstacles_in_joint_degrees():
@@ -139,6 +197,16 @@ def test_arm_config_errors_name_the_key():
         load_arm(_doc(mass=1.0))
     with pytest.raises(ValueError, match="needs the physics model"):
         SimBus(arm=ARM3)
+    with pytest.raises(ArmConfigError, match="gravity or gravity_m_s2"):
+        load_arm(_omx_doc(gravity=[0.0, -9.81]))
+    yawless = _omx_doc()
+    yawless["arm"]["base_yaw"] = False
+    with pytest.raises(ArmConfigError, match=r"expected 3 .*joints"):
+        load_arm(yawless)
+    with pytest.raises(ArmConfigError, match="rotor_inertia_kg_m2"):
+        load_arm(_omx_doc(rotor_inertia_kg_m2=[0.01, 0.01]))
+    with pytest.raises(ArmConfigError, match="no arm of that name"):
+        load_arm("no-such-arm")
 
 
 def test_cli_arm_and_control_socket(tmp_path):
