@@ -36,9 +36,14 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
-from robodcn.config import Arm
 from robodcn.errors import InputError
-from robodcn.path_timing import PathTiming, max_start_speed, path_derivatives, time_optimal
+from robodcn.path_timing import (
+    JointLimits,
+    PathTiming,
+    max_start_speed,
+    path_derivatives,
+    time_optimal,
+)
 
 #: share of each acceleration limit a brake uses (margin for the O(Δt) error of the step)
 BRAKE_SHARE = 0.995
@@ -169,30 +174,8 @@ class LawExceedsLimits(InputError):
         self.excess = float(excess)
 
 
-@dataclass(frozen=True)
-class Limits:
-    """Per-joint velocity (rad/s), acceleration (rad/s²) and optional jerk (rad/s³) limits."""
-
-    v: NDArray[np.float64]
-    a: NDArray[np.float64]
-    j: NDArray[np.float64] | None = None
-
-    @classmethod
-    def of_arm(cls, arm: Arm) -> Limits:
-        jerk = [j.max_jerk for j in arm.joints]
-        return cls(np.array([j.max_velocity for j in arm.joints]),
-                   np.array([j.max_acceleration for j in arm.joints]),
-                   None if all(x is None for x in jerk)
-                   else np.array([np.inf if x is None else x for x in jerk]))
-
-    def shrunk(self, share: float) -> Limits:
-        """Every limit times ``share`` (a margin, not a speed scale)."""
-        return Limits(self.v * share, self.a * share,
-                      None if self.j is None else self.j * share)
-
-    def scaled(self, k: float) -> Limits:
-        """Speed scaling k: v·k, a·k², j·k³."""
-        return Limits(self.v * k, self.a * k * k, None if self.j is None else self.j * k ** 3)
+#: the arm's joint limits (:class:`robodcn.path_timing.JointLimits`, ``JointLimits.of(arm)``)
+Limits = JointLimits  # re-export (transitional): the old name of the one JointLimits
 
 
 def brake(path: JointPath, sigma0: float, sd0: float, a: NDArray[np.float64], rate_hz: float,
@@ -255,7 +238,7 @@ def _ramp_loss(u: float, up: float, dt: float) -> float:
     return -dt * ((n - 1) * u + up * dt * (n - 1) * n / 2.0)
 
 
-def brake_jerk(path: JointPath, sigma0: float, sd0: float, sdd0: float, limits: Limits,
+def brake_jerk(path: JointPath, sigma0: float, sd0: float, sdd0: float, limits: JointLimits,
                rate_hz: float, *, until_sd: float = 0.0, share: float = BRAKE_SHARE,
                max_samples: int = 1_000_000) -> NDArray[np.float64] | None:
     """σ of the samples after (σ₀, σ̇₀, σ̈₀) of the fastest jerk-limited brake (module doc).
@@ -324,7 +307,7 @@ def brake_jerk(path: JointPath, sigma0: float, sd0: float, sdd0: float, limits: 
 
 
 def brake_jerk_checked(path: JointPath, sigma0: float, sd0: float, sdd0: float,
-                       limits: Limits, rate_hz: float, history: NDArray[np.float64], *,
+                       limits: JointLimits, rate_hz: float, history: NDArray[np.float64], *,
                        until_sd: float = 0.0) -> NDArray[np.float64] | None:
     """:func:`brake_jerk`, checked on the joints it sends after ``history`` (the three
     commanded samples up to the switch): the finite differences also see the curvature
@@ -350,7 +333,7 @@ def brake_jerk_checked(path: JointPath, sigma0: float, sd0: float, sdd0: float,
                            f"({over:.4g} × it)", over)
 
 
-def controllable_speed(path: JointPath, sigma0: float, limits: Limits, *,
+def controllable_speed(path: JointPath, sigma0: float, limits: JointLimits, *,
                        max_stages: int | None = None) -> float:
     """The fastest σ̇ at σ₀ from which the rest of the path can still be followed within
     ``limits`` and brought to rest (:func:`robodcn.path_timing.max_start_speed`)."""
@@ -361,7 +344,7 @@ def controllable_speed(path: JointPath, sigma0: float, limits: Limits, *,
                            max_stages=ONLINE_STAGES if max_stages is None else max_stages)
 
 
-def retime(path: JointPath, sigma0: float, sd0: float, limits: Limits, rate_hz: float,
+def retime(path: JointPath, sigma0: float, sd0: float, limits: JointLimits, rate_hz: float,
            *, sdd0: float = 0.0, history: NDArray[np.float64] | None = None,
            sd_cap: Callable[[NDArray[np.float64]], NDArray[np.float64]] | None = None
            ) -> NDArray[np.float64]:
@@ -402,7 +385,7 @@ def retime(path: JointPath, sigma0: float, sd0: float, limits: Limits, rate_hz: 
                            "it)", over)
 
 
-def excess(joints: NDArray[np.float64], limits: Limits, rate_hz: float, *,
+def excess(joints: NDArray[np.float64], limits: JointLimits, rate_hz: float, *,
            to_rest: bool = True) -> float:
     """Largest ratio of a finite-difference joint velocity, acceleration or (with jerk
     limits) jerk of ``joints`` (sampled at ``rate_hz``; with ``to_rest`` the arm holds the

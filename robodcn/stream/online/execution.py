@@ -35,6 +35,7 @@ from robodcn import kinematics
 from robodcn.bus import ServoBus
 from robodcn.config import Arm
 from robodcn.errors import InputError, RobodcnError
+from robodcn.path_timing import JointLimits
 from robodcn.planner import PlanRequest, Trajectory
 from robodcn.stream.online.planning_times import PlanningTimes
 from robodcn.stream.online.retarget import Retargeting
@@ -44,7 +45,7 @@ from robodcn.stream.online.state import State
 from robodcn.stream.online.stop import PathEnds, PauseKeeper, brake_to_rest, pause_hold
 from robodcn.stream.online.switch import Switch, Switcher
 from robodcn.stream.online.timing import Timing
-from robodcn.stream.online_path import JointPath, Limits, brake, retime
+from robodcn.stream.online_path import JointPath, brake, retime
 from robodcn.stream.options import ExecutionOptions
 from robodcn.stream.report import ExecutionReport
 from robodcn.stream.signal import StopSignal
@@ -67,7 +68,7 @@ def warm_up(trajectory: Trajectory, arm: Arm | None, planning_times: PlanningTim
     first calls cost several times a later one's)."""
     if arm is None:
         return
-    limits = Limits.of_arm(arm)
+    limits = JointLimits.of(arm)
     rate = trajectory.rate_hz
     path, sigma = JointPath.of_samples(trajectory.joints)
     if path.length <= 0:
@@ -143,7 +144,7 @@ class Execution:
         if self.arm is None and planned.trajectory.request is not None:
             self.arm = planned.trajectory.request.arm
         if self.arm is not None:
-            self._timing = Timing(Limits.of_arm(self.arm), root.rate_hz)
+            self._timing = Timing(JointLimits.of(self.arm), root.rate_hz)
             self._timing.register_law(root.path, root.sigma, 1.0)
             self._switcher = Switcher(stream, self.bus, self._timing, self.planning_times,
                                       self._done, self._lock)

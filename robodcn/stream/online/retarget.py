@@ -71,10 +71,12 @@ def _with_start(waypoints: Sequence[Any], here: tuple[float, ...]) -> list[Any]:
 
 
 class Retargeting:
-    """One retarget's planning: ``arm``, the stream's time laws, its present ``source`` and
-    speed scale."""
+    """One retarget's planning: ``arm``, the stream's time laws, its present ``source`` (read
+    only under jerk limits, where the move's own way to its end may be the brake; None
+    without them) and speed scale."""
 
-    def __init__(self, arm: Arm, timing: Timing, source: Any, speed: float = 1.0) -> None:
+    def __init__(self, arm: Arm, timing: Timing, source: Any | None,
+                 speed: float = 1.0) -> None:
         self.arm = arm
         self.timing = timing
         self.source = source

@@ -26,11 +26,11 @@ import numpy as np
 from numpy.typing import NDArray
 
 from robodcn.errors import InputError
+from robodcn.path_timing import JointLimits
 from robodcn.stream.online.samples import Segment
 from robodcn.stream.online.state import State
 from robodcn.stream.online_path import (
     JointPath,
-    Limits,
     brake,
     brake_jerk_checked,
     controllable_speed,
@@ -60,7 +60,7 @@ def samples(path: JointPath, sigma: NDArray) -> list[Segment]:
 class Timing:
     """Time laws at one stream rate under one arm's full limits (thread-safe for reads)."""
 
-    def __init__(self, limits: Limits, rate_hz: float) -> None:
+    def __init__(self, limits: JointLimits, rate_hz: float) -> None:
         self.limits = limits
         self.rate = float(rate_hz)
         self.jerk = limits.j is not None
@@ -94,13 +94,13 @@ class Timing:
                                    sdd=0.0, history=history)
 
     @staticmethod
-    def allowed(path: JointPath, sigma: float, limits: Limits, cap: SpeedCap | None) -> float:
+    def allowed(path: JointPath, sigma: float, limits: JointLimits, cap: SpeedCap | None) -> float:
         """The fastest σ̇ a re-timing may start with at ``sigma``: the controllable speed
         under ``limits``, and under the speed ``cap`` when there is one."""
         top = controllable_speed(path, sigma, limits)
         return top if cap is None else min(top, float(cap(np.array([sigma]))[0]))
 
-    def timed(self, state: State, limits: Limits, path: JointPath | None = None,
+    def timed(self, state: State, limits: JointLimits, path: JointPath | None = None,
               sigma0: float | None = None, allowed: float | None = None,
               cap: SpeedCap | None = None, speed: float = 1.0) -> NDArray:
         """σ samples: brake with the full limits while over what ``limits`` allow, then the
@@ -165,7 +165,7 @@ class Timing:
                             "before a brake could reach the scaled limits", speed)
         return np.concatenate([pre, rest])
 
-    def timed_jerk(self, state: State, limits: Limits, path: JointPath | None = None,
+    def timed_jerk(self, state: State, limits: JointLimits, path: JointPath | None = None,
                    sigma0: float | None = None, cap: SpeedCap | None = None,
                    speed: float = 1.0) -> NDArray:
         """:meth:`timed` under jerk limits: the law from the moving state (σ̇, σ̈); else a
