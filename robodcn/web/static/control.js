@@ -1,0 +1,92 @@
+// The control buttons: Move (a new move, or a retarget of the running one with replace),
+// Stop (smooth) and Hold, pause/resume, the speed scale, jogging, torque and the gripper.
+import { S, $, DEG, moveActive } from "./state.js";
+import { api } from "./api.js";
+import { showError, clearError } from "./ui.js";
+import { redraw } from "./draw.js";
+import { failure, inputsError, planBody, presentPose, readInputs, setTarget } from "./plan.js";
+import { setMove, trackMove } from "./status.js";
+
+export async function startMove() {
+  if (!readInputs()) { showError(inputsError()); return; }
+  clearError();
+  const method = $("method").value;
+  const body = planBody(method, { fromPresent: true });
+  const before = S.state ? S.state.joints.slice() : null;
+  const retarget = moveActive() && S.features.replace;
+  if (retarget) body.replace = true;
+  try {
+    const info = await api("POST", "/v1/moves", body);
+    trackMove(info.id);          // loads the move's own plan where the service offers it
+    setMove(info);
+    if (!S.features.moveTrajectory) {
+      // An older service: the same request from the same joints (not exact for a retarget).
+      const again = planBody(method);
+      if (before && !retarget) again.start_joints = before;
+      api("POST", "/v1/trajectories", again).then((t) => {
+        if (S.trackedMove === info.id) { S.movePlan = t; redraw(); }
+      }).catch(() => {});
+    }
+  } catch (e) {
+    showError(e.error);
+    if (e.status === 422) {  // show where the refused plan fails
+      const again = planBody(method);
+      if (S.state) again.start_joints = S.state.joints;
+      S.plans = { [method]: await failure(e.error, again) };
+      S.planOrder = [method];
+      redraw();
+    }
+  }
+}
+
+export async function post(path, body) {
+  try { clearError(); return await api("POST", path, body); } catch (e) { showError(e.error); return null; }
+}
+
+export function stop(kind) {
+  const mode = kind === "hold" ? S.features.holdStop : S.features.smoothStop;
+  return post("/v1/stop", mode ? { mode } : undefined);
+}
+
+/** The step of jog direction `dir` ("+x", "-t", "+z", …) on a pose of the arm's axes:
+ * `step` metres along x, y or z, 5° of θ or pitch for "t". */
+function jogDelta(dir, step) {
+  const axis = dir.slice(1), sign = dir[0] === "-" ? -1 : 1;
+  const i = axis === "t" ? S.model.angleIndex : S.model.axes.indexOf(axis);
+  const d = S.model.axes.map(() => 0);
+  if (i >= 0) d[i] = sign * (axis === "t" ? 5 * DEG : step);
+  return d;
+}
+
+export function jog(dir) {
+  if (moveActive() && !S.features.replace) {
+    showError("a move is running: this service cannot retarget it (no \"replace\"); stop it first");
+    return;
+  }
+  const step = (parseFloat($("jog-step").value) || 1) / 100;
+  const base = moveActive() && S.features.replace && S.target ? S.target.slice() : presentPose();
+  const d = jogDelta(dir, step);
+  setTarget(base.map((v, i) => v + d[i]));
+  startMove();
+}
+
+export function setSpeed(k) {
+  S.speedEditing = true;
+  api("PUT", "/v1/speed", { [S.features.speed]: k })
+    .catch((e) => showError(e.error))
+    .finally(() => { S.speedEditing = false; });
+}
+
+export function torque(on) {
+  return post("/v1/torque", { [S.features.torque]: on });
+}
+
+/** POST /v1/gripper: "open", "close" or a width typed in millimetres. */
+export function gripper(what) {
+  if (what === "width") {
+    const mm = parseFloat($("gripper-width").value);
+    if (!Number.isFinite(mm)) { showError({ message: "the gripper width must be a number (mm)", field: "width_m" }); return null; }
+    return post("/v1/gripper", { width_m: mm / 1000 });
+  }
+  return post("/v1/gripper", { command: what });
+}
