@@ -92,6 +92,8 @@ class Connection:
         #: True once :meth:`ServoBus.configure` mapped the feedback items.
         self.feedback_mapped = False
         self.watchdog_ms = 0
+        #: Current Limit (A) per servo id once read (EEPROM; forgotten by :meth:`reopen`).
+        self._current_limit_a: dict[int, float] = {}
         self._lock = threading.RLock()
         self._handler: PortHandler | None = None
         self._packet = PacketHandler(2.0)
@@ -142,6 +144,7 @@ class Connection:
                 self.port = check_port(port)
             self._forget_configuration()
             self.watchdog_ms = 0
+            self._current_limit_a = {}
             return self.open()
 
     def _forget_configuration(self) -> None:

@@ -19,12 +19,34 @@ ADDR_POSITION_P_GAIN = 84      # 2 bytes, RAM
 ADDR_TORQUE_ENABLE = 64        # 1 byte, RAM; 1 locks the EEPROM area
 ADDR_HARDWARE_ERROR = 70       # 1 byte, R
 ADDR_BUS_WATCHDOG = 98         # 1 byte, RAM, 20 ms a unit, -1 (0xFF) once tripped
+ADDR_GOAL_CURRENT = 102        # 2 bytes, RAM, signed, 2.69 mA a unit (XM430 only)
 ADDR_PROFILE_ACCELERATION = 108
 ADDR_PROFILE_VELOCITY = 112
 ADDR_GOAL_POSITION = 116       # 4 bytes, RAM
+ADDR_PRESENT_CURRENT = 126     # 2 bytes, R, signed (Present Load on the XL430)
 ADDR_PRESENT_POSITION = 132    # 4 bytes, R, signed
 
+#: Operating Mode (11) values (e-manual "Operating Mode"): current control (torque), velocity,
+#: position (one turn), extended position (multi-turn), current-based position, PWM.
+OPERATING_MODE_CURRENT = 0
+OPERATING_MODE_VELOCITY = 1
 OPERATING_MODE_POSITION = 3
+OPERATING_MODE_EXTENDED_POSITION = 4
+OPERATING_MODE_CURRENT_POSITION = 5
+OPERATING_MODE_PWM = 16
+OPERATING_MODE_NAMES: dict[int, str] = {0: "current", 1: "velocity", 3: "position",
+                                        4: "extended position", 5: "current-based position",
+                                        16: "PWM"}
+#: The modes each model offers: the XL430 has no current sensing (no modes 0 and 5).
+MODEL_OPERATING_MODES: dict[str, frozenset[int]] = {
+    "xm430-w350": frozenset({0, 1, 3, 4, 5, 16}), "xl430-w250": frozenset({1, 3, 4, 16})}
+#: Modes with a Goal Current (102): the goal itself (0) or the limit of the position loop (5).
+CURRENT_MODES = frozenset({OPERATING_MODE_CURRENT, OPERATING_MODE_CURRENT_POSITION})
+#: Modes with a Goal Position (116) that torque-on would move to.
+POSITION_MODES = frozenset({OPERATING_MODE_POSITION, OPERATING_MODE_EXTENDED_POSITION,
+                            OPERATING_MODE_CURRENT_POSITION})
+#: Goal Current / Current Limit unit (A) of the models that have the items.
+GOAL_CURRENT_UNIT_A: dict[str, float] = {"xm430-w350": 2.69e-3}
 #: Datasheet stall current at 12 V, A (the current limit of models without the item).
 STALL_CURRENT_A: dict[str, float] = {"xm430-w350": 2.3, "xl430-w250": 1.4}
 ALERT_BIT = 0x80

@@ -10,6 +10,8 @@ are checked before anything is decoded.
 
 from __future__ import annotations
 
+from collections.abc import Iterable
+
 import numpy as np
 from dynamixel_sdk import COMM_SUCCESS, GroupSyncRead, PortHandler
 from numpy.typing import NDArray
@@ -23,7 +25,7 @@ from robodcn.bus.control_table import (
 from robodcn.bus.feedback import ADDR_FEEDBACK, FEEDBACK_LENGTH, Feedback, decode_feedback
 from robodcn.bus.groups import fast_sync_read_blocks
 from robodcn.bus.transactions import Transactions
-from robodcn.errors import BusError, CommError
+from robodcn.errors import BusError, CommError, InputError
 
 
 class Reads(Transactions):
@@ -36,17 +38,30 @@ class Reads(Transactions):
     #: Amperes per Present Current unit, bus order (:func:`robodcn.bus.feedback.current_units`).
     _current_units: NDArray[np.float64]
 
-    def _group(self, address: int, length: int) -> GroupSyncRead:
+    def _group(self, address: int, length: int, ids: tuple[int, ...]) -> GroupSyncRead:
         def make(port: PortHandler) -> GroupSyncRead:
             group = GroupSyncRead(port, self._packet, address, length)
-            for servo_id in self.ids:
+            for servo_id in ids:
                 group.addParam(servo_id)
             return group
 
-        return self._bound(("sync read", address, length), make)
+        return self._bound(("sync read", address, length, ids), make)
 
-    def _sync_read_once(self, group: GroupSyncRead, length: int) -> list[bytes]:
-        """One (Fast) Sync Read; raw data per servo in bus order, ERR/length checked."""
+    def _bus_ids(self, ids: Iterable[int] | None) -> tuple[int, ...]:
+        """``ids`` (default: every servo) in the order given; InputError for an id not on
+        this bus or given twice."""
+        if ids is None:
+            return self.ids
+        chosen = tuple(ids)
+        unknown = [i for i in chosen if i not in self.ids]
+        if unknown or not chosen or len(set(chosen)) != len(chosen):
+            raise InputError(f"servo ids must be distinct ids of this bus ({list(self.ids)}), "
+                             f"got {list(chosen)}", field="ids", value=list(chosen))
+        return chosen
+
+    def _sync_read_once(self, group: GroupSyncRead, length: int,
+                        ids: tuple[int, ...]) -> list[bytes]:
+        """One (Fast) Sync Read; raw data per servo in ``ids`` order, ERR/length checked."""
         port = self._port()
         fast = bool(self.fast_read)
         result = group.fastSyncReadTxPacket() if fast else group.txPacket()
@@ -59,17 +74,17 @@ class Reads(Transactions):
         out: list[bytes] = []
         if fast:
             raw, result, _ = self._packet.fastSyncReadRx(port, 0xFE,
-                                                         (length + 4) * len(self.ids))
+                                                         (length + 4) * len(ids))
             if result != COMM_SUCCESS:
                 raise CommError(f"fast sync read: {self._packet.getTxRxResult(result)}",
                                 field="bus", value=result)
-            blocks = fast_sync_read_blocks(raw, self.ids, length)
-            for servo_id, (error, data) in zip(self.ids, blocks, strict=True):
+            blocks = fast_sync_read_blocks(raw, ids, length)
+            for servo_id, (error, data) in zip(ids, blocks, strict=True):
                 if self._status(servo_id, "fast sync read", COMM_SUCCESS, error):
                     alerts.append(servo_id)
                 out.append(data)
         else:
-            for servo_id in self.ids:
+            for servo_id in ids:
                 data, result, error = self._packet.readRx(port, servo_id, length)
                 if self._status(servo_id, "sync read", result, error):
                     alerts.append(servo_id)
@@ -81,17 +96,21 @@ class Reads(Transactions):
         self.last_alert_ids = tuple(alerts)
         return out
 
-    def sync_read(self, address: int, length: int) -> list[bytes]:
-        """(Fast) Sync Read of one item from every servo, with bounded retries.
+    def sync_read(self, address: int, length: int,
+                  ids: Iterable[int] | None = None) -> list[bytes]:
+        """(Fast) Sync Read of one item from every servo (or from ``ids`` of this bus), with
+        bounded retries.
 
-        Returns raw bytes per servo in bus order; :attr:`last_alert_ids` lists the servos
-        whose status carried the Alert bit.
+        Returns raw bytes per servo in bus order (``ids`` order); :attr:`last_alert_ids`
+        lists the servos whose status carried the Alert bit.
         """
+        chosen = self._bus_ids(ids)
         with self.claim():
-            group = self._group(address, length)
+            group = self._group(address, length, chosen)
             what = ("fast sync read" if self.fast_read else "sync read") + \
                 f" {length} byte(s) at {address}"
-            return self._retry(what, None, lambda: self._sync_read_once(group, length))
+            return self._retry(what, None,
+                               lambda: self._sync_read_once(group, length, chosen))
 
     def read_positions(self) -> NDArray[np.int64]:
         """Present Position of every servo (ticks, signed), shape (k,) in bus order."""

@@ -16,7 +16,12 @@ below it:
 - :mod:`~robodcn.bus.verification`: PING, ``verify`` (ids, models, limits, firmware);
 - :mod:`~robodcn.bus.reads`: (Fast) Sync Reads, positions, feedback, hardware errors;
 - :mod:`~robodcn.bus.writes`: goals by Sync Write, torque, REBOOT, the Bus Watchdog;
-- :mod:`~robodcn.bus.configuration`: ``configure`` and the indirect feedback map, checked.
+- :mod:`~robodcn.bus.configuration`: ``configure`` and the indirect feedback map, checked;
+- :mod:`~robodcn.bus.single`: one servo by id or spec (a gripper on the joints' wire):
+  Present Position, a checked Goal Position;
+- :mod:`~robodcn.bus.currents`: Goal Current (checked against the Current Limit, one
+  servo or one Sync Write), Present Current;
+- :mod:`~robodcn.bus.modes`: Operating Mode switching (torque off, mode, goals, torque on).
 """
 
 from __future__ import annotations
@@ -27,13 +32,14 @@ import numpy as np
 
 from robodcn.bus.configuration import Configuration
 from robodcn.bus.feedback import current_units
+from robodcn.bus.modes import Modes
 from robodcn.bus.retry import STRAGGLER_S
 from robodcn.bus.verification import Verification
 from robodcn.bus.writes import Writes
 from robodcn.config import ServoSpec
 
 
-class ServoBus(Configuration, Verification, Writes):
+class ServoBus(Configuration, Verification, Writes, Modes):
     """A Dynamixel Protocol 2.0 bus of X-series servos, opened at one baud rate.
 
     Parameters

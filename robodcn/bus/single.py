@@ -1,0 +1,83 @@
+"""One servo by id or by spec: the servos a bus drives, and the others on the same wire.
+
+A :class:`~robodcn.bus.ServoBus` streams to the arm's joints (its ``servos``), but the wire
+may carry more: the OpenMANIPULATOR-X's gripper (id 15) sits on the joints' bus without
+being one of them. The unicast methods here take either a joint's id (its spec is the
+bus's) or the :class:`~robodcn.config.ServoSpec` of another servo on the wire (a
+``[gripper]`` servo), so one open port serves both without a second bus on the device.
+
+Goal Position writes are checked against the servo's tick limits (for a joint: the limits
+:meth:`ServoBus.verify` read; for another servo: its spec's ``min_tick``/``max_tick``)
+before anything is sent: a servo refuses rather than clamps a goal outside them.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numpy.typing import NDArray
+
+from robodcn import _checks
+from robodcn.bus.control_table import ADDR_GOAL_POSITION, ADDR_PRESENT_POSITION
+from robodcn.bus.transactions import Transactions
+from robodcn.config import ServoSpec
+from robodcn.errors import InputError, TickLimitError
+
+#: A servo named by its id on the bus or by its spec (a servo of the wire, not a joint).
+Servo = int | ServoSpec
+
+
+class Single(Transactions):
+    """Unicast reads and writes of one servo, named by id or spec (module docstring)."""
+
+    #: Position limits (ticks) per servo, shape (k, 2), bus order (ServoBus; ``verify``).
+    limits: NDArray[np.int64]
+
+    def spec_of(self, servo: Servo) -> ServoSpec:
+        """The spec of ``servo``: a bus id's spec, or the given spec of another servo.
+
+        Raises InputError for an id not on this bus (pass the servo's spec instead) or a
+        spec whose id is a joint's with another spec.
+        """
+        if isinstance(servo, ServoSpec):
+            if servo.id in self.ids and servo != self.servos[self.ids.index(servo.id)]:
+                raise InputError(f"servo {servo.id} is a joint of this bus with another "
+                                 "spec; name it by its id", field="servo", value=servo.id)
+            return servo
+        if not _checks.is_int(servo) or int(servo) not in self.ids:
+            raise InputError(f"servo {servo!r} is not on this bus (ids {list(self.ids)}); "
+                             "give the spec of a servo that is not a joint",
+                             field="servo", value=servo)
+        return self.servos[self.ids.index(int(servo))]
+
+    def tick_limits(self, servo: Servo) -> tuple[int, int]:
+        """[min, max] Goal Position (ticks) of ``servo``: a joint's verified limits, another
+        servo's spec limits."""
+        spec = self.spec_of(servo)
+        if spec.id in self.ids:
+            low, high = self.limits[self.ids.index(spec.id)]
+            return int(low), int(high)
+        return spec.min_tick, spec.max_tick
+
+    def read_position(self, servo: Servo) -> int:
+        """Present Position (132) of one servo, ticks (signed)."""
+        spec = self.spec_of(servo)
+        return self._read_int(spec.id, ADDR_PRESENT_POSITION, 4, signed=True)
+
+    def write_goal_position(self, servo: Servo, tick: int) -> None:
+        """Goal Position (116) of one servo, after the check against :meth:`tick_limits`.
+
+        Raises InputError for a tick that is not an integer, TickLimitError (field "ticks",
+        value the tick) outside the limits; nothing is sent then.
+        """
+        spec = self.spec_of(servo)
+        if not _checks.is_int(tick):
+            raise InputError(f"servo {spec.id}: a goal position must be an integer tick, got "
+                             f"{_checks.show(tick)}", field="ticks", value=tick)
+        low, high = self.tick_limits(spec)
+        if not low <= int(tick) <= high:
+            raise TickLimitError(f"servo {spec.id} goal {int(tick)} is outside its limits "
+                                 f"[{low}, {high}] ticks", field="ticks", value=int(tick))
+        self._write_int(spec.id, ADDR_GOAL_POSITION, int(tick), 4)
+
+
+__all__ = ["Servo", "Single"]
