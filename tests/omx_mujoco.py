@@ -48,7 +48,7 @@ def omx_xml(chain: RigidChain, payload_kg: float = 0.0) -> str:
 
     def inertial(link) -> str:
         return (f'<inertial pos="{_v(link.com[0], 0, link.com[1])}" mass="{link.mass!r}" '
-                f'diaginertia="{_v(*link.principal)}"/>')
+                f'diaginertia="{_v(link.inertia_r, link.inertia, link.inertia_z)}"/>')
 
     def hinge(name: str, axis: str, armature: float) -> str:
         return (f'<joint name="{name}" type="hinge" axis="{axis}" armature="{armature!r}" '
