@@ -20,10 +20,11 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from firmware_sim import control_table as fct
 from firmware_sim.bus import SimBus
 from firmware_sim.bus_config import SimBusConfig
 from robodcn import kinematics, servo_units
-from robodcn.bus import ServoBus
+from robodcn.bus import ServoBus, StreamProfile
 from robodcn.config import Arm
 from robodcn.errors import InputError
 
@@ -93,6 +94,24 @@ def _check_placed(sim: SimBus, ids: Sequence[int], ticks: Sequence[int]) -> None
                                    f"{int(tick)} (at {present})")
 
 
+def _hold_under_gravity(sim: SimBus, ids: Sequence[int]) -> None:
+    """An arm under gravity starts held where it was seated, as a real arm is left holding
+    by its last session: torque on, Return Delay Time already what :meth:`ServoBus.configure`
+    sets, so configure never switches the torque off (unheld, the physics model's arm
+    would fall between seating and configure)."""
+    if sim.arm is None or sim.arm.gravity == (0.0, 0.0):
+        return
+    rdt = StreamProfile().return_delay_us // 2
+    with sim.lock:
+        for servo_id in ids:
+            servo = sim.servo(servo_id)
+            for address, value in ((fct.RETURN_DELAY_TIME, rdt), (fct.TORQUE_ENABLE, 1)):
+                code = servo.write(address, bytes([value]))
+                if code:
+                    raise RuntimeError(f"simulated servo {servo_id} refused item {address} = "
+                                       f"{value} (error {code:#x})")
+
+
 def sim_arm_document(arm: Arm) -> dict[str, Any]:
     """The arm as the servo simulator reads an arm file: links, joint→servo maps and the
     optional ``[dynamics]`` table (firmware_sim parses it itself, it never imports robodcn)."""
@@ -116,7 +135,8 @@ def simulated_arm(arm: Arm, *, timing: str = "realistic", start_joints: ArrayLik
         run shows real tracking lag and current; False: the kinematic model (each goal
         reached at once), for protocol tests.
 
-    A ``[gripper]`` servo is simulated too (at its zero offset), beside the joints. The
+    A ``[gripper]`` servo is simulated too (at its zero offset), beside the joints; an arm
+    under gravity starts held (:func:`_hold_under_gravity`). The
     bus runs at the arm's baud rate and is opened, verified against the arm's servos
     and configured (position mode, Return Delay Time 0, torque on, holding). On exit the
     bus and the simulator are closed: no threads or file descriptors outlive the block.
@@ -140,6 +160,7 @@ def simulated_arm(arm: Arm, *, timing: str = "realistic", start_joints: ArrayLik
             firmware=firmware, log=False, dynamics=dynamics,
             arm=sim_arm_document(arm) if dynamics else None, positions=positions))
         _check_placed(sim, arm.servo_ids, ticks)
+        _hold_under_gravity(sim, arm.servo_ids)
         sim.start()
         stack.callback(sim.close)
         bus = ServoBus(sim.port_path, arm.bus.baud, servos=arm.servos, retries=RETRIES,

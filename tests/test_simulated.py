@@ -139,3 +139,19 @@ def test_collision_current_key_per_joint_round_trips_and_is_checked() -> None:
     with pytest.raises(ConfigError) as err:
         arm_from_dict(data)
     assert err.value.key == "joints[1].collision_current_a"
+
+
+def test_omx_starts_at_its_home_with_the_gripper_beside_it() -> None:
+    from pathlib import Path
+
+    from robodcn.config import load_arm
+    arm = load_arm(Path(__file__).resolve().parent.parent / "configs" / "omx.toml")
+    q = kinematics.ik_yawed(arm.chain, np.array([arm.home]), arm.elbow)[0]
+    want = servo_units.radians_to_ticks(q[None, :], arm.servos)[0]
+    with simulated_arm(arm, timing="fast") as s:
+        ticks = [s.sim.servo(i).present_position for i in arm.servo_ids]
+        # seated at home and held from the start: only the P loop's sag under gravity
+        # (the elbow ≈ 2 ticks), not the fall an unheld arm takes before configure
+        assert np.abs(np.array(ticks) - want).max() <= 3
+        assert s.sim.servo(arm.gripper.servo.id).present_position == 2048
+        assert s.sim.arm is not None and s.sim.arm.base_yaw
