@@ -80,7 +80,8 @@ def mass_matrix(chain: RigidChain, q: ArrayLike, payload_kg: float = 0.0) -> Arr
 
 def kinetic_potential(chain: RigidChain, q: ArrayLike, qd: ArrayLike,
                       payload_kg: float = 0.0) -> tuple[Array, Array]:
-    """Kinetic and potential energy (n,), J, of (q, q̇): bodies, payload, rotors.
+    """Kinetic and potential energy (n,), J, of (q, q̇): bodies, payload, rotors (0-d arrays
+    for one sample).
 
     V is measured from the base origin (V = −Σ m·g·c); d/dt(T + V) = τ·q̇ along any motion.
     """
@@ -89,7 +90,7 @@ def kinetic_potential(chain: RigidChain, q: ArrayLike, qd: ArrayLike,
     _same_shape("qd", qd_arr, q_arr)
     kinetic, potential = energy(chain, q_arr, qd_arr, payload_mass(payload_kg))
     if single:
-        return kinetic[:1], potential[:1]
+        return kinetic[0, ...], potential[0, ...]
     return kinetic, potential
 
 
