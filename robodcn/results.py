@@ -7,6 +7,7 @@ schema and the answer cannot drift apart.
 from __future__ import annotations
 
 import dataclasses
+import math
 from dataclasses import dataclass, field
 from typing import Any, Literal
 
@@ -138,8 +139,32 @@ class Health:
 
 
 @dataclass
+class ExecutionInfo:
+    """The execution options in force for every move the service starts (``serve
+    --compensation``, ``--tracking-limit``, ``--recover``, as ``move`` has them)."""
+
+    compensation: bool = field(metadata=_doc(
+        "the goals lead the plan by the servos' position-loop lag (robodcn.stream."
+        "compensation); false: the plan itself is streamed"))
+    tracking_limit_deg: float | None = field(metadata=_doc(
+        "a joint lagging its goal by more than this many degrees stops the move (null: no "
+        "tracking stop)"))
+    recover: bool = field(metadata=_doc(
+        "on an overload alert that servo is rebooted and held (the move stays stopped)"))
+
+    @classmethod
+    def of(cls, options: Any) -> ExecutionInfo:
+        """The info of a :class:`robodcn.stream.ExecutionOptions` (tracking_limit in rad)."""
+        limit = options.tracking_limit
+        return cls(compensation=bool(options.compensation),
+                   tracking_limit_deg=None if limit is None else math.degrees(limit),
+                   recover=bool(options.recover))
+
+
+@dataclass
 class ArmInfo:
-    """The arm configuration (SI units): name, joints, servos and the whole config."""
+    """The arm configuration (SI units): name, joints, servos and the whole config, and the
+    execution options in force (null for a service that only plans)."""
 
     name: str
     dof: int
@@ -147,6 +172,8 @@ class ArmInfo:
     servo_ids: list[int]
     source: str | None
     config: dict[str, Any] = field(metadata=_doc("robodcn.config.Arm.to_dict()"))
+    execution: ExecutionInfo | None = field(default=None, metadata=_doc(
+        "what every move the service starts executes with, or null (no arm attached)"))
 
 
 @dataclass

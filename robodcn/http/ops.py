@@ -23,7 +23,7 @@ from robodcn.http.limits import MAX_RESPONSE
 from robodcn.http.planbody import parse_move, parse_plan, parse_trajectory_move
 from robodcn.http.planning import check_response_size, planning_lane
 from robodcn.planner import Trajectory, plan_request
-from robodcn.results import ArmInfo, Health, RebootAnswer, TorqueAnswer
+from robodcn.results import ArmInfo, ExecutionInfo, Health, RebootAnswer, TorqueAnswer
 from robodcn.web import assets, events
 from robodcn.workflow import files, record
 
@@ -37,9 +37,11 @@ def op_health(server: Service, request: Request, params: dict[str, str]
 
 def op_arm(server: Service, request: Request, params: dict[str, str]
            ) -> tuple[int, Any]:
-    arm = server.arm
+    arm, controller = server.arm, server.controller
+    execution = None if controller is None else ExecutionInfo.of(controller.execute_options)
     return 200, ArmInfo(name=arm.name, dof=arm.dof, joint_names=list(arm.joint_names),
-                        servo_ids=list(arm.servo_ids), source=arm.source, config=arm.to_dict())
+                        servo_ids=list(arm.servo_ids), source=arm.source, config=arm.to_dict(),
+                        execution=execution)
 
 
 def op_plan(server: Service, request: Request, params: dict[str, str]

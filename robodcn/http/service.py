@@ -15,6 +15,7 @@ from robodcn.controller import ArmController
 from robodcn.http.auth import TOKEN_ENV, check_token
 from robodcn.http.listen import make_server
 from robodcn.http.server import RobodcnHTTPServer
+from robodcn.stream import ExecutionOptions
 
 #: Seconds a signal waits for the running move to hold before the server shuts down.
 STOP_WAIT = 2.0
@@ -52,14 +53,18 @@ def signals_stop(server: RobodcnHTTPServer, controller: ArmController | None = N
 
 def serve(arm: Arm, *, host: str = "127.0.0.1", port: int = 8080, token: str | None = None,
           sim: bool = False, device: str | None = None, baud: int | None = None,
-          ready: Callable[[str], None] | None = None) -> None:
+          ready: Callable[[str], None] | None = None,
+          execution: ExecutionOptions | dict[str, Any] | None = None) -> None:
     """Run the service until SIGINT/SIGTERM or ``server.shutdown()``, then clean up.
 
     With ``sim=True`` the arm is :func:`robodcn.simulated.simulated_arm` in realistic
     timing; otherwise ``device`` (default: the arm's bus port) is opened at ``baud`` (default:
     the arm's) and verified against the arm's servos (BusError when they do not answer).
     ``token`` defaults to ``$ROBODCN_TOKEN`` (visible ASCII, checked first); ``ready(url)``
-    is called once the socket listens. Raises ListenError (exit 6) when the address is busy.
+    is called once the socket listens. ``execution``: the options every move executes with
+    (:class:`~robodcn.stream.ExecutionOptions`, or a dict of its fields over
+    :data:`robodcn.controller.DEFAULT_EXECUTE`; ``GET /v1/arm`` shows them). Raises
+    ListenError (exit 6) when the address is busy.
     """
     if token is None:
         token = os.environ.get(TOKEN_ENV) or None
@@ -79,7 +84,7 @@ def serve(arm: Arm, *, host: str = "127.0.0.1", port: int = 8080, token: str | N
             bus.open()
             # Torque stays as it is until the first move (the streamer configures then).
             bus.verify()
-        controller = ArmController(arm, bus)
+        controller = ArmController(arm, bus, execute_options=execution)
         stack.callback(controller.close)
         server = make_server(arm, controller, host=host, port=port, token=token)
         stack.callback(server.server_close)
