@@ -39,6 +39,7 @@ messages stay one short line.
 """
 
 from robodcn.config._load import arm_from_dict, load_arm
+from robodcn.config._rigid import rigid_chain, rotor_inertias
 from robodcn.config._specs import (
     BAUD_RATES,
     ELBOWS,
@@ -60,7 +61,7 @@ from robodcn.config._specs import (
     ServoSpec,
 )
 
-__all__ = [
+__all__ = ["rigid_chain", "rotor_inertias", 
     "BAUD_RATES", "ELBOWS", "LINK_RANGE", "MAX_JERK", "MAX_SERVO_ID", "PLANAR_POSE", "PLANES",
     "RATE_RANGE", "SERVO_MODELS", "SERVO_SPECS", "YAWED_POSE", "Arm", "BusSpec",
     "GripperSpec", "JointSpec", "MassProperties", "ServoModel", "ServoSpec", "arm_from_dict",
