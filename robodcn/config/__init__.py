@@ -61,9 +61,9 @@ from robodcn.config._specs import (
     ServoSpec,
 )
 
-__all__ = ["rigid_chain", "rotor_inertias", 
+__all__ = [
     "BAUD_RATES", "ELBOWS", "LINK_RANGE", "MAX_JERK", "MAX_SERVO_ID", "PLANAR_POSE", "PLANES",
     "RATE_RANGE", "SERVO_MODELS", "SERVO_SPECS", "YAWED_POSE", "Arm", "BusSpec",
     "GripperSpec", "JointSpec", "MassProperties", "ServoModel", "ServoSpec", "arm_from_dict",
-    "load_arm",
+    "load_arm", "rigid_chain", "rotor_inertias",
 ]
