@@ -57,7 +57,7 @@ def _run(sa, trajectory, ops, timeout=30.0, compensation=False):
     return report, ex, wire
 
 
-def _run_at(sa, trajectory, at: int, ops, timeout=60.0, compensation=False):
+def _run_at(sa, trajectory, at: int, ops, timeout=60.0, compensation=False, **options):
     """On virtual time: start, let the loop send samples 0 … ``at`` − 1 and hold it there,
     run ``ops(execution)``, release it, wait; the report, the execution and the wire goals.
     The operation is placed at a known sample whatever the host does (the Bus Watchdog,
@@ -67,7 +67,7 @@ def _run_at(sa, trajectory, at: int, ops, timeout=60.0, compensation=False):
     sa.sim.clear_log()
     before = len(sa.sim.goal_history(ARM3R.servo_ids[0]))
     ex = start(trajectory, sa.bus, skip_late=False, compensation=compensation, clock=clock,
-               watchdog_ms=0)
+               watchdog_ms=0, **options)
     try:
         assert clock.wait_parked(), ex.error
         clock.hold(ex.stream.t_start + (at - 0.5) / RATE)

@@ -377,3 +377,42 @@ def test_jerk_limited_retarget_brakes_to_rest_then_leaves_within_every_limit(sa)
     assert (off <= 1.5 * TICK + 1e-9).all(), "braked along the present path"
     end = kinematics.fk(ARM3R.links, joints[-1:])[0]
     assert np.allclose(end[:2], new_goal[:2], atol=1e-6)
+
+
+# -- where switches are placed from ----------------------------------------------------------
+
+def test_planning_times_start_from_a_guess_and_follow_the_measurements():
+    from robodcn.stream import PlanningTimes
+
+    times = PlanningTimes()
+    assert times.expected("retarget", False) == 0.01          # the first guess
+    assert times.expected("retarget", True) == 0.12           # jerk-limited laws: longer
+    times.record("retarget", False, 0.004)
+    times.record("retarget", False, 0.02)
+    assert times.expected("retarget", False) == 0.004         # optimistic: the fastest
+    for took in (0.03, 0.03, 0.03, 0.03):                     # the guess and 0.004 drop out
+        times.record("retarget", False, took)
+    assert times.times("retarget", False) == [0.02, 0.03, 0.03, 0.03, 0.03]
+    times.record("pause", True, 0.01)
+    times.record("pause", True, 0.05)
+    assert times.expected("pause", True) == 0.05               # jerk: the slowest kept
+    assert times.expected("pause", False) == 0.003             # another kind of arm
+
+
+def test_a_shared_planning_times_places_the_next_executions_switches(sa):
+    """One PlanningTimes passed to every execution (as a service does): what one measured,
+    the next places its first switch from."""
+    from robodcn.stream import PlanningTimes
+
+    shared = PlanningTimes()
+    traj = _move(sa, duration=1.0)
+    _report, ex, _wire = _run_at(sa, traj, 300, lambda ex: ex.retarget([None, (0.22, -0.05, 0.3)]),
+                                 planning_times=shared)
+    assert ex.planning_times is shared and shared.warmed
+    measured = shared.times("retarget", False)
+    assert len(measured) == 2                                  # the guess and this one
+    again = _move(sa, duration=1.0)
+    _report, ex2, _wire = _run_at(sa, again, 300, lambda ex: ex.retarget([None, START]),
+                                  planning_times=shared)
+    placed_for = ex2.switches[0][4]
+    assert placed_for == min(measured)

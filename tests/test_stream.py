@@ -597,3 +597,36 @@ def test_present_joints_and_plan_from_present(sim):
             np.testing.assert_allclose(timed.joints[found.samples], start, atol=1e-9)
         with pytest.raises(ServoMismatchError):
             present_joints(ARM2R, bus)
+
+
+def test_present_ticks_the_caller_read_are_not_read_again(sim):
+    """A caller that has just read Present Position (and planned from it) passes it: the
+    streamer does not read it again, and its start checks work from those ticks."""
+    with open_bus(sim) as bus:
+        place(bus, TRAJ.ticks[0])
+        here = bus.read_positions()
+
+        def position_reads() -> int:
+            return sum(1 for e in sim.packets("rx", "FAST_SYNC_READ")
+                       if int.from_bytes(e.params[:2], "little") == ADDR_PRESENT_POSITION)
+
+        sim.clear_log()
+        report = execute(TRAJ, bus, present_ticks=here, skip_late=False)
+        assert report.stop_reason == "completed", report.message
+        assert position_reads() == 1                      # the final read only
+        # the refusals judge the ticks given: far from the start says the arm is not there
+        far = here + np.array([400, 0, 0])
+        writes = write_count(sim)
+        with pytest.raises(StartMismatchError) as err:
+            execute(TRAJ, bus, present_ticks=far)
+        assert f"present tick {int(far[0])}" in err.value.message
+        assert write_count(sim) == writes
+        # with approach=True the approach leaves from them
+        moved = execute(TRAJ, bus, present_ticks=far, approach=True, skip_late=False,
+                        tracking_limit=None)
+        assert moved.approach is not None and moved.approach.samples > 0
+        assert np.abs(history(sim)[-moved.samples_sent] - far).max() <= 1
+        for bad in ([1, 2], [1.5, 2, 3], "123", [True, 2, 3]):
+            with pytest.raises(InputError) as err:
+                execute(TRAJ, bus, present_ticks=bad)
+            assert err.value.field == "present_ticks"
