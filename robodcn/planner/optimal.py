@@ -5,7 +5,10 @@ continuous IK); only the time law differs from the uniform profiles. The pipelin
 (:mod:`robodcn.planner.build`) samples, validates and retries through :class:`OptimalTiming`.
 
 * **Pieces** (:mod:`~robodcn.planner.pieces`): cut at every stop, each timed by
-  :func:`robodcn.path_timing.time_optimal` on its dense joint path.
+  :func:`robodcn.path_timing.time_optimal` on its dense joint path, parameterised by its
+  joint-space arc length σ (:mod:`~robodcn.planner.arc`: q′(u) is unbounded where a path
+  leaves a stretched or folded arm, q′(σ) is not; the dense samples are re-spaced evenly in
+  σ there).
 * **Sampling.** Each piece's law is sampled from its own t = 0 at the stream rate up to the
   first sample at or after its end (at rest there: a via is a sample at rest), the poses are
   the path at s(t) and the joints their branch-continuous IK — the same geometry as the
@@ -46,6 +49,7 @@ from robodcn.errors import InputError, TooLargeError, Violation
 from robodcn.path_timing import JointLimits, moving_start
 from robodcn.path_timing.moving_start import JointState, StartSegment
 from robodcn.planner import search, validate
+from robodcn.planner.arc import by_arc_length
 from robodcn.planner.path import joints_of
 from robodcn.planner.pieces import DENSE as DENSE  # re-export
 from robodcn.planner.pieces import DensePiece, build_pieces
@@ -152,7 +156,7 @@ def _brake_then_go(req: PlanRequest, brake: moving_start.Brake, limits: JointLim
     pieces, _ = build_pieces(rest)
     if pieces is None:
         return None
-    for piece in pieces:  # from rest
+    for piece in by_arc_length(req, pieces):  # from rest
         piece.law = moving_start.timed(piece.q, piece.s, limits, req.rate_hz)
     first = DensePiece(None, -1, q_from=brake.q0, q_to=brake.q_stop, s=brake.s, q=brake.q,
                        law=brake.law)
@@ -164,7 +168,7 @@ class OptimalTiming:
 
     def __init__(self, req: PlanRequest, pieces: list[DensePiece]) -> None:
         self.req = req
-        self.pieces = pieces
+        self.pieces = by_arc_length(req, pieces)
         self.limits = JointLimits.of(req.arm)
         state = req.start_state
         self.start_state = state

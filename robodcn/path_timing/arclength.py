@@ -1,0 +1,170 @@
+"""Joint-space arc length as the path parameter: bounded derivatives at singular ends.
+
+Near a boundary singularity (a stretched or folded arm) a pose path that moves at a finite
+rate makes the joints move like q ≈ c·√(u − u₀): q′(u) grows without bound and a grid that
+is uniform in u puts almost all of the joint motion into its first stage, where a constant
+s̈ gives q ∝ t (a velocity step the stream's finite differences see as an unbounded
+acceleration). Parameterised by its joint-space arc length σ (|dq/dσ| = 1 between
+samples), the same path is q ≈ c′·σ there: smooth, with bounded q′, q″, q‴, so TOPP-RA's
+stage constraints hold between the grid points too.
+
+* :func:`arc_length` — σ (n,) of joint samples (n, k), normalised to [0, 1], plus a small
+  share of the original parameter so that σ stays strictly increasing where no joint moves.
+* :class:`Monotone` — the monotone cubic (Fritsch–Carlson PCHIP: F. N. Fritsch and
+  R. E. Carlson, "Monotone Piecewise Cubic Interpolation", SIAM J. Numer. Anal. 17(2), 1980)
+  through increasing data, C¹, exact on quadratics near an end (the three-point end
+  slope), used both ways: σ(u) and u(σ).
+* :class:`Smooth` — the C² quintic Hermite through the data with slopes and second
+  derivatives by second-order finite differences: the map u(σ) the stream samples by (a
+  C¹ interpolant's jumps of u″ at the samples would be jumps of joint acceleration the law
+  does not know about).
+* :func:`arc_grid` — samples of q uniform in σ, by inverse interpolation u(σ) and a few
+  rounds of re-evaluating the joints at the new u (``joints_at``: u → q, e.g. the planner's
+  IK), only while the spacing is uneven.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+__all__ = ["UNEVEN", "Monotone", "Smooth", "arc_grid", "arc_length"]
+
+#: Largest step of σ over its mean that counts as even (no resampling needed).
+UNEVEN = 1.5
+#: Share of σ taken from the original parameter (keeps σ strictly increasing).
+PARAM_SHARE = 1e-3
+#: Rounds of resampling at most.
+ROUNDS = 4
+
+
+def arc_length(q: NDArray[np.float64], u: NDArray[np.float64]) -> NDArray[np.float64]:
+    """σ_i ∝ Σ_{m ≤ i} (‖q_m − q_{m−1}‖ + ε L Δu_m / (u_n − u_0)), σ ∈ [0, 1] (module doc);
+    ε = :data:`PARAM_SHARE`, L the joint-space length (1 when no joint moves)."""
+    step = np.linalg.norm(np.diff(q, axis=0), axis=1)
+    length = float(step.sum())
+    span = float(u[-1] - u[0])
+    step = step + PARAM_SHARE * (length if length > 0 else 1.0) * np.diff(u) / span
+    sigma = np.concatenate([[0.0], np.cumsum(step)])
+    sigma /= sigma[-1]
+    sigma[-1] = 1.0
+    return sigma
+
+
+class Monotone:
+    """y(x) through (x_i, y_i), x and y strictly increasing: Fritsch–Carlson PCHIP (module
+    doc). ``__call__`` takes any array of x (clipped to the data's range)."""
+
+    def __init__(self, x: ArrayLike, y: ArrayLike) -> None:
+        self.x = np.asarray(x, dtype=np.float64)
+        self.y = np.asarray(y, dtype=np.float64)
+        h = np.diff(self.x)
+        delta = np.diff(self.y) / h
+        d = np.zeros_like(self.x)
+        if self.x.shape[0] == 2:
+            d[:] = delta[0]
+        else:
+            # interior: weighted harmonic mean of the neighbouring slopes (Fritsch & Butland)
+            w1, w2 = 2 * h[1:] + h[:-1], h[1:] + 2 * h[:-1]
+            with np.errstate(divide="ignore", invalid="ignore"):
+                inner = (w1 + w2) / (w1 / delta[:-1] + w2 / delta[1:])
+            d[1:-1] = np.where((delta[:-1] > 0) & (delta[1:] > 0), inner, 0.0)
+            d[0] = self._end(h[0], h[1], delta[0], delta[1])
+            d[-1] = self._end(h[-1], h[-2], delta[-1], delta[-2])
+        self.h, self.delta, self.d = h, delta, d
+
+    @staticmethod
+    def _end(h0: float, h1: float, m0: float, m1: float) -> float:
+        """The three-point end slope, kept within [0, 3 m0] (shape preserving)."""
+        d = ((2 * h0 + h1) * m0 - h0 * m1) / (h0 + h1)
+        if d <= 0.0:
+            return 0.0
+        return min(d, 3.0 * m0)
+
+    def __call__(self, xq: ArrayLike) -> NDArray[np.float64]:
+        xq = np.clip(np.asarray(xq, dtype=np.float64), self.x[0], self.x[-1])
+        i = np.clip(np.searchsorted(self.x, xq, side="right") - 1, 0, self.h.shape[0] - 1)
+        h = self.h[i]
+        t = (xq - self.x[i]) / h
+        t2, t3 = t * t, t * t * t
+        return ((2 * t3 - 3 * t2 + 1) * self.y[i] + (t3 - 2 * t2 + t) * h * self.d[i]
+                + (-2 * t3 + 3 * t2) * self.y[i + 1] + (t3 - t2) * h * self.d[i + 1])
+
+
+class Smooth:
+    """y(x) through (x_i, y_i), x strictly increasing: on each interval the quintic Hermite
+    matching y, y′ and y″ at both ends, y′ and y″ by ``numpy.gradient`` (second order, also
+    at the ends; slopes below 0 raised to 0), so y is C² and exact on quadratics.
+    Non-decreasing data give a non-decreasing result within [y_0, y_n] (a running maximum
+    removes rounding dips)."""
+
+    def __init__(self, x: ArrayLike, y: ArrayLike) -> None:
+        self.x = np.asarray(x, dtype=np.float64)
+        self.y = np.asarray(y, dtype=np.float64)
+        edge = 2 if self.x.shape[0] > 2 else 1
+        # non-decreasing data have slopes ≥ 0 (an end slope a hair below 0 would dip the
+        # curve below its first value: a dead zone at a singular start, where u ∝ σ²)
+        self.d1 = np.maximum(np.gradient(self.y, self.x, edge_order=edge), 0.0)
+        self.d2 = np.gradient(self.d1, self.x, edge_order=edge)
+        self.h = np.diff(self.x)
+
+    def __call__(self, xq: ArrayLike) -> NDArray[np.float64]:
+        xq = np.clip(np.asarray(xq, dtype=np.float64), self.x[0], self.x[-1])
+        i = np.clip(np.searchsorted(self.x, xq, side="right") - 1, 0, self.h.shape[0] - 1)
+        h = self.h[i]
+        t = (xq - self.x[i]) / h
+        t2 = t * t
+        t3 = t2 * t
+        t4, t5 = t3 * t, t3 * t2
+        h00 = 1 - 10 * t3 + 15 * t4 - 6 * t5
+        h10 = t - 6 * t3 + 8 * t4 - 3 * t5
+        h20 = 0.5 * (t2 - 3 * t3 + 3 * t4 - t5)
+        h01 = 10 * t3 - 15 * t4 + 6 * t5
+        h11 = -4 * t3 + 7 * t4 - 3 * t5
+        h21 = 0.5 * (t3 - 2 * t4 + t5)
+        y, d1, d2 = self.y, self.d1, self.d2
+        out = (h00 * y[i] + h10 * h * d1[i] + h20 * h * h * d2[i]
+               + h01 * y[i + 1] + h11 * h * d1[i + 1] + h21 * h * h * d2[i + 1])
+        if xq.ndim == 1 and xq.shape[0] > 1 and (np.diff(xq) >= 0).all():
+            out = np.maximum.accumulate(out)
+        return np.clip(out, self.y[0], self.y[-1])
+
+
+def uneven(sigma: NDArray[np.float64]) -> float:
+    """Largest step of σ over the mean step."""
+    step = np.diff(sigma)
+    return float(step.max() * step.shape[0] / (sigma[-1] - sigma[0]))
+
+
+def arc_grid(u: NDArray[np.float64], q: NDArray[np.float64],
+             joints_at: Callable[[NDArray[np.float64]], NDArray[np.float64] | None],
+             keep: ArrayLike = ()) -> tuple[NDArray, NDArray, NDArray]:
+    """(u, q, σ): samples of the path about evenly spaced in its arc length σ.
+
+    Parameters
+    ----------
+    u : (n,) increasing path parameters of the samples ``q`` (n, k)
+    joints_at : u (m,) → q (m, k) the path's joints there, or None when it cannot (the
+        samples so far are then kept)
+    keep : parameters that stay in the grid (e.g. knots)
+
+    Returns the same number of samples (plus ``keep``) when the spacing was uneven
+    (:data:`UNEVEN`), else the input with its σ.
+    """
+    sigma = arc_length(q, u)
+    keep = np.asarray(keep, dtype=np.float64)
+    n = u.shape[0]
+    for _ in range(ROUNDS):
+        if uneven(sigma) <= UNEVEN:
+            break
+        target = np.linspace(0.0, 1.0, n)
+        u_new = Monotone(sigma, u)(target)
+        u_new = np.unique(np.concatenate([u_new, keep, u[:1], u[-1:]]))
+        q_new = joints_at(u_new)
+        if q_new is None:
+            break
+        u, q = u_new, q_new
+        sigma = arc_length(q, u)
+    return u, q, sigma
