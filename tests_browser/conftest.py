@@ -157,3 +157,20 @@ def until(driver: Any) -> Callable[..., Any]:
         return WebDriverWait(driver, timeout, poll_frequency=0.05).until(predicate, message)
 
     return wait
+
+
+@pytest.fixture
+def stub() -> Iterator[Callable[..., Any]]:
+    """``stub(get)``: a started :class:`StubService` answering GET ``path`` with
+    ``get[path]`` (and the console's own files); stopped after the test."""
+    from stub_service import StubService
+
+    made: list[StubService] = []
+
+    def make(get: dict[str, Any]) -> StubService:
+        made.append(StubService(get).start())
+        return made[-1]
+
+    yield make
+    for service in made:
+        service.stop()
