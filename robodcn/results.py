@@ -207,10 +207,48 @@ class Recording:
     poses: list[list[float]]
 
 
+# -- the console's event stream (GET /v1/events, robodcn.web.events) ----------------------------
+
+@dataclass
+class MoveInfo:
+    """The latest move as a ``state`` event carries it: the first fields of
+    :class:`MoveStatus`."""
+
+    id: str
+    status: MoveState
+    progress: float
+    elapsed: float
+    duration: float
+    tracking_error: float | None
+    error: ErrorDetail | None
+
+
+@dataclass
+class StateEvent(State):
+    """A ``state`` event: :class:`State` plus the latest move (or null) and the time."""
+
+    move_info: MoveInfo | None = field(kw_only=True, metadata=_doc(
+        "the latest move (GET /v1/moves/{id}, its first fields), or null before any"))
+    time: float = field(kw_only=True, metadata=_doc("Unix seconds of the sample"))
+
+
+@dataclass
+class AlertEvent:
+    """An ``alert`` event: the servos' hardware alerts (servo id → text) and the state
+    read's failure (or null), whenever either changes."""
+
+    alerts: dict[str, str]
+    error: ErrorDetail | None
+
+
+#: Event name → the type of its ``data`` (one JSON object per event).
+EVENTS: dict[str, type] = {"state": StateEvent, "move": MoveStatus, "alert": AlertEvent}
+
 RESULTS: dict[str, type] = {"Move": MoveStatus, "State": State, "Stop": StopAnswer,
                             "Health": Health, "Arm": ArmInfo, "Torque": TorqueAnswer,
                             "Reboot": RebootAnswer, "Record": Recording,
-                            "Error": ErrorResponse}
+                            "Error": ErrorResponse, "StateEvent": StateEvent,
+                            "AlertEvent": AlertEvent}
 
 
 def to_json(result: Any) -> Any:

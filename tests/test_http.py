@@ -375,9 +375,10 @@ def test_openapi_matches_the_routes_answered(planner_server: Any) -> None:
                     assert "content" not in response, path
                     continue
                 content = response["content"]
-                # JSON answers name their component; a page, a stream or a CSV is a string.
+                # JSON answers and each event of a stream name their component (OpenAPI
+                # 3.1: an event-stream schema is one event's); a page or a CSV is a string.
                 for media, body in content.items():
-                    if media == "application/json":
+                    if media in ("application/json", "text/event-stream"):
                         ref = body["schema"]["$ref"]
                         assert ref.split("/")[-1] in doc["components"]["schemas"], (path, code)
                     else:

@@ -231,8 +231,43 @@ def test_errors_name_the_right_field(planner_server: Any) -> None:
     t0 = time.monotonic()
     status, _, data = call(planner_server, "POST", "/v1/trajectories",
                            {"waypoints": [[0.2, 0.1, 0]] * 20_000})
-    assert status == 413 and error_of(data)["field"] == "waypoints", data
+    # more waypoints than the schema's maxItems: a schema violation (422), the body is
+    # within the byte limit (413 is for bodies over it)
+    assert status == 422 and error_of(data)["field"] == "waypoints", data
     assert time.monotonic() - t0 < 2.0  # refused before planning (it took 65 s)
+
+
+def test_waypoints_over_max_items_are_422_and_over_the_byte_limit_413(
+        planner_server: Any) -> None:
+    """ST201: 1001 waypoints answered 413 where the schema's maxItems makes it a 422."""
+    from robodcn.contract import MAX_WAYPOINTS
+    from robodcn.http import MAX_BODY, openapi
+
+    declared = openapi(ARM)["components"]["schemas"]["PlanBody"]["properties"]["waypoints"]
+    assert declared["maxItems"] == MAX_WAYPOINTS
+    body = {"waypoints": [[0.2, 0.1, 0]] * (MAX_WAYPOINTS + 1)}
+    assert len(json.dumps(body)) < MAX_BODY
+    status, _, data = call(planner_server, "POST", "/v1/trajectories", body)
+    assert status == 422 and error_of(data)["field"] == "waypoints", data
+    assert str(MAX_WAYPOINTS) in error_of(data)["message"]
+    # the most the schema takes is read as usual (an infeasible plan is a 422 too, a plan)
+    status, _, data = call(planner_server, "POST", "/v1/trajectories",
+                           {"waypoints": [[0.2, 0.1, 0]] * MAX_WAYPOINTS})
+    assert status != 413, data
+    # over the byte limit: 413, before the body is read
+    pad = {"waypoints": [[0.2, 0.1, 0]] * 2, "pad": "x" * MAX_BODY}
+    status, _, data = call(planner_server, "POST", "/v1/trajectories", pad)
+    assert status == 413 and error_of(data)["code"] == "too_large", data
+
+
+def test_a_move_over_max_items_is_422(arm_server: Any) -> None:
+    from robodcn.contract import MAX_WAYPOINTS
+
+    server, _ = arm_server
+    for extra in ({}, {"replace": True}):
+        status, _, data = call(server, "POST", "/v1/moves", {
+            "waypoints": [[0.2, 0.1, 0]] * (MAX_WAYPOINTS + 1), **extra})
+        assert status == 422 and error_of(data)["field"] == "waypoints", data
 
 
 def test_huge_plans_are_refused_before_planning(planner_server: Any) -> None:

@@ -77,6 +77,8 @@ class Stream:
         self.headers = {k.strip().lower(): v.strip()
                         for k, _, v in (line.partition(":") for line in lines[1:])}
         self.comments = 0
+        #: every event as received: {"event": name, "data": the data line as sent}
+        self.raw: list[dict[str, str]] = []
 
     def body(self) -> bytes:
         length = int(self.headers["content-length"])
@@ -112,6 +114,7 @@ class Stream:
                 name = line[7:]
             elif line.startswith("data: "):
                 data = json.loads(line[6:])
+                self.raw.append({"event": name or "message", "data": line[6:]})
             elif line == "" and name is not None:
                 yield name, data, time.monotonic()
                 name, data = None, None
@@ -317,3 +320,69 @@ def test_alerts_and_keep_alives_when_the_bus_fails() -> None:
             assert stream.comments >= 2  # keep-alives while the reads hang
         finally:
             stream.close()
+
+
+# -- every event matches the schema /openapi.json declares for it ------------------------------
+
+def check_against_schema(raw: list[dict[str, str]]) -> set[str]:
+    """Validate each event as received against the ``text/event-stream`` schema of
+    ``GET /v1/events`` (OpenAPI 3.1: it describes one event, ``{event, data}``) and its
+    ``data`` against the ``contentSchema`` of its branch; the event names seen."""
+    import jsonschema_rs
+
+    from robodcn.http import openapi
+
+    doc = openapi(ARM)
+    content = doc["paths"]["/v1/events"]["get"]["responses"]["200"]["content"]
+    declared = content["text/event-stream"]["schema"]
+    components = {"components": doc["components"]}
+    whole = jsonschema_rs.Draft202012Validator({**declared, **components})
+    events_schema = doc["components"]["schemas"]["Events"]
+    branches = {b["properties"]["event"]["const"]: b["properties"]["data"]["contentSchema"]
+                for b in events_schema["oneOf"]}
+    for event in raw:
+        whole.validate(event)
+        data = jsonschema_rs.Draft202012Validator({**branches[event["event"]], **components})
+        data.validate(json.loads(event["data"]))
+    return {e["event"] for e in raw}
+
+
+def test_every_event_matches_its_declared_schema(arm_server: Any) -> None:
+    """ST108: the events violated their declared schema (a string, where each SSE event is
+    an object {event, data})."""
+    server, _ = arm_server
+    stream = Stream(server)
+    try:
+        list(stream.events(0.8))
+        status, _, body = request(server, "POST", "/v1/moves",
+                                  {"waypoints": [HOME, TARGET], "duration": 1.0})
+        assert status == 202, body
+        move_id = json.loads(body)["id"]
+        for name, data, _ in stream.events(6.0):
+            if name == "move" and data["id"] == move_id and data["status"] == "running":
+                request(server, "POST", "/v1/stop", {"mode": "hold"})
+            if name == "move" and data["status"] not in ("queued", "running"):
+                break
+        list(stream.events(0.7))
+    finally:
+        stream.close()
+    assert check_against_schema(stream.raw) == {"state", "move"}
+    with running(make_server(ARM, _FailingController(0.1), request_timeout=1.0)) as failing:
+        stream = Stream(failing)
+        try:
+            list(stream.events(1.0))
+        finally:
+            stream.close()
+    assert check_against_schema(stream.raw) == {"alert"}
+
+
+def test_the_schema_check_refuses_an_event_off_its_schema() -> None:
+    import jsonschema_rs
+
+    good = {"alerts": {"1": "overload"}, "error": None}
+    assert check_against_schema([{"event": "alert", "data": json.dumps(good)}]) == {"alert"}
+    for bad in ({"event": "alert", "data": json.dumps({"alerts": {}})},
+                {"event": "state", "data": json.dumps(good)},
+                {"event": "alert"}):
+        with pytest.raises((jsonschema_rs.ValidationError, KeyError)):
+            check_against_schema([bad])

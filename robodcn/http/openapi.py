@@ -14,7 +14,7 @@ from robodcn.http import online_ops
 from robodcn.http.planbody import move_body_schema, plan_body_schema, trajectory_move_schema
 from robodcn.http.routes import ROUTES, TRANSPORT_ERRORS, Route
 from robodcn.planner import Trajectory
-from robodcn.results import RESULTS
+from robodcn.results import EVENTS, RESULTS
 
 
 def schemas(arm: Arm | None = None) -> dict[str, dict[str, Any]]:
@@ -35,8 +35,7 @@ def schemas(arm: Arm | None = None) -> dict[str, dict[str, Any]]:
         "RebootBody": {"type": "object", "additionalProperties": False,
                        "properties": {"joint": _joint(arm)},
                        "description": "Empty or {} reboots every servo."},
-        "Events": {"type": "string", "description": "SSE: `event: state|move|alert`, `data:` "
-                   "one JSON object (State plus move_info and time; Move; {alerts, error})"},
+        "Events": events_schema(),
         "Page": {"type": "string"},
         "Trajectory": schema_of(Trajectory),
         "OpenAPI": {"type": "object"},
@@ -51,6 +50,21 @@ def schemas(arm: Arm | None = None) -> dict[str, dict[str, Any]]:
     }
 
 
+def events_schema() -> dict[str, Any]:
+    """One event of ``GET /v1/events`` (OpenAPI 3.1: the ``text/event-stream`` schema
+    describes each event, ``{event, data, id?, retry?}``): its name, and its ``data`` as
+    JSON of the type :data:`robodcn.results.EVENTS` names."""
+    names = {cls: name for name, cls in RESULTS.items()}
+    return {"description": "Server-Sent Events: `event: state|move|alert`, `data:` one JSON "
+                           "object (StateEvent; Move; AlertEvent)",
+            "oneOf": [{"type": "object", "required": ["event", "data"], "properties": {
+                "event": {"const": event},
+                "data": {"type": "string", "contentMediaType": "application/json",
+                         "contentSchema": {"$ref": f"#/components/schemas/{names[cls]}"}},
+                "id": {"type": "string"}, "retry": {"type": "integer"}}}
+                for event, cls in EVENTS.items()]}
+
+
 def _joint(arm: Arm | None) -> dict[str, Any]:
     schema: dict[str, Any] = {"type": "string", "description": "a joint name (default: every "
                               "joint)"}
@@ -60,11 +74,14 @@ def _joint(arm: Arm | None) -> dict[str, Any]:
 
 
 def _content(route: Route) -> dict[str, Any]:
-    """The success answer's content: the schema as JSON, a string otherwise."""
+    """The success answer's content: the schema as JSON, or of each event of an event
+    stream (OpenAPI 3.1 reads a ``text/event-stream`` schema as one event's), a string
+    otherwise."""
     out = {}
     for media in (route.media, *route.alt_media):
         out[media] = {"schema": {"$ref": f"#/components/schemas/{route.response}"}
-                      if media == "application/json" else {"type": "string"}}
+                      if media in ("application/json", "text/event-stream")
+                      else {"type": "string"}}
     return out
 
 

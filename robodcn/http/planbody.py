@@ -13,6 +13,7 @@ from typing import Any
 
 from robodcn import contract
 from robodcn.config import Arm
+from robodcn.errors import InputError, TooLargeError
 from robodcn.planner import PlanRequest
 
 
@@ -26,15 +27,45 @@ def move_body_schema(arm: Arm | None = None) -> dict[str, Any]:
     return contract.request_schema(arm, omit=contract.MOVE_OMIT)
 
 
+def _over_max_items(body: Any, schema: dict[str, Any]) -> bool:
+    """``body`` has a list longer than its property's declared ``maxItems`` (than each
+    array alternative's, for a property that takes one of several)."""
+    if not isinstance(body, dict):
+        return False
+    for name, prop in schema["properties"].items():
+        value = body.get(name)
+        if not isinstance(value, list):
+            continue
+        arrays = [a for a in prop.get("oneOf", prop.get("anyOf", [prop]))
+                  if a.get("type") == "array"]
+        caps = [a.get("maxItems") for a in arrays]
+        if caps and None not in caps and len(value) > max(caps):
+            return True
+    return False
+
+
+def _parse(arm: Arm, body: Any, omit: tuple[str, ...]) -> PlanRequest:
+    """The contract's parse; a cap the body's declared schema states (``maxItems``: more
+    waypoints than it takes) is a schema violation like any other, 422 naming the field.
+    413 stays for bodies over the byte limit and plans too large to answer (samples), which
+    no schema of the body can say."""
+    try:
+        return contract.parse_request(body, arm, omit=omit)
+    except TooLargeError as exc:
+        if not _over_max_items(body, contract.request_schema(arm, omit=omit)):
+            raise
+        raise InputError(exc.message, field=exc.field, value=exc.value) from None
+
+
 def parse_plan(arm: Arm, body: Any) -> PlanRequest:
     """A decoded ``/v1/trajectories`` body → a validated PlanRequest (InputError naming the
-    JSON path of the bad value; TooLargeError for the caps, all before planning)."""
-    return contract.parse_request(body, arm)
+    JSON path of the bad value; TooLargeError for a plan too large, all before planning)."""
+    return _parse(arm, body, ())
 
 
 def parse_move(arm: Arm, body: Any) -> PlanRequest:
     """A decoded ``/v1/moves`` body → a validated PlanRequest without start_joints."""
-    return contract.parse_request(body, arm, omit=contract.MOVE_OMIT)
+    return _parse(arm, body, contract.MOVE_OMIT)
 
 
 def _fields(omit: tuple[str, ...] = ()) -> dict[str, tuple[dict[str, Any], str]]:

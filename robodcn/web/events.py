@@ -2,7 +2,8 @@
 
 One :class:`EventHub` per server. Its sampler thread starts with the first client and ends
 with the last, so N open consoles cost one state read per period, not N. It publishes three
-named events (``data:`` is one JSON object):
+named events (``data:`` is one JSON object of the type :data:`robodcn.results.EVENTS` names,
+as ``/openapi.json`` documents it):
 
 ``state``
     :meth:`ArmController.state` plus ``"move_info"`` (id, status, progress, elapsed,
@@ -24,6 +25,7 @@ past :data:`MAX_CLIENTS` a client gets 503 at once.
 from __future__ import annotations
 
 import collections
+import dataclasses
 import json
 import logging
 import select
@@ -34,7 +36,7 @@ from collections.abc import Callable
 from typing import Any
 
 from robodcn.errors import RobodcnError
-from robodcn.results import to_json
+from robodcn.results import MoveInfo, to_json
 
 log = logging.getLogger("robodcn.web.events")
 
@@ -51,7 +53,8 @@ QUEUE_LENGTH = 256
 #: Longest wait between checks that the client is still connected (s).
 _POLL_S = 0.25
 _ACTIVE = ("queued", "running")
-_MOVE_KEYS = ("id", "status", "progress", "elapsed", "duration", "tracking_error", "error")
+#: The keys of a state event's ``move_info`` (robodcn.results.MoveInfo).
+_MOVE_KEYS = tuple(f.name for f in dataclasses.fields(MoveInfo))
 
 
 def encode(name: str, data: Any) -> bytes:
