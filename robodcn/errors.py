@@ -9,7 +9,8 @@ The classes map onto CLI exit codes and HTTP statuses through ``exit_code`` and
     ├── InputError (ValueError)       exit 2   422  bad argument, shape, method, value
     │   ├── ConfigError               exit 2   422  bad arm/bus TOML (file, key, value)
     │   ├── DegenerateError           exit 2   422  e.g. DLB with a zero denominator
-    │   └── TooLargeError             exit 2   413  a plan over the 10⁶-sample limit
+    │   ├── TooLargeError             exit 2   413  a plan over the 10⁶-sample limit
+    │   └── GravityReleaseError       exit 2   409  torque off would drop the arm: confirm
     ├── PlanError                     exit 3   422  plan infeasible (names the sample)
     │   ├── UnreachableError
     │   ├── JointLimitError
@@ -145,6 +146,32 @@ class TooLargeError(InputError):
 
     code = "too_large"
     http_status = 413
+
+
+class GravityReleaseError(InputError):
+    """Torque off on an arm under gravity: it would fall, so it needs confirmation (the
+    CLI's ``--yes``, HTTP ``"confirm": true``).
+
+    ``arm`` names the arm, ``joints`` the joints gravity loads, ``holding_torque_nm`` the
+    torque each joint holds at the present pose (N·m, joint order; None when not known),
+    ``rest`` the rest pose the arm would be lowered to first (None: it has none).
+    """
+
+    code = "gravity_release"
+    http_status = 409
+
+    def __init__(self, message: str, *, arm: str, joints: tuple[str, ...],
+                 holding_torque_nm: tuple[float, ...] | None,
+                 rest: tuple[float, ...] | None, field: str = "confirm") -> None:
+        super().__init__(message, field=field,
+                         value={"arm": arm, "joints": list(joints),
+                                "holding_torque_nm": None if holding_torque_nm is None
+                                else list(holding_torque_nm),
+                                "rest": None if rest is None else list(rest)})
+        self.arm = arm
+        self.joints = joints
+        self.holding_torque_nm = holding_torque_nm
+        self.rest = rest
 
 
 class PlanError(RobodcnError):
