@@ -8,8 +8,9 @@ choices are read from the fields' schemas, so the checks and the OpenAPI documen
 Cross-field rules the schema cannot say: ``duration × rate_hz`` sample periods must cover
 one per segment and stay within :data:`MAX_SAMPLES` samples (413); ``waypoints`` holds at
 most :data:`MAX_WAYPOINTS` poses (413); a waypoint is (x, y, θ), or (x, y) on a 2-joint
-(position-only) arm; ``start_joints`` has one angle per joint, each within that joint's
-limits; per-segment lists of ``method``/``turn``/``beta`` have one entry per segment.
+(position-only) arm, or (x, y, z, pitch) on an arm with a base yaw (:func:`waypoint_shape`);
+``start_joints`` has one angle per joint, each within that joint's limits; per-segment
+lists of ``method``/``turn``/``beta`` have one entry per segment.
 """
 
 from __future__ import annotations
@@ -24,7 +25,14 @@ import numpy as np
 
 from robodcn._checks import is_real
 from robodcn.config import Arm
-from robodcn.contract.fields import ANGLE_ITEM, FIELDS, MAX_SAMPLES, MAX_WAYPOINTS, field
+from robodcn.contract.fields import (
+    ANGLE_ITEM,
+    FIELDS,
+    MAX_SAMPLES,
+    MAX_WAYPOINTS,
+    field,
+    waypoints_field,
+)
 from robodcn.errors import InputError, TooLargeError
 
 
@@ -134,25 +142,41 @@ def check_per_segment(name: str, value: Any, segments: int) -> Any:
                f"{_show(value)}", value)
 
 
-def check_waypoints(value: Any, arm: Arm) -> tuple[tuple[float, float, float], ...]:
-    """(m, 3) or, on a 2-joint arm, (m, 2) poses → m (x, y, θ) tuples (θ = 0 when absent).
+def waypoint_shape(arm: Arm) -> tuple[tuple[int, ...], str]:
+    """The numbers a waypoint of ``arm`` may have and their names: (x, y, θ), or (x, y) on
+    a 2-joint arm; an arm with a base yaw (x, y, z, pitch), or (x, y, z) when its chain has
+    two links (pitch free)."""
+    if arm.yawed:
+        if len(arm.chain_joints) == 2:
+            return (3, 4), "[x, y, z] or [x, y, z, pitch]"
+        return (4,), "[x, y, z, pitch]"
+    if arm.dof == 2:
+        return (2, 3), "[x, y] or [x, y, θ]"
+    return (3,), "[x, y, θ]"
+
+
+def check_waypoints(value: Any, arm: Arm) -> tuple[tuple[float, ...], ...]:
+    """(m, 3) poses (x, y, θ) → m tuples; on a 2-joint arm (m, 2) too (θ = 0 when absent);
+    an arm with a base yaw (m, 4) (x, y, z, pitch), metres and radians (pitch = 0 when a
+    2-link chain's waypoint omits it).
 
     The count is checked first (at most :data:`MAX_WAYPOINTS`: TooLargeError), so a huge
-    list is refused without being read.
+    list is refused without being read. Each error names the waypoint and the number
+    (``waypoints[2]``, ``waypoints[2][3]``).
     """
     if isinstance(value, np.ndarray):
         value = value.tolist()
+    sizes, shape = waypoint_shape(arm)
     if not isinstance(value, list | tuple):
-        raise fail("waypoints", f"must be a list of poses [x, y, θ], got {_show(value)}", value)
-    f = field("waypoints")
+        raise fail("waypoints", f"must be a list of poses {shape}, got {_show(value)}", value)
+    f = waypoints_field(arm)
     if len(value) > MAX_WAYPOINTS:
         raise fail("waypoints", f"has {len(value)} poses, at most {MAX_WAYPOINTS} are "
                    "accepted", len(value), too_large=True)
     if len(value) < 2:
         raise fail("waypoints", f"needs at least 2 poses, got {len(value)}", value)
-    sizes = (2, 3) if arm.dof == 2 else (3,)
-    shape = "[x, y] or [x, y, θ]" if arm.dof == 2 else "[x, y, θ]"
     items = f.schema["items"]["prefixItems"]
+    width = max(sizes)
     out = []
     for i, pose in enumerate(value):
         if isinstance(pose, np.ndarray):
@@ -160,9 +184,10 @@ def check_waypoints(value: Any, arm: Arm) -> tuple[tuple[float, float, float], .
         if not isinstance(pose, list | tuple) or len(pose) not in sizes:
             raise fail(f"waypoints[{i}]", f"must be {shape} (metres, radians), got "
                        f"{_show(pose)}", pose)
-        xs = [check_number(f"waypoints[{i}][{k}]", v, items[k], "rad" if k == 2 else "m")
+        xs = [check_number(f"waypoints[{i}][{k}]", v, items[k],
+                           "rad" if k == width - 1 else "m")
               for k, v in enumerate(pose)]
-        out.append((xs[0], xs[1], xs[2] if len(xs) == 3 else 0.0))
+        out.append((*xs, *(0.0,) * (width - len(xs))))
     return tuple(out)
 
 

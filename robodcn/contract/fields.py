@@ -14,7 +14,7 @@ from collections.abc import Mapping
 from dataclasses import dataclass
 from typing import Any
 
-from robodcn.config import ELBOWS, RATE_RANGE
+from robodcn.config import ELBOWS, RATE_RANGE, Arm
 from robodcn.dcn import TURNS
 from robodcn.interpolate import METHODS
 from robodcn.timing import PROFILES
@@ -122,12 +122,12 @@ ANGLE_ITEM = {"type": "number", "minimum": -MAX_ANGLE, "maximum": MAX_ANGLE}
 FIELDS: tuple[Field, ...] = (
     Field("waypoints",
           {"type": "array", "minItems": 2, "maxItems": MAX_WAYPOINTS,
-           "items": {"type": "array", "minItems": 2, "maxItems": 3,
+           "items": {"type": "array", "minItems": 2, "maxItems": 4,
                      "prefixItems": [_POSE_ITEM, _POSE_ITEM, ANGLE_ITEM],
                      "items": ANGLE_ITEM}},
           "Poses [x, y, θ] in metres and radians, at least two, at most "
           f"{MAX_WAYPOINTS}; on a 2-joint (position-only) arm [x, y] (θ, if given, is "
-          "ignored).",
+          "ignored); on an arm with a base yaw [x, y, z, pitch].",
           unit="m, m, rad", cli_option="--from/--via/--to", cli_unit="m, m, deg",
           required=True),
     Field("method", _per_segment_schema(_choice_schema(METHODS)),
@@ -161,7 +161,7 @@ FIELDS: tuple[Field, ...] = (
           "Pass through via points with continuous velocity instead of stopping at each.",
           default=DEFAULTS.blend, cli_option="--blend"),
     Field("start_joints",
-          {"type": ["array", "null"], "minItems": 2, "maxItems": 3, "items": ANGLE_ITEM},
+          {"type": ["array", "null"], "minItems": 2, "maxItems": 4, "items": ANGLE_ITEM},
           "Joint angles to start from, one per joint, each within its limits; a joint-space "
           "approach is prepended when they differ from the first waypoint's IK. Default: "
           "none (start at the first waypoint).", default=DEFAULTS.start_joints, unit="rad",
@@ -173,10 +173,10 @@ FIELDS: tuple[Field, ...] = (
     Field("start_state",
           {"type": ["object", "null"], "additionalProperties": False, "required": ["joints"],
            "properties": {
-               "joints": {"type": "array", "minItems": 2, "maxItems": 3, "items": ANGLE_ITEM},
-               "velocities": {"type": "array", "minItems": 2, "maxItems": 3,
+               "joints": {"type": "array", "minItems": 2, "maxItems": 4, "items": ANGLE_ITEM},
+               "velocities": {"type": "array", "minItems": 2, "maxItems": 4,
                               "items": {"type": "number"}},
-               "accelerations": {"type": "array", "minItems": 2, "maxItems": 3,
+               "accelerations": {"type": "array", "minItems": 2, "maxItems": 4,
                                  "items": {"type": "number"}}}},
           "A moving joint state to plan from (a retarget): joints (rad), velocities (rad/s) "
           "and accelerations (rad/s²), one per joint, each within its limit. The path runs "
@@ -186,6 +186,26 @@ FIELDS: tuple[Field, ...] = (
           cli_unit="deg, deg/s, deg/s²"),
 )
 _BY_NAME = {f.name: f for f in FIELDS}
+
+#: ``waypoints`` on an arm with a base yaw (a 2-link chain's pitch may be left out).
+YAWED_WAYPOINTS = Field(
+    "waypoints",
+    {"type": "array", "minItems": 2, "maxItems": MAX_WAYPOINTS,
+     "items": {"type": "array", "minItems": 4, "maxItems": 4,
+               "prefixItems": [_POSE_ITEM, _POSE_ITEM, _POSE_ITEM, ANGLE_ITEM],
+               "items": False}},
+    "Poses [x, y, z, pitch] in the arm's base frame (origin on the yaw axis at the mounting "
+    "plate, z up, x forward at yaw 0; pitch the tool axis's elevation above the horizontal, "
+    f"positive up), metres and radians, at least two, at most {MAX_WAYPOINTS}. A pose "
+    "behind the base (|pitch| > 90°, or on the yaw axis) is refused.",
+    unit="m, m, m, rad", cli_option="--from/--via/--to", cli_unit="m, m, m, deg",
+    required=True)
+
+
+def waypoints_field(arm: Arm | None) -> Field:
+    """The ``waypoints`` :class:`Field` of ``arm`` (an :class:`~robodcn.config.Arm`, or None
+    for the arm-independent one): :data:`YAWED_WAYPOINTS` for an arm with a base yaw."""
+    return YAWED_WAYPOINTS if arm is not None and arm.yawed else _BY_NAME["waypoints"]
 
 #: The fields a move body may not give (a move starts from the arm's present joints).
 MOVE_OMIT = ("start_joints", "start_state")

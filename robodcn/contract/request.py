@@ -78,7 +78,8 @@ class StartState:
         return {"joints": q.tolist(), "velocities": v.tolist(), "accelerations": a.tolist()}
 
 
-Pose = tuple[float, float, float]
+#: A waypoint: (x, y, θ), or (x, y, z, pitch) for an arm with a base yaw.
+Pose = tuple[float, ...]
 
 
 @dataclass(frozen=True)
@@ -90,7 +91,8 @@ class PlanRequest:
     arm : Arm
     waypoints : 2 ≤ m ≤ MAX_WAYPOINTS poses (x, y, θ), metres and radians; on a 2-joint
         (position-only) arm (x, y) is accepted too (stored with θ = 0) and θ plays no part
-        in the plan
+        in the plan; an arm with a base yaw (``arm.yawed``) takes (x, y, z, pitch) in its
+        base frame (the interpolation runs in the arm's plane, robodcn.planner.yawed)
     method : "sclerp" | "kenlerp" | "seplerp" | "dlb", or one per segment
     beta : KenLERP bias within contract.BETA_RANGE (0 SEP-LERP, 1 ScLERP, > 1 extrapolates),
         or one per segment (each segment interpolated with its own β). One β other than 1
@@ -183,7 +185,7 @@ class PlanRequest:
 
     @property
     def waypoints_array(self) -> NDArray[np.float64]:
-        """Waypoints as an (m, 3) array."""
+        """Waypoints as an (m, 3) array ((m, 4) for an arm with a base yaw)."""
         return np.array(self.waypoints, dtype=np.float64)
 
     @property

@@ -11,15 +11,16 @@ from collections.abc import Iterable
 from typing import Any
 
 from robodcn.config import Arm
-from robodcn.contract.fields import FIELDS
+from robodcn.contract.fields import FIELDS, waypoints_field
 
 
 def request_schema(arm: Arm | None = None, omit: Iterable[str] = ()) -> dict[str, Any]:
     """JSON Schema (2020-12 / OpenAPI 3.1) of the plan request body.
 
     With ``arm`` the arm-dependent parts are exact: a waypoint has 2 or 3 entries by the
-    arm's joint count, ``start_joints`` one entry per joint within that joint's limits, and
-    the ``rate_hz`` default is the arm's bus rate. ``omit`` drops fields (a move body omits
+    arm's joint count (an arm with a base yaw: 4, [x, y, z, pitch]), ``start_joints`` one
+    entry per joint within that joint's limits, and the ``rate_hz`` default is the arm's bus
+    rate. ``omit`` drops fields (a move body omits
     :data:`MOVE_OMIT`).
     """
     omit = set(omit)
@@ -27,6 +28,8 @@ def request_schema(arm: Arm | None = None, omit: Iterable[str] = ()) -> dict[str
     for f in FIELDS:
         if f.name in omit:
             continue
+        if f.name == "waypoints":
+            f = waypoints_field(arm)
         schema = _copy(f.schema)
         if arm is not None:
             _specialise(f.name, schema, arm)
@@ -52,7 +55,12 @@ def _copy(schema: Any) -> Any:
 
 def _specialise(name: str, schema: dict[str, Any], arm: Arm) -> None:
     if name == "waypoints":
-        schema["items"]["minItems"] = 2 if arm.dof == 2 else 3
+        items = schema["items"]
+        if arm.yawed:
+            items["minItems"] = 3 if len(arm.chain_joints) == 2 else 4
+        else:
+            items["minItems"] = 2 if arm.dof == 2 else 3
+            items["maxItems"] = 3
     elif name == "start_joints":
         schema["minItems"] = schema["maxItems"] = arm.dof
         schema["prefixItems"] = [{"type": "number", "minimum": j.min_angle,

@@ -27,8 +27,9 @@ from robodcn.errors import (
     VelocityLimitError,
     Violation,
 )
-from robodcn.planner import validate
+from robodcn.planner import reach, validate
 from robodcn.planner.optimal import OptimalTiming
+from robodcn.planner.path import to_user
 from robodcn.planner.pieces import build_pieces
 from robodcn.planner.samples import Sampled, Timing
 from robodcn.planner.trajectory import Trajectory
@@ -46,16 +47,17 @@ def warn_switches(samples: tuple[int, ...], rate: float) -> None:
 
 def assemble(req: PlanRequest, sampled: Sampled, ticks: NDArray[np.int64],
              start_state: StartState | None) -> Trajectory:
-    """The Trajectory of validated samples (t every 1/rate_hz from 0, the elbow branch and
-    its switches, the approach's periods)."""
+    """The Trajectory of validated samples (t every 1/rate_hz from 0, the user's poses, the
+    elbow branch and its switches, the approach's periods)."""
     rate = req.rate_hz
     arm = req.arm
     t = np.arange(sampled.joints.shape[0]) / rate
-    elbow, switches = validate.elbow_branches(sampled.joints)
+    elbow, switches = reach.elbow_branches(req, sampled.joints)
     if switches:
         warn_switches(switches, rate)
-    return Trajectory(t, sampled.poses, sampled.joints, ticks, arm.joint_names, arm.servo_ids,
-                      rate, req.method if isinstance(req.method, str) else list(req.method),
+    return Trajectory(t, to_user(arm, sampled.poses), sampled.joints, ticks, arm.joint_names,
+                      arm.servo_ids, rate,
+                      req.method if isinstance(req.method, str) else list(req.method),
                       req, elbow, switches, sampled.approach, start_state)
 
 
@@ -79,7 +81,7 @@ def run(req: PlanRequest, law: Timing) -> Trajectory:
         if not law.slow(violation, sampled):
             break
     assert violation is not None
-    validate.raise_for(law.annotate(violation))
+    validate.raise_for(reach.user_violation(req, law.annotate(violation)))
 
 
 def _unreachable_path(req: PlanRequest, pose: NDArray) -> NoReturn:
@@ -94,12 +96,12 @@ def _unreachable_path(req: PlanRequest, pose: NDArray) -> NoReturn:
                 raise
             # its retiming never sampled the gap (the joints race near it, a jerk limit
             # most of all): the pose out of reach is what is wrong, said below
-    validate.raise_unreachable_pose(req, pose)
+    reach.raise_unreachable_pose(req, pose)
 
 
 def plan_request(req: PlanRequest) -> Trajectory:
     """Plan a validated :class:`PlanRequest` (package docstring); see :func:`plan`."""
-    validate.check_waypoints(req)
+    reach.check_waypoints(req)
     if req.profile != "optimal":
         return run(req, UniformTiming(req))
     pieces, bad_pose = build_pieces(req)

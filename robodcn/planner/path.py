@@ -1,4 +1,10 @@
-"""The geometric path of a plan: segments, blending, pieces with their time laws, IK."""
+"""The geometric path of a plan: segments, blending, pieces with their time laws, IK.
+
+Path poses are a planar arm's (x, y, θ) and a yawed arm's plane poses (yaw, r, z, pitch)
+(:mod:`~robodcn.planner.yawed`); the functions here that touch poses or IK dispatch on the
+arm (:func:`pose_of`, :func:`joints_of`, :func:`to_user`), so the timing laws never ask
+which kind of arm they time.
+"""
 
 from __future__ import annotations
 
@@ -14,6 +20,7 @@ from robodcn.config import Arm
 from robodcn.contract.request import PlanRequest
 from robodcn.interpolate import interpolate, turn_angle
 from robodcn.path_timing.limits import JointLimits
+from robodcn.planner import yawed
 
 #: Samples of the coarse uniform grid used for estimates and path shaping.
 COARSE = 128
@@ -29,7 +36,11 @@ class Segment(NamedTuple):
     beta: float
 
     def poses(self, s: NDArray[np.float64]) -> NDArray[np.float64]:
-        """The segment's interpolation at path parameters ``s`` (robodcn.interpolate)."""
+        """The segment's interpolation at path parameters ``s`` (robodcn.interpolate; a
+        yawed arm's in its plane, :func:`robodcn.planner.yawed.interpolate_plane`)."""
+        if self.start.shape[0] == 4:
+            return yawed.interpolate_plane(self.start, self.end, s, self.method, self.beta,
+                                           self.turn)
         return interpolate(self.start, self.end, s, method=self.method, beta=self.beta,
                            turn=self.turn)
 
@@ -60,7 +71,7 @@ class Path:
     def __call__(self, u: NDArray[np.float64]) -> NDArray[np.float64]:
         if len(self.segments) == 1:
             return self.segment_poses(0, u)
-        out = np.empty((u.shape[0], 3))
+        out = np.empty((u.shape[0], self.segments[0].start.shape[0]))
         # u is non-decreasing, so each segment owns one contiguous slice.
         bounds = np.searchsorted(u, self.knots[1:-1], side="left")
         edges = [0, *bounds.tolist(), u.shape[0]]
@@ -93,7 +104,7 @@ class Piece:
         tau = np.arange(n + 1) / n
         if self.path is None:
             q = self.q_from + np.outer(timing.quintic(tau), self.q_to - self.q_from)
-            return kinematics.fk(arm.links, q), q, None
+            return pose_of(arm, q), q, None
         poses = self.path(timing.profile(self.profile, tau, self.accel_fraction))
         q, bad = joints_of(arm, poses, reference, self.elbow)
         if q is not None and arm.dof == 2:
@@ -101,14 +112,96 @@ class Piece:
         return poses, q, bad
 
 
-def joints_of(arm: Arm, poses: NDArray[np.float64], reference: NDArray | None, elbow: str
-              ) -> tuple[NDArray[np.float64] | None, int | None]:
-    """Branch-continuous IK of ``poses`` (kinematics.try_ik_path): the first sample on
-    ``elbow`` (or nearest ``reference``), each later one on the branch nearest the previous
-    sample; or (None, first pose out of reach)."""
-    limits = [(j.min_angle, j.max_angle) for j in arm.joints]
+def pose_width(arm: Arm) -> int:
+    """Numbers in a path pose: 3 (x, y, θ) or, for a yawed arm, 4 (yaw, r, z, pitch)."""
+    return 4 if arm.yawed else 3
+
+
+def angle_column(arm: Arm) -> int:
+    """The path pose's column of the in-plane rotation: θ, or a yawed arm's pitch."""
+    return 3 if arm.yawed else 2
+
+
+def pose_of(arm: Arm, q: NDArray[np.float64]) -> NDArray[np.float64]:
+    """Path poses (n, 3|4) of joints q (n, k): planar FK, or a yawed arm's plane poses."""
+    if arm.yawed:
+        return yawed.plane_pose_of(arm, q)
+    return kinematics.fk(arm.links, q)
+
+
+def to_user(arm: Arm, poses: NDArray[np.float64]) -> NDArray[np.float64]:
+    """Path poses → the user's poses: the same array for a planar arm, (x, y, z, pitch) in
+    the base frame for a yawed one."""
+    return yawed.to_user(poses) if arm.yawed else poses
+
+
+def user_pose(arm: Arm, q: NDArray[np.float64]) -> NDArray[np.float64]:
+    """The user's poses (n, 3|4) of joints q (n, k): (x, y, θ), or (x, y, z, pitch)."""
+    return to_user(arm, pose_of(arm, q))
+
+
+def same_pose(req: PlanRequest, a: NDArray[np.float64], b: NDArray[np.float64]) -> bool:
+    """Whether two of the user's poses are one: positions within 0.1 mm, θ (pitch) within
+    0.01° modulo 2π (θ ignored on a position-only arm)."""
+    k = len(req.arm.pose_keys) - 1
+    gap = abs((b[k] - a[k] + math.pi) % (2 * math.pi) - math.pi)
+    return bool(np.abs(a[:k] - b[:k]).max() <= 1e-4 and (req.position_only or gap <= 1.75e-4))
+
+
+def _ik(arm: Arm, poses: NDArray[np.float64], reference: NDArray | None, elbow: str,
+        limits: Sequence[tuple[float, float]] | None = None
+        ) -> tuple[NDArray[np.float64] | None, int | None]:
+    if arm.yawed:
+        return yawed.plane_joints(arm, poses, reference, elbow, limits)
     return kinematics.try_ik_path(arm.links, poses, reference=reference, elbow=elbow,
                                   limits=limits)
+
+
+def joints_of(arm: Arm, poses: NDArray[np.float64], reference: NDArray | None, elbow: str
+              ) -> tuple[NDArray[np.float64] | None, int | None]:
+    """Branch-continuous IK of path ``poses`` (kinematics.try_ik_path; a yawed arm's
+    :func:`robodcn.planner.yawed.plane_joints`): the first sample on ``elbow`` (or nearest
+    ``reference``), each later one on the branch nearest the previous sample; or (None,
+    first pose out of reach)."""
+    limits = [(j.min_angle, j.max_angle) for j in arm.joints]
+    return _ik(arm, poses, reference, elbow, limits)
+
+
+def first_joints(arm: Arm, pose: NDArray[np.float64], reference: NDArray | None, elbow: str
+                 ) -> NDArray[np.float64]:
+    """The joints (k,) of one path pose that a checked waypoint is (:func:`joints_of`)."""
+    q, _ = joints_of(arm, np.asarray(pose, dtype=np.float64)[None, :], reference, elbow)
+    assert q is not None, "waypoints are checked reachable before any path is built"
+    return q[0]
+
+
+def start_of(req: PlanRequest) -> NDArray[np.float64] | None:
+    """The joints the plan starts from: start_joints, a start state's joints, or None."""
+    if req.start_joints is not None:
+        return np.asarray(req.start_joints, dtype=np.float64)
+    if req.start_state is not None:
+        return req.start_state.arrays()[0]
+    return None
+
+
+def plan_waypoints(req: PlanRequest) -> NDArray[np.float64]:
+    """The path poses the plan runs through: the waypoints (θ = 0 on a position-only arm; a
+    yawed arm's in its plane, yaws unwrapped from the start), and before a lone waypoint
+    the pose of the start (a one-waypoint request starts there: the contract's rule)."""
+    arm = req.arm
+    wp = req.waypoints_array
+    start = start_of(req)
+    if arm.yawed:
+        wp = yawed.plane_waypoints(arm, wp, start)
+    elif req.position_only:
+        wp[:, 2] = 0.0
+    if wp.shape[0] == 1:
+        assert start is not None, "the contract needs a start for a lone waypoint"
+        first = pose_of(arm, start[None, :])
+        if req.position_only:
+            first[:, 2] = 0.0
+        wp = np.vstack([first, wp])
+    return wp
 
 
 def rate_limits(arm: Arm) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
@@ -128,8 +221,7 @@ def shape_trapezoid(piece: Piece, arm: Arm, reference: NDArray | None) -> None:
     if piece.profile != "trapezoid" or piece.path is None:
         return
     s = np.linspace(0.0, 1.0, COARSE + 1)
-    q, _ = kinematics.try_ik_path(arm.links, piece.path(s), reference=reference,
-                                  elbow=piece.elbow)
+    q, _ = _ik(arm, piece.path(s), reference, piece.elbow)
     if q is None:
         return  # validation reports it with the real sample index
     slope = np.abs(np.diff(q, axis=0)).max(axis=0) * COARSE
@@ -144,20 +236,20 @@ def shape_trapezoid(piece: Piece, arm: Arm, reference: NDArray | None) -> None:
 
 
 def segments_of(req: PlanRequest) -> list[Segment]:
-    """(start, end, method, turn, β) per segment with θ chained continuously across waypoints.
+    """(start, end, method, turn, β) per segment with θ chained continuously across waypoints
+    (:func:`plan_waypoints`; a yawed arm's pitch likewise, its yaw as unwrapped there).
 
     On a position-only (2-joint) arm θ plays no part: every θ is 0, so each segment is the
     straight-line position interpolation whatever the method (no rotation to screw about).
     """
-    wp = req.waypoints_array
-    if req.position_only:
-        wp[:, 2] = 0.0
+    wp = plan_waypoints(req)
+    k = angle_column(req.arm)
     out = []
     start = wp[0].copy()
     for j in range(req.segments):
         turn = req.segment_turn(j)
         end = wp[j + 1].copy()
-        end[2] = start[2] + turn_angle(start[2], wp[j + 1, 2], turn)
+        end[k] = start[k] + turn_angle(start[k], wp[j + 1, k], turn)
         out.append(Segment(start, end, req.segment_method(j), turn, req.segment_beta(j)))
         start = end
     return out
@@ -181,12 +273,14 @@ def blended_path(req: PlanRequest, segments: list[Segment], reference: NDArray |
         single = Path([seg], np.array([0.0, 1.0]), None)
         s = np.linspace(0.0, 1.0, 33)
         poses = single(s)
-        q, _ = kinematics.try_ik_path(arm.links, poses, reference=ref, elbow=req.branch)
+        q, _ = _ik(arm, poses, ref, req.branch)
         if q is not None:
             weights.append(float(np.max(np.abs(np.diff(q, axis=0)).sum(axis=0) / v)))
             ref = q[-1]
         else:
-            weights.append(float(np.linalg.norm(np.diff(poses[:, :2], axis=0), axis=1).sum()))
+            k = angle_column(arm)  # the position columns come just before the angle
+            weights.append(float(np.linalg.norm(np.diff(poses[:, k - 2:k], axis=0),
+                                                axis=1).sum()))
     w = np.asarray(weights)
     w = np.maximum(w, 1e-3 * w.max() if w.max() > 0 else 1.0)
     knots = np.concatenate([[0.0], np.cumsum(w) / w.sum()])

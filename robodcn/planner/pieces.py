@@ -17,12 +17,23 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
-from robodcn import kinematics
 from robodcn.config import Arm
 from robodcn.contract.request import PlanRequest
 from robodcn.interpolate import turn_angle
 from robodcn.path_timing import PathTiming
-from robodcn.planner.path import Path, Segment, blended_path, joints_of, segments_of, within_limits
+from robodcn.planner.path import (
+    Path,
+    Segment,
+    angle_column,
+    blended_path,
+    joints_of,
+    plan_waypoints,
+    pose_of,
+    same_pose,
+    segments_of,
+    to_user,
+    within_limits,
+)
 
 #: IK samples per path segment the law is timed on (the whole path at most DENSE_MAX).
 DENSE = 400
@@ -45,7 +56,7 @@ class DensePiece:
 
     def poses(self, s: NDArray, arm: Arm) -> NDArray:
         if self.path is None:
-            return kinematics.fk(arm.links, self.joints_line(s))
+            return pose_of(arm, self.joints_line(s))
         return self.path(np.clip(s, 0.0, 1.0))
 
     def joints_line(self, s: NDArray) -> NDArray:
@@ -69,17 +80,17 @@ def _pieces(req: PlanRequest, segments: list[Segment]) -> list[DensePiece]:
 
 def segments_from_start(req: PlanRequest) -> list[Segment]:
     """The request's segments; with a start state, from FK(q0) first (request docstring):
-    the prepended segment takes segment 0's method, turn and β, θ chained on from the arm's."""
+    the prepended segment takes segment 0's method, turn and β, θ (a yawed arm's pitch)
+    chained on from the arm's."""
     if req.start_state is None:
         return segments_of(req)
+    arm = req.arm
     q0 = req.start_state.arrays()[0]
-    pose = kinematics.fk(req.arm.links, q0[None, :])[0]
-    wp = req.waypoints_array
+    pose = pose_of(arm, q0[None, :])[0]
+    wp = plan_waypoints(req)
     if req.position_only:
-        wp[:, 2] = 0.0
         pose[2] = 0.0
-    gap = abs((wp[0, 2] - pose[2] + math.pi) % (2 * math.pi) - math.pi)
-    close = np.abs(pose[:2] - wp[0, :2]).max() <= 1e-4 and gap <= 1.75e-4
+    close = same_pose(req, *to_user(arm, np.vstack([pose, wp[0]])))
     methods = [req.segment_method(j) for j in range(req.segments)]
     turns = [req.segment_turn(j) for j in range(req.segments)]
     betas = [req.segment_beta(j) for j in range(req.segments)]
@@ -88,11 +99,12 @@ def segments_from_start(req: PlanRequest) -> list[Segment]:
     else:
         methods, turns, betas = ([methods[0], *methods], [turns[0], *turns],
                                  [betas[0], *betas])
+    k = angle_column(arm)
     out = []
     start = pose.copy()
     for j in range(wp.shape[0]):
         end = wp[j].copy()
-        end[2] = start[2] + turn_angle(start[2], wp[j, 2], turns[j])
+        end[k] = start[k] + turn_angle(start[k], wp[j, k], turns[j])
         out.append(Segment(start, end, methods[j], turns[j], betas[j]))
         start = end
     return out
