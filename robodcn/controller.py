@@ -340,6 +340,7 @@ class ArmController:
                              stop_signal=record.stop_signal)
             new.prepared.set()
             record.status = "replaced"
+            record.until = first
             record.finished = now
             record.done.set()
             self._current = new
@@ -363,11 +364,6 @@ class ArmController:
             record.elapsed = p.elapsed_s
             if error is not None:
                 record.tracking_error = error
-            if p.present is not None and p.sample >= record.offset:
-                # seconds since this move's first sample (a replacement starts mid-stream;
-                # a read of a sample before it was the replaced move's)
-                record.measured.append((float(p.elapsed_s) - record.start_s(),
-                                        tuple(int(v) for v in p.present)))
 
     def _run(self, record: MoveRecord) -> None:
         with self._lock:
@@ -434,11 +430,6 @@ class ArmController:
                 final = report.final_positions or report.hold_goals
                 if final is not None:
                     self._last_ticks = tuple(final)
-                if report.final_positions is not None:
-                    last = record.measured[-1][0] if record.measured else 0.0
-                    record.measured.append((max(last, float(report.duration_s)
-                                                - record.start_s()),
-                                            tuple(int(v) for v in report.final_positions)))
                 record.elapsed = report.duration_s
                 if report.completed:
                     record.progress = 1.0
@@ -511,11 +502,12 @@ class ArmController:
         return servo_units.ticks_to_radians(ticks[None, :], self.arm.servos)[0]
 
     def recording(self, move_id: str) -> list[tuple[float, tuple[int, ...]]] | None:
-        """What a move measured so far: (s since its first write, present ticks) pairs, or
-        None for an unknown move (robodcn.workflow.record turns them into JSON or CSV)."""
+        """What a move measured so far, one row per feedback read (:meth:`MoveRecord.
+        recording`: s since its first sample, present ticks), or None for an unknown move
+        (robodcn.workflow.record turns them into JSON or CSV)."""
         with self._lock:
             record = self._moves.get(str(move_id))
-            return None if record is None else list(record.measured)
+        return None if record is None else record.recording()
 
     # -- servo admin ----------------------------------------------------------------------------
 

@@ -9,18 +9,20 @@ surface turns into JSON.
 
 from __future__ import annotations
 
-import collections
 import threading
 import time
 from dataclasses import dataclass, field
 from typing import Any
 
+import numpy as np
+from numpy.typing import NDArray
+
 from robodcn.planner import Trajectory
 from robodcn.results import ApproachInfo, ErrorDetail, MoveStatus, to_json
 from robodcn.stream import ExecutionReport, Progress, StopSignal
 
-#: Measured samples kept per move, the latest (progress reports come at most every 50 ms:
-#: the last 10 minutes or more); with the controller's ``history`` this bounds its memory.
+#: Rows of a move's recording answered at most, the latest (one per feedback read: 2 minutes
+#: at 100 Hz); the reads themselves are the execution's (its report's trace).
 RECORD_SAMPLES = 12_000
 #: Statuses of a move that has not finished.
 ACTIVE = ("queued", "running")
@@ -32,8 +34,22 @@ def move_status(report: ExecutionReport) -> str:
     return report.outcome
 
 
-def _measured() -> collections.deque[tuple[float, tuple[int, ...]]]:
-    return collections.deque(maxlen=RECORD_SAMPLES)
+def _reads(execution: Any) -> tuple[NDArray[np.int64], NDArray[np.float64],
+                                    NDArray[np.int64]] | None:
+    """(sample, t s since the first write's due time, present ticks) of every feedback read
+    of ``execution`` so far: its report's trace once finished
+    (:class:`robodcn.stream.ExecutionTrace`), else the rows its stream has recorded (a
+    consistent prefix: a row is complete before the recorder counts it)."""
+    report = getattr(execution, "report", None)
+    trace = None if report is None else report.trace
+    if trace is not None:
+        return trace.sample, trace.t, trace.ticks
+    recorder = getattr(getattr(getattr(execution, "stream", None), "feedback", None),
+                       "trace", None)
+    if recorder is None:
+        return None
+    n = recorder.count
+    return recorder.sample[:n].copy(), recorder.t[:n].copy(), recorder.ticks[:n].copy()
 
 
 @dataclass
@@ -44,8 +60,7 @@ class MoveRecord:
     largest over the joints of the streamer's tracking error (robodcn.stream.report
     ``tracking_error``: one definition for the live readout and the report): while the move
     runs that of the latest feedback, once it has finished the report's maximum. Times are
-    Unix seconds. ``measured`` holds (seconds since the first write, present ticks) of each
-    progress report with a read, then the final read (the latest RECORD_SAMPLES).
+    Unix seconds. What it measured is :meth:`recording`: one row per feedback read.
     """
 
     id: str
@@ -67,12 +82,12 @@ class MoveRecord:
     #: Set once ``execution`` is there (or the move has ended without one).
     prepared: threading.Event = field(default_factory=threading.Event, repr=False)
     latest: Progress | None = field(default=None, repr=False)
-    measured: collections.deque[tuple[float, tuple[int, ...]]] = field(
-        default_factory=_measured, repr=False)
     #: The running execution (robodcn.stream.start): pause, resume, speed, replace.
     execution: Any = field(default=None, repr=False)
     #: Sample of the execution where this move begins (a replacement starts mid-stream).
     offset: int = 0
+    #: Sample where a replacement took the execution over (None: this move ran to its end).
+    until: int | None = None
     #: Present Position read when the move was admitted (robodcn.admission), for the
     #: executor not to read it again; None: the executor reads it.
     present_ticks: tuple[int, ...] | None = field(default=None, repr=False)
@@ -130,6 +145,29 @@ class MoveRecord:
                 "duration_s": self.elapsed, "last_goals": None if p is None else
                 list(p.goals), "last_present": None if p is None or p.present is None else
                 list(p.present)}
+
+    def recording(self) -> list[tuple[float, tuple[int, ...]]]:
+        """What this move measured: one row per feedback read, (seconds since its first
+        sample, present ticks) — the reads after its samples ``offset`` to ``until`` (the
+        rest of the execution belongs to the move that replaced it), then, for the move
+        that ended the execution, the final read after the stream (at the stream's end,
+        ``duration_s``). The latest :data:`RECORD_SAMPLES` rows."""
+        reads = None if self.execution is None else _reads(self.execution)
+        if reads is None:
+            return []
+        sample, t, ticks = reads
+        keep = sample >= self.offset
+        if self.until is not None:
+            keep &= sample < self.until
+        start = self.start_s()
+        rows = [(float(at) - start, tuple(int(v) for v in k))
+                for at, k in zip(t[keep].tolist(), ticks[keep].tolist(), strict=True)]
+        report = self.report
+        if self.until is None and report is not None and report.final_positions is not None:
+            end = float(report.duration_s) - start
+            if not rows or end > rows[-1][0]:
+                rows.append((end, tuple(int(v) for v in report.final_positions)))
+        return rows[-RECORD_SAMPLES:]
 
     def start_s(self) -> float:
         """Stream time (s) of the move's first sample: 0, or where a replacement began."""

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import itertools
 import threading
 import time
 from collections.abc import Iterator
@@ -369,3 +370,47 @@ def test_a_queued_move_has_speed_scale_one(rig: Any) -> None:
     assert info is not None and info.speed_scale == 1.0
     controller.wait(record.id, 10)
     assert controller.state().speed_scale is None  # nothing runs
+
+
+def test_the_record_is_one_row_per_feedback_read(rig: Any) -> None:
+    """It was one row per progress report (50 ms), its last timestamp twice."""
+    _, controller = rig
+    record = controller.start_move(short_move(duration=1.0))
+    wait_until(lambda: record.progress > 0.3)
+    live = controller.recording(record.id)
+    assert live and all(b[0] > a[0] for a, b in itertools.pairwise(live))
+    controller.wait(record.id, 10)
+    rows = controller.recording(record.id)
+    trace = record.report.trace
+    assert record.report.feedback_reads == len(trace) > 0
+    assert len(rows) == len(trace) + 1  # every read of the stream, then the final read
+    times = [t for t, _ in rows]
+    assert all(b > a for a, b in itertools.pairwise(times)), "a timestamp twice"
+    np.testing.assert_allclose(times[:-1], trace.t)
+    assert [list(k) for _, k in rows[:-1]] == trace.ticks.tolist()
+    assert rows[:len(live)] == live  # what was answered live stays as it was
+    # at 100 Hz, a read after most samples (a health poll takes some cycles' place)
+    assert len(rows) >= 0.7 * record.report.samples_sent, (len(rows), record.report)
+
+
+def test_a_replacement_and_the_move_it_replaced_share_every_read(rig: Any) -> None:
+    """A retarget left a 145 ms hole: the reads between the request and the switch belonged
+    to neither move."""
+    from robodcn.contract import MOVE_OMIT, parse_request
+
+    _, controller = rig
+    first = controller.start_move(short_move(duration=2.0))
+    wait_until(lambda: first.progress > 0.2)
+    request = parse_request({"waypoints": [list(ARM.home), [0.2, 0.05, 0.3]],
+                             "rate_hz": 100}, ARM, omit=MOVE_OMIT)
+    new = controller.replace_move(request)
+    controller.wait(new.id, 10)
+    assert first.status == "replaced" and new.status in COMPLETED, new.error
+    old_rows, new_rows = controller.recording(first.id), controller.recording(new.id)
+    assert old_rows and new_rows and new_rows[0][0] >= 0.0
+    trace = new.report.trace
+    # on the stream's clock, the two records are every read exactly once, in order
+    stream_t = [t + first.start_s() for t, _ in old_rows] + \
+        [t + new.start_s() for t, _ in new_rows[:-1]]
+    np.testing.assert_allclose(stream_t, trace.t)
+    assert trace.sample[len(old_rows)] >= new.offset > trace.sample[len(old_rows) - 1]

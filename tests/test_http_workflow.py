@@ -125,7 +125,11 @@ def test_a_saved_trajectory_plays_and_is_recorded(arm_server: Any) -> None:
     conn_status, headers, text = csv_get(server, f"/v1/moves/{move['id']}/record")
     assert conn_status == 200 and headers["Content-Type"].startswith("text/csv")
     rows = list(csv.reader(io.StringIO(text)))
-    assert rows[0][0] == "t" and len(rows) - 1 == len(rec["t"])
+    # every header names its unit, as plan --format csv's do
+    assert rows[0] == ["t_s", *(f"q_{n}_rad" for n in ARM.joint_names),
+                       *(f"tick_{i}" for i in ARM.servo_ids), "x_m", "y_m", "theta_rad"]
+    assert len(rows) - 1 == len(rec["t"])
+    assert [float(r[0]) for r in rows[1:]] == rec["t"]
     assert [int(v) for v in rows[-1][1 + ARM.dof:1 + 2 * ARM.dof]] == final
 
 

@@ -1,8 +1,10 @@
 """What a move measured, as data: time, present ticks and joint angles per feedback read.
 
-The CLI's progress callback and the HTTP service collect ``(elapsed s, present ticks)``
-pairs while streaming; :func:`recording` turns them into a JSON-ready dict (SI) and
-:func:`recording_csv` into CSV, for ``GET /v1/moves/{id}/record`` and for plots.
+The CLI's progress callback and the HTTP service (:meth:`robodcn.moves.MoveRecord.recording`:
+one row per feedback read of the stream) give ``(elapsed s, present ticks)`` pairs;
+:func:`recording` turns them into a JSON-ready dict (SI) and :func:`recording_csv` into CSV
+whose headers name their units (as ``plan --format csv``), for
+``GET /v1/moves/{id}/record`` and for plots.
 """
 
 from __future__ import annotations
@@ -30,12 +32,13 @@ def recording(arm: Arm, samples: Sequence[tuple[float, Sequence[int]]]) -> dict[
 
 
 def recording_csv(arm: Arm, samples: Sequence[tuple[float, Sequence[int]]]) -> str:
-    """CSV: t, one column per joint (rad), one per servo (ticks), x, y, theta."""
+    """CSV, one row per read; every header names its unit: t_s, q_<joint>_rad,
+    tick_<servo id> (ticks), x_m, y_m, theta_rad."""
     data = recording(arm, samples)
     out = io.StringIO()
     writer = csv.writer(out, lineterminator="\n")
-    writer.writerow(["t", *(f"q_{n}" for n in arm.joint_names),
-                     *(f"tick_{i}" for i in arm.servo_ids), "x", "y", "theta"])
+    writer.writerow(["t_s", *(f"q_{n}_rad" for n in arm.joint_names),
+                     *(f"tick_{i}" for i in arm.servo_ids), "x_m", "y_m", "theta_rad"])
     for t, q, k, p in zip(data["t"], data["joints"], data["ticks"], data["poses"], strict=True):
         writer.writerow([repr(t), *map(repr, q), *k, *map(repr, p)])
     return out.getvalue()
