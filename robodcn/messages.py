@@ -17,7 +17,7 @@ import math
 from collections.abc import Sequence
 from typing import Any, Literal
 
-from robodcn import contract
+from robodcn import contract, kinematics
 from robodcn.errors import PlanError, RobodcnError, Violation
 
 Units = Literal["cli", "si"]
@@ -43,10 +43,30 @@ def quantity(value: float, unit: str, units: Units) -> str:
 
 
 def pose_text(pose: Sequence[float], units: Units) -> str:
-    """x, y in metres; θ in degrees on the CLI, radians over HTTP."""
-    theta = (f"θ={math.degrees(pose[2]):.1f}°" if units == "cli"
-             else f"θ={pose[2]:.4f} rad")
-    return f"x={pose[0]:.4f} m, y={pose[1]:.4f} m, {theta}"
+    """x, y (and an arm with a base yaw's z) in metres; θ (pitch) in degrees on the CLI,
+    radians over HTTP."""
+    name = "pitch" if len(pose) == 4 else "θ"
+    angle = (f"{name}={math.degrees(pose[-1]):.1f}°" if units == "cli"
+             else f"{name}={pose[-1]:.4f} rad")
+    z = f"z={pose[2]:.4f} m, " if len(pose) == 4 else ""
+    return f"x={pose[0]:.4f} m, y={pose[1]:.4f} m, {z}{angle}"
+
+
+def _reach_text(v: Violation, units: Units) -> str:
+    """Why a sample is out of reach (its value, limit and unit; an arm with a base yaw's
+    path may pass its yaw axis or point the tool back over the base)."""
+    if len(v.pose) != 4:
+        return (f"is out of reach: the wrist point is {v.value:.4f} m from the base, the arm "
+                f"reaches to {v.limit:.4f} m")
+    if v.unit == "rad":
+        return (f"points the tool back over the base (|pitch| = "
+                f"{quantity(v.value, 'rad', units)} past {quantity(v.limit, 'rad', units)}): "
+                "the arm does not reach over the top")
+    if v.limit <= kinematics.AXIS_TOLERANCE:
+        return (f"passes the yaw axis (r = {v.value:.4f} m in the arm's plane): the arm does "
+                "not reach over the top; turn the yaw instead")
+    return (f"is out of reach: the wrist point is {v.value:.4f} m from the shoulder, the arm "
+            f"reaches to {v.limit:.4f} m")
 
 
 def field_name(path: str | None, units: Units,
@@ -97,9 +117,7 @@ def describe_violation(v: Violation, units: Units = "si",
     head = f"{where[0]} ({', '.join(where[1:])})"
     who = f"joint {v.joint!r} " if v.joint else ""
     if v.quantity == "reach":
-        text = (f"{head}: is out of reach: the wrist point is {v.value:.4f} m from the base, "
-                f"the arm reaches to {v.limit:.4f} m")
-        return text
+        return f"{head}: {_reach_text(v, units)}"
     if v.quantity == "position":
         text = (f"{head}: {who}at {quantity(v.value, v.unit, units)} is outside its limit "
                 f"{quantity(v.limit, v.unit, units)}")

@@ -12,7 +12,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from robodcn import _checks
-from robodcn.config import RATE_RANGE, Arm
+from robodcn.config import PLANAR_POSE, RATE_RANGE, YAWED_POSE, Arm
 from robodcn.contract.request import PlanRequest, StartState
 from robodcn.errors import InputError
 
@@ -24,7 +24,8 @@ class Trajectory:
     Attributes
     ----------
     t : (n,) seconds; poses : (n, 3) (x, y, θ) with θ continuous (for a 2-joint arm θ plays
-    no part in the plan and is FK's q1 + q2); joints : (n, k) radians, unwrapped;
+    no part in the plan and is FK's q1 + q2), or for an arm with a base yaw (n, 4)
+    (x, y, z, pitch) in its base frame; joints : (n, k) radians, unwrapped;
     ticks : (n, k) int64 goal positions; joint_names, servo_ids : k each; rate_hz; method
     (the request's, a string or a list per segment); request; elbow : the IK branch at the
     first sample ("up" q2 < 0, "down" q2 > 0, None when stretched out or folded there);
@@ -33,15 +34,19 @@ class Trajectory:
     periods of the joint-space approach prepended from start_joints (0: none), so the
     approach lasts ``approach_duration`` seconds from t = 0; start_state : the moving
     :class:`StartState` the plan starts from (its sample 0 is those joints, its velocity and
-    acceleration continue them), or None (from rest).
+    acceleration continue them), or None (from rest); pose_keys : the names of a pose row,
+    ("x", "y", "theta") or ("x", "y", "z", "pitch") (derived from the request's arm, else
+    from the poses' width, when not given).
     """
 
     t: NDArray[np.float64] = field(metadata={
         "description": "Sample times (s), from 0 in steps of exactly 1/rate_hz.",
         "schema": {"type": "array", "minItems": 1, "items": {"type": "number"}}})
     poses: NDArray[np.float64] = field(metadata={
-        "description": "Pose [x, y, θ] per sample (m, m, rad), θ continuous.",
-        "schema": {"type": "array", "items": {"type": "array", "minItems": 3, "maxItems": 3,
+        "description": "Pose per sample: [x, y, θ] (m, m, rad, θ continuous), or on an arm "
+                       "with a base yaw [x, y, z, pitch] (m, m, m, rad) in its base frame "
+                       "(pose_keys names them).",
+        "schema": {"type": "array", "items": {"type": "array", "minItems": 3, "maxItems": 4,
                                               "items": {"type": "number"}}}})
     joints: NDArray[np.float64] = field(metadata={
         "description": "Joint angles per sample (rad, unwrapped), one per joint.",
@@ -71,6 +76,10 @@ class Trajectory:
         "description": "The moving joint state the plan starts from (joints rad, velocities "
                        "rad/s, accelerations rad/s²), or null: from rest.",
         "schema": {"type": ["object", "null"]}})
+    pose_keys: tuple[str, ...] = field(default=(), metadata={
+        "description": "Names of a pose row's numbers: [x, y, theta], or [x, y, z, pitch] on "
+                       "an arm with a base yaw.",
+        "schema": {"enum": [list(PLANAR_POSE), list(YAWED_POSE)]}})
 
     def __post_init__(self) -> None:
         self.t = np.asarray(self.t, dtype=np.float64)
@@ -87,7 +96,18 @@ class Trajectory:
         self.approach_samples = int(self.approach_samples)
         n = self.t.shape[0] if self.t.ndim == 1 else -1
         k = len(self.joint_names)
-        for name, array, shape in (("t", self.t, (n,)), ("poses", self.poses, (n, 3)),
+        if self.request is not None:
+            keys = self.request.arm.pose_keys
+        else:  # a yawed arm's four numbers, else a planar arm's three
+            keys = YAWED_POSE if self.poses.ndim == 2 and self.poses.shape[1] == 4 \
+                else PLANAR_POSE
+        if self.pose_keys and tuple(self.pose_keys) != keys:
+            raise InputError(f"pose_keys must be {list(keys)} for these poses, got "
+                             f"{list(self.pose_keys)}", field="pose_keys",
+                             value=list(self.pose_keys))
+        self.pose_keys = keys
+        width = len(keys)
+        for name, array, shape in (("t", self.t, (n,)), ("poses", self.poses, (n, width)),
                                    ("joints", self.joints, (n, k)),
                                    ("ticks", self.ticks, (n, k))):
             if n < 1 or array.shape != shape:
@@ -127,11 +147,12 @@ class Trajectory:
                 "request": None if self.request is None else self.request.to_dict(),
                 "elbow": self.elbow, "branch_switches": list(self.branch_switches),
                 "approach_samples": self.approach_samples,
-                "start_state": None if self.start_state is None else self.start_state.to_dict()}
+                "start_state": None if self.start_state is None else self.start_state.to_dict(),
+                "pose_keys": list(self.pose_keys)}
 
     def to_json(self) -> str:
-        """JSON with keys t, poses, joints, ticks, joint_names, servo_ids, rate_hz, method,
-        request (floats written with repr precision: the round trip is exact)."""
+        """JSON with keys t, pose_keys, poses, joints, ticks, joint_names, servo_ids, rate_hz,
+        method, request, … (floats written with repr precision: the round trip is exact)."""
         return json.dumps(self.to_dict())
 
     @classmethod
@@ -162,6 +183,15 @@ class Trajectory:
         arrays = {}
         for key in ("t", "poses", "joints", "ticks"):
             arrays[key] = _checks.finite(key, data[key])
+        keys_ = data.get("pose_keys", [])
+        if keys_ not in ([], list(PLANAR_POSE), list(YAWED_POSE)):
+            raise InputError(f"pose_keys must be {list(PLANAR_POSE)} or {list(YAWED_POSE)}, "
+                             f"got {keys_!r}", field="pose_keys", value=keys_)
+        width = arrays["poses"].shape[1] if arrays["poses"].ndim == 2 else None
+        if arm is not None and width != len(arm.pose_keys):
+            raise InputError(f"trajectory poses have {width} numbers a row, arm {arm.name!r} "
+                             f"poses {len(arm.pose_keys)} ({', '.join(arm.pose_keys)})",
+                             field="poses", value=width)
         names = data["joint_names"]
         if not isinstance(names, list) or not all(isinstance(n, str) for n in names):
             raise InputError("joint_names must be a list of strings", field="joint_names",
@@ -189,13 +219,14 @@ class Trajectory:
                                   if k in ("joints", "velocities", "accelerations")})
         return cls(arrays["t"], arrays["poses"], arrays["joints"], arrays["ticks"], names,
                    data["servo_ids"], data["rate_hz"], data["method"], request, elbow,
-                   tuple(switches), approach, state)
+                   tuple(switches), approach, state, tuple(keys_))
 
     def to_csv(self) -> str:
-        """CSV: t, x, y, theta, one column per joint (rad), one per servo (ticks)."""
+        """CSV: t, x, y, theta (or x, y, z, pitch: :attr:`pose_keys`), one column per joint
+        (rad), one per servo (ticks)."""
         out = io.StringIO()
         writer = csv.writer(out, lineterminator="\n")
-        writer.writerow(["t", "x", "y", "theta", *(f"q_{n}" for n in self.joint_names),
+        writer.writerow(["t", *self.pose_keys, *(f"q_{n}" for n in self.joint_names),
                          *(f"tick_{i}" for i in self.servo_ids)])
         floats = np.column_stack([self.t, self.poses, self.joints])
         for row, ticks in zip(floats.tolist(), self.ticks.tolist(), strict=True):
