@@ -40,9 +40,10 @@ from typing import Any, Self
 import numpy as np
 from numpy.typing import NDArray
 
-from robodcn import _checks, servo_units
+from robodcn import _checks, dynamics, servo_units
 from robodcn.bus import OPERATING_MODE_CURRENT, OPERATING_MODE_POSITION, ServoBus
-from robodcn.config import SERVO_SPECS, Arm, JointSpec
+from robodcn.config import SERVO_SPECS, Arm, JointSpec, rigid_chain
+from robodcn.dynamics import RigidChain
 from robodcn.errors import InputError
 
 log = logging.getLogger("robodcn.workflow")
@@ -54,45 +55,18 @@ MAX_RATE_HZ = 1000.0
 
 # -- the physics it asks of robodcn.dynamics ------------------------------------------------------
 
-def _dynamics() -> Any:
-    """:mod:`robodcn.dynamics`, or an error saying the gravity torques need it."""
-    try:
-        from robodcn import dynamics
-    except ImportError as exc:   # pragma: no cover - robodcn.dynamics ships with robodcn
-        raise InputError("gravity torques need robodcn.dynamics, which is missing",
-                         field="dynamics", value=None) from exc
-    return dynamics
-
-
-def arm_chain(arm: Arm) -> Any:
-    """The arm as a :class:`robodcn.dynamics.RigidChain` (its ``[dynamics]`` numbers).
-
-    An adapter until robodcn exports one: a yawed arm is ROBOTIS's convention (sense "cw",
-    its yaw body, the shoulder ``shoulder_height`` above the base), a planar arm its plane's
-    (sense "ccw", links (l, 0)). Needs ``link_masses`` and ``link_com`` (InputError naming
-    the key otherwise, e.g. ``dynamics.link_masses``); inertias and rotor inertias default
-    to 0 (gravity does not depend on them).
-    """
-    dynamics = _dynamics()
+def arm_chain(arm: Arm) -> RigidChain:
+    """The arm as a :class:`robodcn.dynamics.RigidChain` (:func:`robodcn.config.rigid_chain`),
+    refusing an arm whose file gives no link masses or centres of mass: a current that
+    holds a light arm's default bodies would let a real arm fall or fly (InputError
+    naming the key, e.g. ``dynamics.link_masses``)."""
     props = arm.mass_properties
     if props.link_masses is None or props.link_com is None:
         key = "link_masses" if props.link_masses is None else "link_com"
         raise InputError(f"arm {arm.name!r} has no [dynamics] {key}: the gravity torques "
                          "need the links' masses and centres of mass",
                          field=f"dynamics.{key}", value=None)
-    k = len(arm.chain_joints)
-    inertias = props.link_inertias or (0.0,) * k
-    rotor = props.rotor_inertia or (0.0,) * arm.dof
-    chain_rotor = rotor[1:] if arm.yawed else rotor
-    links = tuple(dynamics.Link(vector=tuple(v), mass=m, com=tuple(c), inertia=i, armature=j)
-                  for v, m, c, i, j in zip(arm.chain_links.tolist(), props.link_masses,
-                                           props.link_com, inertias, chain_rotor, strict=True))
-    if not arm.yawed:
-        return dynamics.RigidChain(links, gravity=props.gravity, sense="ccw")
-    yaw = dynamics.Yaw(mass=props.yaw_body_mass or 0.0, com=props.yaw_body_com or (0.0, 0.0),
-                       inertia_z=props.yaw_body_inertia or 0.0, armature=rotor[0])
-    return dynamics.RigidChain(links, yaw=yaw, shoulder=(0.0, arm.shoulder_height),
-                               gravity=props.gravity, sense="cw")
+    return rigid_chain(arm)
 
 
 def has_gravity(arm: Arm) -> bool:
@@ -111,7 +85,7 @@ def gravity_torques(arm: Arm, joints: NDArray[np.float64], payload_kg: float | N
         return np.zeros_like(q)
     payload = arm.payload_kg if payload_kg is None else payload_kg
     chain = arm_chain(arm) if chain is None else chain
-    return np.asarray(_dynamics().gravity_torque(chain, q, payload), dtype=np.float64)
+    return np.asarray(dynamics.gravity_torque(chain, q, payload), dtype=np.float64)
 
 
 def torque_constant(joint: JointSpec) -> float:
