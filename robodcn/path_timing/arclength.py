@@ -8,16 +8,18 @@ acceleration). Parameterised by its joint-space arc length σ (|dq/dσ| = 1 betw
 samples), the same path is q ≈ c′·σ there: smooth, with bounded q′, q″, q‴, so TOPP-RA's
 stage constraints hold between the grid points too.
 
-* :func:`arc_length` — σ (n,) of joint samples (n, k), normalised to [0, 1], plus a small
-  share of the original parameter so that σ stays strictly increasing where no joint moves.
+* :func:`arc_length` — σ (n,) of joint samples (n, k), normalised to [0, 1]: the arc
+  length of the graph (q(u), L u), joint-space arc length where the joints race, ∝ u where
+  they turn back.
 * :class:`Monotone` — the monotone cubic (Fritsch–Carlson PCHIP: F. N. Fritsch and
   R. E. Carlson, "Monotone Piecewise Cubic Interpolation", SIAM J. Numer. Anal. 17(2), 1980)
   through increasing data, C¹, exact on quadratics near an end (the three-point end
   slope), used both ways: σ(u) and u(σ).
 * :class:`Smooth` — the C² quintic Hermite through the data with slopes and second
-  derivatives by second-order finite differences: the map u(σ) the stream samples by (a
-  C¹ interpolant's jumps of u″ at the samples would be jumps of joint acceleration the law
-  does not know about).
+  derivatives by second-order finite differences (those the law is timed with): the
+  joints q(σ) the stream samples between the dense samples, and the map u(σ) to the
+  path's own parameter (a C¹ interpolant's jumps of q″ at the samples would be jumps of
+  joint acceleration the law does not know about).
 * :func:`arc_grid` — samples of q uniform in σ, by inverse interpolation u(σ) and a few
   rounds of re-evaluating the joints at the new u (``joints_at``: u → q, e.g. the planner's
   IK), only while the spacing is uneven.
@@ -34,19 +36,22 @@ __all__ = ["UNEVEN", "Monotone", "Smooth", "arc_grid", "arc_length"]
 
 #: Largest step of σ over its mean that counts as even (no resampling needed).
 UNEVEN = 1.5
-#: Share of σ taken from the original parameter (keeps σ strictly increasing).
-PARAM_SHARE = 1e-3
+#: Weight of the original parameter in σ (module doc of :func:`arc_length`).
+PARAM_SHARE = 1.0
 #: Rounds of resampling at most.
 ROUNDS = 4
 
 
 def arc_length(q: NDArray[np.float64], u: NDArray[np.float64]) -> NDArray[np.float64]:
-    """σ_i ∝ Σ_{m ≤ i} (‖q_m − q_{m−1}‖ + ε L Δu_m / (u_n − u_0)), σ ∈ [0, 1] (module doc);
-    ε = :data:`PARAM_SHARE`, L the joint-space length (1 when no joint moves)."""
+    """σ_i ∝ Σ_{m ≤ i} √(‖q_m − q_{m−1}‖² + (ε L Δu_m / (u_n − u_0))²), σ ∈ [0, 1]: the arc
+    length of the graph (q(u), ε L u) with ε = :data:`PARAM_SHARE` and L the joint-space
+    length (1 when no joint moves). Where |q′(u)| ≫ ε L (a singular end) that is the
+    joints' arc length; where the joints turn back (|q′(u)| → 0, a cusp of the joint path,
+    which in pure arc length would be a corner) it is ∝ u, smooth."""
     step = np.linalg.norm(np.diff(q, axis=0), axis=1)
     length = float(step.sum())
     span = float(u[-1] - u[0])
-    step = step + PARAM_SHARE * (length if length > 0 else 1.0) * np.diff(u) / span
+    step = np.hypot(step, PARAM_SHARE * (length if length > 0 else 1.0) * np.diff(u) / span)
     sigma = np.concatenate([[0.0], np.cumsum(step)])
     sigma /= sigma[-1]
     sigma[-1] = 1.0
@@ -94,20 +99,24 @@ class Monotone:
 
 
 class Smooth:
-    """y(x) through (x_i, y_i), x strictly increasing: on each interval the quintic Hermite
-    matching y, y′ and y″ at both ends, y′ and y″ by ``numpy.gradient`` (second order, also
-    at the ends; slopes below 0 raised to 0), so y is C² and exact on quadratics.
-    Non-decreasing data give a non-decreasing result within [y_0, y_n] (a running maximum
-    removes rounding dips)."""
+    """y(x) through (x_i, y_i), x strictly increasing, y (n,) or (n, k): on each interval the
+    quintic Hermite matching y, y′ and y″ at both ends, y′ and y″ by ``numpy.gradient``
+    (second order, also at the ends: the q′, q″ :func:`~robodcn.path_timing.path_derivatives`
+    gives the law), so y is C² and exact on quadratics.
 
-    def __init__(self, x: ArrayLike, y: ArrayLike) -> None:
+    ``monotone``: the data are non-decreasing (n,): slopes below 0 are raised to 0 and the
+    result is non-decreasing within [y_0, y_n] (a running maximum removes rounding dips).
+    """
+
+    def __init__(self, x: ArrayLike, y: ArrayLike, *, monotone: bool = False) -> None:
         self.x = np.asarray(x, dtype=np.float64)
         self.y = np.asarray(y, dtype=np.float64)
+        self.monotone = monotone
         edge = 2 if self.x.shape[0] > 2 else 1
-        # non-decreasing data have slopes ≥ 0 (an end slope a hair below 0 would dip the
-        # curve below its first value: a dead zone at a singular start, where u ∝ σ²)
-        self.d1 = np.maximum(np.gradient(self.y, self.x, edge_order=edge), 0.0)
-        self.d2 = np.gradient(self.d1, self.x, edge_order=edge)
+        self.d1 = np.gradient(self.y, self.x, axis=0, edge_order=edge)
+        if monotone:
+            self.d1 = np.maximum(self.d1, 0.0)
+        self.d2 = np.gradient(self.d1, self.x, axis=0, edge_order=edge)
         self.h = np.diff(self.x)
 
     def __call__(self, xq: ArrayLike) -> NDArray[np.float64]:
@@ -118,15 +127,16 @@ class Smooth:
         t2 = t * t
         t3 = t2 * t
         t4, t5 = t3 * t, t3 * t2
-        h00 = 1 - 10 * t3 + 15 * t4 - 6 * t5
-        h10 = t - 6 * t3 + 8 * t4 - 3 * t5
-        h20 = 0.5 * (t2 - 3 * t3 + 3 * t4 - t5)
-        h01 = 10 * t3 - 15 * t4 + 6 * t5
-        h11 = -4 * t3 + 7 * t4 - 3 * t5
-        h21 = 0.5 * (t3 - 2 * t4 + t5)
+        basis = (1 - 10 * t3 + 15 * t4 - 6 * t5, (t - 6 * t3 + 8 * t4 - 3 * t5) * h,
+                 0.5 * (t2 - 3 * t3 + 3 * t4 - t5) * h * h, 10 * t3 - 15 * t4 + 6 * t5,
+                 (-4 * t3 + 7 * t4 - 3 * t5) * h, 0.5 * (t3 - 2 * t4 + t5) * h * h)
+        if self.y.ndim == 2:
+            basis = tuple(b[:, None] for b in basis)
         y, d1, d2 = self.y, self.d1, self.d2
-        out = (h00 * y[i] + h10 * h * d1[i] + h20 * h * h * d2[i]
-               + h01 * y[i + 1] + h11 * h * d1[i + 1] + h21 * h * h * d2[i + 1])
+        out = (basis[0] * y[i] + basis[1] * d1[i] + basis[2] * d2[i]
+               + basis[3] * y[i + 1] + basis[4] * d1[i + 1] + basis[5] * d2[i + 1])
+        if not self.monotone:
+            return out
         if xq.ndim == 1 and xq.shape[0] > 1 and (np.diff(xq) >= 0).all():
             out = np.maximum.accumulate(out)
         return np.clip(out, self.y[0], self.y[-1])

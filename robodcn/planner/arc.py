@@ -32,7 +32,7 @@ class ArcPath:
                  ) -> None:
         self.path = path
         self.segments = path.segments
-        self.u_of = Smooth(sigma, u)
+        self.u_of = Smooth(sigma, u, monotone=True)
         self.knots = np.interp(path.knots, u, sigma)
         self.knots[0], self.knots[-1] = 0.0, 1.0
 

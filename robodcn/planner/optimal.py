@@ -10,9 +10,13 @@ continuous IK); only the time law differs from the uniform profiles. The pipelin
   leaves a stretched or folded arm, q′(σ) is not; the dense samples are re-spaced evenly in
   σ there).
 * **Sampling.** Each piece's law is sampled from its own t = 0 at the stream rate up to the
-  first sample at or after its end (at rest there: a via is a sample at rest), the poses are
-  the path at s(t) and the joints their branch-continuous IK — the same geometry as the
-  dense samples the law was timed on.
+  first sample at or after its end (at rest there: a via is a sample at rest); the joints
+  are the C² quintic-Hermite interpolant of the dense IK samples the law was timed on (their
+  q′, q″ the law's own: :class:`~robodcn.path_timing.arclength.Smooth`) and the poses their
+  FK, within interpolation error (~1e-10 m) of the path.
+* **Blend** never takes longer than stopping at the vias: when the same waypoints timed
+  with stops take fewer periods, the plan stops there (the blended curve departs from the
+  segments and can be longer or more curved than they are).
 * **Validation** stays sample by sample (planner.validate, jerk where set). The law is
   timed on a grid, so between grid points a limit can be passed by a little (curvature
   between stages); a piece whose samples fail is slowed by the failing ratio (a uniform
@@ -47,6 +51,7 @@ from robodcn.contract import MAX_SAMPLES, intervals
 from robodcn.contract.request import PlanRequest, StartState
 from robodcn.errors import InputError, TooLargeError, Violation
 from robodcn.path_timing import JointLimits, moving_start
+from robodcn.path_timing.arclength import Smooth
 from robodcn.path_timing.moving_start import JointState, StartSegment
 from robodcn.planner import search, validate
 from robodcn.planner.arc import by_arc_length
@@ -79,11 +84,12 @@ def _sample(piece: DensePiece, arm, rate: float, ref: NDArray | None, elbow: str
     if piece.path is None:
         q = piece.joints_line(m.s)
         return kinematics.fk(arm.links, q), q, None, m.s
-    poses = piece.poses(m.s, arm)
-    q, bad = joints_of(arm, poses, ref, elbow)
-    if q is not None and arm.dof == 2:
-        poses[:, 2] = q[:, 0] + q[:, 1]
-    return poses, q, bad, m.s
+    # the joints between the dense samples the law was timed on: their C² interpolant in
+    # the law's own parameter (its q′, q″ at every dense sample), the poses their FK — within
+    # interpolation error (~h⁴ q⁗) of the path and its IK, without the IK's √ sensitivity
+    # at a stretched end or a second IK pass
+    q = Smooth(piece.s, piece.q)(m.s)
+    return kinematics.fk(arm.links, q), q, None, m.s
 
 
 def fit_duration(req: PlanRequest, pieces: list[DensePiece]) -> None:
@@ -187,10 +193,37 @@ class OptimalTiming:
         if self.moving:
             self._join(allow_brake=True)
         else:
-            for piece in pieces:
+            for piece in self.pieces:
                 piece.law = moving_start.timed(piece.q, piece.s, self.limits, req.rate_hz)
+            if req.blend and req.segments > 1:
+                self._stop_if_faster()
         if req.duration != "auto":
             fit_duration(req, self.pieces)
+
+    def _periods(self, pieces: list[DensePiece]) -> int:
+        rate = self.req.rate_hz
+        return sum(math.ceil(p.law.duration * rate - 1e-9) for p in pieces
+                   if p.law is not None)
+
+    def _stop_if_faster(self) -> None:
+        """A blend never takes longer than stopping at the vias: the blended curve departs
+        from the segments (its Hermite corrections) and can be longer or more curved than
+        they are, so when the same waypoints timed with stops take fewer periods (and, for
+        a fixed duration, the blended law cannot meet it) the plan stops at the vias."""
+        req = self.req
+        blended = self._periods(self.pieces)
+        if req.duration != "auto" and blended <= intervals(req.duration, req.rate_hz):
+            return
+        stops, _ = build_pieces(dataclasses.replace(req, blend=False))
+        if stops is None:
+            return
+        for piece in by_arc_length(req, stops):
+            piece.law = moving_start.timed(piece.q, piece.s, self.limits, req.rate_hz)
+        if self._periods(stops) < blended:
+            log.debug("optimal: stopping at the vias (%d periods) beats the blend (%d)",
+                      self._periods(stops), blended)
+            self.pieces = stops
+            self.path = stops[0]
 
     @property
     def braking(self) -> bool:
