@@ -20,11 +20,15 @@ An arm may also be named (``load_arm("omx")``, ``--arm omx``): :mod:`.arm_files`
     link_com = [...]                  # per link from its joint: m along it, or [r, z] at zero
                                       #   (default half the link)
     link_inertias = [...]             # kg·m² about the centre of mass (default m·l²/12)
+    link_inertias_r = [...]           # a yawed arm: kg·m² at the centre of mass about the
+    link_inertias_z = [...]           #   radial and the vertical axis at zero (default 0:
+                                      #   the links turn with the yaw as point masses)
     payload_kg = 0.0                  # point mass at the tool point
     gravity = [0.0, -9.81]            # m/s² in the arm's plane (or true), or
     gravity_m_s2 = 9.81               # along −z: in (r, z) of a vertical plane
     yaw_body_mass, yaw_body_com, yaw_body_inertia   # the body turning with the yaw
-                                      #   (its inertia about the yaw axis; default 0)
+                                      #   (its inertia about the vertical through its
+                                      #   centre of mass, + m·r² of that centre; default 0)
     rotor_inertia_kg_m2 = 0.0125      # the servo's J_rotor·N² (one, or one per joint);
                                       #   default the motor model's
 
@@ -48,7 +52,8 @@ DEFAULT_LINK_MASS_KG = 0.10
 #: Inertia a gripper's servo carries, kg·m² at its output: jaws and their rack, ~30 g at
 #: ~2 cm (an estimate; tiny beside the rotor's reflected 0.0125 kg·m²).
 GRIPPER_INERTIA_KG_M2 = 1.2e-5
-_DYNAMICS_KEYS = frozenset({"link_masses", "link_com", "link_inertias", "payload_kg",
+_DYNAMICS_KEYS = frozenset({"link_masses", "link_com", "link_inertias", "link_inertias_r",
+                            "link_inertias_z", "payload_kg",
                             "gravity", "gravity_m_s2", "yaw_body_mass", "yaw_body_com",
                             "yaw_body_inertia", "rotor_inertia_kg_m2"})
 
@@ -89,13 +94,17 @@ class ArmModel:
     base_yaw : bool
         The first joint turns the chain's plane about the vertical.
     yaw_inertia : float
-        The yaw body's inertia about the yaw axis, kg·m².
+        The yaw body's inertia about the yaw axis, kg·m² (its own at its centre of mass
+        plus m·r² of that centre).
     rotor_inertia : tuple of float or None
         Per joint the servo's reflected rotor inertia, kg·m² (None: the motor model's).
     gripper : JointMap or None
         A servo that is not a joint of the chain.
     shoulder_height : float
         The chain's first joint above the base, m.
+    inertias_r, inertias_z : tuple of float or None
+        Per link its moments at the centre of mass about the radial and the vertical axis
+        at zero, kg·m² (a yawed arm; None: 0, only the point masses turn with the yaw).
     """
 
     links: tuple[Vec, ...]
@@ -110,12 +119,15 @@ class ArmModel:
     rotor_inertia: tuple[float, ...] | None = None
     gripper: JointMap | None = None
     shoulder_height: float = 0.0
+    inertias_r: tuple[float, ...] | None = None
+    inertias_z: tuple[float, ...] | None = None
 
     def __post_init__(self) -> None:
         chain = Chain(self.links, self.masses, self.com, self.inertias, self.payload,
                       self.gravity, sign=-1 if self.base_yaw else 1,
                       yaw_inertia=self.yaw_inertia if self.base_yaw else None,
-                      origin=(0.0, self.shoulder_height))
+                      origin=(0.0, self.shoulder_height), inertias_r=self.inertias_r,
+                      inertias_z=self.inertias_z)
         object.__setattr__(self, "chain", chain)
 
     @property
@@ -296,13 +308,19 @@ def arm_from_dict(data: Mapping[str, Any]) -> ArmModel:
                          [m * (v[0] ** 2 + v[1] ** 2) / 12 for m, v in zip(masses, links,
                                                                              strict=True)],
                          positive=False)
-    if "yaw_body_com" in dyn:
-        _vector(dyn["yaw_body_com"], "dynamics.yaw_body_com")   # checked; on the axis
-    _non_negative(dyn, "yaw_body_mass")      # a mass on the yaw axis: no yaw inertia of its own
+    yaw_com = _vector(dyn["yaw_body_com"], "dynamics.yaw_body_com") \
+        if "yaw_body_com" in dyn else (0.0, 0.0)
+    # the yaw body about the yaw axis: its own inertia + m·r² of its centre (parallel axes)
+    yaw_inertia = (_non_negative(dyn, "yaw_body_inertia")
+                   + _non_negative(dyn, "yaw_body_mass") * yaw_com[0] ** 2)
+    about_r, about_z = (None if key not in dyn else
+                        _per_link(dyn, key, n, [0.0] * n, positive=False)
+                        for key in ("link_inertias_r", "link_inertias_z"))
     return ArmModel(links, masses, _com(dyn, links), inertias,
                     _non_negative(dyn, "payload_kg"), _gravity(dyn, plane == "vertical"),
-                    joints, base_yaw=base_yaw, yaw_inertia=_non_negative(dyn, "yaw_body_inertia"),
-                    rotor_inertia=_rotor(dyn, dof), gripper=gripper, shoulder_height=height)
+                    joints, base_yaw=base_yaw, yaw_inertia=yaw_inertia,
+                    rotor_inertia=_rotor(dyn, dof), gripper=gripper, shoulder_height=height,
+                    inertias_r=about_r, inertias_z=about_z)
 
 
 def load_arm(source: str | Path | Mapping[str, Any]) -> ArmModel:

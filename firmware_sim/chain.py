@@ -19,16 +19,23 @@ planar chain of Spong, Hutchinson & Vidyasagar, *Robot Modeling and Control* §7
 complex H carries the constant offset angles of links and centres of mass given as vectors.
 
 Base yaw (joint 0, angle ψ about +z): the plane is the vertical (r, z) plane at azimuth ψ.
-Every body is a point mass for the yaw (plus the yaw body's own inertia I_y0), so
-T = ½ q̇ᵀ M q̇ + ½ I_ψ(q) ψ̇², I_ψ = I_y0 + Σ_b m_b r_b², r_b = Re p_b — a point's velocity
-from the yaw is normal to the plane, from the chain in it, so there is no cross term. This
+A point's velocity from the yaw is normal to the plane, from the chain in it; a link's
+angular velocity is φ̇_s about the joint axis plus ψ̇ about the vertical, and with principal
+axes (radial, joint axis, vertical) at zero the joint axis stays one of them, so there is
+no cross term either: T = ½ q̇ᵀ M q̇ + ½ I_ψ(q) ψ̇² with::
+
+    I_ψ = I_y0 + Σ_b m_b r_b² + Σ_s (I_r,s sin² φ_s + I_z,s cos² φ_s),   r_b = Re p_b
+
+(I_y0 the yaw body's inertia about the yaw axis; I_r,s, I_z,s link s's moments at its
+centre of mass about the radial and the vertical axis at zero: after a turn by θ = −φ_s
+about the joint axis the vertical reads (−sin θ, 0, cos θ) in the link's frame). This
 gives the natural coupling and nothing else::
 
     I_ψ ψ̈ + (∂I_ψ/∂q · q̇) ψ̇ = τ_ψ,      M q̈ + b − ½ (∂I_ψ/∂q) ψ̇² = τ
 
-Not modelled: the links' own rotational inertia about the vertical axis and their products
-of inertia (the arm file gives each link's inertia about its joint axis only), so spinning
-the yaw does not tilt the links through them. Gravity is along −z and does not load the yaw.
+where link s adds (I_r,s − I_z,s)·sin 2φ_s to ∂I_ψ/∂φ_s. I_r and I_z default to 0 (the
+links turn with the yaw as point masses, the model before they could be given); products
+of inertia are not modelled. Gravity is along −z and does not load the yaw.
 """
 
 from __future__ import annotations
@@ -81,16 +88,26 @@ class Chain:
     origin : (float, float)
         Where the first joint sits in the plane (e.g. (0, shoulder height)); only
         positions and the potential energy use it.
+    inertias_r, inertias_z : sequence of float, optional
+        With a base yaw: per link its moments at the centre of mass about the radial and
+        the vertical axis at zero, kg·m² (default 0: only its point mass turns with the
+        yaw).
     """
 
     def __init__(self, links: Sequence[Vec], masses: Sequence[float], com: Sequence[Vec],
                  inertias: Sequence[float], payload: float, gravity: Vec, sign: int = 1,
-                 yaw_inertia: float | None = None, origin: Vec = (0.0, 0.0)) -> None:
+                 yaw_inertia: float | None = None, origin: Vec = (0.0, 0.0),
+                 inertias_r: Sequence[float] | None = None,
+                 inertias_z: Sequence[float] | None = None) -> None:
         n = len(links)
         self.n = n
         self.sign = sign
         self.yaw_inertia = yaw_inertia
         self.inertias = [float(x) for x in inertias]
+        self.inertias_r = [0.0] * n if inertias_r is None else [float(x) for x in inertias_r]
+        self.inertias_z = [0.0] * n if inertias_z is None else [float(x) for x in inertias_z]
+        if len(self.inertias_r) != n or len(self.inertias_z) != n:
+            raise ValueError(f"inertias_r and inertias_z need {n} values (one per link)")
         self.origin = complex(*origin)
         w = [complex(*v) for v in links]
         bodies = [(float(masses[b]), [w[s] if s < b else (complex(*com[b]) if s == b else 0j)
@@ -159,6 +176,12 @@ class Chain:
             inertia += mass * r * r
             for s in range(n):
                 d_phi[s] -= 2.0 * mass * r * terms[s].imag
+        for s in range(n):
+            ir, iz = self.inertias_r[s], self.inertias_z[s]
+            if ir or iz:
+                cos, sin = e[s].real, e[s].imag
+                inertia += ir * sin * sin + iz * cos * cos
+                d_phi[s] += 2.0 * (ir - iz) * sin * cos
         d_q = [sg * x for x in _suffix(d_phi)]
         full = [[inertia] + [0.0] * n] + [[0.0, *row] for row in m]
         yaw_bias = sum(dq * v for dq, v in zip(d_q, qdc, strict=True)) * wy

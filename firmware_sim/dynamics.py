@@ -11,7 +11,8 @@ A = diag(J_rotor·N² + a lone shaft's load) + the arm's mass matrix in shaft co
 C = diag(c) the motors' back-EMF and viscous damping (:mod:`firmware_sim.drive`), b the
 arm's Coriolis/centrifugal, yaw-coupling and gravity torques (:mod:`firmware_sim.chain`),
 τ_f Coulomb friction with stiction: a shaft slower than ``STICTION_RAD_S`` whose net torque
-is within ±τ_c stays stuck (ω⁺ = 0).
+(τ₀ − b, the motor's and the arm's) is within ±τ_c stays stuck (ω⁺ = 0), and so does one
+whose step would reverse it.
 An obstacle clamps a shaft at its angle and stops it (an inelastic stop).
 
 Joint i of an arm relates to its servo's shaft by θ = θ₀ + ρ·q with ρ = direction·
@@ -217,6 +218,7 @@ class Plant:
                 rhs[i] -= bias[i] / rho[i]
         for j in range(n):
             a[j][j] += self.inertia[j]
+        net = list(rhs)             # each joint's torque before friction: motor, arm's load
         free = []
         for j, d in enumerate(drives):
             tc = d.motor.coulomb
@@ -233,8 +235,8 @@ class Plant:
             af = [[a[i][j] + (h * damp[i] if i == j else 0.0) for j in free] for i in free]
             bf = [sum(a[i][k] * omega[k] for k in range(n)) + h * rhs[i] for i in free]
             for i, w in zip(free, _solve(af, bf), strict=True):
-                if omega[i] * w < 0.0 and abs(tau0[i]) <= drives[i].motor.coulomb:
-                    w = 0.0
+                if omega[i] * w < 0.0 and abs(net[i]) <= drives[i].motor.coulomb:
+                    w = 0.0             # friction stops a reversal it can hold (as stuck)
                 new[i] = w
         for j in range(n):
             th = theta[j] + h * new[j]

@@ -75,11 +75,27 @@ def _lagrangian(model, q, qd):
     masses = list(model.masses) + ([model.payload] if model.payload else [])
     kinetic = 0.5 * sum(m * vi @ vi for m, vi in zip(masses, v, strict=True)) \
         + 0.5 * sum(i * wi ** 2 for i, wi in zip(model.inertias, w, strict=True)) \
-        + 0.5 * model.yaw_inertia * wy ** 2
+        + 0.5 * model.yaw_inertia * wy ** 2 + 0.5 * wy ** 2 * _links_about_vertical(model, q)
     plane, _, _, _ = _fk_points(model, q)
     potential = -sum(m * (model.gravity[0] * p[0] + model.gravity[1] * p[1])
                      for m, p in zip(masses, plane, strict=True))
     return kinetic - potential
+
+
+def _links_about_vertical(model, q):
+    """Σ_s ẑᵀ R I_s Rᵀ ẑ: each link's principal moments (radial, joint axis, vertical at
+    zero) turned by its plane angle about the joint axis, seen along the vertical."""
+    if not model.base_yaw or (model.inertias_r is None and model.inertias_z is None):
+        return 0.0
+    _, _, angles, _ = _fk_points(model, q)
+    total = 0.0
+    for s, theta in enumerate(-angles):              # a turn by θ about +y
+        rot = np.array([[math.cos(theta), 0, math.sin(theta)], [0, 1, 0],
+                        [-math.sin(theta), 0, math.cos(theta)]])
+        body = np.diag([(model.inertias_r or (0.0,) * 3)[s], model.inertias[s],
+                        (model.inertias_z or (0.0,) * 3)[s]])
+        total += (rot @ body @ rot.T)[2, 2]
+    return total
 
 
 def _euler_lagrange(model, q, qd, qdd):
@@ -100,7 +116,8 @@ def _euler_lagrange(model, q, qd, qdd):
     _doc(), _doc(gravity=True, payload_kg=0.2),
     _doc(link_masses=[0.3, 0.2, 0.1], link_com=[0.05, 0.1, 0.0], gravity=[1.0, -9.0]),
     _omx_doc(), _omx_doc(payload_kg=0.5),
-], ids=["arm3r", "arm3r-gravity", "arm3r-masses", "omx", "omx-payload"])
+    _omx_doc(link_inertias_r=[2e-4, 1e-4, 5e-5], link_inertias_z=[3e-4, 2.2e-4, 9e-5]),
+], ids=["arm3r", "arm3r-gravity", "arm3r-masses", "omx", "omx-payload", "omx-link-moments"])
 def test_dynamics_match_a_numerical_lagrangian(doc):
     model = load_arm(doc)
     n = model.dof
@@ -188,6 +205,25 @@ def test_arm_toml_maps_joints_to_servos_and_obstacles_in_joint_degrees():
         assert execute(bus, "move 2 2100") == "ok" and bus.servo(2).present_position == 2100
         assert execute(bus, "move 9 1").startswith("error no servo 9")
         assert execute(bus, "fly 1 2").startswith("error unknown command")
+
+
+def test_link_moments_about_the_other_axes_default_to_point_masses():
+    """Without link_inertias_r/z the yaw sees the links as point masses (as before the
+    keys); with them it sees their moments too, the vertical one at zero."""
+    q = [0.0] * 4
+    plain = load_arm(_omx_doc())
+    zeros = load_arm(_omx_doc(link_inertias_r=[0.0] * 3, link_inertias_z=[0.0] * 3))
+    given = load_arm(_omx_doc(link_inertias_r=[1e-3] * 3, link_inertias_z=[2e-3] * 3))
+    assert plain.inertias_r is None and plain.inertias_z is None
+    assert plain.dynamics(q, [1.0, 2.0, -1.0, 0.5]) == zeros.dynamics(q, [1.0, 2.0, -1.0, 0.5])
+    assert given.dynamics(q, q)[0][0][0] == pytest.approx(plain.dynamics(q, q)[0][0][0]
+                                                          + 3 * 2e-3, rel=1e-12)
+    # the yaw body's inertia about the yaw axis: its own + m·r² of its centre of mass
+    assert plain.yaw_inertia == pytest.approx(3.3e-5 + 0.0984 * 0.0003 ** 2, rel=1e-12)
+    with pytest.raises(ArmConfigError, match=r"dynamics\.link_inertias_z\[1\]"):
+        load_arm(_omx_doc(link_inertias_z=[1e-4, -1e-4, 1e-4]))
+    with pytest.raises(ArmConfigError, match=r"dynamics\.link_inertias_r"):
+        load_arm(_omx_doc(link_inertias_r=[1e-4]))
 
 
 def test_arm_config_errors_name_the_key():
