@@ -42,6 +42,7 @@ from robodcn.contract.checks import (
     check_waypoints,
     fail,
     intervals,
+    waypoint_shape,
 )
 from robodcn.contract.fields import (
     BETA_METHODS,
@@ -51,14 +52,17 @@ from robodcn.contract.fields import (
     MAX_ANGLE,
     MAX_COORDINATE,
     MAX_DURATION,
+    MAX_PAYLOAD,
     MAX_SAMPLES,
     MAX_WAYPOINTS,
     MOVE_OMIT,
+    YAWED_WAYPOINTS,
     Defaults,
     Field,
     cli_choices,
     cli_option,
     field,
+    waypoints_field,
 )
 from robodcn.contract.parse import parse_request
 from robodcn.contract.request import PlanRequest, StartState
@@ -73,9 +77,11 @@ __all__ = [
     "MAX_ANGLE",
     "MAX_COORDINATE",
     "MAX_DURATION",
+    "MAX_PAYLOAD",
     "MAX_SAMPLES",
     "MAX_WAYPOINTS",
     "MOVE_OMIT",
+    "YAWED_WAYPOINTS",
     "BetaIgnoredWarning",
     "Defaults",
     "Field",
@@ -98,4 +104,6 @@ __all__ = [
     "parse_request",
     "request_schema",
     "schema_of",
+    "waypoint_shape",
+    "waypoints_field",
 ]

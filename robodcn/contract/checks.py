@@ -291,9 +291,9 @@ def intervals(duration: float, rate: float) -> int:
 
 
 def check_field(name: str, value: Any) -> Any:
-    """The arm-independent single-value fields: profile, rate_hz, blend, elbow."""
+    """The arm-independent single-value fields: profile, rate_hz, blend, elbow, payload_kg."""
     f = field(name)
-    if name == "rate_hz":
+    if name in ("rate_hz", "payload_kg"):
         return check_number(name, value, f.schema, f.unit)
     if name == "profile":
         return check_choice(name, value, f.choices)

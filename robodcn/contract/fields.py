@@ -36,6 +36,8 @@ BETA_METHODS = ("kenlerp",)
 MAX_COORDINATE = 1e3
 #: Largest |θ| or |joint angle| (rad) accepted on input.
 MAX_ANGLE = 1e3
+#: Largest payload (kg) accepted: far beyond any Dynamixel arm, keeps torques finite.
+MAX_PAYLOAD = 1e3
 
 
 @dataclass(frozen=True)
@@ -43,7 +45,8 @@ class Defaults:
     """The value of every optional request field when it is absent (written here only).
 
     ``rate_hz`` None is the arm's ``[bus] rate_hz``; ``elbow`` None the arm's configured
-    branch; ``start_joints``/``start_state`` None: start at the first waypoint.
+    branch; ``start_joints``/``start_state`` None: start at the first waypoint;
+    ``payload_kg`` None the arm's ``[dynamics] payload_kg``.
     """
 
     method: str = "sclerp"
@@ -56,6 +59,7 @@ class Defaults:
     start_joints: None = None
     elbow: str | None = None
     start_state: None = None
+    payload_kg: float | None = None
 
 
 #: The defaults of the request fields (:class:`Defaults`).
@@ -184,6 +188,10 @@ FIELDS: tuple[Field, ...] = (
           "(profile optimal). Default: none.", default=DEFAULTS.start_state,
           unit="rad, rad/s, rad/s²",
           cli_unit="deg, deg/s, deg/s²"),
+    Field("payload_kg", {"type": ["number", "null"], "minimum": 0.0, "maximum": MAX_PAYLOAD},
+          "Mass carried at the tool point, for the torque limits the timing keeps "
+          "(max_torque_nm). Default: the arm's [dynamics] payload_kg.",
+          default=DEFAULTS.payload_kg, unit="kg"),
 )
 _BY_NAME = {f.name: f for f in FIELDS}
 

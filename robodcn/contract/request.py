@@ -114,6 +114,8 @@ class PlanRequest:
         waypoint (waypoints[0] is not repeated when it is that pose, within 0.1 mm and
         0.01°), and is timed from the moving state (profile "optimal" only; exclusive with
         start_joints). A dict {"joints": …, "velocities": …, "accelerations": …} is accepted.
+    payload_kg : mass (kg, ≥ 0) at the tool point, for the torque limits the timing keeps;
+        None (the default) is the arm's ``[dynamics] payload_kg`` (a float once constructed)
 
     Defaults: :data:`robodcn.contract.DEFAULTS`. Lists given for method, beta, turn,
     waypoints and start_joints are stored as tuples.
@@ -131,6 +133,7 @@ class PlanRequest:
     start_joints: tuple[float, ...] | None = DEFAULTS.start_joints
     elbow: str | None = DEFAULTS.elbow
     start_state: StartState | None = DEFAULTS.start_state
+    payload_kg: float | None = DEFAULTS.payload_kg
 
     def __post_init__(self) -> None:
         put = object.__setattr__
@@ -145,7 +148,9 @@ class PlanRequest:
         put(self, "beta", checks.check_per_segment("beta", self.beta, segments))
         if self.rate_hz is None:
             put(self, "rate_hz", self.arm.bus.rate_hz)
-        for name in ("profile", "rate_hz", "blend", "elbow"):
+        if self.payload_kg is None:
+            put(self, "payload_kg", self.arm.payload_kg)
+        for name in ("profile", "rate_hz", "blend", "elbow", "payload_kg"):
             put(self, name, checks.check_field(name, getattr(self, name)))
         put(self, "duration", checks.check_duration(self.duration, self.rate_hz, segments))
         put(self, "start_joints", checks.check_start_joints(self.start_joints, self.arm))
@@ -222,14 +227,16 @@ class PlanRequest:
                 "blend": self.blend,
                 "start_joints": None if self.start_joints is None else list(self.start_joints),
                 "elbow": self.elbow,
-                "start_state": None if self.start_state is None else self.start_state.to_dict()}
+                "start_state": None if self.start_state is None else self.start_state.to_dict(),
+                "payload_kg": self.payload_kg}
 
     @classmethod
     def from_dict(cls, data: dict[str, Any], arm: Arm | None = None) -> PlanRequest:
         """Inverse of :meth:`to_dict`; ``arm`` overrides the embedded arm.
 
         The request fields are parsed as an HTTP body is
-        (:func:`robodcn.contract.parse_request`); an absent ``rate_hz`` is the arm's.
+        (:func:`robodcn.contract.parse_request`); an absent ``rate_hz`` or ``payload_kg`` is
+        the arm's.
         """
         if not isinstance(data, dict):
             raise fail("request", "must be an object", data)

@@ -19,8 +19,8 @@ def request_schema(arm: Arm | None = None, omit: Iterable[str] = ()) -> dict[str
 
     With ``arm`` the arm-dependent parts are exact: a waypoint has 2 or 3 entries by the
     arm's joint count (an arm with a base yaw: 4, [x, y, z, pitch]), ``start_joints`` one
-    entry per joint within that joint's limits, and the ``rate_hz`` default is the arm's bus
-    rate. ``omit`` drops fields (a move body omits
+    entry per joint within that joint's limits, and the ``rate_hz`` and ``payload_kg``
+    defaults are the arm's bus rate and payload. ``omit`` drops fields (a move body omits
     :data:`MOVE_OMIT`).
     """
     omit = set(omit)
@@ -37,6 +37,8 @@ def request_schema(arm: Arm | None = None, omit: Iterable[str] = ()) -> dict[str
         default = f.default
         if f.name == "rate_hz" and arm is not None:
             default = arm.bus.rate_hz
+        elif f.name == "payload_kg" and arm is not None:
+            default = arm.payload_kg
         if default is not None or f.name in ("start_joints", "elbow"):
             schema["default"] = default
         properties[f.name] = schema

@@ -117,13 +117,15 @@ def plan(arm: Arm, waypoints: ArrayLike, *, method: str | Sequence[str] = DEFAUL
          profile: str = DEFAULTS.profile, rate_hz: float | None = DEFAULTS.rate_hz,
          blend: bool = DEFAULTS.blend, start_joints: ArrayLike | None = DEFAULTS.start_joints,
          elbow: str | None = DEFAULTS.elbow,
-         start_state: StartState | None = DEFAULTS.start_state) -> Trajectory:
+         start_state: StartState | None = DEFAULTS.start_state,
+         payload_kg: float | None = DEFAULTS.payload_kg) -> Trajectory:
     """Plan a validated trajectory through ``waypoints`` for ``arm``.
 
     Parameters
     ----------
     arm : Arm (robodcn.load_arm)
-    waypoints : (m, 3), m ≥ 2 poses (x, y, θ), metres and radians; (m, 2) on a 2-joint arm
+    waypoints : (m, 3), m ≥ 2 poses (x, y, θ), metres and radians; (m, 2) on a 2-joint arm;
+        (m, 4) (x, y, z, pitch) in the base frame on an arm with a base yaw
     method, turn : interpolation method / turn direction, or a list with one per segment
     beta : KenLERP bias (contract.BETA_RANGE), or a list with one per segment
     duration : total seconds (rounded up to whole sample periods) or "auto" (shortest
@@ -138,6 +140,7 @@ def plan(arm: Arm, waypoints: ArrayLike, *, method: str | Sequence[str] = DEFAUL
     elbow : "up" | "down", or None for the arm's configured branch
     start_state : a moving :class:`StartState` (joints, velocities, accelerations) to plan
         from (a retarget); the path runs from the pose FK(joints) (PlanRequest docstring)
+    payload_kg : mass (kg) at the tool point for the torque limits; None: the arm's
 
     Raises
     ------
@@ -155,5 +158,6 @@ def plan(arm: Arm, waypoints: ArrayLike, *, method: str | Sequence[str] = DEFAUL
         beta = tuple(beta)
     req = PlanRequest(arm=arm, waypoints=waypoints, method=method, beta=beta, turn=turn,
                       duration=duration, profile=profile, rate_hz=rate_hz, blend=blend,
-                      start_joints=start_joints, elbow=elbow, start_state=start_state)
+                      start_joints=start_joints, elbow=elbow, start_state=start_state,
+                      payload_kg=payload_kg)
     return plan_request(req)
