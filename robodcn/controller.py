@@ -59,8 +59,9 @@ log = logging.getLogger("robodcn.controller")
 #: Options the service executes with unless overridden: a move starts wherever the arm is
 #: (the streamer prepends an approach if it has moved since planning) and the arm holds after.
 DEFAULT_EXECUTE = ExecutionOptions(approach=True, release=False)
-#: Seconds an online operation on a queued move waits for its stream to start.
-QUEUED_WAIT = 1.0
+#: Seconds an online operation on a queued move waits for its stream to start (then 409):
+#: with the operation's own planning, the answer stays within a second.
+QUEUED_WAIT = 0.4
 
 
 class ArmController:

@@ -51,6 +51,24 @@ def signals_stop(server: RobodcnHTTPServer, controller: ArmController | None = N
             signal.signal(sig, old)
 
 
+@contextlib.contextmanager
+def open_device(arm: Arm, device: str | None = None, baud: int | None = None
+                ) -> Iterator[Any]:
+    """``serve --device``'s bus: ``device`` (default: the arm's [bus] port) at ``baud``
+    (default: the arm's), opened and verified against the arm's servos (BusError when they
+    do not answer), closed on exit. Torque stays as it is until the first move (the
+    streamer configures the servos then)."""
+    from robodcn.bus import ServoBus
+
+    bus = ServoBus(device or arm.bus.port, baud or arm.bus.baud, servos=arm.servos)
+    try:
+        bus.open()
+        bus.verify()
+        yield bus
+    finally:
+        bus.close()
+
+
 def serve(arm: Arm, *, host: str = "127.0.0.1", port: int = 8080, token: str | None = None,
           sim: bool = False, device: str | None = None, baud: int | None = None,
           ready: Callable[[str], None] | None = None,
@@ -77,13 +95,7 @@ def serve(arm: Arm, *, host: str = "127.0.0.1", port: int = 8080, token: str | N
 
             bus = stack.enter_context(simulated_arm(arm, timing="realistic")).bus
         else:
-            from robodcn.bus import ServoBus
-
-            bus = ServoBus(device or arm.bus.port, baud or arm.bus.baud, servos=arm.servos)
-            stack.callback(bus.close)
-            bus.open()
-            # Torque stays as it is until the first move (the streamer configures then).
-            bus.verify()
+            bus = stack.enter_context(open_device(arm, device, baud))
         controller = ArmController(arm, bus, execute_options=execution)
         stack.callback(controller.close)
         server = make_server(arm, controller, host=host, port=port, token=token)
