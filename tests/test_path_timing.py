@@ -238,3 +238,56 @@ def test_sd_cap_bounds_the_law_and_only_slows_it(jerk):
     with pytest.raises(InputError) as info:
         time_optimal(q, s, v, a, j, sd_cap=np.full(3, 1.0))
     assert info.value.field == "sd_cap"
+
+
+def test_path_derivatives_of_a_dwell_warn_nothing_and_share_the_sample():
+    """Issue 17 §7: divide-by-zero warnings from path_derivatives (a held sample repeats its
+    s). A repeated (s, q) is one sample; under numpy's 'raise' no FloatingPointError."""
+    from robodcn.path_timing import path_derivatives
+
+    s = np.linspace(0.0, 1.0, 21)
+    q = np.column_stack([np.sin(s), s ** 2])
+    held = np.insert(np.arange(21), [0, 7, 7, 21], [0, 7, 7, 20])
+    with np.errstate(all="raise"):
+        plain = path_derivatives(q, s, [10], 2)
+        dwell = path_derivatives(q[held], s[held], [int(np.argmax(held == 10))], 2)
+    for d_plain, d_dwell in zip(plain, dwell, strict=True):
+        assert np.isfinite(d_dwell).all()
+        np.testing.assert_allclose(d_dwell, d_plain[held], atol=1e-12)
+    with pytest.raises(InputError) as err:
+        path_derivatives(q[::-1], s[::-1], [], 1)
+    assert err.value.field == "s"
+    jump = q[held].copy()
+    jump[8] += 0.1  # a second, different sample at the held s
+    with pytest.raises(InputError) as err:
+        path_derivatives(jump, s[held], [], 1)
+    assert err.value.field == "s"
+    # a path that does not move: zero derivatives
+    with np.errstate(all="raise"):
+        still = path_derivatives(np.zeros((3, 2)), np.zeros(3), [], 2)
+    assert all((d == 0).all() for d in still)
+
+
+def test_brake_without_velocity_is_no_brake():
+    """Issue 17 §7: a replace during a braking pause or stop divided by T₀ = 0 (ZeroDivision):
+    the state at the end of a brake has q̇ = 0 and q̈ ≠ 0."""
+    from robodcn.path_timing import JointLimits
+    from robodcn.path_timing.moving_start import JointState, brake_line, join
+
+    lim = JointLimits(np.full(3, 2.0), np.full(3, 10.0))
+    state = JointState(np.array([0.1, -0.4, 0.3]), np.zeros(3), np.array([-9.0, 4.0, 1.0]))
+    with np.errstate(all="raise"):
+        brake = brake_line(state, lim, 100.0)
+    assert brake.law.duration == 0.0
+    np.testing.assert_array_equal(brake.q_stop, state.q)
+    m = brake.law.sample(100.0)
+    assert np.isfinite(m.s).all() and (m.sd == 0).all()
+    # and a braking state with velocity still brakes over |q̇|/2a at the limits
+    moving = JointState(state.q, np.array([1.0, 0.0, 0.0]), state.qdd)
+    assert brake_line(moving, lim, 100.0).law.duration == pytest.approx(0.1, rel=2e-2)
+    # joining a path from the still-braking state plans from where it is
+    s = np.linspace(0.0, 1.0, 50)
+    q = state.q + np.outer(s, [0.5, 0.2, -0.1])
+    with np.errstate(divide="raise", invalid="raise"):
+        seg = join(state, q, s, lim, 100.0)
+    assert seg.law is not None and np.isfinite(seg.law.duration)

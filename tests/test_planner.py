@@ -8,6 +8,7 @@ import dataclasses
 import io
 import json
 import math
+import warnings
 from pathlib import Path
 from typing import Any
 
@@ -1028,3 +1029,28 @@ def test_blend_is_never_slower_than_stopping_on_random_paths(method: str) -> Non
         assert blend.duration <= stop.duration, wps
         check_trajectory(blend, ARM3R, wps)
     assert planned >= 8
+
+
+def test_replan_from_the_end_of_a_brake_is_finite() -> None:
+    """Issue 17 §7: a replace during a braking pause or stop (q̇ = 0 or nearly, q̈ at the
+    limit) plans without a numpy warning or a non-finite sample (the brake from such a state,
+    which divided by T₀ = 0, is test_path_timing's test_brake_without_velocity_is_no_brake)."""
+    from robodcn.planner import StartState
+
+    arm = ARM3R
+    q0 = np.array([0.3, -1.0, 0.5])
+    a = np.array([j.max_acceleration for j in arm.joints])
+    here = kinematics.fk(arm.links, q0[None])[0].tolist()
+    planned = 0
+    for qd in ([0.0, 0.0, 0.0], [1e-13, 0.0, 0.0], [1e-300, -1e-300, 0.0]):
+        for signs in ([-1, 1, 0], [1, 1, 1], [0, 0, 0]):
+            state = StartState(tuple(q0), tuple(qd), tuple(0.99 * a * np.array(signs)))
+            for goal in ([0.1, 0.25, 1.0], here):
+                with np.errstate(divide="raise", invalid="raise", over="raise"), \
+                        warnings.catch_warnings():
+                    warnings.simplefilter("error", RuntimeWarning)
+                    traj = plan(arm, [here, goal], start_state=state)
+                assert np.isfinite(traj.joints).all()
+                np.testing.assert_array_equal(traj.joints[0], q0)
+                planned += 1
+    assert planned == 18

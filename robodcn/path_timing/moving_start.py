@@ -92,6 +92,8 @@ HV3_PEAK, HA3_PEAK = 36.0, 9.0
 #: velocity k v and acceleration (k a)² with this k only over the samples the law passes
 #: before T_b, whole after it.
 WINDOW_SCALE = 0.75
+#: A brake shorter than this (s) is no brake: the state has no velocity to lose.
+MIN_BRAKE_S = 1e-9
 #: Shares of the projected start speed tried when the jerk pass finds no law from it.
 START_SHARES = (1.0, 0.7, 0.4, 0.0)
 
@@ -327,8 +329,14 @@ def brake_line(state: JointState, limits: JointLimits, rate_hz: float) -> Brake:
     the braking distance; its law reaches rest there."""
     a_m = limits.a * GRID_MARGIN ** 2
     t0 = 1.0001 * float(np.max(np.abs(state.qd) / (2.0 * a_m)))
-    q_stop = state.q + state.qd * t0
     s = np.linspace(0.0, 1.0, 3)
+    if not t0 > MIN_BRAKE_S:
+        # no velocity to brake (a braking pause's last sample: q̇ = 0, q̈ ≠ 0; without a jerk
+        # limit the acceleration may step): at rest where it is, a law of no duration (and
+        # no 1/T₀)
+        still = PathTiming(np.zeros(2), np.array([0.0, 1.0]), np.zeros(2), np.zeros(1))
+        return Brake(state.q, state.q.copy(), s, np.repeat(state.q[None, :], 3, axis=0), still)
+    q_stop = state.q + state.qd * t0
     q = state.q + np.outer(s, q_stop - state.q)
     law = time_optimal(q, s, limits.v, a_m, sd_start=1.0 / t0, rate_hz=rate_hz)
     return Brake(state.q, q_stop, s, q, law)

@@ -64,14 +64,41 @@ def path_derivatives(q: NDArray[np.float64], s: NDArray[np.float64], cuts: Seque
 
     The path is differentiated piece by piece between the sample indices ``cuts`` (stops,
     where q' may have a corner); a cut sample takes its outgoing piece's derivatives.
+    Repeated parameters (a dwell: the same s with the same q, e.g. a held sample) are one
+    sample: they share its derivatives (numpy.gradient would divide by their zero spacing).
+
+    Raises
+    ------
+    InputError
+        ``s`` not finite or decreasing, or two different joint samples at one s (field "s").
     """
+    s = np.asarray(s, dtype=np.float64)
+    q = np.asarray(q, dtype=np.float64)
+    step = np.diff(s)
+    if not np.isfinite(s).all() or (step < 0).any():
+        raise InputError(f"s must be finite and non-decreasing, got {s.shape[0]} values with "
+                         f"{int((step < 0).sum())} decreasing steps", field="s",
+                         value=s.shape)
     edges = [0, *sorted(set(int(c) for c in cuts if 0 < c < q.shape[0] - 1)), q.shape[0] - 1]
     out = [np.empty_like(q) for _ in range(order)]
+    repeated = not (step > 0).all()
     for a, b in itertools.pairwise(edges):
         f, x = q[a:b + 1], s[a:b + 1]
+        index = None
+        if repeated:
+            keep = np.concatenate([[True], np.diff(x) > 0])
+            if not keep.all():
+                index = np.cumsum(keep) - 1
+                if np.abs(f - f[keep][index]).max() > 1e-12:
+                    raise InputError("s repeats a parameter with different joint samples (a "
+                                     "jump of the path)", field="s", value=s.shape)
+                f, x = f[keep], x[keep]
         for d in range(order):
-            f = np.gradient(f, x, axis=0, edge_order=2 if f.shape[0] > 2 else 1)
-            out[d][a:b + 1] = f
+            if f.shape[0] < 2:  # one distinct sample: nothing moves
+                f = np.zeros_like(f)
+            else:
+                f = np.gradient(f, x, axis=0, edge_order=2 if f.shape[0] > 2 else 1)
+            out[d][a:b + 1] = f if index is None else f[index]
     return out
 
 

@@ -164,6 +164,8 @@ def _brake_then_go(req: PlanRequest, brake: moving_start.Brake, limits: JointLim
         return None
     for piece in by_arc_length(req, pieces):  # from rest
         piece.law = moving_start.timed(piece.q, piece.s, limits, req.rate_hz)
+    if brake.law.duration <= 0.0:  # nothing to brake: from rest where the state is
+        return pieces
     first = DensePiece(None, -1, q_from=brake.q0, q_to=brake.q_stop, s=brake.s, q=brake.q,
                        law=brake.law)
     return [first, *pieces]
