@@ -18,6 +18,10 @@ Physics (default): the firmware's controller drives a DC motor, gearbox and load
 ``--arm configs/arm3r.toml`` (or a name, ``--arm omx``) makes the servos drive that arm's
 rigid bodies, with its gripper servo if it has one;
 ``--control PATH`` serves "move ID TICKS", "push ID NM", "obstacle ID DEG" on a UNIX socket.
+
+``--indirect off`` (or per ID, ``--indirect 2:off``) makes a servo acknowledge a WRITE to
+Indirect Address (168-222, 578-632) without storing it, like an older firmware or a clone;
+``unresolved`` stores the map but Indirect Data does not follow it.
 """
 
 from __future__ import annotations
@@ -139,7 +143,10 @@ def parser() -> argparse.ArgumentParser:
     p.add_argument("--supply", type=float, default=12.0, metavar="V",
                    help="supply voltage, V (default 12)")
     p.add_argument("--control", metavar="PATH",
-                   help="UNIX socket for move/push/obstacle commands")
+                   help="UNIX socket for move/push/obstacle/voltage/indirect commands")
+    p.add_argument("--indirect", default="on", metavar="MODE",
+                   help="Indirect Address map: on (default), off (writes acknowledged, "
+                        "not stored) or unresolved, or per ID: 2:off,3:unresolved")
     for kind in _FAULT_KEYS:
         p.add_argument(f"--{kind.replace('_', '-')}", action="append", type=_spec, default=[],
                        metavar="TARGET[:k=v,...]")
@@ -169,6 +176,7 @@ def main(argv: list[str] | None = None) -> int:
     except ValueError:
         raise SystemExit(f"firmware_sim: --firmware must be integers, got {args.firmware!r}")\
             from None
+    indirect = _per_id(args.indirect, "--indirect")
     if args.arm and args.dynamics == "off":
         p.error("--arm needs the physics model; drop --dynamics off")
     ids = args.ids
@@ -178,7 +186,8 @@ def main(argv: list[str] | None = None) -> int:
         bus = SimBus(config=SimBusConfig(
             ids=ids, model=model, baud=args.baud, timing=args.timing, firmware=firmware,
             link=args.link, log=False, log_file=args.log, fault_seed=args.seed,
-            dynamics=args.dynamics == "on", arm=args.arm, supply_voltage=args.supply))
+            dynamics=args.dynamics == "on", arm=args.arm, supply_voltage=args.supply,
+            indirect=indirect))
     except ValueError as exc:
         p.error(str(exc))
     _check_targets(p, args, [s.id for s in bus.servos])

@@ -80,7 +80,8 @@ class SimBus:
                               position=sp.position, dynamics=self.dynamics,
                               supply_voltage=cfg.supply_voltage,
                               lock=arm_lock if sp.on_arm else None,
-                              load_inertia=sp.load_inertia) for sp in servos.servos]
+                              load_inertia=sp.load_inertia, indirect=sp.indirect)
+                       for sp in servos.servos]
         if servos.arm is not None:
             couple_arm(servos.arm, [self.servo(i) for i in servos.arm_ids])
         self.faults = FaultInjector(seed=cfg.fault_seed)

@@ -15,6 +15,7 @@ from firmware_sim.clock import Clock
 from firmware_sim.control_table import BAUD_RATES, MODELS
 from firmware_sim.motor import DEFAULT_SUPPLY_V
 from firmware_sim.protocol import MAX_ID
+from firmware_sim.servo.indirect import indirect_mode
 
 TIMINGS = ("fast", "realistic")
 
@@ -77,6 +78,12 @@ class SimBusConfig:
         Initial Present Position per servo (default 2048).
     supply_voltage : float
         Supply of every servo, V (physics model).
+    indirect : bool or str, or mapping id -> bool or str
+        How each servo's firmware treats the Indirect Address map
+        (:mod:`firmware_sim.servo.indirect`): True/"on" (default) as the e-manual;
+        False/"off" a WRITE to an Indirect Address answers OK and stores nothing (an older
+        firmware, a clone); "unresolved" the map stores but Indirect Data does not follow
+        it. Servos a mapping leaves out are "on".
     """
 
     ids: tuple[int, ...] | None = None
@@ -98,12 +105,17 @@ class SimBusConfig:
     arm: str | os.PathLike[str] | Mapping[str, object] | None = None
     positions: Mapping[int, int] | None = None
     supply_voltage: float = DEFAULT_SUPPLY_V
+    indirect: bool | str | Mapping[int, bool | str] = True
 
     def __post_init__(self) -> None:
         if self.ids is not None:
             object.__setattr__(self, "ids", tuple(int(i) for i in self.ids))
         for name in ("model", "firmware", "positions"):
             object.__setattr__(self, name, _frozen(getattr(self, name)))
+        ind = self.indirect
+        object.__setattr__(self, "indirect", _frozen(
+            {int(k): indirect_mode(v) for k, v in ind.items()} if isinstance(ind, Mapping)
+            else indirect_mode(ind)))
         if self.timing not in TIMINGS:
             raise ValueError(f"timing must be 'fast' or 'realistic', got {self.timing!r}")
         if int(self.baud) not in BAUD_RATES.values():
@@ -137,6 +149,7 @@ class ServoSpec:
     position: int
     on_arm: bool
     load_inertia: float = 0.0
+    indirect: str = "on"
 
 
 @dataclass(frozen=True)
@@ -197,8 +210,14 @@ def layout(config: SimBusConfig) -> BusLayout:
         if models[i] not in MODELS:
             raise ValueError(f"model {models[i]!r} for servo {i} unknown; known: "
                              f"{sorted(MODELS)}")
+    ind = config.indirect
+    modes = dict(ind) if isinstance(ind, Mapping) else dict.fromkeys(id_list, ind)
+    for i in modes:
+        if i not in id_list:
+            raise ValueError(f"indirect: no servo {i} on the bus (ids {id_list})")
     jaws = gripper.servo_id if gripper is not None else None
     specs = tuple(ServoSpec(i, models[i], int(firmwares.get(i, 46)), int(start.get(i, 2048)),
-                            i in arm_ids, GRIPPER_INERTIA_KG_M2 if i == jaws else 0.0)
+                            i in arm_ids, GRIPPER_INERTIA_KG_M2 if i == jaws else 0.0,
+                            str(modes.get(i, "on")))
                   for i in id_list)
     return BusLayout(specs, arm)

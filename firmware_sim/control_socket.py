@@ -6,6 +6,9 @@ One command a line, one answer a line (``ok`` or ``error <reason>``)::
     push ID NM         external torque on servo ID's output shaft, N·m (0 releases)
     obstacle ID DEG    block servo ID's joint beyond DEG degrees (``obstacle ID off`` clears)
     voltage ID V       supply voltage of servo ID
+    indirect ID MODE   how servo ID's firmware treats the Indirect Address map: on, off
+                       (a WRITE to an Indirect Address answers OK and stores nothing: an
+                       older firmware, a clone) or unresolved (stored, not followed)
     get ID             answers ``ok POSITION VELOCITY CURRENT TEMPERATURE`` (table units)
 
 A client may keep the connection open and send many lines; several clients may connect.
@@ -38,6 +41,7 @@ def execute(bus: SimBus, line: str) -> str:
         "obstacle": (2, lambda s, a: _do(lambda: s.set_obstacle(
             None if a.lower() == "off" else float(a)))),
         "voltage": (2, lambda s, a: _do(lambda: setattr(s, "supply_voltage", float(a)))),
+        "indirect": (2, lambda s, a: _do(lambda: setattr(s, "indirect", a))),
         "get": (1, lambda s: "ok " + " ".join(str(s.get(a)) for a in (
             ct.PRESENT_POSITION, ct.PRESENT_VELOCITY, ct.PRESENT_CURRENT,
             ct.PRESENT_TEMPERATURE))),

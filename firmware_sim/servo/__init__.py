@@ -4,11 +4,13 @@
 :mod:`.effects` what accepted writes do, :mod:`.live` the live items, :mod:`.motion` the
 profile and position frames, :mod:`.watchdog` the Bus Watchdog, :mod:`.alerts` hardware
 errors, :mod:`.maintenance` reboot/reset/clear/backup, :mod:`.environment` the outside
-world, :mod:`.coupling` an arm's shared plant.
+world, :mod:`.coupling` an arm's shared plant, :mod:`.indirect` how far the firmware
+serves the Indirect Address map.
 """
 
 from firmware_sim.servo.core import BOOT_DELAY_S, Servo
 from firmware_sim.servo.coupling import couple_arm
+from firmware_sim.servo.indirect import INDIRECT_MODES, indirect_mode
 from firmware_sim.servo.maintenance import (
     BACKUP_MAGIC,
     BACKUP_MIN_FIRMWARE,
@@ -31,6 +33,7 @@ __all__ = [
     "BACKUP_STORE",
     "BOOT_DELAY_S",
     "CLEAR_MULTI_TURN",
+    "INDIRECT_MODES",
     "PULSES_PER_REV",
     "RESET_ALL",
     "RESET_KEEP_ID",
@@ -40,4 +43,5 @@ __all__ = [
     "WATCHDOG_UNIT_S",
     "Servo",
     "couple_arm",
+    "indirect_mode",
 ]

@@ -34,21 +34,23 @@ def _touches_indirect_data(address: int, length: int) -> bool:
                for _, data_base, count in ct.INDIRECT_BANKS)
 
 
-def read(table: ControlTable, spec: ModelSpec, address: int, length: int) -> tuple[int, bytes]:
+def read(table: ControlTable, spec: ModelSpec, address: int, length: int, *,
+         follow: bool = True) -> tuple[int, bytes]:
     """READ: (error code, data); data is b"" on error.
 
     A read must start on a defined item and stay inside the table, else it is an Access
     Error; undefined gaps inside a longer block read 0 (block reads of the table work on
     the firmware). Indirect Data bytes read the byte their Indirect Address names (unless
     that is itself an Indirect Data byte: then the stored byte, so the factory
-    self-mapping behaves as plain RAM).
+    self-mapping behaves as plain RAM). ``follow=False``: Indirect Data bytes are always
+    plain storage (a firmware that does not resolve the map, :mod:`.indirect`).
     """
     if length <= 0:
         return ERR_DATA_LENGTH, b""
     if address < 0 or address + length > TABLE_SIZE or spec.owner(address) is None:
         return ERR_ACCESS, b""
     out = bytearray(table.raw(address, length))
-    if not _touches_indirect_data(address, length):
+    if not follow or not _touches_indirect_data(address, length):
         return 0, bytes(out)
     for i in range(length):
         slot = indirect_data_slot(address + i)
@@ -59,7 +61,7 @@ def read(table: ControlTable, spec: ModelSpec, address: int, length: int) -> tup
     return 0, bytes(out)
 
 
-def _resolve(table: ControlTable, spec: ModelSpec, address: int, data: bytes
+def _resolve(table: ControlTable, spec: ModelSpec, address: int, data: bytes, follow: bool
              ) -> tuple[int, dict[Item, dict[int, int]]]:
     """Map written bytes to target items (through indirect data); error on bad access."""
     if not data:
@@ -69,7 +71,7 @@ def _resolve(table: ControlTable, spec: ModelSpec, address: int, data: bytes
     items: dict[Item, dict[int, int]] = {}
     for i, byte in enumerate(data):
         a = address + i
-        slot = indirect_data_slot(a)
+        slot = indirect_data_slot(a) if follow else None
         if slot is not None:
             target = table.get(slot)
             # an Indirect Data target (the factory mapping points each at itself) is
@@ -84,9 +86,10 @@ def _resolve(table: ControlTable, spec: ModelSpec, address: int, data: bytes
 
 
 def validate(table: ControlTable, spec: ModelSpec, address: int, data: bytes, *,
-             watchdog_tripped: bool) -> tuple[int, dict[Item, int]]:
-    """(error code, {item: value}) of a WRITE of ``data`` at ``address`` (module rules)."""
-    code, raw = _resolve(table, spec, address, data)
+             watchdog_tripped: bool, follow: bool = True) -> tuple[int, dict[Item, int]]:
+    """(error code, {item: value}) of a WRITE of ``data`` at ``address`` (module rules;
+    ``follow`` as in :func:`read`)."""
+    code, raw = _resolve(table, spec, address, data, follow)
     if code:
         return code, {}
     torque = table.get(ct.TORQUE_ENABLE)

@@ -24,6 +24,7 @@ from firmware_sim.dynamics import Plant
 from firmware_sim.motor import DEFAULT_SUPPLY_V, MOTORS
 from firmware_sim.profile import Profile, hold
 from firmware_sim.servo import access, alerts, effects, environment, maintenance
+from firmware_sim.servo.indirect import UNRESOLVED, accepted, indirect_mode
 from firmware_sim.servo.live import configure_drive, refresh
 from firmware_sim.servo.motion import Motion
 from firmware_sim.servo.state import ServoState
@@ -64,6 +65,11 @@ class Servo:
     load_inertia : float
         Inertia of what the lone shaft carries, kg·m² at the output (physics model, a
         servo that is not a joint of an arm, e.g. a gripper's jaws).
+    indirect : bool or {"on", "off", "unresolved"}
+        How the firmware treats the Indirect Address map (:mod:`.indirect`): True/"on"
+        as the e-manual; False/"off" a WRITE to an Indirect Address answers OK and stores
+        nothing (an older firmware, a clone); "unresolved" the map stores but Indirect
+        Data does not follow it.
 
     Notes
     -----
@@ -75,7 +81,8 @@ class Servo:
                  baud_index: int = 3, clock: Clock | None = None, position: int = 2048,
                  boot_delay_s: float = BOOT_DELAY_S, dynamics: bool = False,
                  supply_voltage: float = DEFAULT_SUPPLY_V,
-                 lock: threading.RLock | None = None, load_inertia: float = 0.0) -> None:
+                 lock: threading.RLock | None = None, load_inertia: float = 0.0,
+                 indirect: bool | str = True) -> None:
         if model not in MODELS:
             raise ValueError(f"model {model!r} unknown; known: {sorted(MODELS)}")
         spec = MODELS[model]
@@ -112,6 +119,7 @@ class Servo:
             motion.plant = Plant([motion.drive], [float(position) / PULSES_PER_RAD], now,
                                  load_inertia=[float(load_inertia)])
             motion.plant.owners = [self]
+        self._st.indirect = indirect_mode(indirect)
         effects.reset_goals(self._st)
 
     # ---- identity and settings ----------------------------------------------------------
@@ -145,6 +153,18 @@ class Servo:
         if not value >= 0:
             raise ValueError(f"boot_delay_s must be >= 0, got {value!r}")
         self._st.boot_delay_s = float(value)
+
+    @property
+    def indirect(self) -> str:
+        """``"on"``, ``"off"`` or ``"unresolved"``: how this firmware treats the Indirect
+        Address map (:mod:`.indirect`); settable (True/False for on/off)."""
+        return self._st.indirect
+
+    @indirect.setter
+    def indirect(self, value: bool | str) -> None:
+        mode = indirect_mode(value)
+        with self._lock:
+            self._st.indirect = mode
 
     @property
     def secondary_id(self) -> int | None:
@@ -261,24 +281,27 @@ class Servo:
         """READ: (error code, data); data is b"" on error (:func:`.access.read`)."""
         with self._lock:
             self.update()
-            return access.read(self.table, self.spec, address, length)
+            return access.read(self.table, self.spec, address, length,
+                               follow=self._st.indirect != UNRESOLVED)
 
     def write(self, address: int, data: bytes) -> int:
         """WRITE: error code (0 = ok). All-or-nothing (:mod:`.access` for the codes)."""
         with self._lock:
             self.update()
             code, items = access.validate(self.table, self.spec, address, bytes(data),
-                                          watchdog_tripped=self._st.watchdog.tripped)
+                                          watchdog_tripped=self._st.watchdog.tripped,
+                                          follow=self._st.indirect != UNRESOLVED)
             if code:
                 return code
-            return effects.commit(self._st, items)
+            return effects.commit(self._st, accepted(self._st.indirect, items))
 
     def reg_write(self, address: int, data: bytes) -> int:
         """REG_WRITE: validate now, store; :meth:`action` applies it. Registered Instruction = 1."""
         with self._lock:
             self.update()
             code, _ = access.validate(self.table, self.spec, address, bytes(data),
-                                      watchdog_tripped=self._st.watchdog.tripped)
+                                      watchdog_tripped=self._st.watchdog.tripped,
+                                      follow=self._st.indirect != UNRESOLVED)
             if code:
                 return code
             self._st.registered = (int(address), bytes(data))

@@ -25,6 +25,7 @@ class ServoState:
     boot_time, boot_until : Realtime Tick origin and the end of the boot, s
     registered : a REG_WRITE waiting for ACTION, (address, data)
     backup : the CONTROL_TABLE_BACKUP copy, address → raw bytes
+    indirect : how the firmware treats the Indirect Address map (:mod:`.indirect`)
     """
 
     table: ControlTable
@@ -38,3 +39,4 @@ class ServoState:
     boot_until: float
     registered: tuple[int, bytes] | None = None
     backup: dict[int, bytes] | None = None
+    indirect: str = "on"
