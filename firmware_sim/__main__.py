@@ -15,9 +15,13 @@ Fault flags take ``TARGET[:key=value,...]`` where TARGET is a servo ID or ``bus`
 
 Physics (default): the firmware's controller drives a DC motor, gearbox and load;
 ``--dynamics off`` gives the kinematic model (Present Position = the profile).
-``--arm configs/arm3r.toml`` (or a name, ``--arm omx``) makes the servos drive that arm's
-rigid bodies, with its gripper servo if it has one;
-``--control PATH`` serves "move ID TICKS", "push ID NM", "obstacle ID DEG" on a UNIX socket.
+``--arm configs/arm3r.toml`` (or a name) makes the servos drive that arm's rigid bodies,
+with its gripper servo if it has one: ``--arm omx`` is the OpenMANIPULATOR-X, ids 11-14
+(yaw, shoulder, elbow, wrist) under gravity and the gripper 15, at 1 Mbps;
+``--control PATH`` serves "move ID TICKS" (a hand turning the shaft, torque off), "push ID
+NM", "obstacle ID DEG" (a joint's angle; for a servo that is no joint, like the gripper,
+its own angle, tick 2048 = 0°: an object in the jaws), "voltage ID V", "indirect ID MODE"
+and "get ID" on a UNIX socket, for any servo of the bus.
 
 ``--indirect off`` (or per ID, ``--indirect 2:off``) makes a servo acknowledge a WRITE to
 Indirect Address (168-222, 578-632) without storing it, like an older firmware or a clone;

@@ -4,7 +4,9 @@ One command a line, one answer a line (``ok`` or ``error <reason>``)::
 
     move ID TICKS      backdrive servo ID so Present Position reads TICKS (torque off)
     push ID NM         external torque on servo ID's output shaft, N·m (0 releases)
-    obstacle ID DEG    block servo ID's joint beyond DEG degrees (``obstacle ID off`` clears)
+    obstacle ID DEG    block servo ID's joint beyond DEG degrees (``obstacle ID off`` clears;
+                       a servo that is no joint of the arm, e.g. a gripper: its own angle,
+                       tick 2048 = 0°)
     voltage ID V       supply voltage of servo ID
     indirect ID MODE   how servo ID's firmware treats the Indirect Address map: on, off
                        (a WRITE to an Indirect Address answers OK and stores nothing: an

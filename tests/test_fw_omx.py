@@ -14,6 +14,8 @@ alert.
 from __future__ import annotations
 
 import math
+import subprocess
+import sys
 from pathlib import Path
 
 import pytest
@@ -206,3 +208,39 @@ def test_arm_names_resolve_without_robodcn(name):
     from firmware_sim.arm_model import load_arm
     assert find_arm(name) == ROOT / "configs" / f"{name}.toml"
     assert load_arm(name) == load_arm(ROOT / "configs" / f"{name}.toml")
+
+
+@pytest.mark.parametrize("servo_id", [*ARM_IDS, GRIPPER])
+def test_console_commands_reach_the_gripper_and_every_yawed_joint(servo_id):
+    """move (a hand backdriving the shaft), obstacle and push on the omx's servos: a joint
+    of the yawed chain in its joint angle (ROBOTIS's: tick 2048 = 0°, these maps have
+    direction +1), the gripper, which is no joint, in its own servo angle. A push of 2 N·m
+    beats gravity's ≤ 0.84 N·m at any joint (omx.md), so each ends at its obstacle."""
+    clock = VirtualClock()
+    with SimBus(arm="omx", dynamics=True, clock=clock) as bus:
+        servo = bus.servo(servo_id)
+        assert execute(bus, f"move {servo_id} 2048") == "ok"
+        assert servo.present_position == 2048
+        assert execute(bus, f"obstacle {servo_id} 10") == "ok"
+        assert execute(bus, f"push {servo_id} 2") == "ok"
+        clock.advance(0.5)
+        wall = 2048 + 10 * 4096 / 360
+        assert abs(servo.present_position - wall) <= 1
+        assert execute(bus, f"get {servo_id}").split()[:2] == ["ok", str(servo.present_position)]
+        assert execute(bus, f"obstacle {servo_id} off") == "ok"
+        clock.advance(0.2)
+        assert servo.present_position > wall + 20             # nothing holds it now
+        assert execute(bus, f"push {servo_id} 0") == "ok"
+        assert execute(bus, f"obstacle {servo_id} -30") == "ok"    # the other side
+        assert execute(bus, f"push {servo_id} -2") == "ok"
+        clock.advance(1.0)
+        assert abs(servo.present_position - (2048 - 30 * 4096 / 360)) <= 1
+
+
+def test_help_names_the_omx():
+    out = subprocess.run([sys.executable, "-m", "firmware_sim", "--arm", "omx", "--help"],
+                         cwd=ROOT, capture_output=True, text=True, timeout=20)
+    assert out.returncode == 0, out.stderr
+    text = " ".join(out.stdout.split())
+    assert "``--arm omx`` is the OpenMANIPULATOR-X, ids 11-14" in text
+    assert "the gripper 15" in text and "an object in the jaws" in text
