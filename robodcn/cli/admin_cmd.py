@@ -15,6 +15,7 @@ import time
 from robodcn.cli import options
 from robodcn.cli.dialogue import confirm
 from robodcn.cli.exit_codes import Exit
+from robodcn.cli.report_text import pose_text
 from robodcn.cli.servo_session import (
     add_bus_options,
     baud_of,
@@ -50,11 +51,11 @@ def _add_pose(sub) -> None:
 
 
 def pose_line(arm: Arm, state) -> str:
-    """One reading: the pose (m, °), the joints (°) and the ticks."""
+    """One reading: the pose (m, °; x, y, z, pitch on a yawed arm), the joints (°) and the
+    ticks."""
     joints = ", ".join(f"{n} {math.degrees(q):8.2f}°" for n, q in
                        zip(arm.joint_names, state.joints, strict=True))
-    x, y, theta = state.pose
-    return (f"x={x:.4f} m, y={y:.4f} m, θ={math.degrees(theta):.2f}°  |  {joints}  |  ticks "
+    return (f"{pose_text(arm.pose_keys, state.pose)}  |  {joints}  |  ticks "
             + ",".join(str(int(t)) for t in state.ticks))
 
 

@@ -131,6 +131,13 @@ def positive_float(text: str) -> float:
     return value
 
 
+def non_negative_float(text: str) -> float:
+    value = _number_or_nan(text)
+    if not value >= 0:
+        raise _Bad(f"must be a number ≥ 0, got {_shown(text)}")
+    return value
+
+
 def finite_float(text: str) -> float:
     value = _number_or_nan(text)
     if math.isnan(value):
@@ -222,25 +229,45 @@ def _number_or_nan(text: str) -> float:
 
 
 def parse_pose(text: str, option: str, *, radians: bool = False,
-               position_only: bool = False) -> tuple[float, float, float]:
+               position_only: bool = False, yawed: bool = False) -> tuple[float, ...]:
     """``"x,y,θ"`` → (x, y, θ in radians); InputError naming ``option`` otherwise.
 
-    With ``position_only`` (a 2R arm, θ free) ``"x,y"`` is accepted too, with θ = 0.
+    With ``position_only`` (a 2R arm, θ free) ``"x,y"`` is accepted too, with θ = 0. With
+    ``yawed`` (an arm with a base yaw) the pose is ``"x,y,z,pitch"`` → (x, y, z, pitch in
+    radians): metres in the base frame, pitch the tool axis's elevation. A wrong count of
+    numbers says the arm's pose keys.
     """
     parts = [p.strip() for p in str(text).split(",")]
     try:
         values = [number(p, option) for p in parts]
     except InputError:
         values = []
-    counts = (2, 3) if position_only else (3,)
+    unit = "radians" if radians else "degrees"
+    if yawed:
+        counts: tuple[int, ...] = (4,)
+        form = (f"a pose x,y,z,pitch (metres, pitch in {unit}; this arm's pose keys are x, "
+                "y, z, pitch)")
+    elif position_only:
+        counts = (2, 3)
+        form = f"a position x,y (metres) or a pose x,y,θ (θ in {unit}, ignored by this arm)"
+    else:
+        counts = (3,)
+        form = f"a pose x,y,θ (metres, {unit})"
     if len(values) not in counts:
-        unit = "radians" if radians else "degrees"
-        form = (f"a position x,y (metres) or a pose x,y,θ (θ in {unit}, ignored by this arm)"
-                if position_only else f"a pose x,y,θ (metres, {unit})")
-        raise InputError(f"{option} must be {form}, got {_shown(text)}",
+        count = f" ({len(values)} numbers)" if yawed and values else ""
+        raise InputError(f"{option} must be {form}, got {_shown(text)}{count}",
                          field=option.lstrip("-"), value=text)
-    x, y, theta = (*values, 0.0) if len(values) == 2 else values
-    return x, y, theta if radians else math.radians(theta)
+    if len(values) == 2:
+        values.append(0.0)
+    angle = values[-1] if radians else math.radians(values[-1])
+    return (*values[:-1], angle)
+
+
+def arm_pose(arm, text: str, option: str, *, radians: bool = False) -> tuple[float, ...]:
+    """:func:`parse_pose` with the form ``arm`` takes: ``x,y,z,pitch`` on a yawed arm,
+    ``x,y`` or ``x,y,θ`` on a 2-joint arm, ``x,y,θ`` otherwise."""
+    return parse_pose(text, option, radians=radians, position_only=not arm.yawed and
+                      arm.dof == 2, yawed=arm.yawed)
 
 
 def check_output_path(path: str, option: str, *, overwrite: bool = True) -> Path:
@@ -407,9 +434,9 @@ def add_arm_option(p: argparse.ArgumentParser) -> None:
 
 
 __all__ = ["DEFAULT_ARM", "NEGATIVE_POSE", "Deprecated", "Parser", "add_arm_option",
-           "add_device_options",
-           "add_logging_options", "baud", "check_output_path", "check_plot_path", "choice_list",
-           "configure_logging", "device", "duration", "finite_float", "finite_floats", "host_bauds",
-           "id_list",
-           "load_arm", "non_negative_int", "number", "one_or_per_segment", "parse_pose",
-           "positive_float", "positive_int", "rate", "servo_id", "split_list", "tcp_port"]
+           "add_device_options", "add_logging_options", "arm_pose", "baud",
+           "check_output_path", "check_plot_path", "choice_list", "configure_logging",
+           "device", "duration", "finite_float", "finite_floats", "host_bauds", "id_list",
+           "load_arm", "non_negative_float", "non_negative_int", "number",
+           "one_or_per_segment", "parse_pose", "positive_float", "positive_int", "rate",
+           "servo_id", "split_list", "tcp_port"]

@@ -26,10 +26,11 @@ ELBOWS = ("up", "down")
 def add_motion_options(p: argparse.ArgumentParser, *, start_help: str) -> None:
     g = p.add_argument_group("motion")
     options.add_arm_option(g)
-    g.add_argument("--from", dest="start", metavar="X,Y,THETA", help=start_help)
-    g.add_argument("--to", dest="end", metavar="X,Y,THETA", required=True,
-                   help="goal pose (metres, degrees); x,y on a position-only (2R) arm")
-    g.add_argument("--via", action="append", default=[], metavar="X,Y,THETA",
+    g.add_argument("--from", dest="start", metavar="POSE", help=start_help)
+    g.add_argument("--to", dest="end", metavar="POSE", required=True,
+                   help="goal pose: x,y,θ (metres, degrees); x,y on a position-only (2R) "
+                        "arm; x,y,z,pitch on an arm with a base yaw (the omx)")
+    g.add_argument("--via", action="append", default=[], metavar="POSE",
                    help="via pose, repeatable, in order (--via 1, --via 2, ... in messages)")
     g.add_argument("--method", default="sclerp", metavar="M[,M...]",
                    help="sclerp | kenlerp | seplerp | dlb, or one per segment (default sclerp)")
@@ -52,16 +53,32 @@ def add_motion_options(p: argparse.ArgumentParser, *, start_help: str) -> None:
                    help="pass through via poses with continuous velocity instead of stopping")
     g.add_argument("--elbow", choices=ELBOWS,
                    help="IK branch: up or down (default: the arm's [arm] elbow)")
-    g.add_argument("--radians", action="store_true", help="θ in radians, not degrees")
+    g.add_argument("--radians", action="store_true",
+                   help="θ (or pitch) in radians, not degrees")
+    add_payload_option(g)
+
+
+def add_payload_option(g) -> None:
+    """``--payload KG``: the mass at the tool point the timing plans for."""
+    g.add_argument("--payload", type=options.non_negative_float, metavar="KG",
+                   help="mass held at the tool point, kg: the torque-limited timing plans "
+                        "for it (default: the arm's [dynamics] payload_kg); a gripper "
+                        "closing on an object does not change it")
+
+
+def payload_keywords(args: argparse.Namespace) -> dict[str, float]:
+    """``{"payload_kg": KG}`` when --payload was given, else {} (the arm's default)."""
+    payload = getattr(args, "payload", None)
+    return {} if payload is None else {"payload_kg": payload}
 
 
 @dataclass(frozen=True)
 class MotionRequest:
     """The checked motion options: everything :func:`plan` needs except the start."""
 
-    vias: tuple[tuple[float, float, float], ...]
-    end: tuple[float, float, float]
-    start: tuple[float, float, float] | None
+    vias: tuple[tuple[float, ...], ...]
+    end: tuple[float, ...]
+    start: tuple[float, ...] | None
     keywords: dict[str, Any]
 
     @property
@@ -79,11 +96,8 @@ def motion_request(args: argparse.Namespace, arm) -> MotionRequest:
     from robodcn.interpolate import METHODS
     from robodcn.planner import MAX_SAMPLES
 
-    position_only = arm.dof == 2
-
-    def pose(text: str, option: str) -> tuple[float, float, float]:
-        return options.parse_pose(text, option, radians=args.radians,
-                                  position_only=position_only)
+    def pose(text: str, option: str) -> tuple[float, ...]:
+        return options.arm_pose(arm, text, option, radians=args.radians)
 
     start = pose(args.start, "--from") if args.start is not None else None
     vias = tuple(pose(v, f"--via {i + 1}") for i, v in enumerate(args.via))
@@ -104,7 +118,8 @@ def motion_request(args: argparse.Namespace, arm) -> MotionRequest:
                          field="--duration", value=args.duration)
     keywords: dict[str, Any] = dict(
         method=method, beta=beta, turn=turn,
-        duration=args.duration, profile=args.profile, rate_hz=rate, blend=args.blend)
+        duration=args.duration, profile=args.profile, rate_hz=rate, blend=args.blend,
+        **payload_keywords(args))
     if args.elbow is not None:
         keywords["elbow"] = args.elbow
     return MotionRequest(vias=vias, end=end, start=start, keywords=keywords)
@@ -141,6 +156,6 @@ def _cli_terms(request: MotionRequest) -> Iterator[None]:
         raise
 
 
-
-__all__ = ["ELBOWS", "MotionRequest", "add_motion_options", "motion_request",
+__all__ = ["ELBOWS", "MotionRequest", "add_motion_options", "add_payload_option",
+           "motion_request", "payload_keywords",
            "plan_from_present", "plan_motion"]

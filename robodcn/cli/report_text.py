@@ -154,15 +154,30 @@ def plan_summary(traj: Any, arm: Any, approach_s: float = 0.0) -> str:
     return "\n".join(lines)
 
 
+def _pose_columns(traj: Any) -> tuple[str, ...]:
+    """The pose keys of ``traj``'s pose rows: x, y, θ (planar) or x, y, z, pitch (yawed)."""
+    from robodcn.workflow.poses import keys_of_width
+
+    return keys_of_width(np.asarray(traj.poses).shape[1])
+
+
 def plan_table(traj: Any) -> str:
+    """``plan --format table``: t, the pose (m, degrees), the joints (degrees), the ticks."""
+    from robodcn.workflow.poses import ANGLE_KEYS, SYMBOLS
+
     names = list(traj.joint_names)
-    head = (f"{'t [s]':>8} {'x [m]':>9} {'y [m]':>9} {'θ [°]':>8}  "
+    keys = _pose_columns(traj)
+    pose_head = " ".join(f"{SYMBOLS[k] + ' [°]':>8}" if k in ANGLE_KEYS else
+                         f"{SYMBOLS[k] + ' [m]':>9}" for k in keys)
+    head = (f"{'t [s]':>8} {pose_head}  "
             + "  ".join(f"{n[:9] + ' [°]':>13}" for n in names) + "  ticks")
     methods = traj.method if isinstance(traj.method, str) else ", ".join(traj.method)
     lines = [f"# {len(traj.t)} samples, {traj.duration:.3f} s at {traj.rate_hz:g} Hz, "
              f"method {methods}", head]
     for t, pose, q, ticks in zip(traj.t, traj.poses, traj.joints, traj.ticks, strict=True):
-        lines.append(f"{t:8.3f} {pose[0]:9.4f} {pose[1]:9.4f} {math.degrees(pose[2]):8.2f}  "
+        cells = " ".join(f"{math.degrees(v):8.2f}" if k in ANGLE_KEYS else f"{v:9.4f}"
+                         for k, v in zip(keys, pose, strict=True))
+        lines.append(f"{t:8.3f} {cells}  "
                      + "  ".join(f"{math.degrees(a):13.3f}" for a in q) + "  "
                      + ",".join(str(int(k)) for k in ticks))
     return "\n".join(lines) + "\n"
@@ -170,10 +185,14 @@ def plan_table(traj: Any) -> str:
 
 def plan_csv(traj: Any) -> str:
     """``plan --format csv``: one row per sample, SI values at full precision, every header
-    naming its unit: t_s, x_m, y_m, theta_rad, q_<joint>_rad, tick_<servo id> (ticks)."""
+    naming its unit: t_s, x_m, y_m, theta_rad (a yawed arm: x_m, y_m, z_m, pitch_rad),
+    q_<joint>_rad, tick_<servo id> (ticks)."""
+    from robodcn.workflow.poses import ANGLE_KEYS
+
     out = io.StringIO()
     writer = csv.writer(out, lineterminator="\n")
-    writer.writerow(["t_s", "x_m", "y_m", "theta_rad",
+    writer.writerow(["t_s", *(f"{k}_rad" if k in ANGLE_KEYS else f"{k}_m"
+                              for k in _pose_columns(traj)),
                      *(f"q_{n}_rad" for n in traj.joint_names),
                      *(f"tick_{i}" for i in traj.servo_ids)])
     floats = np.column_stack([traj.t, traj.poses, traj.joints])
@@ -182,5 +201,16 @@ def plan_csv(traj: Any) -> str:
     return out.getvalue()
 
 
+def pose_text(keys: Any, pose: Any, *, signed: bool = False) -> str:
+    """A pose in the user's units, one key each: ``x=0.1218 m, y=0.0000 m, z=0.2409 m,
+    pitch=0.00°`` (a yawed arm) or ``x=…, y=…, θ=…°``."""
+    from robodcn.workflow.poses import ANGLE_KEYS, SYMBOLS
+
+    sign = "+" if signed else ""
+    return ", ".join(f"{SYMBOLS[k]}={math.degrees(v):{sign}.2f}°" if k in ANGLE_KEYS else
+                     f"{SYMBOLS[k]}={v:{sign}.4f} m"
+                     for k, v in zip(keys, np.asarray(pose, dtype=float).tolist(), strict=True))
+
+
 __all__ = ["approach_seconds", "headline", "near_limit_line", "plan_csv", "plan_summary",
-           "plan_table", "report_dict", "report_text"]
+           "plan_table", "pose_text", "report_dict", "report_text"]

@@ -96,7 +96,7 @@ def load_run_file(args: argparse.Namespace, arm: Arm) -> tuple[str, Any]:
 
     kind, text = files.file_kind(args.file)
     if kind == "waypoints":
-        wp = files.load_waypoints(args.file)
+        wp = files.load_waypoints(args.file, arm)
         return kind, waypoints_fields(wp, arm, overrides(args, len(wp.waypoints) - 1))
     given = [option for option, dest in PLAN_OPTIONS.items()
              if getattr(args, dest) is not None]

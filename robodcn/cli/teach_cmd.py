@@ -8,11 +8,11 @@ The dialogue over :class:`robodcn.workflow.teach.Teaching`: Enter records the pr
 from __future__ import annotations
 
 import argparse
-import math
 
 from robodcn import contract
 from robodcn.cli import options
 from robodcn.cli.dialogue import say, stdin_prompt
+from robodcn.cli.report_text import pose_text
 from robodcn.cli.servo_session import add_bus_options, open_bus
 from robodcn.errors import InputError
 
@@ -53,9 +53,8 @@ def record(teaching) -> None:
         except EOFError:
             return
         if answer == "":
-            x, y, theta = teaching.record()
-            say(f"waypoint {len(teaching) - 1}: x={x:.4f} m, y={y:.4f} m, "
-                f"θ={math.degrees(theta):.2f}°")
+            pose = teaching.record()
+            say(f"waypoint {len(teaching) - 1}: {pose_text(teaching.arm.pose_keys, pose)}")
         elif answer == "u":
             say(f"undone; {len(teaching)} recorded" if teaching.undo() else "nothing to undo")
         elif answer == "q":
@@ -84,6 +83,6 @@ def run(args: argparse.Namespace) -> int:
                              f"segments; {out} not written", field=option.lstrip("-"),
                              value=value)
     out.write_text(waypoints_toml(poses, arm_name=arm.name, method=method, turn=turn,
-                                  beta=args.beta), encoding="utf-8")
+                                  beta=args.beta, keys=arm.pose_keys), encoding="utf-8")
     say(f"wrote {len(poses)} waypoints to {out}")
     return 0

@@ -17,7 +17,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from robodcn import kinematics, servo_units
+from robodcn import servo_units
 from robodcn.bus import (
     ADDR_BAUD_RATE,
     ADDR_GOAL_POSITION,
@@ -32,6 +32,7 @@ from robodcn.bus import (
 )
 from robodcn.config import MAX_SERVO_ID, Arm, ServoSpec
 from robodcn.errors import CommError, InputError
+from robodcn.workflow.poses import tool_pose
 
 log = logging.getLogger(__name__)
 
@@ -48,7 +49,8 @@ OPERATING_MODES: dict[int, str] = {0: "current", 1: "velocity", 3: "position",
 
 @dataclass(frozen=True)
 class ArmState:
-    """Present ticks (k,), joints (k,) rad and tool pose (x, y, θ) of an arm."""
+    """Present ticks (k,), joints (k,) rad and tool pose of an arm: (x, y, θ), or (x, y, z,
+    pitch) for an arm with a base yaw (m, rad; :func:`robodcn.workflow.poses.tool_poses`)."""
 
     ticks: NDArray[np.int64]
     joints: NDArray[np.float64]
@@ -64,7 +66,7 @@ def present_state(bus: ServoBus, arm: Arm) -> ArmState:
     """Read Present Position of every servo; joints by the arm's calibration, pose by FK."""
     ticks = bus.read_positions()
     joints = servo_units.ticks_to_radians(ticks, arm.servos)
-    pose = kinematics.fk(arm.links, joints[None, :])[0]
+    pose = tool_pose(arm, joints)
     return ArmState(ticks, joints, pose)
 
 

@@ -1,7 +1,8 @@
 """Teach by hand: with torque off, each confirmation records the present pose as a waypoint.
 
-The pose is the FK of the present joints (robodcn.kinematics.fk of the servo ticks through
-the arm's calibration). A :class:`Teaching` session records and undoes poses on an open bus
+The pose is the FK of the present joints through the arm's calibration
+(:func:`robodcn.workflow.poses.tool_poses`): x, y, θ on a planar arm, x, y, z, pitch on an
+arm with a base yaw. A :class:`Teaching` session records and undoes poses on an open bus
 (a surface drives the dialogue: ``robodcn teach``); :func:`waypoints_toml` writes the
 waypoints file that :func:`robodcn.workflow.files.load_waypoints` reads back
 (``robodcn run poses.toml``).
@@ -10,15 +11,16 @@ waypoints file that :func:`robodcn.workflow.files.load_waypoints` reads back
 from __future__ import annotations
 
 import logging
-import math
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
+from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
 
 from robodcn.bus import ServoBus
-from robodcn.config import Arm
+from robodcn.config import PLANAR_POSE, Arm
 from robodcn.workflow.admin import present_state
+from robodcn.workflow.poses import file_key, pose_table
 
 log = logging.getLogger(__name__)
 
@@ -33,7 +35,8 @@ class Teaching:
         bus.torque(False)
 
     def record(self) -> NDArray[np.float64]:
-        """Record the present pose (x, y, θ) as the next waypoint and return it."""
+        """Record the present pose (the arm's pose keys: x, y, θ or x, y, z, pitch) as the
+        next waypoint and return it."""
         pose = present_state(self.bus, self.arm).pose
         self._poses.append(pose)
         log.info("waypoint %d: %s", len(self._poses) - 1, pose)
@@ -48,8 +51,8 @@ class Teaching:
 
     @property
     def poses(self) -> NDArray[np.float64]:
-        """The waypoints recorded so far, (m, 3): metres and radians."""
-        return np.array(self._poses, dtype=np.float64).reshape(-1, 3)
+        """The waypoints recorded so far, (m, len(arm.pose_keys)): metres and radians."""
+        return np.array(self._poses, dtype=np.float64).reshape(-1, len(self.arm.pose_keys))
 
     def __len__(self) -> int:
         return len(self._poses)
@@ -62,14 +65,20 @@ def _toml_string(text: str) -> str:
 def waypoints_toml(poses: Sequence[Sequence[float]], *, arm_name: str,
                    method: str | Sequence[str] | None = None,
                    beta: float | Sequence[float] | None = None,
-                   turn: str | Sequence[str] | None = None) -> str:
-    """The waypoints file for ``poses`` (x, y metres, θ radians; written as ``theta_deg``).
+                   turn: str | Sequence[str] | None = None,
+                   keys: Sequence[str] = PLANAR_POSE,
+                   extras: Sequence[Mapping[str, Any]] | None = None) -> str:
+    """The waypoints file for ``poses`` (metres, radians; the angles written in degrees:
+    ``theta_deg``, ``pitch_deg``), one row of ``keys`` each (x, y, θ, or a yawed arm's x, y,
+    z, pitch).
 
     ``method``, ``turn`` and ``beta`` are one value for the whole plan (``[plan]``) or one
-    per segment (written on the waypoint each segment leads to).
+    per segment (written on the waypoint each segment leads to). ``extras`` holds per
+    waypoint further keys to write on it (``gripper = "close"``, ``payload_kg``).
     """
-    lines = [f"# robodcn waypoints taught on arm {arm_name!r}: x, y in metres, theta_deg in "
-             "degrees.",
+    keys = tuple(keys)
+    units = ", ".join(file_key(k) for k in keys)
+    lines = [f"# robodcn waypoints taught on arm {arm_name!r}: {units} (metres, degrees).",
              "# [plan] holds plan options for every segment; a waypoint may carry method, turn",
              "# and beta for the segment that leads to it. Run with: robodcn run FILE",
              f"arm = {_toml_string(arm_name)}", "", "[plan]"]
@@ -83,10 +92,21 @@ def waypoints_toml(poses: Sequence[Sequence[float]], *, arm_name: str,
         lines.append(f"beta = {float(beta)!r}")
     elif beta is not None:
         per_segment["beta"] = [repr(float(b)) for b in beta]
-    for i, (x, y, theta) in enumerate(np.asarray(poses, dtype=np.float64).reshape(-1, 3)):
-        lines += ["", "[[waypoints]]", f"x = {round(float(x), 6)!r}", f"y = {round(float(y), 6)!r}",
-                  f"theta_deg = {round(math.degrees(float(theta)), 4)!r}"]
+    rows = np.asarray(poses, dtype=np.float64).reshape(-1, len(keys))
+    for i, pose in enumerate(rows):
+        lines += ["", "[[waypoints]]"]
+        lines += [f"{key} = {value!r}" for key, value in pose_table(keys, pose).items()]
         for key, values in per_segment.items():
             if i >= 1 and i - 1 < len(values):
                 lines.append(f"{key} = {values[i - 1]}")
+        for key, value in (extras[i] if extras is not None and i < len(extras) else {}).items():
+            lines.append(f"{key} = {_toml_value(value)}")
     return "\n".join(lines) + "\n"
+
+
+def _toml_value(value: Any) -> str:
+    if isinstance(value, str):
+        return _toml_string(value)
+    if isinstance(value, bool):
+        return "true" if value else "false"
+    return repr(float(value)) if isinstance(value, float) else repr(value)

@@ -12,8 +12,10 @@ joint's measured |tracking error| (degrees, symlog: linear below one encoder tic
 the tracking limit and its |current| (A) with the plan's predicted current, the current limit
 and the collision stop; a near-limit mark goes on the panel of its quantity, and a table
 under the path lists the per-joint peaks against their limits.
-:func:`plot_workspace` draws what ``check-config --plot`` shows. Planning never imports this
-module's matplotlib: the import happens inside the functions.
+An arm with a base yaw gets its vertical plane (r, z: the side view, the tool axis's pitch
+along the path) and a top view of the yaw (x, y) instead of the plane
+(:mod:`robodcn.plots._yawed`). Planning never imports matplotlib: the import happens inside
+the functions.
 """
 
 from __future__ import annotations
@@ -28,6 +30,7 @@ from numpy.typing import ArrayLike, NDArray
 from robodcn import kinematics, servo_units
 from robodcn.config import Arm
 from robodcn.errors import InputError
+from robodcn.plots._marks import approach_end, waypoint_samples
 
 #: A limit counts as approached at this share of it (robodcn.stream.report.NEAR_SHARE; not
 #: imported from there so that ``plan --plot`` does not load the streaming stack).
@@ -69,34 +72,6 @@ def _draw_arm(ax, links: Sequence[float], q: ArrayLike, color: str, label: str |
     ax.plot(pts[:, 0], pts[:, 1], "-o", color=color, lw=2.5, ms=4, alpha=0.7, label=label)
 
 
-def approach_end(traj) -> int:
-    """Index of the first sample on the planned path (after a joint-space approach), 0 when
-    the trajectory has no approach: the planner's record (``approach_samples``), else (an
-    older trajectory) the first sample at the first waypoint."""
-    recorded = int(getattr(traj, "approach_samples", 0) or 0)
-    if recorded:
-        return recorded
-    request = getattr(traj, "request", None)
-    if request is None or request.start_joints is None:
-        return 0
-    target = np.asarray(request.waypoints[0][:2])
-    close = np.flatnonzero(np.hypot(*(traj.poses[:, :2] - target).T) < 1e-6)
-    return int(close[0]) if close.size else 0
-
-
-def waypoint_samples(traj, waypoints: NDArray[np.float64] | None) -> list[int]:
-    """Sample indices nearest to each waypoint (in order along the path)."""
-    if waypoints is None or len(waypoints) == 0:
-        return [0, len(traj.t) - 1]
-    out, start = [], approach_end(traj)
-    for w in waypoints:
-        d = np.hypot(*(traj.poses[start:, :2] - w[:2]).T)
-        i = start + int(np.argmin(d))
-        out.append(i)
-        start = i
-    return out
-
-
 def plot_motion(path: str, arm: Arm, traj, *,
                 samples: Sequence[tuple[float, Sequence[int]]] | None = None,
                 waypoints: ArrayLike | None = None, stop: dict[str, Any] | None = None,
@@ -108,7 +83,8 @@ def plot_motion(path: str, arm: Arm, traj, *,
     ----------
     traj : robodcn.planner.Trajectory (planned; may include an approach)
     samples : measured (elapsed s, present ticks) pairs, e.g. the CLI's progress records
-    waypoints : (m, 3) poses to mark; default the trajectory request's waypoints
+    waypoints : (m, 3) poses to mark ((m, 4) x, y, z, pitch on a yawed arm); default the
+        trajectory request's waypoints
     stop : where a stop happened: {"t": seconds, "reason": text}; marks the last measured
         pose (or the planned one at t) and a vertical line on the right-hand plots
     near_limits : the execution report's ``near_limits`` (joint, quantity, sample, ...):
@@ -119,13 +95,23 @@ def plot_motion(path: str, arm: Arm, traj, *,
     plt = _pyplot()
     if waypoints is None and getattr(traj, "request", None) is not None:
         waypoints = np.asarray(traj.request.waypoints)
-    wp = None if waypoints is None else np.asarray(waypoints, dtype=np.float64).reshape(-1, 3)
+    width = len(arm.pose_keys)
+    wp = None if waypoints is None else np.asarray(waypoints, dtype=np.float64).reshape(-1,
+                                                                                       width)
     rows = 2 if trace is None else (3 if trace.current_a is None else 4)
     fig = plt.figure(figsize=(13, 6) if rows == 2 else (14, 2.5 * rows + 0.8))
     grid = fig.add_gridspec(rows, 2, width_ratios=(1.1, 1))
     # The path keeps the height of the velocity and acceleration panels; below it, the
     # per-joint peaks against their limits.
-    ax = fig.add_subplot(grid[:2, 0])
+    if arm.yawed:
+        from robodcn.plots._yawed import draw_yawed_path
+
+        left = grid[:2, 0].subgridspec(1, 2, width_ratios=(1.4, 1))
+        draw_yawed_path(fig.add_subplot(left[0, 0]), fig.add_subplot(left[0, 1]), arm, traj,
+                        wp, samples, stop, near_limits, title)
+    else:
+        _draw_path(fig.add_subplot(grid[:2, 0]), arm, traj, wp, samples, stop, near_limits,
+                   title)
     ax_v = fig.add_subplot(grid[0, 1])
     right = [ax_v] + [fig.add_subplot(grid[r, 1], sharex=ax_v) for r in range(1, rows)]
     panels: dict[str, Any] = {}
@@ -134,7 +120,6 @@ def plot_motion(path: str, arm: Arm, traj, *,
     if rows > 3:
         panels["current"] = panels["collision_current"] = right[3]
 
-    _draw_path(ax, arm, traj, wp, samples, stop, near_limits, title)
     first = approach_end(traj)
     names = [spec.name for spec in arm.joints]
     colors = _draw_kinematics(right[0], right[1], arm, traj)
@@ -373,28 +358,3 @@ def _mark_near(panels: dict[str, Any], near_limits: Sequence[dict[str, Any]],
         y = math.degrees(mark["value"]) if mark["quantity"] == "tracking_error" \
             else mark["value"]
         axis.plot(x, y, "x", color="tab:red", ms=9, mew=2)
-
-
-def plot_workspace(path: str, arm: Arm, points: NDArray[np.float64]) -> None:
-    """The tool points reachable inside the joint limits (``points`` (n, 3), e.g.
-    :func:`robodcn.workflow.check.workspace_samples`), the wrist annulus and the arm at home."""
-    plt = _pyplot()
-    fig, ax = plt.subplots(figsize=(7, 7))
-    ax.plot(points[:, 0], points[:, 1], ".", ms=1, color="tab:blue", alpha=0.3,
-            label="tool points inside the joint limits")
-    inner, outer = kinematics.workspace(arm.links)
-    circle = np.linspace(0, 2 * np.pi, 361)
-    for radius, name in ((outer, "wrist reach"), (inner, None)):
-        if radius > 0:
-            ax.plot(radius * np.cos(circle), radius * np.sin(circle), "--", color="tab:gray",
-                    lw=1, label=name)
-    home = kinematics.ik(arm.links, [arm.home], arm.elbow)[0]
-    _draw_arm(ax, arm.links, home, "tab:green", "arm at home")
-    ax.plot(arm.home[0], arm.home[1], "kx", ms=9, mew=2)
-    ax.set(xlabel="x [m]", ylabel="y [m]", aspect="equal",
-           title=f"arm {arm.name!r}: reachable workspace")
-    ax.grid(alpha=0.3)
-    ax.legend(fontsize="small", loc="lower left")
-    fig.tight_layout()
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
