@@ -100,3 +100,39 @@ def test_payload_must_be_a_number_at_least_zero(monkeypatch, capsys):
     with pytest.raises(SystemExit) as exit_:
         run_cli(monkeypatch, ["check-config", "omx", "--payload", "-1"])
     assert exit_.value.code == 2 and "--payload" in capsys.readouterr().err
+
+
+# -- --payload on the planning commands (issue 19) ------------------------------------------------
+
+def test_plan_payload_reaches_the_request(monkeypatch, capsys):
+    from robodcn.planner import Trajectory
+
+    assert run_cli(monkeypatch, ["plan", "--arm", "arm3r", "--to", "0.2,0.1,0", "--payload",
+                                 "0.5", "--format", "json", "-q"]) == 0
+    assert Trajectory.from_json(capsys.readouterr().out).request.payload_kg == 0.5
+    assert run_cli(monkeypatch, ["plan", "--arm", "arm3r", "--to", "0.2,0.1,0", "--format",
+                                 "json", "-q"]) == 0
+    assert Trajectory.from_json(capsys.readouterr().out).request.payload_kg == 0.0  # the arm's
+
+
+def test_run_payload_overrides_the_files_and_a_timed_file_refuses_it(tmp_path):
+    import argparse
+
+    from robodcn.cli.run_cmd import load_run_file
+    from robodcn.config import load_arm
+
+    arm = load_arm(CONFIGS / "arm3r.toml")
+    path = tmp_path / "w.toml"
+    path.write_text("[plan]\npayload_kg = 0.2\n\n[[waypoints]]\nx = 0.25\ny = 0.1\n\n"
+                    "[[waypoints]]\nx = 0.12\ny = 0.24\ntheta_deg = 60\n")
+
+    def args(**kw):
+        base = dict(file=str(path), method=None, beta=None, turn=None, duration=None,
+                    profile=None, blend=None, rate=None, payload=None)
+        return argparse.Namespace(**{**base, **kw})
+
+    assert load_run_file(args(), arm)[1]["payload_kg"] == 0.2
+    assert load_run_file(args(payload=0.4), arm)[1]["payload_kg"] == 0.4
+    path.write_text(path.read_text().replace("payload_kg = 0.2", "payload_kg = -1"))
+    with pytest.raises(Exception, match=r"plan\.payload_kg: must be"):
+        load_run_file(args(), arm)

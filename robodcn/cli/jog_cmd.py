@@ -22,7 +22,7 @@ from typing import Any
 
 import numpy as np
 
-from robodcn.cli import keys, options
+from robodcn.cli import keys, options, planning
 from robodcn.cli.exit_codes import Exit
 from robodcn.errors import BusError, InputError, RobodcnError
 
@@ -56,6 +56,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
                    help="stream rate (default: the arm's [bus] rate)")
     g.add_argument("--sim", action="store_true",
                    help="jog an in-process simulated arm (firmware_sim) instead of the servos")
+    planning.add_payload_option(g)
     g.add_argument("--timing", choices=("realistic", "fast"), default="realistic",
                    help="simulated wire timing with --sim (default realistic)")
     options.add_device_options(p, default_help="default: the arm's [bus] port")
@@ -66,11 +67,13 @@ class Jogger:
     """The jog loop on an open bus: keys → targets → retargets (or new moves from rest)."""
 
     def __init__(self, arm: Any, bus: Any, *, step: float, step_rad: float, method: str,
-                 rate_hz: float, out: Any = None) -> None:
+                 rate_hz: float, out: Any = None, payload_kg: float | None = None) -> None:
         from robodcn import kinematics
         from robodcn.present import present_joints
         self.arm, self.bus = arm, bus
         self.step, self.step_rad, self.method, self.rate_hz = step, step_rad, method, rate_hz
+        #: the plan's payload (None: the arm's [dynamics] payload_kg)
+        self.plan_options = {} if payload_kg is None else {"payload_kg": payload_kg}
         self.out = out if out is not None else sys.stderr
         q = present_joints(arm, bus)
         self.target = np.array(kinematics.fk(arm.links, q[None, :])[0])
@@ -120,7 +123,7 @@ class Jogger:
                 self.message = exc.message  # it finished meanwhile: start afresh
                 self._collect()
         traj = plan_from_present(self.arm, self.bus, [None, goal], method=self.method,
-                                 rate_hz=self.rate_hz)
+                                 rate_hz=self.rate_hz, **self.plan_options)
         self.execution = start(traj, self.bus, progress=self._progress, arm=self.arm,
                                approach=True)
 
@@ -209,7 +212,7 @@ def run_jog(args: argparse.Namespace, read_key: Callable[[float], str | None] | 
         raise InputError("jog needs a terminal on stdin (it reads single key presses)",
                          field="stdin", value=None)
     settings = {"step": args.step, "step_rad": math.radians(args.step_deg),
-                "method": args.method, "rate_hz": rate}
+                "method": args.method, "rate_hz": rate, "payload_kg": args.payload}
     if args.sim:
         from robodcn.simulated import simulated_arm
         with simulated_arm(arm, timing=args.timing) as sim:

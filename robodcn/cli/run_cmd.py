@@ -13,14 +13,15 @@ import argparse
 from typing import Any
 
 from robodcn import contract
-from robodcn.cli import motion_cmd, options
+from robodcn.cli import motion_cmd, options, planning
 from robodcn.cli.servo_session import add_bus_options, open_bus
 from robodcn.config import Arm
 from robodcn.errors import InputError
 
 #: The plan options of ``run`` → the PlanOverrides field each sets.
 PLAN_OPTIONS = {"--method": "method", "--beta": "beta", "--turn": "turn",
-                "--duration": "duration", "--profile": "profile", "--blend": "blend"}
+                "--duration": "duration", "--profile": "profile", "--blend": "blend",
+                "--payload": "payload"}
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
@@ -53,6 +54,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
                    help="pass through via poses without stopping")
     g.add_argument("--rate", type=options.rate, metavar="HZ",
                    help="stream rate, 1..1000 Hz (default: the file's, else the arm's)")
+    planning.add_payload_option(g)
     motion_cmd.add_execution_options(p)
     p.set_defaults(func=run)
 
@@ -86,7 +88,8 @@ def overrides(args: argparse.Namespace, segments: int):
         turn=_per_segment(_choices(args.turn, "--turn", "turn"), "--turn", segments,
                           args.file),
         beta=_per_segment(args.beta, "--beta", segments, args.file),
-        duration=args.duration, profile=args.profile, blend=args.blend, rate_hz=args.rate)
+        duration=args.duration, profile=args.profile, blend=args.blend, rate_hz=args.rate,
+        payload_kg=args.payload)
 
 
 def load_run_file(args: argparse.Namespace, arm: Arm) -> tuple[str, Any]:

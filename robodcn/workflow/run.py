@@ -40,6 +40,8 @@ class PlanOverrides:
     profile: str | None = None
     blend: bool | None = None
     rate_hz: float | None = None
+    #: kg at the tool point (None: the file's [plan] payload_kg, else the arm's).
+    payload_kg: float | None = None
 
     def given(self) -> tuple[str, ...]:
         """The names of the fields that are set."""
