@@ -155,14 +155,16 @@ def waypoint_shape(arm: Arm) -> tuple[tuple[int, ...], str]:
     return (3,), "[x, y, θ]"
 
 
-def check_waypoints(value: Any, arm: Arm) -> tuple[tuple[float, ...], ...]:
+def check_waypoints(value: Any, arm: Arm, *, start: bool = False
+                    ) -> tuple[tuple[float, ...], ...]:
     """(m, 3) poses (x, y, θ) → m tuples; on a 2-joint arm (m, 2) too (θ = 0 when absent);
     an arm with a base yaw (m, 4) (x, y, z, pitch), metres and radians (pitch = 0 when a
     2-link chain's waypoint omits it).
 
     The count is checked first (at most :data:`MAX_WAYPOINTS`: TooLargeError), so a huge
     list is refused without being read. Each error names the waypoint and the number
-    (``waypoints[2]``, ``waypoints[2][3]``).
+    (``waypoints[2]``, ``waypoints[2][3]``). At least two, or one when the request says
+    where it starts (``start``: start_joints or start_state; the plan then runs from there).
     """
     if isinstance(value, np.ndarray):
         value = value.tolist()
@@ -173,8 +175,7 @@ def check_waypoints(value: Any, arm: Arm) -> tuple[tuple[float, ...], ...]:
     if len(value) > MAX_WAYPOINTS:
         raise fail("waypoints", f"has {len(value)} poses, at most {MAX_WAYPOINTS} are "
                    "accepted", len(value), too_large=True)
-    if len(value) < 2:
-        raise fail("waypoints", f"needs at least 2 poses, got {len(value)}", value)
+    check_waypoint_count(value, start)
     items = f.schema["items"]["prefixItems"]
     width = max(sizes)
     out = []
@@ -189,6 +190,16 @@ def check_waypoints(value: Any, arm: Arm) -> tuple[tuple[float, ...], ...]:
               for k, v in enumerate(pose)]
         out.append((*xs, *(0.0,) * (width - len(xs))))
     return tuple(out)
+
+
+def check_waypoint_count(value: list | tuple, start: bool) -> None:
+    """At least two waypoints, or one when the request says where it starts (``start``:
+    start_joints or start_state)."""
+    if len(value) < (1 if start else 2):
+        raise fail("waypoints", f"needs at least {1 if start else 2} pose"
+                   f"{'' if start else 's'}, got {len(value)}"
+                   + ("" if start else " (one is enough with start_joints or start_state: "
+                      "the plan then runs from there)"), list(value))
 
 
 def check_start_joints(value: Any, arm: Arm, name: str = "start_joints"

@@ -125,12 +125,13 @@ ANGLE_ITEM = {"type": "number", "minimum": -MAX_ANGLE, "maximum": MAX_ANGLE}
 
 FIELDS: tuple[Field, ...] = (
     Field("waypoints",
-          {"type": "array", "minItems": 2, "maxItems": MAX_WAYPOINTS,
+          {"type": "array", "minItems": 1, "maxItems": MAX_WAYPOINTS,
            "items": {"type": "array", "minItems": 2, "maxItems": 4,
                      "prefixItems": [_POSE_ITEM, _POSE_ITEM, ANGLE_ITEM],
                      "items": ANGLE_ITEM}},
-          "Poses [x, y, θ] in metres and radians, at least two, at most "
-          f"{MAX_WAYPOINTS}; on a 2-joint (position-only) arm [x, y] (θ, if given, is "
+          "Poses [x, y, θ] in metres and radians, at least two (one with start_joints or "
+          f"start_state, or in a move: from there), at most {MAX_WAYPOINTS}; on a 2-joint "
+          "(position-only) arm [x, y] (θ, if given, is "
           "ignored); on an arm with a base yaw [x, y, z, pitch].",
           unit="m, m, rad", cli_option="--from/--via/--to", cli_unit="m, m, deg",
           required=True),
@@ -198,13 +199,14 @@ _BY_NAME = {f.name: f for f in FIELDS}
 #: ``waypoints`` on an arm with a base yaw (a 2-link chain's pitch may be left out).
 YAWED_WAYPOINTS = Field(
     "waypoints",
-    {"type": "array", "minItems": 2, "maxItems": MAX_WAYPOINTS,
+    {"type": "array", "minItems": 1, "maxItems": MAX_WAYPOINTS,
      "items": {"type": "array", "minItems": 4, "maxItems": 4,
                "prefixItems": [_POSE_ITEM, _POSE_ITEM, _POSE_ITEM, ANGLE_ITEM],
                "items": False}},
     "Poses [x, y, z, pitch] in the arm's base frame (origin on the yaw axis at the mounting "
     "plate, z up, x forward at yaw 0; pitch the tool axis's elevation above the horizontal, "
-    f"positive up), metres and radians, at least two, at most {MAX_WAYPOINTS}. A pose "
+    "positive up), metres and radians, at least two (one with start_joints or start_state, "
+    f"or in a move: from there), at most {MAX_WAYPOINTS}. A pose "
     "behind the base (|pitch| > 90°, or on the yaw axis) is refused.",
     unit="m, m, m, rad", cli_option="--from/--via/--to", cli_unit="m, m, m, deg",
     required=True)

@@ -89,7 +89,8 @@ class PlanRequest:
     Attributes
     ----------
     arm : Arm
-    waypoints : 2 ≤ m ≤ MAX_WAYPOINTS poses (x, y, θ), metres and radians; on a 2-joint
+    waypoints : 2 ≤ m ≤ MAX_WAYPOINTS poses (x, y, θ), metres and radians (m = 1 with
+        start_joints or start_state: the path runs from the pose there); on a 2-joint
         (position-only) arm (x, y) is accepted too (stored with θ = 0) and θ plays no part
         in the plan; an arm with a base yaw (``arm.yawed``) takes (x, y, z, pitch) in its
         base frame (the interpolation runs in the arm's plane, robodcn.planner.yawed)
@@ -140,9 +141,10 @@ class PlanRequest:
         if not isinstance(self.arm, Arm):
             raise fail("arm", f"must be an Arm (robodcn.load_arm), got {type(self.arm)!r}",
                        self.arm)
-        wp = checks.check_waypoints(self.waypoints, self.arm)
+        # a lone waypoint needs a start: checked last, once the start fields are
+        wp = checks.check_waypoints(self.waypoints, self.arm, start=True)
         put(self, "waypoints", wp)
-        segments = len(wp) - 1
+        segments = max(1, len(wp) - 1)
         put(self, "method", checks.check_per_segment("method", self.method, segments))
         put(self, "turn", checks.check_per_segment("turn", self.turn, segments))
         put(self, "beta", checks.check_per_segment("beta", self.beta, segments))
@@ -163,6 +165,8 @@ class PlanRequest:
             if self.profile != "optimal" and self.start_state.moving:
                 raise fail("start_state", f"a moving start needs profile \"optimal\" (the "
                            f"uniform law {self.profile!r} starts from rest)", self.profile)
+        checks.check_waypoint_count(wp, self.start_joints is not None
+                                    or self.start_state is not None)
         self._warn_ignored_beta()
 
     def _warn_ignored_beta(self) -> None:
@@ -195,7 +199,8 @@ class PlanRequest:
 
     @property
     def segments(self) -> int:
-        return len(self.waypoints) - 1
+        """Path segments: one per pair of waypoints; a lone waypoint's one from the start."""
+        return max(1, len(self.waypoints) - 1)
 
     @property
     def branch(self) -> str:

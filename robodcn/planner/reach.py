@@ -103,8 +103,24 @@ def raise_unreachable_pose(req: PlanRequest, pose: Sequence[float]) -> NoReturn:
                            f"{why(req, p)}", field="waypoints", value=user, pose=user)
 
 
+def _lone_waypoint(req: PlanRequest, violation: Violation) -> Violation:
+    """A one-waypoint request's path runs from the start (path waypoint 0) to waypoints[0]
+    (path waypoint 1): the violation's waypoint named in the request's own indices."""
+    w = violation.waypoint
+    if w is None:
+        return violation
+    start = "start_joints" if req.start_joints is not None else "start_state"
+    field = violation.field
+    if field.startswith("waypoints["):
+        field = "waypoints[0]" if w == 1 else start
+    return dataclasses.replace(violation, waypoint=0 if w == 1 else None, field=field)
+
+
 def user_violation(req: PlanRequest, violation: Violation) -> Violation:
-    """``violation`` with the user's pose (a yawed arm's (x, y, z, pitch); planar: itself)."""
+    """``violation`` in the request's terms: the user's pose (a yawed arm's (x, y, z,
+    pitch)) and, for a one-waypoint request, the waypoint as the request numbers it."""
+    if len(req.waypoints) == 1:
+        violation = _lone_waypoint(req, violation)
     if not req.arm.yawed:
         return violation
     pose = yawed.to_user(np.asarray(violation.pose, dtype=np.float64)[None, :])[0]
