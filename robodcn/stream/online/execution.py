@@ -37,6 +37,7 @@ from robodcn.config import Arm
 from robodcn.errors import InputError, RobodcnError
 from robodcn.path_timing import JointLimits
 from robodcn.planner import PlanRequest, Trajectory
+from robodcn.stream.online.counts import report_from
 from robodcn.stream.online.planning_times import PlanningTimes
 from robodcn.stream.online.retarget import Retargeting
 from robodcn.stream.online.samples import OnlineSamples, Segment
@@ -345,13 +346,17 @@ class Execution:
 
     def retarget(self, target: PlanRequest | Sequence[ArrayLike | None],
                  **plan_options: Any) -> int:
-        """Replace the rest of the motion by a path to ``target``, from the moving state.
+        """Replace the rest of the motion by a path to ``target``, from the commanded moving
+        state (:mod:`~robodcn.stream.online.replacement`): it never visits the first of two
+        or more waypoints (the caller's view of where the arm is); one waypoint is the goal
+        from the present state; in a list a first None is the switch pose.
 
-        ``target``: a PlanRequest (planned from the switch joints: an approach to its first
-        waypoint if the arm is not there) or waypoints whose first entry None is the switch
-        pose. ``plan_options``: keywords of :func:`robodcn.plan` (method, turn, blend,
-        elbow, …). Returns the first changed sample. Raises the planner's errors (nothing
-        changes)."""
+        ``target``: a PlanRequest (every plan field honoured: method, β, turn, blend,
+        elbow, ``duration`` from the switch; or refused, InputError naming it: a uniform
+        ``profile``, another ``rate_hz``, ``start_joints``, ``start_state``) or waypoints
+        with ``plan_options`` (keywords of :func:`robodcn.plan`, the same rules). Returns
+        the first changed sample; :meth:`report_from` it gives the new move's counts.
+        Raises the planner's errors (nothing changes)."""
         self._need_arm("retarget")
         with self._lock:
             self.paused = False
@@ -359,6 +364,14 @@ class Execution:
                                                                            plan_options))
             self.status = "running"
             return first
+
+    def report_from(self, first: int) -> ExecutionReport | None:
+        """The report of the move that began at sample ``first`` (a retarget's first changed
+        sample; 0: the whole stream): its own samples' counts (:func:`~robodcn.stream.
+        online.counts.report_from`). None before the stream has ended."""
+        if self.report is None or self._stream is None or first <= 0:
+            return self.report
+        return report_from(self.report, self._stream, first)
 
     def _retarget_tail(self, state: State, target: Any,
                        plan_options: dict[str, Any]) -> list[Segment]:

@@ -1,33 +1,34 @@
-"""Retarget strategies: a new path from the moving state to new waypoints.
+"""Retargeting: a new path from the commanded moving state to new goals.
 
-:meth:`Retargeting.tail` picks one (a later step moves all three onto the one moving start
-of :mod:`robodcn.path_timing`):
+:meth:`Retargeting.tail` plans the replacement :class:`~robodcn.stream.online.replacement.
+Replacement` describes (goals after the switch pose, plan fields honoured or refused):
 
-* **planned** — the planner's plan from the moving state (``start_state``, profile
-  "optimal") at full speed;
-* **own** — brake along the present path as far as needed (a turn the limits cannot take
-  at the present speed), then the planner's geometry bent at its start to the present
-  direction of motion (:func:`~robodcn.stream.online_path.blend_start`), timed
-  time-optimally from the moving state; at a speed scale below 1, or when the planner
-  cannot start from the state;
-* **through rest** — under jerk limits: brake to rest along the present path (or follow it
-  to its end when that comes first), then the new path from rest. From a moving state
-  neither the planner's moving start (it joins the state within its own sampled model:
-  7–24 × the jerk limit on the wire across the switch) nor the bent start (the bend's own
-  q⁽³⁾σ̇³ at speed) keeps a jerk limit; measured, every jerk-limited attempt ended braking
-  to rest anyway, after a wasted planning.
+* **geometry** — the planner's path from the switch joints through the goals (a slow
+  uniform plan whose joint samples only are used), cut into pieces at its stops (vias
+  without blend);
+* **moving start** (no jerk limit) — the one moving start of the planner,
+  :func:`robodcn.path_timing.moving_start.join`: along the tangent, blended out in joint
+  space, or braking along q̇₀ and leaving from rest where the brake ends; the samples are
+  checked with the three commanded before the switch (:func:`~robodcn.stream.online_path.
+  excess`) and a start that fails takes the next, slower blend
+  (:func:`~robodcn.path_timing.moving_start.retry`); when none is left it goes through
+  rest (below) — each step says what it found as data, nothing is caught;
+* **through rest** (under jerk limits, and the last resort without) — the jerk-limited
+  brake to rest along the present path (or its own end when that comes first), then the
+  new path from rest. From a moving state neither the blend (its q⁽³⁾ at speed) nor the
+  planner's moving start keeps a jerk limit across the switch (7–24 × it on the wire).
 
-The geometry is the planner's path from the switch joints (a request: planned from them as
-:func:`robodcn.planner.plan_request` with ``start_joints`` would, an approach to its first
-waypoint if the arm is not there; waypoints: the first None is the switch pose), sampled
-slowly and re-timed afterwards.
+Every law is timed under the limits × k: k is the execution's speed scale, and for a
+numeric ``duration`` the k (≤ the speed scale) whose motion takes that long from the switch
+(:meth:`Retargeting.fitted`; duration ∝ 1/k for a law under v·k, a·k², j·k³).
 """
 
 from __future__ import annotations
 
 import dataclasses
+import itertools
 import math
-from collections.abc import Sequence
+from collections.abc import Callable
 from typing import Any
 
 import numpy as np
@@ -35,45 +36,53 @@ from numpy.typing import NDArray
 
 from robodcn import kinematics
 from robodcn.config import Arm
-from robodcn.errors import AccelerationLimitError, RobodcnError, VelocityLimitError
-from robodcn.planner import PlanRequest, StartState, plan, plan_request
+from robodcn.errors import AccelerationLimitError, InputError, VelocityLimitError
+from robodcn.path_timing import JointLimits, moving_start
+from robodcn.path_timing.moving_start import JointState, StartSegment
+from robodcn.stream.online.replacement import Replacement, Target
 from robodcn.stream.online.samples import Segment
 from robodcn.stream.online.state import State
 from robodcn.stream.online.timing import Timing
-from robodcn.stream.online_path import (
-    RETIME_SHARE,
-    JointPath,
-    blend_start,
-    brake,
-    controllable_speed,
-    evenly_spaced,
-)
+from robodcn.stream.online_path import JointPath, evenly_spaced, excess, retime
 
 #: geometry of a retarget: sampled at this rate over this many seconds (quintic, slow)
 GEOMETRY_RATE_HZ = 200.0
 GEOMETRY_DURATION_S = 5.0
-#: arc-length samples a jerk-limited retarget keeps of that geometry
+#: arc-length samples kept of that geometry
 GEOMETRY_SAMPLES = 400
-#: reachability stages of the quick checks while choosing a retarget's start blend
-SEARCH_STAGES = 200
+#: rounds of fitting k to a numeric duration, and how close (samples, share) is met
+FIT_ROUNDS = 8
+FIT_SAMPLES, FIT_SHARE = 2, 0.005
+#: the commanded samples may pass a limit by rounding only
+LIMIT_SLACK = 1e-9
+#: a new path whose start lies within this angle (joint space) of the motion is ahead
+AHEAD_DEG = 60.0
+#: below this σ̇ (rad/s) the commanded state is at rest (a held pause, a brake's end)
+AT_REST = 1e-9
 
-Target = PlanRequest | Sequence[Any]
+
+def segment_of(q0: NDArray, joints: NDArray) -> Segment:
+    """New samples ``joints`` after the switch joints ``q0`` as one segment on their own
+    path (a later operation brakes or re-times along what was sent)."""
+    path, sigma = JointPath.of_samples(np.vstack([q0, joints]))
+    return (joints, sigma[1:], path)
 
 
-def _with_start(waypoints: Sequence[Any], here: tuple[float, ...]) -> list[Any]:
-    """``waypoints`` from ``here``: a first None is it, else it is put first."""
-    out = list(waypoints)
-    if out and out[0] is None:
-        out[0] = here
-    else:
-        out.insert(0, here)
+def _pieces(path: JointPath) -> list[tuple[NDArray, NDArray]]:
+    """(q, σ) of the path between its stops (each piece from and to rest but the first)."""
+    cuts = [0.0, *path.stops, path.length]
+    out = []
+    for lo, hi in itertools.pairwise(cuts):
+        inner = (path.sigma > lo + 1e-12) & (path.sigma < hi - 1e-12)
+        s = np.concatenate([[lo], path.sigma[inner], [hi]])
+        out.append((path.at(s), s))
     return out
 
 
 class Retargeting:
-    """One retarget's planning: ``arm``, the stream's time laws, its present ``source`` (read
-    only under jerk limits, where the move's own way to its end may be the brake; None
-    without them) and speed scale."""
+    """One retarget's planning: ``arm``, the stream's time laws, its present ``source``
+    (the move's own way to its end, read when a brake along the present path cannot stop
+    before it; None: not read) and speed scale."""
 
     def __init__(self, arm: Arm, timing: Timing, source: Any | None,
                  speed: float = 1.0) -> None:
@@ -84,72 +93,186 @@ class Retargeting:
 
     def tail(self, state: State, target: Target, options: dict[str, Any]) -> list[Segment]:
         """The new samples after ``state`` (segments on their paths). Raises the planner's
-        errors (then nothing changes)."""
+        errors and InputError for a field the replacement cannot honour (nothing
+        changes)."""
+        rep = Replacement.of(self.arm, target, options, self.timing.rate)
+        k = self.speed
         if self.timing.jerk:
-            return self.through_rest(state, target, options)
-        if self.speed >= 1.0:
-            try:
-                return self.planned(state, target, options)
-            except RobodcnError as exc:
-                try:
-                    return self.own(state, target, options)
-                except RobodcnError:
-                    raise exc from None
-        return self.own(state, target, options)
+            # from rest: the law under the limits × k λ lasts 1/λ × as long
+            return self.fitted(lambda lam: self.through_rest(state, rep, k * lam),
+                               rep.duration)
+        fastest = self.moving(state, rep, k)
+        return self.fitted(lambda lam: fastest if lam >= 1.0 else
+                           self.stretched(state, fastest, lam), rep.duration)
 
-    # -- the geometry ---------------------------------------------------------------------
+    # -- the duration -----------------------------------------------------------------
 
-    def geometry(self, q: NDArray, target: Target, options: dict[str, Any]) -> NDArray:
-        """Joint samples of the planner's path from joints ``q`` to ``target`` (geometry
-        only: a slow quintic, re-timed afterwards)."""
-        start = tuple(float(v) for v in q)
-        slow = {"profile": "quintic", "rate_hz": GEOMETRY_RATE_HZ}
+    def fitted(self, build: Callable[[float], list[Segment]],
+               duration: float | str) -> list[Segment]:
+        """``build(1)``, or (a numeric ``duration``) ``build(λ)`` at the λ ≤ 1 whose samples
+        last ``duration`` / speed scale (log-linear secant steps within a bracket: the
+        samples grow about as 1/λ).
 
-        def planned(duration: float) -> NDArray:
-            if isinstance(target, PlanRequest):
-                request = dataclasses.replace(target, duration=duration, start_joints=start,
-                                              **slow)
-                return plan_request(request).joints
-            here = tuple(kinematics.fk(self.arm.links, q[None, :])[0])
-            waypoints = _with_start(target, here)
-            return plan(self.arm, waypoints, start_joints=start,
-                        **{**options, **slow, "duration": duration}).joints
+        Raises
+        ------
+        InputError
+            the duration is shorter than the motion at the present speed scale takes."""
+        segments = build(1.0)
+        if duration == "auto":
+            return segments
+        rate = self.timing.rate
+        want = float(duration) * rate / self.speed
+        tol = max(FIT_SAMPLES, FIT_SHARE * want)
+        n = _count(segments)
+        if n > want + tol:
+            raise InputError(f"the replacement needs at least {n / rate * self.speed:.3f} s "
+                             f"from the moving state, got duration {duration!r}",
+                             field="duration", value=duration)
+        best = (abs(n - want), segments)
+        short, long_ = (1.0, max(n, 1)), None
+        lam = max(n, 1) / want
+        for _ in range(FIT_ROUNDS):
+            if best[0] <= tol:
+                break
+            segments = build(lam)
+            n = max(_count(segments), 1)
+            best = min(best, (abs(n - want), segments), key=lambda b: b[0])
+            if n < want:
+                short = (lam, n)
+            else:
+                long_ = (lam, n)
+            if long_ is None:
+                lam *= n / want
+            else:
+                (l0, n0), (l1, n1) = short, long_
+                w = (math.log(want) - math.log(n0)) / (math.log(n1) - math.log(n0) or 1.0)
+                lam = math.exp(math.log(l0) + w * (math.log(l1) - math.log(l0)))
+        return best[1]
 
+    def stretched(self, state: State, segments: list[Segment], lam: float) -> list[Segment]:
+        """The moving start's samples re-timed along their own path at λ × its law (under
+        the limits × λ k; as a speed scale λ, braking along the path first while faster)."""
+        timing, rate = self.timing, self.timing.rate
+        _joints, sigma, path = segments[-1] if len(segments) == 1 else segment_of(
+            state.q, np.vstack([seg[0] for seg in segments]))
+        step = np.diff(np.concatenate([[0.0], sigma]))
+        mid = np.concatenate([[0.0], sigma])[:-1] + 0.5 * step
+        keep = step > 0.0
+        law = step[keep] * rate
+        at = mid[keep]
+
+        def cap(s: NDArray[np.float64]) -> NDArray[np.float64]:
+            return lam * np.interp(s, at, law) * (1.0 + 1e-6) + 1e-9
+
+        start = dataclasses.replace(state, path=path, sigma=0.0)
+        out = timing.timed(start, timing.limits.scaled(self.speed * lam), cap=cap,
+                           speed=lam)
+        return [(path.at(out), out, path)]
+
+    # -- the geometry -----------------------------------------------------------------
+
+    def geometry(self, q: NDArray, rep: Replacement) -> JointPath:
+        """The planner's path from joints ``q`` through the goals, by arc length (its
+        first sample exactly ``q``; C² between its samples)."""
+        here = tuple(kinematics.fk(self.arm.links, q[None, :])[0])
         try:
-            return self._even(planned(GEOMETRY_DURATION_S))
+            joints = rep.geometry(q, here, GEOMETRY_RATE_HZ, GEOMETRY_DURATION_S)
         except (VelocityLimitError, AccelerationLimitError):
             # a long way: the slow geometry plan needs longer (only its path is used)
-            return self._even(planned(4 * GEOMETRY_DURATION_S))
+            joints = rep.geometry(q, here, GEOMETRY_RATE_HZ, 4 * GEOMETRY_DURATION_S)
+        joints = evenly_spaced(joints, GEOMETRY_SAMPLES)
+        joints[0] = q
+        path, _ = JointPath.of_samples(joints)
+        return dataclasses.replace(path, smooth=True)
 
-    def _even(self, q: NDArray) -> NDArray:
-        """Under jerk limits, the geometry's samples thinned to about even arc-length steps
-        (:func:`~robodcn.stream.online_path.evenly_spaced`): the slow quintic crowds them at
-        both ends, where third differences on them are noise of 10⁵ × the path's own q⁽³⁾."""
-        return evenly_spaced(q, GEOMETRY_SAMPLES) if self.timing.jerk else q
+    # -- from the moving state (no jerk limit) ---------------------------------------------
 
-    # -- the strategies -------------------------------------------------------------------
+    def moving(self, state: State, rep: Replacement, k: float) -> list[Segment]:
+        """The moving start onto the new path under the limits × ``k`` (module doc)."""
+        full, rate = self.timing.limits, self.timing.rate
+        limits = full.scaled(k)
+        at_rest = state.sd <= AT_REST
+        js = JointState(state.q, np.zeros_like(state.q) if at_rest else state.qd,
+                        np.zeros_like(state.q) if at_rest else state.qdd)
+        path = self.geometry(state.q, rep)
+        pieces = _pieces(path)
+        q1, s1 = pieces[0]
+        history = state.history if state.history is not None else state.q[None]
+        # a new path that starts ahead of the motion (within AHEAD_DEG of q̇₀) is blended
+        # into, not braked to: no stop unless the goal lies behind or to the side
+        ahead = _cosine(q1[1] - q1[0], js.qd) >= math.cos(math.radians(AHEAD_DEG))
+        seg: StartSegment | None = moving_start.join(js, q1, s1, limits, rate,
+                                                     allow_brake=not ahead)
+        blended = ahead
+        braked = not ahead
+        while seg is not None:
+            joints = self._sampled(seg, q1, s1, rep, limits)
+            if joints is None:  # a brake that would end outside the joint limits
+                seg, blended = moving_start.join(js, q1, s1, limits, rate,
+                                                 allow_brake=False), True
+                continue
+            joints = np.vstack([joints, self._rest(path, pieces, limits)])
+            if excess(np.vstack([history, joints]), full, rate) <= 1.0 + LIMIT_SLACK:
+                return [segment_of(state.q, joints)]
+            if seg.kind == "brake" and not blended:
+                seg, blended = moving_start.join(js, q1, s1, limits, rate,
+                                                 allow_brake=False), True
+                continue
+            seg = moving_start.retry(seg, js, q1, s1, limits, rate)
+            if seg is None and ahead and not braked:
+                # no blend keeps the limits: brake along q̇₀ and leave from rest
+                seg, braked = moving_start.join(js, q1, s1, limits, rate), True
+                seg = seg if seg.kind == "brake" else None
+        return self.through_rest(state, rep, k)
 
-    def planned(self, state: State, target: Target, options: dict[str, Any]) -> list[Segment]:
-        """The planner's plan from the moving state (profile "optimal", at full speed)."""
+    def _sampled(self, seg: StartSegment, q: NDArray, s: NDArray, rep: Replacement,
+                 limits: JointLimits) -> NDArray | None:
+        """The joints after the switch of the start ``seg`` on the piece (q, s): its law
+        with the blend-out added, or the brake and the path from rest where it ends (None
+        when the brake ends outside the joint limits)."""
         rate = self.timing.rate
-        start = StartState(tuple(state.q), tuple(state.qd), tuple(state.qdd))
-        if isinstance(target, PlanRequest):
-            request = dataclasses.replace(target, start_state=start, start_joints=None,
-                                          profile="optimal", duration="auto", rate_hz=rate)
-            trajectory = plan_request(request)
-        else:
-            here = tuple(kinematics.fk(self.arm.links, state.q[None, :])[0])
-            trajectory = plan(self.arm, _with_start(target, here),
-                              **{**options, "profile": "optimal", "duration": "auto",
-                                 "rate_hz": rate, "start_state": start})
-        path, sigma = JointPath.of_samples(trajectory.joints)
-        return [(trajectory.joints[1:], sigma[1:], path)]
+        if seg.kind == "brake":
+            brake = seg.brake
+            assert brake is not None
+            lo = np.array([j.min_angle for j in self.arm.joints])
+            hi = np.array([j.max_angle for j in self.arm.joints])
+            if (brake.q_stop < lo).any() or (brake.q_stop > hi).any():
+                return None
+            m = brake.law.sample(rate)
+            stopping = brake.q0 + np.outer(m.s[1:], brake.q_stop - brake.q0)
+            rest = JointState(brake.q_stop, np.zeros_like(brake.q0), np.zeros_like(brake.q0))
+            path = self.geometry(brake.q_stop, rep)
+            pieces = _pieces(path)
+            q1, s1 = pieces[0]
+            go = self._sampled(moving_start.join(rest, q1, s1, limits, rate), q1, s1, rep,
+                               limits)
+            assert go is not None  # from rest: never a brake
+            return np.vstack([stopping, go, self._rest(path, pieces, limits)])
+        piece = JointPath(q, s, smooth=True)
+        if seg.law is None:  # nothing moves along the piece
+            return q[-1:].copy()
+        m = seg.law.sample(rate)
+        joints = piece.at(m.s)
+        if seg.blend is not None:
+            tb = min(seg.blend.duration, m.t[-1])
+            blend = dataclasses.replace(seg.blend, duration=max(tb, 1.0 / rate))
+            joints = joints + blend.correction(m.t)
+        return joints[1:]
 
-    def through_rest(self, state: State, target: Target,
-                     options: dict[str, Any]) -> list[Segment]:
-        """Under jerk limits: brake to rest along the present path (or follow it to its end
-        when that comes first), then the new path from rest, timed under the present speed
-        scale's limits."""
+    def _rest(self, path: JointPath, pieces: list[tuple[NDArray, NDArray]],
+              limits: JointLimits) -> NDArray:
+        """The joints of the path after its first stop, from rest there (empty without
+        one)."""
+        if len(pieces) < 2:
+            return np.zeros((0, path.q.shape[1]))
+        sigma = retime(path, path.stops[0], 0.0, limits, self.timing.rate)
+        return path.at(sigma)
+
+    # -- through rest ----------------------------------------------------------------------
+
+    def through_rest(self, state: State, rep: Replacement, k: float) -> list[Segment]:
+        """Brake to rest along the present path (or follow it to its end when that comes
+        first), then the new path from rest, timed under the limits × ``k``."""
         timing = self.timing
         sigma = timing.brake(state)
         if sigma is None:
@@ -160,75 +283,20 @@ class Retargeting:
         else:
             segments = [(state.path.at(sigma), sigma, state.path)] if sigma.size else []
             rest = timing.braked(state, sigma, at_rest=True)
-        path, _ = JointPath.of_samples(self.geometry(rest.q, target, options))
-        path = dataclasses.replace(path, smooth=True)
+        path = self.geometry(rest.q, rep)
         start = dataclasses.replace(rest, qd=np.zeros_like(rest.q), sd=0.0, sdd=0.0,
-                                    path=path, sigma=0.0)
-        tail = timing.timed_jerk(start, timing.limits.scaled(self.speed), speed=self.speed)
+                                    qdd=np.zeros_like(rest.q), path=path, sigma=0.0)
+        tail = timing.timed(start, timing.limits.scaled(k), speed=k)
         return [*segments, (path.at(tail), tail, path)]
-
-    def own(self, state: State, target: Target, options: dict[str, Any]) -> list[Segment]:
-        """Brake along the present path as far as needed (a turn the limits cannot take at
-        the present speed), then the new path, bent to the direction of motion."""
-        timing = self.timing
-        full = timing.limits
-        limits = full.scaled(self.speed)
-        rate = timing.rate
-        segments: list[Segment] = []
-        st = state
-        path = None
-        best_speed = math.inf
-        for attempt in range(5):
-            q_new = self.geometry(st.q, target, options)
-            if st.sd <= 1e-9:
-                path, _ = JointPath.of_samples(q_new)
-                break
-            direction = st.qd / st.sd
-            total = float(np.sum(np.linalg.norm(np.diff(q_new, axis=0), axis=1)))
-            length = max(st.sd ** 2 / (2.0 * float(np.min(limits.a))), 1e-3)
-            coarse = q_new[::max(1, len(q_new) // SEARCH_STAGES)]
-            best, best_speed = length, -1.0
-            for _ in range(4):
-                bent = blend_start(coarse, direction, min(length, max(total, 1e-3)))
-                speed = controllable_speed(JointPath.of_samples(bent)[0], 0.0, limits,
-                                           max_stages=SEARCH_STAGES)
-                if speed > best_speed:
-                    best, best_speed = length, speed
-                if speed >= st.sd * 1.01 or length >= total:
-                    break
-                length *= 2.0
-            path, _ = JointPath.of_samples(blend_start(q_new, direction,
-                                                       min(best, max(total, 1e-3))))
-            path = dataclasses.replace(path, start_tangent=direction)
-            # the decision on the full path, under the limits the re-timing aims for
-            best_speed = controllable_speed(path, 0.0, limits.scaled(1.0).shrunk(RETIME_SHARE))
-            if st.sd <= best_speed * 0.99:
-                break
-            # too fast for the turn: brake along the present path first, then try again
-            until = 0.0 if attempt >= 1 else 0.85 * best_speed
-            more = brake(st.path, st.sigma, st.sd, full.a, rate, until_sd=until)
-            if until == 0.0:
-                # one sample at rest where the brake ends: the last step to rest and the
-                # new path's first step from rest do not add up in one acceleration
-                more = np.concatenate([more, more[-1:]]) if more.size else \
-                    np.array([st.sigma])
-            if not more.size:
-                break
-            segments.append((st.path.at(more), more, st.path))
-            ends = st.path.at(np.concatenate([[st.sigma], more])[-2:])
-            qd = (ends[1] - ends[0]) * rate
-            st = dataclasses.replace(st, q=ends[1], qd=qd, sigma=float(more[-1]),
-                                     sd=float(np.linalg.norm(qd)))
-        assert path is not None
-        tail = timing.timed(dataclasses.replace(st, path=path, sigma=0.0), limits,
-                            allowed=best_speed if st.sd > 1e-9 else math.inf, speed=self.speed)
-        segments.append((path.at(tail), tail, path))
-        return segments
 
     def _rest_of_source(self, state: State) -> list[Segment]:
         """The samples after ``state`` as they are (one segment per path): the present
         move's own way to rest."""
         src = self.source
+        if src is None:
+            raise InputError("cannot retarget through rest: the present path ends before a "
+                             "brake could stop and the execution's samples were not given",
+                             field="source", value=None)
         segments: list[tuple[list, list, JointPath]] = []
         for i in range(state.index + 1, src.end):
             path, sigma = src.path_at(i)
@@ -240,10 +308,22 @@ class Retargeting:
         return [(np.array(q), np.array(s), p) for q, s, p in segments]
 
 
+def _cosine(a: NDArray, b: NDArray) -> float:
+    norm = float(np.linalg.norm(a) * np.linalg.norm(b))
+    return float(a @ b) / norm if norm > 0.0 else 0.0
+
+
+def _count(segments: list[Segment]) -> int:
+    return sum(len(seg[1]) for seg in segments)
+
+
 __all__ = [
+    "AHEAD_DEG",
+    "FIT_ROUNDS",
     "GEOMETRY_DURATION_S",
     "GEOMETRY_RATE_HZ",
     "GEOMETRY_SAMPLES",
-    "SEARCH_STAGES",
     "Retargeting",
+    "segment_of",
 ]
+
