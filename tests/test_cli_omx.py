@@ -228,3 +228,35 @@ def test_check_config_omx_draws_the_workspace_in_the_arms_plane(tmp_path, monkey
     home = next(line for line in ax.lines if line.get_label() == "arm at home")
     assert np.allclose([home.get_xdata()[-1], home.get_ydata()[-1]],
                        [OMX.home[0], OMX.home[2]], atol=1e-6)
+
+
+# -- gripper --------------------------------------------------------------------------------------
+
+def test_gripper_close_on_an_object_holds_it_on_the_wire(monkeypatch, capsys):
+    import json
+
+    with SimBus(arm=CONFIGS / "omx.toml", dynamics=True, timing="fast") as sim:
+        sim.servo(15).set_obstacle(-20.0)                 # an object in the jaws
+        assert run_cli(monkeypatch, ["gripper", "close", "--arm", "omx", "--device",
+                                     sim.port_path, "--json"]) == 0
+        result = json.loads(capsys.readouterr().out)
+        assert result["blocked"] and result["settled"] and result["command"] == "close"
+        assert result["final_width_m"] > OMX.gripper.closed_width + 0.005
+        servo = sim.servo(15)
+        assert servo.operating_mode == 5 and servo.hardware_error == 0
+        assert run_cli(monkeypatch, ["gripper", "60", "--arm", "omx", "--device",
+                                     sim.port_path]) == 0
+        line = capsys.readouterr().out
+        assert line.startswith("gripper width (goal 60.0 mm): jaws at ")
+        assert float(line.split("jaws at ")[1].split(" mm")[0]) == pytest.approx(60.0, abs=1.0)
+    assert not sim.errors, sim.errors
+
+
+@pytest.mark.parametrize("argv, words", [
+    (["gripper", "90", "--arm", "omx", "--sim"], "90.0 mm is outside the stroke 20.0–75.0 mm"),
+    (["gripper", "squeeze", "--arm", "omx", "--sim"], "COMMAND must be open, close or a jaw"),
+    (["gripper", "open", "--arm", "arm3r", "--sim"], "arm 'arm3r' has no [gripper] table"),
+])
+def test_bad_gripper_commands_are_refused_before_the_bus(argv, words, monkeypatch, capsys):
+    assert run_cli(monkeypatch, argv) == 2
+    assert words in capsys.readouterr().err

@@ -6,6 +6,7 @@ Subcommands
     sim     the same as move, against an in-process simulated bus (a dry-run)
     serve   the HTTP trajectory service
     scan    list the servos on a serial device: id, model, firmware, baud
+    gripper open|close|WIDTH_MM: the arm's [gripper] (current-based position mode)
     calibrate, teach, run, pose, torque, reboot, servo, check-config, config
             the everyday workflow around a real arm (over :mod:`robodcn.workflow`)
 
@@ -39,7 +40,8 @@ from robodcn.errors import RobodcnError
 COMMANDS: tuple[str, ...] = ("robodcn.cli.plan_cmd", "robodcn.cli.motion_cmd",
                              "robodcn.cli.jog_cmd", "robodcn.cli.serve_cmd", "robodcn.cli.scan_cmd",
                              "robodcn.cli.calibrate_cmd", "robodcn.cli.teach_cmd",
-                             "robodcn.cli.run_cmd", "robodcn.cli.admin_cmd",
+                             "robodcn.cli.run_cmd", "robodcn.cli.gripper_cmd",
+                             "robodcn.cli.admin_cmd",
                              "robodcn.cli.config_cmd")
 
 
