@@ -26,25 +26,6 @@ RIGHT = [0.15, -0.12, 0.20, 0.0]
 V_MAX = np.array([j.max_velocity for j in ARM.joints])
 
 
-def _hooked() -> bool:
-    """Whether the timing laws (planner/optimal.py, uniform.py) take the planner's pose
-    dispatch (path.pose_of, first_joints, pose_width, reach.reach_violation) yet: before
-    that they run planar FK on the yaw and the chain and a yawed plan raises on its shape."""
-    try:
-        plan(ARM, [HOME, LEFT], profile="quintic")
-        plan(ARM, [HOME, LEFT])
-    except (InputError, ValueError):
-        return False
-    return True
-
-
-#: Tests that time a yawed plan: expected to fail on the FK's shape (and only so) until the
-#: timing laws take the planner's dispatch; live as soon as they do.
-needs_laws = pytest.mark.xfail(not _hooked(), raises=(InputError, ValueError), strict=True,
-                               reason="planner/optimal.py and uniform.py (another helper's) "
-                                      "still call planar FK/IK: the hooks are in the report")
-
-
 def plane_path(a, b, s, method="sclerp", beta=1.0):
     """The interpolated path between user poses a, b at path parameters s, computed here
     from the definition: ScLERP & co. on (r, z, pitch), the yaw linear in s."""
@@ -56,7 +37,6 @@ def plane_path(a, b, s, method="sclerp", beta=1.0):
     return kinematics.from_plane(out)
 
 
-@needs_laws
 @pytest.mark.parametrize("method", METHODS)
 def test_every_method_plans_on_its_path_quintic(method: str) -> None:
     t = plan(ARM, [HOME, LEFT], method=method, beta=0.5, profile="quintic")
@@ -69,7 +49,6 @@ def test_every_method_plans_on_its_path_quintic(method: str) -> None:
     assert np.abs(t.poses[-1] - LEFT).max() < 1e-12
 
 
-@needs_laws
 @pytest.mark.parametrize("method", METHODS)
 def test_every_method_plans_on_its_path_optimal(method: str) -> None:
     t = plan(ARM, [HOME, LEFT], method=method, beta=0.5)
@@ -84,7 +63,6 @@ def test_every_method_plans_on_its_path_optimal(method: str) -> None:
     assert np.abs(t.poses - fk).max() < 1e-9
 
 
-@needs_laws
 @pytest.mark.parametrize("profile", ["optimal", "quintic", "trapezoid"])
 def test_yaw_and_chain_arrive_together_within_every_limit(profile: str) -> None:
     t = plan(ARM, [HOME, LEFT, RIGHT], profile=profile)
@@ -99,7 +77,6 @@ def test_yaw_and_chain_arrive_together_within_every_limit(profile: str) -> None:
     assert np.ptp(t.joints[:, 0]) > 0.5
 
 
-@needs_laws
 def test_a_yaw_only_move_keeps_the_chain_still() -> None:
     turned = [HOME[0] * math.cos(1.0), HOME[0] * math.sin(1.0), HOME[2], HOME[3]]
     t = plan(ARM, [HOME, turned])
@@ -114,7 +91,6 @@ def test_a_yaw_only_move_keeps_the_chain_still() -> None:
     assert speed > 0.5 * ARM.joints[0].max_velocity
 
 
-@needs_laws
 def test_a_yaw_across_the_back_goes_round_inside_its_limits() -> None:
     def at(deg: float) -> list[float]:
         y = math.radians(deg)
@@ -142,7 +118,6 @@ def test_a_pose_behind_the_base_is_refused_naming_the_waypoint(pose, why: str) -
     assert describe(err, "cli", names).endswith("(--to)")
 
 
-@needs_laws
 def test_trajectory_json_round_trip() -> None:
     t = plan(ARM, [HOME, LEFT], payload_kg=0.2)
     for arm in (None, ARM):
@@ -165,7 +140,6 @@ def test_trajectory_json_round_trip() -> None:
     assert info.value.field == "poses"
 
 
-@needs_laws
 def test_a_limit_violation_names_the_users_pose() -> None:
     with pytest.raises(VelocityLimitError) as info:
         plan(ARM, [HOME, LEFT], duration=0.05)
@@ -176,7 +150,6 @@ def test_a_limit_violation_names_the_users_pose() -> None:
     assert "z=" in describe(info.value, "cli") and "pitch=" in describe(info.value, "cli")
 
 
-@needs_laws
 @pytest.mark.parametrize("profile", ["optimal", "quintic"])
 def test_an_approach_from_start_joints(profile: str) -> None:
     q0 = kinematics.ik_yawed(CHAIN, np.array([HOME]))[0] + np.array([0.3, 0.1, -0.1, 0.1])
@@ -186,7 +159,6 @@ def test_an_approach_from_start_joints(profile: str) -> None:
     assert np.abs(kinematics.fk_yawed(CHAIN, t.joints[-1:])[0] - LEFT).max() < 1e-9
 
 
-@needs_laws
 def test_a_moving_start_and_one_waypoint_from_the_start() -> None:
     q0 = kinematics.ik_yawed(CHAIN, np.array([HOME]))[0]
     with warnings.catch_warnings():

@@ -46,14 +46,13 @@ import math
 import numpy as np
 from numpy.typing import NDArray
 
-from robodcn import kinematics
 from robodcn.contract import MAX_SAMPLES, intervals
 from robodcn.contract.request import PlanRequest, StartState
 from robodcn.errors import InputError, TooLargeError, Violation
 from robodcn.path_timing import JointLimits, moving_start
 from robodcn.path_timing.arclength import Smooth
 from robodcn.path_timing.moving_start import JointState, StartSegment
-from robodcn.planner import search, validate
+from robodcn.planner import path, reach, search, validate
 from robodcn.planner.arc import by_arc_length
 from robodcn.planner.path import joints_of
 from robodcn.planner.pieces import DENSE as DENSE  # re-export
@@ -83,13 +82,13 @@ def _sample(piece: DensePiece, arm, rate: float, ref: NDArray | None, elbow: str
     piece.count = m.t.shape[0] - 1
     if piece.path is None:
         q = piece.joints_line(m.s)
-        return kinematics.fk(arm.links, q), q, None, m.s
+        return path.pose_of(arm, q), q, None, m.s
     # the joints between the dense samples the law was timed on: their C² interpolant in
     # the law's own parameter (its q′, q″ at every dense sample), the poses their FK — within
     # interpolation error (~h⁴ q⁗) of the path and its IK, without the IK's √ sensitivity
     # at a stretched end or a second IK pass
     q = Smooth(piece.s, piece.q)(m.s)
-    return kinematics.fk(arm.links, q), q, None, m.s
+    return path.pose_of(arm, q), q, None, m.s
 
 
 def fit_duration(req: PlanRequest, pieces: list[DensePiece]) -> None:
@@ -149,10 +148,8 @@ def _brake_then_go(req: PlanRequest, brake: moving_start.Brake, limits: JointLim
     path was to start at the state's pose: it starts where the brake ends instead); None
     when that path leaves the workspace."""
     waypoints = [list(w) for w in req.waypoints]
-    here, there = kinematics.fk(req.arm.links, np.vstack([brake.q0, brake.q_stop]))
-    gap = abs((waypoints[0][2] - here[2] + math.pi) % (2 * math.pi) - math.pi)
-    if np.abs(here[:2] - np.asarray(waypoints[0][:2])).max() <= 1e-4 and (
-            req.position_only or gap <= 1.75e-4):
+    here, there = path.user_pose(req.arm, np.vstack([brake.q0, brake.q_stop]))
+    if path.same_pose(req, here, np.asarray(waypoints[0])):
         waypoints[0] = [float(x) for x in there]
         if req.position_only:
             waypoints[0][2] = req.waypoints[0][2]
@@ -269,7 +266,7 @@ class OptimalTiming:
             p, q, bad, s = _sample(piece, arm, rate, ref, req.branch)
             if q is None:
                 assert bad is not None
-                return validate.reach_violation(req, offset + bad, p[bad])
+                return reach.reach_violation(req, offset + bad, p[bad])
             if piece.path is None:
                 seg = np.full(s.shape[0], -1, dtype=np.int64)
             else:
@@ -296,7 +293,7 @@ class OptimalTiming:
             n_b = min(joints.shape[0], math.ceil(tb * rate) + 1)
             blend = dataclasses.replace(blend, duration=tb)
             joints[:n_b] += blend.correction(np.arange(n_b) / rate)
-            poses[:n_b] = kinematics.fk(arm.links, joints[:n_b])
+            poses[:n_b] = path.pose_of(arm, joints[:n_b])
         if self.state is not None:
             joints[0] = self.state.q
         approach = self.pieces[0].count if self.pieces[0].path is None else 0

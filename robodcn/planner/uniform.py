@@ -17,17 +17,19 @@ import warnings
 import numpy as np
 from numpy.typing import NDArray
 
-from robodcn import kinematics, timing
+from robodcn import timing
 from robodcn.contract import MAX_SAMPLES, intervals
 from robodcn.contract.request import PlanRequest, StartState
 from robodcn.errors import TooLargeError, Violation
-from robodcn.planner import search, validate
+from robodcn.planner import reach, search, validate
 from robodcn.planner.path import (
     COARSE,
     Path,
     Piece,
     blended_path,
+    first_joints,
     joints_of,
+    pose_width,
     segments_of,
     shape_trapezoid,
     within_limits,
@@ -45,8 +47,7 @@ def _pieces(req: PlanRequest) -> tuple[list[Piece], NDArray | None]:
     else:
         paths = [Path([seg], np.array([0.0, 1.0]), None) for seg in segments]
     pieces = [Piece(path=p, profile=req.profile, elbow=req.branch) for p in paths]
-    first = kinematics.ik_path(arm.links, np.array([segments[0][0]]), reference=start,
-                               elbow=req.branch, limits=limits)[0]
+    first = first_joints(arm, segments[0].start, start, req.branch)
     if start is not None:
         first = within_limits(first, limits)
     # Half the finest servo step: closer than that the servos cannot tell the difference.
@@ -106,7 +107,7 @@ class UniformTiming:
             raise TooLargeError(f"the plan needs {total} samples at {rate:g} Hz, more than "
                                 f"{MAX_SAMPLES}: lower rate_hz or shorten the motion",
                                 field="duration", value=req.duration)
-        poses = np.empty((total, 3))
+        poses = np.empty((total, pose_width(arm)))
         joints = np.empty((total, arm.dof))
         segment_of = np.full(total, -1, dtype=np.int64)
         offset = 0
@@ -161,7 +162,7 @@ class UniformTiming:
             if earlier is not None:
                 return earlier
         segment = (int(segment_of[i]), int(segment_of[i]) + 1) if segment_of[i] >= 0 else None
-        return validate.reach_violation(req, i, piece_poses[local], segment)
+        return reach.reach_violation(req, i, piece_poses[local], segment)
 
     def slow(self, violation: Violation, sampled: Sampled | None) -> bool:
         """Auto pieces are each minimal; their joins can still fail (a linear profile's
