@@ -260,3 +260,27 @@ def test_gripper_close_on_an_object_holds_it_on_the_wire(monkeypatch, capsys):
 def test_bad_gripper_commands_are_refused_before_the_bus(argv, words, monkeypatch, capsys):
     assert run_cli(monkeypatch, argv) == 2
     assert words in capsys.readouterr().err
+
+
+# -- README ---------------------------------------------------------------------------------------
+
+def test_readme_omx_commands_run(tmp_path):
+    """Every command of the "Your OpenMANIPULATOR-X" sh block runs as written (none needs a
+    device), redirects and plots included."""
+    import subprocess
+    import sys
+
+    readme = (CONFIGS.parent / "README.md").read_text()
+    block = readme.split("## Your OpenMANIPULATOR-X", 1)[1].split("```sh\n", 1)[1]
+    commands = [line.split("  #")[0].strip() for line in block.split("```")[0].splitlines()]
+    commands = [c for c in commands if c]
+    assert any("--payload" in c for c in commands) and any("gripper" in c for c in commands)
+    for command in commands:
+        args, _, redirect = command.removeprefix("robodcn ").partition(" > ")
+        out = subprocess.run([sys.executable, "-m", "robodcn", *args.split()],
+                             capture_output=True, text=True, cwd=tmp_path, timeout=120)
+        assert out.returncode == 0, (command, out.stderr)
+        if redirect:
+            (tmp_path / redirect).write_text(out.stdout)
+    assert load_arm(tmp_path / "omx.toml").name == "omx"
+    assert (tmp_path / "omx-workspace.png").stat().st_size > 0
