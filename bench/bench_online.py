@@ -4,10 +4,10 @@ changed goal latency on firmware_sim.
 Rows:
 
 * planning from a moving state — a 2 s plan at 1 kHz on configs/arm3r.toml, the commanded
-  state at 30 %, 50 % and 70 % of it; a retarget to a new goal (geometry by the planner, the
-  start bent to the present direction of motion, TOPP-RA from the moving state, sampled at
-  1 kHz; median of the runs), and the re-timing of the same path alone (speed scaling k =
-  0.5 from the moving state). Target ≤ 5 ms.
+  state at 30 %, 50 % and 70 % of it; a retarget to a new goal (geometry by the planner,
+  joined by the one moving start ``path_timing.moving_start.join``: tangent, blend-out or
+  brake, sampled at 1 kHz and checked; median of the runs), and the re-timing of the same
+  path alone (speed scaling k = 0.5 from the moving state). Target ≤ 5 ms.
 * smooth stop — the phase-plane brake from full speed.
 * jerk limits (every joint's ``max_jerk`` = 20 × its acceleration limit per second) — the
   same states on the same move planned under them: the jerk-limited smooth stop
@@ -30,7 +30,6 @@ import os
 import statistics
 import sys
 import time
-import types
 from pathlib import Path
 
 import numpy as np
@@ -41,10 +40,12 @@ if str(ROOT) not in sys.path:
 
 import robodcn  # noqa: E402
 from robodcn import kinematics  # noqa: E402
-from robodcn.stream.online import Execution, State  # noqa: E402
+from robodcn.path_timing import JointLimits  # noqa: E402
+from robodcn.stream.online import State  # noqa: E402
+from robodcn.stream.online.retarget import Retargeting  # noqa: E402
+from robodcn.stream.online.timing import Timing  # noqa: E402
 from robodcn.stream.online_path import (  # noqa: E402
     JointPath,
-    Limits,
     brake,
     brake_jerk_checked,
     excess,
@@ -80,20 +81,20 @@ def planning_rows(arm) -> list[tuple[str, float, int]]:
     q0 = kinematics.ik(arm.links, np.array([START]))[0]
     traj = robodcn.plan(arm, [START, GOAL], rate_hz=1000, duration=2.0, start_joints=q0)
     path, sigma = JointPath.of_samples(traj.joints)
-    limits = Limits.of_arm(arm)
-    ex = Execution(traj, None, None, arm)
-    ex._streamer = types.SimpleNamespace(period=0.001)
+    limits = JointLimits.of(arm)
+    timing = Timing(limits, 1000.0)
+    retarget = Retargeting(arm, timing, None)
     rows = []
     for frac in (0.3, 0.5, 0.7):
         state = _state_at(traj, path, sigma, int(frac * (len(traj.t) - 1)))
         for goal in NEW_GOALS:
-            samples = ex._retarget_tail(state, [None, goal], {})
+            samples = retarget.tail(state, [None, goal], {})
             n = sum(len(seg[1]) for seg in samples)
-            ms = _median_ms(lambda st=state, g=goal: ex._retarget_tail(st, [None, g], {}))
+            ms = _median_ms(lambda st=state, g=goal: retarget.tail(st, [None, g], {}))
             rows.append((f"retarget at {frac:.0%} → ({goal[0]:.2f}, {goal[1]:.2f}, "
                          f"{math.degrees(goal[2]):.0f}°)", ms, n))
         n = len(retime(path, state.sigma, state.sd * 0.5, limits.scaled(0.5), 1000.0))
-        ms = _median_ms(lambda st=state: ex._timed(st, limits.scaled(0.5)))
+        ms = _median_ms(lambda st=state: timing.timed(st, limits.scaled(0.5)))
         rows.append((f"speed k = 0.5 at {frac:.0%} (same path)", ms, n))
         n = len(brake(path, state.sigma, state.sd, limits.a, 1000.0))
         ms = _median_ms(lambda st=state: brake(path, st.sigma, st.sd, limits.a, 1000.0))
@@ -110,11 +111,9 @@ def jerk_rows(arm) -> list[tuple[str, float, int, float, str]]:
     q0 = kinematics.ik(arm.links, np.array([START]))[0]
     plain = robodcn.plan(arm, [START, GOAL], rate_hz=1000, duration=2.0, start_joints=q0)
     traj = robodcn.plan(jerk_arm, [START, GOAL], rate_hz=1000, duration=2.0, start_joints=q0)
-    limits = Limits.of_arm(jerk_arm)
-    ex = Execution(traj, None, None, jerk_arm)
-    # the execution's helpers read the rate and the source from its streamer
-    ex._streamer = types.SimpleNamespace(period=0.001,
-                                         source=types.SimpleNamespace(rate_hz=1000.0))
+    limits = JointLimits.of(jerk_arm)
+    timing = Timing(limits, 1000.0)
+    retarget = Retargeting(jerk_arm, timing, None)
     path, sigma = JointPath.of_samples(traj.joints)
     plain_path, plain_sigma = JointPath.of_samples(plain.joints)
     rows = []
@@ -131,13 +130,13 @@ def jerk_rows(arm) -> list[tuple[str, float, int, float, str]]:
         over = excess(np.vstack([state.history, path.at(stop)]), limits, 1000.0)
         rows.append((f"smooth stop at {frac:.0%}", ms, len(stop), over,
                      f"{len(stop)} ms vs {len(plain_stop)} ms jerk-free"))
-        tail = ex._timed(state, limits.scaled(0.5))
-        ms = _median_ms(lambda st=state: ex._timed(st, limits.scaled(0.5)), JERK_RUNS)
+        tail = timing.timed(state, limits.scaled(0.5))
+        ms = _median_ms(lambda st=state: timing.timed(st, limits.scaled(0.5)), JERK_RUNS)
         over = excess(np.vstack([state.history, path.at(tail)]), limits, 1000.0)
         rows.append((f"speed k = 0.5 at {frac:.0%}", ms, len(tail), over, ""))
         goal = NEW_GOALS[0]
-        segments = ex._retarget_tail(state, [None, goal], {})
-        ms = _median_ms(lambda st=state, g=goal: ex._retarget_tail(st, [None, g], {}),
+        segments = retarget.tail(state, [None, goal], {})
+        ms = _median_ms(lambda st=state, g=goal: retarget.tail(st, [None, g], {}),
                         JERK_RUNS)
         joints = np.vstack([state.history, *(seg[0] for seg in segments)])
         rows.append((f"retarget at {frac:.0%} → ({goal[0]:.2f}, {goal[1]:.2f}, "
