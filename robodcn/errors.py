@@ -52,8 +52,11 @@ class Violation:
 
     sample: int = _field(metadata={"description": "Index of the first failing sample."})
     t: float = _field(metadata={"description": "Its time from the plan start (s)."})
-    pose: tuple[float, float, float] = _field(
-        metadata={"description": "Its pose [x, y, θ] (m, m, rad)."})
+    pose: tuple[float, ...] = _field(
+        metadata={"description": "Its pose: [x, y, θ] (m, m, rad), or on an arm with a base "
+                                 "yaw [x, y, z, pitch] (m, m, m, rad).",
+                  "schema": {"type": "array", "items": {"type": "number"},
+                             "minItems": 3, "maxItems": 4}})
     quantity: Quantity = _field(metadata={"description": "What is exceeded."})
     value: float = _field(metadata={
         "description": "The value needed (reach: wrist distance from the base, m; position: "
@@ -177,7 +180,8 @@ class GravityReleaseError(InputError):
 class PlanError(RobodcnError):
     """A plan cannot be executed within the arm's limits.
 
-    Carries the first failing ``sample`` index, its time ``t`` (s), ``pose`` (x, y, θ) and
+    Carries the first failing ``sample`` index, its time ``t`` (s), ``pose`` (x, y, θ; a
+    yawed arm's x, y, z, pitch) and
     ``joint`` name when known.
     """
 

@@ -25,11 +25,12 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from robodcn import kinematics, servo_units
+from robodcn import servo_units
 from robodcn.bus import ServoBus
 from robodcn.config import Arm
 from robodcn.errors import InputError, ServoMismatchError
 from robodcn.planner import PlanRequest, Trajectory, plan, plan_request
+from robodcn.planner.path import user_pose
 from robodcn.stream.report import Approach, approach_of  # re-export: the report's types
 
 
@@ -99,7 +100,7 @@ def plan_from_present(arm: Arm, bus: ServoBus | None,
         return plan_request(dataclasses.replace(target, start_joints=start))
     waypoints = list(target)
     if waypoints and waypoints[0] is None:
-        waypoints[0] = tuple(kinematics.fk(arm.links, q[None, :])[0])
+        waypoints[0] = tuple(user_pose(arm, q[None, :])[0])
     return plan(arm, waypoints, start_joints=start, **plan_options)
 
 
