@@ -419,6 +419,11 @@ class ArmController:
         took it over); ``status`` None: failed or fault (:meth:`MoveRecord.failure`)."""
         with self._lock:
             record = self._live_of(record)
+            if report is not None and record.offset and record.execution is not None:
+                # A replacement's counts are its own samples', not the replaced move's.
+                report = record.execution.report_from(record.offset)
+                if status in ("done", "degraded"):
+                    status = move_status(report)
             if status is None:
                 status = record.failure()
             record.status = status

@@ -163,8 +163,11 @@ class MoveRecord:
         rows = [(float(at) - start, tuple(int(v) for v in k))
                 for at, k in zip(t[keep].tolist(), ticks[keep].tolist(), strict=True)]
         report = self.report
+        # the final read's stream time is the whole execution's end (a replacement's own
+        # report counts from its switch)
+        whole = getattr(self.execution, "report", None) or report
         if self.until is None and report is not None and report.final_positions is not None:
-            end = float(report.duration_s) - start
+            end = float(whole.duration_s) - start
             if not rows or end > rows[-1][0]:
                 rows.append((end, tuple(int(v) for v in report.final_positions)))
         return rows[-RECORD_SAMPLES:]
