@@ -1,11 +1,18 @@
 """Collision stop: thresholds on each joint's motor current, derived from the plan.
 
-The current a joint should draw along the plan is predicted with the arm's inverse dynamics
-and the servo's motor model (:mod:`robodcn.stream.servo_model`, i = (u·V − k·q̇)/R). A
-collision makes the position loop push against the obstacle, so the current climbs toward
-the servo's limit while the plan does not ask for it. Default threshold per joint::
+The current a joint should draw along the plan is predicted from the joint torques of the
+arm's inverse dynamics (:func:`robodcn.stream.compensation.plan_torques`: gravity, the
+payload, the planned acceleration, the rotors) and the servo's motor model
+(:mod:`robodcn.stream.servo_model`, i = (u·V − k·q̇)/R). A collision makes the position
+loop push against the obstacle, so the current climbs toward the servo's limit while the
+plan does not ask for it. The threshold at each sample starts from the current that sample
+needs (a loaded vertical arm holds its gravity current all along)::
 
-    I_th = min(2·max_t |i_pred(t)| + 0.5 A,  0.9·I_limit)
+    I_th(t) = min(2·max_{|s − t| ≤ W} |i_pred(s)| + 0.5 A,  0.9·I_limit)
+
+with W = :data:`WINDOW_S` (a read lands up to a few samples late; the current leads the
+plan where the lead ramps in). The report's per-joint threshold is its largest value,
+min(2·max_t |i_pred(t)| + 0.5 A, 0.9·I_limit).
 
 (a factor 2 and 0.5 A for model error and for the goal jumps of samples a loaded host had
 to skip, which the simulator showed to reach 3× the prediction for a few cycles; a blocked
@@ -31,7 +38,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from robodcn.config import Arm, ServoSpec
-from robodcn.stream.compensation import plan_load
+from robodcn.stream.compensation import plan_torques
 from robodcn.stream.servo_model import derivatives, motor_of
 
 #: Model-error factor and absolute margin of the default threshold (module notes).
@@ -39,15 +46,48 @@ MARGIN_FACTOR = 2.0
 MARGIN_A = 0.5
 #: The default threshold stays below this share of the servo's current limit.
 LIMIT_SHARE = 0.9
+#: Half-width of the window a sample's threshold takes its current from, s.
+WINDOW_S = 0.05
 
 
 def predicted_currents(joints: NDArray[np.float64], period: float,
-                       servos: Sequence[ServoSpec], arm: Arm | None) -> NDArray[np.float64]:
+                       servos: Sequence[ServoSpec], arm: Arm | None,
+                       payload_kg: float | None = None) -> NDArray[np.float64]:
     """Motor current (A, joint sign) each joint draws along the plan, (n, k)."""
+    joints = np.asarray(joints, dtype=np.float64)
     qd, qdd = derivatives(joints, period)
-    load = plan_load(arm, joints, qd, qdd)
-    return np.column_stack([motor_of(s.model).current(qd[:, j], qdd[:, j], load[:, j])
+    torque = plan_torques(arm, servos, joints, qd, qdd, payload_kg)
+    return np.column_stack([motor_of(s.model).current_for(qd[:, j], torque[:, j])
                             for j, s in enumerate(servos)])
+
+
+def _window_max(values: NDArray[np.float64], half: int) -> NDArray[np.float64]:
+    """max over samples s with |s − t| ≤ half of ``values`` (n, k), per t (vectorised by
+    doubling: max over [t, t + 2^m) composed in log₂ steps)."""
+    n = len(values)
+    if n == 0 or half <= 0:
+        return values.copy()
+    pad = np.full((half, values.shape[1]), -np.inf)
+    run = np.vstack([pad, values, pad])
+    width, out = 1, run.copy()
+    while width < 2 * half + 1:
+        step = min(width, 2 * half + 1 - width)
+        out[:len(out) - step] = np.maximum(out[:len(out) - step], out[step:])
+        width += step
+    return out[:n]
+
+
+def _overrides(k: int, arm: Arm | None, d_gains: Sequence[int] | None) -> NDArray[np.float64]:
+    """Per joint the threshold that replaces the default (NaN: none): ``inf`` for a servo
+    with a D gain, the arm file's ``collision_current_a`` over that."""
+    out = np.full(k, np.nan)
+    if d_gains is not None:
+        out[np.asarray(d_gains) > 0] = np.inf
+    if arm is not None:
+        for j, joint in enumerate(arm.joints):
+            if joint.collision_current is not None:
+                out[j] = joint.collision_current
+    return out
 
 
 def thresholds(predicted: NDArray[np.float64], limits: Sequence[float],
@@ -57,13 +97,23 @@ def thresholds(predicted: NDArray[np.float64], limits: Sequence[float],
     the module's default from the predicted peak (``inf``: off, for a servo with a D gain)."""
     peak = np.abs(predicted).max(axis=0) if len(predicted) else np.zeros(len(limits))
     default = np.minimum(MARGIN_FACTOR * peak + MARGIN_A, LIMIT_SHARE * np.asarray(limits))
-    if d_gains is not None:
-        default[np.asarray(d_gains) > 0] = np.inf
-    if arm is not None:
-        for j, joint in enumerate(arm.joints):
-            if joint.collision_current is not None:
-                default[j] = joint.collision_current
-    return default
+    fixed = _overrides(len(default), arm, d_gains)
+    return np.where(np.isnan(fixed), default, fixed)
 
 
-__all__ = ["LIMIT_SHARE", "MARGIN_A", "MARGIN_FACTOR", "predicted_currents", "thresholds"]
+def threshold_profile(predicted: NDArray[np.float64], period: float,
+                      limits: Sequence[float], arm: Arm | None = None,
+                      d_gains: Sequence[int] | None = None) -> NDArray[np.float64]:
+    """Per-sample thresholds (n, k), A (module notes): each sample's from the current the
+    plan needs around it; a configured ``collision_current_a`` and a D-gain's ``inf`` as in
+    :func:`thresholds`, whose value is the largest of these."""
+    half = max(1, round(WINDOW_S / period))
+    peak = _window_max(np.abs(predicted), half)
+    out = np.minimum(MARGIN_FACTOR * peak + MARGIN_A,
+                     LIMIT_SHARE * np.asarray(limits, dtype=np.float64))
+    fixed = _overrides(predicted.shape[1], arm, d_gains)
+    return np.where(np.isnan(fixed), out, fixed)
+
+
+__all__ = ["LIMIT_SHARE", "MARGIN_A", "MARGIN_FACTOR", "WINDOW_S", "predicted_currents",
+           "threshold_profile", "thresholds"]

@@ -1,19 +1,23 @@
 """What the streaming loop reads back: present positions, tracking, collisions, health.
 
-Present positions are read after the write on every ``feedback_every``-th sample and on
-the last one (0: only at the end), in one place (:meth:`Feedback.read`). Tracking error
+Present positions are read after the write on every ``feedback_every``-th sample and on the
+last one (0: only at the end), in one place (:meth:`Feedback.read`). Tracking error
 (:func:`robodcn.stream.report.tracking_error`, the same for Progress and the report) of
 joint j is how far the present position lies outside the last planned step, [previous
-planned goal, the plan at the end of the read] (the plan, not the compensated goals
-actually sent: :mod:`robodcn.stream.compensation`). With the feedback map
+planned goal, the plan at the end of the read] (the plan, not the compensated goals actually
+sent: :mod:`robodcn.stream.compensation`). With the feedback map
 (:meth:`ServoBus.read_feedback`) the same packet brings velocities, currents and hardware
-errors: peaks per joint in the report and the collision stop ("collision": |current|
-above its threshold for ``collision_cycles`` reads, reported with joint, current, sample,
-time and pose; :mod:`robodcn.stream.collision`). Every read is recorded in preallocated
-arrays (:mod:`robodcn.stream.trace`). Every ``health_interval`` seconds the loop polls
-Hardware Error Status (70) and Bus Watchdog (98) in turn (:meth:`Feedback.health`): Fast
-Sync Read hides a servo's Alert bit in the SDK, so the bus decodes the ERR bytes itself.
-A stop is a :class:`~robodcn.stream.report.StreamStop` carrying its reason and data.
+errors: peaks per joint in the report and the collision stop ("collision": |current| above
+its threshold at that sample — from the current the plan needs there, gravity included — for
+``collision_cycles`` reads, reported with joint, current, sample, time and pose;
+:mod:`robodcn.stream.collision`). A collision or tracking stop backs off before it ends the
+loop (:meth:`Feedback.back_off`: the goals become where the arm is, with the gravity lead
+when compensating), so the servos stop pushing against what holds them. Every read is
+recorded in preallocated arrays (:mod:`robodcn.stream.trace`). Every ``health_interval``
+seconds the loop polls Hardware Error Status (70) and Bus Watchdog (98) in turn
+(:meth:`Feedback.health`): Fast Sync Read hides a servo's Alert bit in the SDK, so the bus
+decodes the ERR bytes itself. A stop is a :class:`~robodcn.stream.report.StreamStop`
+carrying its reason and data.
 """
 
 from __future__ import annotations
@@ -32,7 +36,8 @@ from robodcn.kinematics import fk
 from robodcn.planner import Trajectory
 from robodcn.servo_units import radians_per_tick
 from robodcn.stream.clock import Clock
-from robodcn.stream.collision import predicted_currents, thresholds
+from robodcn.stream.collision import predicted_currents, threshold_profile
+from robodcn.stream.compensation import holding_goals
 from robodcn.stream.options import ExecutionOptions
 from robodcn.stream.report import StreamStop, tracking_error
 from robodcn.stream.trace import TraceRecorder
@@ -90,6 +95,10 @@ class Feedback:
         self.collision_cycles = opts.collision_cycles
         request = trajectory.request
         self.arm = None if request is None else request.arm
+        self.payload_kg = None if request is None else getattr(request, "payload_kg", None)
+        self.compensation = opts.compensation
+        #: per-sample thresholds (n, k) along the plan (:func:`threshold_profile`)
+        self.threshold_at: NDArray[np.float64] | None = None
         self.poses = trajectory.poses
         self.reads = 0
         self.health_polls = 0
@@ -115,13 +124,15 @@ class Feedback:
         """Predicted currents along the plan and the collision thresholds (A per joint);
         the warnings they give (a joint whose stop is off)."""
         self.predicted = predicted_currents(trajectory.joints, period, self.bus.servos,
-                                            self.arm)
+                                            self.arm, self.payload_kg)
         limits = self.bus.current_limits or tuple(2.3 for _ in self.bus.ids)
         if opts.collision_current is not None:     # its length was checked before
             self.threshold = np.asarray(opts.collision_current, dtype=np.float64)
         else:
-            self.threshold = thresholds(self.predicted, limits, self.arm,
-                                        self.bus.position_d_gains)
+            self.threshold_at = threshold_profile(self.predicted, period, limits, self.arm,
+                                                  self.bus.position_d_gains)
+            self.threshold = (self.threshold_at.max(axis=0) if len(self.threshold_at)
+                              else np.full(len(self.bus.ids), np.inf))
         off = [self.joint_names[j] for j in np.nonzero(np.isinf(self.threshold))[0]]
         if not (off and opts.collision):
             return []
@@ -162,13 +173,31 @@ class Feedback:
         if bus.last_alert_ids or (fb is not None and fb.hardware_errors.any()):
             self.alert(bus.last_alert_ids
                        or [i for i, e in zip(bus.ids, fb.hardware_errors, strict=True) if e])
-        if fb is not None and self.collision_on and self.threshold is not None:
-            self._collision(timeline, sample, np.abs(fb.currents))
         self.last_error = error
         self.errors.append(error)
         self.read_samples.append(sample)
-        if self.tick_limit is not None:
-            self._tracking(sample, error)
+        try:
+            if fb is not None and self.collision_on and self.threshold is not None:
+                self._collision(timeline, sample, np.abs(fb.currents))
+            if self.tick_limit is not None:
+                self._tracking(sample, error)
+        except StreamStop:
+            self.back_off(present)
+            raise
+
+    def back_off(self, present: NDArray[np.int64]) -> None:
+        """Goals where the arm is (``present``, with the static gravity lead when
+        compensating: :func:`robodcn.stream.compensation.holding_goals`), written at once;
+        a failed write is left to the hold of :mod:`robodcn.stream.finish`."""
+        bus = self.bus
+        goals = np.clip(present, bus.limits[:, 0], bus.limits[:, 1])
+        if self.compensation:
+            goals = holding_goals(self.arm, bus.servos, goals, bus.limits,
+                                  bus.position_p_gains, self.payload_kg)
+        try:
+            bus.write_goals(goals)
+        except BusError as exc:
+            log.debug("back-off write failed: %s", exc.message)
 
     def plan_at_read(self, timeline: Timeline, sample: int,
                      goal: NDArray[np.int64]) -> NDArray[np.float64]:
@@ -204,22 +233,29 @@ class Feedback:
                    current: NDArray[np.float64]) -> None:
         """Stop when a joint's |current| stayed above its threshold for N reads in a row."""
         assert self.threshold is not None
-        above = current > self.threshold
+        threshold = self.threshold
+        if self.threshold_at is not None and len(self.threshold_at) and \
+                getattr(timeline.source, "joint", None) is None:
+            # the plan's own samples: the threshold of this sample (an online source's
+            # samples are no longer the plan's: the plan's largest)
+            threshold = self.threshold_at[min(sample, len(self.threshold_at) - 1)]
+        above = current > threshold
         self.over = np.where(above, self.over + 1, 0)
         hit = self.over >= self.collision_cycles
         if not hit.any():
             return
         j = int(np.argmax(hit))
+        self.threshold = threshold       # the report's: the thresholds in force at the stop
         period = timeline.period
         pose = self._pose_at(timeline.source, sample)
         self.collision = {
             "joint": self.joint_names[j], "servo_id": int(self.bus.ids[j]),
-            "current_a": float(current[j]), "threshold_a": float(self.threshold[j]),
+            "current_a": float(current[j]), "threshold_a": float(threshold[j]),
             "sample": int(sample), "time_s": sample * period,
             "pose": [float(pose[0]), float(pose[1]), float(pose[2])]}
         raise StreamStop("collision",
                          f"collision at joint {self.joint_names[j]!r}: current "
-                         f"{current[j]:.2f} A above {self.threshold[j]:.2f} A for "
+                         f"{current[j]:.2f} A above {threshold[j]:.2f} A for "
                          f"{self.collision_cycles} cycles at sample {sample} "
                          f"(t = {sample * period:.3f} s, pose x {pose[0]:.3f} m, "
                          f"y {pose[1]:.3f} m, θ {math.degrees(pose[2]):.1f}°)")

@@ -1,10 +1,16 @@
 """After the loop: hold, disarm, recover, read the final positions, release.
 
 On every stop the arm holds: the Bus Watchdog is disarmed (which also makes goals writable
-after a trip) and the freshly read present positions become the goals (if they cannot be
-read, the last goals sent: the arm is already within a sample of them, so it does not
-reverse). With ``recover=True`` an overload alert reboots that servo, holds it where it is
-and enables its torque again (the move stays stopped). Torque goes off only with
+after a trip) and the goals the servos hold — the last ones sent, read back from Goal
+Position — are written again as the hold (issue 17 §7): the arm stops where its motion
+allows, on the goal it was heading for, with no goal step at all. (Writing the present
+positions instead, as before, stepped the goal back by the position loop's lag — up to
+41 ticks at speed — and let an arm under gravity droop by its gravity offset.) A
+collision or tracking stop has already set the goals where the arm is
+(:meth:`robodcn.stream.feedback.Feedback.back_off`), so the servos stop pushing; those
+are what is read back here. If Goal Position cannot be read: the last plan goal, else the
+last present positions. With ``recover=True`` an overload alert reboots that servo, holds
+it where it is and enables its torque again (the move stays stopped). Torque goes off only with
 ``release=True`` (also after a completed move). With the device lost, none of this can
 reach the servos: the Bus Watchdog stops them by themselves. Nothing here raises a
 BusError: with the link down each step is skipped.
@@ -57,9 +63,8 @@ def finish(bus: ServoBus, clock: Clock, *, hold: bool, release: bool, settle: fl
     if hardware and not bus.lost:
         done.recovered = _recover(bus, hardware)
     if hold and not bus.lost:
-        try:
-            goals = bus.read_positions()
-        except BusError:
+        goals = held_goals(bus)
+        if goals is None:
             goals = last_goal if last_goal is not None else last_present
         if goals is not None and not bus.lost:
             goals = np.clip(goals, bus.limits[:, 0], bus.limits[:, 1])
@@ -77,6 +82,15 @@ def finish(bus: ServoBus, clock: Clock, *, hold: bool, release: bool, settle: fl
         except BusError:
             pass
     return done
+
+
+def held_goals(bus: ServoBus) -> NDArray[np.int64] | None:
+    """The Goal Position (k,) each servo holds now, ticks (None if it cannot be read)."""
+    try:
+        raw = bus.sync_read(ADDR_GOAL_POSITION, 4)
+    except BusError:
+        return None
+    return np.array([int.from_bytes(b, "little", signed=True) for b in raw], dtype=np.int64)
 
 
 def _recover(bus: ServoBus, hardware: dict[int, int]) -> list[dict[str, Any]]:
@@ -135,4 +149,4 @@ def _final(bus: ServoBus, clock: Clock, settle: float,
         clock.sleep(SETTLE_POLL_S)
 
 
-__all__ = ["OVERLOAD_BIT", "REST_S", "Finished", "finish"]
+__all__ = ["OVERLOAD_BIT", "REST_S", "Finished", "finish", "held_goals"]

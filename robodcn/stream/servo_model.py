@@ -1,8 +1,14 @@
-"""What a servo needs to follow a planned joint path: arm inverse dynamics + a DC-motor model.
+"""The motor side of a servo following a planned joint path: a DC-motor model.
 
 Used by the tracking compensation (:mod:`robodcn.stream.compensation`) and by the collision
-stop's current prediction (:mod:`robodcn.stream.collision`). Host-side and independent of
-the simulator: the same datasheet figures, restated.
+stop's current prediction (:mod:`robodcn.stream.collision`), both on the joint torques of
+the one inverse dynamics, :func:`robodcn.dynamics.inverse_dynamics` of
+:func:`robodcn.config.rigid_chain` (links, payload, gravity, the rotor's J_rotor·N²·q̈).
+Host-side and independent of the simulator: the same datasheet figures, restated.
+
+:class:`ArmDynamics` below is the older planar model with its own equations, no longer used
+by the stream; it stays only as an independent planar reference the dynamics tests compare
+against (transitional: it belongs in the tests).
 
 Arm (planar serial chain, the arm file's optional ``[dynamics]`` table; defaults: 0.10 kg a
 link, centre of mass mid-link, slender-rod inertia m·l²/12, no payload, plane horizontal).
@@ -18,7 +24,7 @@ Motor (output-shaft referred, ROBOTIS e-manual datasheet at 12 V: stall torque �
 current I_s, no-load speed ω_nl, gear ratio N; friction from an assumed no-load current
 i_nl = 0.1·I_s, half Coulomb, half viscous; rotor inertia an estimate for the motor size)::
 
-    u = (J·q̈ + τ_load + b·q̇ + τ_c·sgn q̇)/τ_0 + q̇/ω_0,   i = (u·V − k·q̇)/R
+    u = (τ + b·q̇ + τ_c·sgn q̇)/τ_0 + q̇/ω_0,   i = (u·V − k·q̇)/R,   τ = J·q̈ + τ_load
 
 with R = V/I_s, k = (V − R·i_nl)/ω_nl, ηk = τ_s/(I_s − i_nl/2), τ_0 = ηk·V/R, ω_0 = V/k,
 J = J_rotor·N². u is the PWM duty the motor needs (885 = 100 %); a position loop with only a
@@ -68,16 +74,29 @@ class MotorModel:
         return cls(resistance, k, eta_k, rotor_inertia * gear_ratio ** 2,
                    0.5 * eta_k * i_nl / omega_nl, 0.5 * eta_k * i_nl, voltage, stall_current)
 
+    def duty_for(self, qd: NDArray[np.float64], torque: NDArray[np.float64],
+                 friction_sign: NDArray[np.float64] | None = None) -> NDArray[np.float64]:
+        """PWM duty u (−1..1 within the motor's reach) that delivers ``torque`` (N·m at the
+        output, the rotor's own J·q̈ included) at velocity q̇; the Coulomb term on
+        ``friction_sign`` (default sgn q̇)."""
+        sign = np.sign(qd) if friction_sign is None else friction_sign
+        total = torque + self.viscous * qd + self.coulomb * sign
+        return total * self.resistance / (self.eta_k * self.voltage) + qd * self.k / self.voltage
+
+    def current_for(self, qd: NDArray[np.float64],
+                    torque: NDArray[np.float64]) -> NDArray[np.float64]:
+        """Armature current i = (u·V − k·q̇)/R, A, delivering ``torque`` at q̇."""
+        return (self.duty_for(qd, torque) * self.voltage - self.k * qd) / self.resistance
+
     def duty(self, qd: NDArray[np.float64], qdd: NDArray[np.float64],
              load: NDArray[np.float64]) -> NDArray[np.float64]:
-        """PWM duty u (−1..1 within the motor's reach) for velocity, acceleration, load."""
-        torque = self.inertia * qdd + load + self.viscous * qd + self.coulomb * np.sign(qd)
-        return torque * self.resistance / (self.eta_k * self.voltage) + qd * self.k / self.voltage
+        """PWM duty u for velocity, acceleration and a load torque without the rotor."""
+        return self.duty_for(qd, self.inertia * qdd + load)
 
     def current(self, qd: NDArray[np.float64], qdd: NDArray[np.float64],
                 load: NDArray[np.float64]) -> NDArray[np.float64]:
-        """Armature current i = (u·V − k·q̇)/R, A."""
-        return (self.duty(qd, qdd, load) * self.voltage - self.k * qd) / self.resistance
+        """Armature current i = (u·V − k·q̇)/R, A (load without the rotor)."""
+        return self.current_for(qd, self.inertia * qdd + load)
 
 
 MOTORS: Mapping[str, MotorModel] = {
@@ -93,7 +112,10 @@ def motor_of(model: str) -> MotorModel:
 
 @dataclass(frozen=True)
 class ArmDynamics:
-    """Mass properties of a planar arm (SI), from its ``[dynamics]`` table and links."""
+    """Mass properties of a planar arm (SI), from its ``[dynamics]`` table and links.
+
+    A planar reference model only (module notes); the stream uses
+    :func:`robodcn.dynamics.inverse_dynamics`."""
 
     links: tuple[float, ...]
     masses: tuple[float, ...]

@@ -15,9 +15,41 @@ from collections.abc import Sequence
 import numpy as np
 from numpy.typing import NDArray
 
-from robodcn.bus import ServoBus
+from robodcn.bus import ADDR_GOAL_POSITION, ServoBus
+from robodcn.errors import BusError
 from robodcn.planner import Trajectory
 from robodcn.stream.compensation import compensated_ticks
+
+#: Position I Gain (2 bytes, RAM; e-manual X-series control table). robodcn.bus reads the P
+#: and D gains only; the lead reads this one itself (0 where it cannot be read).
+ADDR_POSITION_I_GAIN = 82
+
+
+def _signed(raw: bytes) -> int:
+    return int.from_bytes(raw, "little", signed=True)
+
+
+def servo_state(bus: ServoBus) -> tuple[NDArray[np.int64] | None, NDArray[np.int64] | None,
+                                        tuple[int, ...] | None]:
+    """What the lead starts from: the Goal Position the servos hold and their Present
+    Position (ticks, bus order) and Position I Gains, each None where it cannot be read."""
+    def read(address: int, length: int) -> list[int] | None:
+        try:
+            return [_signed(raw) for raw in bus.sync_read(address, length)]
+        except BusError:
+            return None
+
+    goal = read(ADDR_GOAL_POSITION, 4)
+    try:
+        present = bus.read_positions()
+    except BusError:
+        present = None
+    i_gains = getattr(bus, "position_i_gains", None)
+    if i_gains is None:
+        read_i = read(ADDR_POSITION_I_GAIN, 2)
+        i_gains = None if read_i is None else tuple(read_i)
+    return (None if goal is None else np.array(goal, dtype=np.int64), present,
+            None if i_gains is None else tuple(int(g) for g in i_gains))
 
 
 class PlannedSamples:
@@ -25,7 +57,9 @@ class PlannedSamples:
 
     ``goal(i)`` is the plan (what tracking error is measured against); what is sent,
     ``commanded`` (encoded), is the plan itself or, with ``compensation``, the goals the
-    servos need to follow it (:func:`robodcn.stream.compensation.compensated_ticks`).
+    servos need to follow it (:func:`robodcn.stream.compensation.compensated_ticks`: led,
+    the first step from the goal the servos hold now, read here with their present
+    positions and I gains; the payload the plan's request names).
     """
 
     def __init__(self, trajectory: Trajectory, bus: ServoBus, *,
@@ -37,24 +71,35 @@ class PlannedSamples:
         self.joint_names = tuple(trajectory.joint_names)
         self.compensated = bool(compensation)
         self.commanded: NDArray[np.int64] = trajectory.ticks
+        request = trajectory.request
+        self.arm = None if request is None else request.arm
+        self.payload_kg = None if request is None else getattr(request, "payload_kg", None)
+        self.i_gains: tuple[int, ...] | None = None
+        self._bus = bus
         if compensation:
-            request = trajectory.request
+            start_goal, present, self.i_gains = servo_state(bus)
             self.commanded = compensated_ticks(
-                trajectory.joints, self.period, bus.servos, bus.limits,
-                arm=None if request is None else request.arm, p_gains=bus.position_p_gains)
-        self._lead_args = (self.period, bus.servos, bus.limits,
-                           None if trajectory.request is None else trajectory.request.arm,
-                           bus.position_p_gains)
+                trajectory.joints, self.period, bus.servos, bus.limits, arm=self.arm,
+                p_gains=bus.position_p_gains, i_gains=self.i_gains, start_goal=start_goal,
+                present=present, payload_kg=self.payload_kg)
         self._encoded = bus.encode_goals(self.commanded)
 
-    def commanded_for(self, joints: NDArray[np.float64]) -> NDArray[np.int64] | None:
+    def commanded_for(self, joints: NDArray[np.float64], *,
+                      start_goal: NDArray[np.int64] | None = None) -> NDArray[np.int64] | None:
         """The goals this source would send for other joint samples (n, k) rad at its
         period: compensated like its own (None without compensation: the plan is sent).
-        An online tail (:mod:`robodcn.stream.online`) is led the same way as the plan."""
+        An online tail (:mod:`robodcn.stream.online`) is led the same way as the plan;
+        ``start_goal`` (the goal last sent, ticks) limits its first step like the plan's."""
         if not self.compensated:
             return None
-        period, servos, limits, arm, gains = self._lead_args
-        return compensated_ticks(joints, period, servos, limits, arm=arm, p_gains=gains)
+        bus = self._bus
+        return compensated_ticks(joints, self.period, bus.servos, bus.limits, arm=self.arm,
+                                 p_gains=bus.position_p_gains, i_gains=self.i_gains,
+                                 start_goal=start_goal, payload_kg=self.payload_kg)
+
+    def sent_goal(self, i: int) -> NDArray[np.int64]:
+        """The goal ticks (k,) sample i sends (``commanded``; the plan without a lead)."""
+        return self.commanded[i]
 
     def __len__(self) -> int:
         return len(self.ticks)
