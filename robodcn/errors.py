@@ -17,6 +17,7 @@ The classes map onto CLI exit codes and HTTP statuses through ``exit_code`` and
     │   ├── VelocityLimitError
     │   ├── AccelerationLimitError
     │   ├── JerkLimitError
+    │   ├── TorqueLimitError
     │   └── TickLimitError
     ├── BusError                      exit 4   503  servo or bus fault
     │   ├── CommError                               no/garbled status packet
@@ -36,8 +37,9 @@ from typing import Any, Literal
 
 #: What a :class:`Violation` exceeds, and its SI unit.
 QUANTITY_UNITS = {"reach": "m", "position": "rad", "velocity": "rad/s",
-                  "acceleration": "rad/s^2", "jerk": "rad/s^3", "ticks": "tick"}
-Quantity = Literal["reach", "position", "velocity", "acceleration", "jerk", "ticks"]
+                  "acceleration": "rad/s^2", "jerk": "rad/s^3", "ticks": "tick",
+                  "torque": "N*m"}
+Quantity = Literal["reach", "position", "velocity", "acceleration", "jerk", "ticks", "torque"]
 
 
 @dataclass(frozen=True)
@@ -61,7 +63,7 @@ class Violation:
     value: float = _field(metadata={
         "description": "The value needed (reach: wrist distance from the base, m; position: "
                        "joint angle, rad; velocity rad/s; acceleration rad/s²; jerk rad/s³; "
-                       "ticks: goal position)."})
+                       "ticks: goal position; torque: joint torque, N·m)."})
     limit: float = _field(metadata={
         "description": "The bound it passes (the nearer workspace radius for reach, the "
                        "crossed joint or tick limit for position and ticks)."})
@@ -244,10 +246,18 @@ class TickLimitError(PlanError):
     code = "tick_limit"
 
 
+class TorqueLimitError(PlanError):
+    """A sample needs more joint torque (inverse dynamics with gravity, payload and rotor
+    inertia) than the joint's ``max_torque_nm``."""
+
+    code = "torque_limit"
+
+
 #: The PlanError class of each violated quantity.
 VIOLATION_ERRORS: dict[str, type[PlanError]] = {
     "reach": UnreachableError, "position": JointLimitError, "velocity": VelocityLimitError,
-    "acceleration": AccelerationLimitError, "jerk": JerkLimitError, "ticks": TickLimitError}
+    "acceleration": AccelerationLimitError, "jerk": JerkLimitError, "ticks": TickLimitError,
+    "torque": TorqueLimitError}
 
 
 class BusError(RobodcnError):

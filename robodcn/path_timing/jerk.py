@@ -12,6 +12,7 @@ from robodcn.errors import InputError
 from robodcn.path_timing import reachability
 from robodcn.path_timing.law import ChainTiming, PathTiming
 from robodcn.path_timing.topp import solve, stage_times
+from robodcn.path_timing.torque import TorqueRows
 
 # share of the jerk limit the term |q'''| ṡ³ may take; the rest is left to q' s⃛ + 3 q'' ṡ s̈
 #: inner margin of the jerk pass: it aims for (1 - margin) × every limit
@@ -98,13 +99,13 @@ def _corner_cap(s: NDArray, jumps: NDArray, dq: NDArray, ddq: NDArray, v: NDArra
 
 def _rest_piece(s: NDArray, derivs: list[NDArray], sg: NDArray, dq: NDArray, ddq: NDArray,
                 cap: NDArray, v: NDArray, a: NDArray, j: NDArray, accel_share: float,
-                finite: NDArray, rate_hz: float
+                finite: NDArray, rate_hz: float, rows: TorqueRows | None = None
                 ) -> PathTiming:
     """Rest to rest without stops: the shortest over acceleration shares and windows of the
     filtered optimum, each stretched just enough to keep every limit."""
     best, choice = None, None
     for share in (accel_share, 0.8 * accel_share, 0.6 * accel_share):
-        x, u = solve(sg, dq, ddq, v, a * share, cap, 0.0, 0.0)
+        x, u = solve(sg, dq, ddq, v, a * share, cap, 0.0, 0.0, rows)
         dt = stage_times(sg, x)
         # the ramp from +a to -a of one joint at its jerk limit takes 2a/j
         w0 = float((2.0 * share * a[finite] / j[finite]).max())
@@ -121,7 +122,7 @@ def _rest_piece(s: NDArray, derivs: list[NDArray], sg: NDArray, dq: NDArray, ddq
     share, w, x = choice
     local_cap = cap
     for _ in range(_LOCAL_ROUNDS):
-        x, u = solve(sg, dq, ddq, v, a * share, local_cap, 0.0, 0.0)
+        x, u = solve(sg, dq, ddq, v, a * share, local_cap, 0.0, 0.0, rows)
         law = _filtered(sg, x, u, stage_times(sg, x), np.empty(0, np.int64), w,
                         (sg[0], 0.0, 0.0), sg[0])
         maxima, s_t, factor = joint_ratios(law, s, derivs, v, a, j, rate_hz, per_sample=True,
@@ -178,8 +179,10 @@ def _filtered(sg: NDArray, x: NDArray, u: NDArray, dt: NDArray, stop_breaks: NDA
 def jerk_limited(s: NDArray, derivs: list[NDArray], grid: NDArray, cap: NDArray, v: NDArray,
                  a: NDArray, j: NDArray, *, sd_start: float, sdd_start: float,
                  stop_idx: NDArray, rate_hz: float, accel_share: float,
-                 smooth: bool = False) -> PathTiming:
-    """Filtered time-optimal law within v, a, j (module doc of ``optimal``)."""
+                 smooth: bool = False, rows: TorqueRows | None = None) -> PathTiming:
+    """Filtered time-optimal law within v, a, j (module doc of ``optimal``); ``rows``: the
+    torque rows on the grid, kept by the filtered law's optimum (the filter mixes it over
+    its window: the planner's validation checks the samples)."""
     inner = 1.0 - JERK_MARGIN
     lim_v, lim_a, lim_j = v * inner, a * inner, j * inner
     finite = np.isfinite(j)
@@ -212,7 +215,8 @@ def jerk_limited(s: NDArray, derivs: list[NDArray], grid: NDArray, cap: NDArray,
             sl = slice(g0, g1 + 1)
             pieces.append(_rest_piece(s[lo:hi + 1], [d[lo:hi + 1] for d in derivs], sg[sl],
                                       dq[sl], ddq[sl], cap[sl], lim_v, lim_a, lim_j,
-                                      accel_share, finite, rate_hz))
+                                      accel_share, finite, rate_hz,
+                                      None if rows is None else tuple(m[sl] for m in rows)))
         return pieces[0] if len(pieces) == 1 else ChainTiming(pieces)
 
     # A moving start cannot be stretched (ṡ(0) would change): shrink the limits instead.
@@ -235,7 +239,11 @@ def jerk_limited(s: NDArray, derivs: list[NDArray], grid: NDArray, cap: NDArray,
         dq2 = np.vstack([at[0], dq[keep]])
         ddq2 = np.vstack([at[1], ddq[keep]])
         cap2 = np.concatenate([[np.inf], cap[keep]])
-        x, u = solve(sg2, dq2, ddq2, lim_v * share_v, lim_a * share_a, cap2, sd0 ** 2, 0.0)
+        # the torque row at s00: the grid point's before it
+        rows2 = None if rows is None else tuple(
+            np.vstack([m[max(0, int(np.argmax(keep)) - 1)][None], m[keep]]) for m in rows)
+        x, u = solve(sg2, dq2, ddq2, lim_v * share_v, lim_a * share_a, cap2, sd0 ** 2, 0.0,
+                     rows2)
         dt = stage_times(sg2, x)
         breaks = np.searchsorted(sg2, s[stop_idx])
         history = (s00 - sd0 * w + sdd_start * w * w / 2.0, sd0 - sdd_start * w, sdd_start)

@@ -1,12 +1,15 @@
-"""Per-joint dynamic limits of an arm: velocity, acceleration and (optional) jerk.
+"""Per-joint dynamic limits of an arm: velocity, acceleration, (optional) jerk and torque.
 
 The one derivation of the limits from an :class:`~robodcn.config.Arm` (its joints'
-``max_velocity``, ``max_acceleration`` and ``max_jerk``): the planner, the path timing, the
-validation and the online operations all read a :class:`JointLimits`.
+``max_velocity``, ``max_acceleration``, ``max_jerk`` and ``max_torque_nm``, the latter with
+the arm's rigid-body model and a payload: :class:`~robodcn.path_timing.torque.TorqueLimits`):
+the planner, the path timing, the validation and the online operations all read a
+:class:`JointLimits`.
 
 A speed scale k maps a law q(s(t)) onto q(s(k t)): joint velocity scales by k, acceleration
-by k² and jerk by k³ (:meth:`JointLimits.scaled`); a margin scales every limit alike
-(:meth:`JointLimits.shrunk`).
+by k² and jerk by k³ (:meth:`JointLimits.scaled`; torque is physical and stays: the path
+timing applies the scale to its dynamic part, :mod:`robodcn.path_timing.torque`); a margin
+scales every limit alike (:meth:`JointLimits.shrunk`).
 """
 
 from __future__ import annotations
@@ -18,6 +21,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from robodcn.config import Arm
+from robodcn.path_timing.torque import TorqueLimits
 
 __all__ = ["JointLimits"]
 
@@ -27,22 +31,26 @@ class JointLimits:
     """Per-joint limits, arrays of shape (n_joints,).
 
     v : velocity (rad/s); a : acceleration (rad/s²); j : jerk (rad/s³), ``inf`` for a joint
-    without one, or None when no joint sets a jerk limit.
+    without one, or None when no joint sets a jerk limit; torque : the torque limits with
+    the arm's dynamics and payload, None when no joint sets ``max_torque_nm``.
     """
 
     v: NDArray[np.float64]
     a: NDArray[np.float64]
     j: NDArray[np.float64] | None = None
+    torque: TorqueLimits | None = None
 
     @classmethod
-    def of(cls, arm: Arm) -> JointLimits:
-        """The arm's joint limits (``j`` None when no joint sets ``max_jerk``)."""
+    def of(cls, arm: Arm, payload_kg: float | None = None) -> JointLimits:
+        """The arm's joint limits (``j`` None when no joint sets ``max_jerk``, ``torque``
+        None when none sets ``max_torque_nm``; ``payload_kg`` None: the arm's)."""
         jerk = [jt.max_jerk for jt in arm.joints]
         return cls(np.array([jt.max_velocity for jt in arm.joints], dtype=np.float64),
                    np.array([jt.max_acceleration for jt in arm.joints], dtype=np.float64),
                    None if all(x is None for x in jerk)
                    else np.array([math.inf if x is None else x for x in jerk],
-                                 dtype=np.float64))
+                                 dtype=np.float64),
+                   TorqueLimits.of(arm, payload_kg))
 
     @property
     def jerk_limited(self) -> bool:
@@ -57,9 +65,10 @@ class JointLimits:
     def scaled(self, k: float) -> JointLimits:
         """Speed scaling k: v·k, a·k², j·k³."""
         return JointLimits(self.v * k, self.a * (k * k),
-                           None if self.j is None else self.j * k ** 3)
+                           None if self.j is None else self.j * k ** 3, self.torque)
 
     def shrunk(self, share: float) -> JointLimits:
         """Every limit times ``share`` (a margin, not a speed scale)."""
         return JointLimits(self.v * share, self.a * share,
-                           None if self.j is None else self.j * share)
+                           None if self.j is None else self.j * share,
+                           None if self.torque is None else self.torque.shrunk(share))

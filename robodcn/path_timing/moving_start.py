@@ -168,7 +168,8 @@ def path_limits(limits: JointLimits, scale: float = 1.0, v_room: NDArray | None 
     v = limits.v * scale * m if v_room is None else np.maximum(limits.v - v_room,
                                                                1e-9 * limits.v) * m
     return JointLimits(v, limits.a * (scale * m) ** 2,
-                       None if limits.j is None else limits.j * (scale * m) ** 3)
+                       None if limits.j is None else limits.j * (scale * m) ** 3,
+                       None if limits.torque is None else limits.torque.shrunk(m))
 
 
 def timed(q: NDArray, s: NDArray, limits: JointLimits, rate_hz: float, *,
@@ -181,7 +182,7 @@ def timed(q: NDArray, s: NDArray, limits: JointLimits, rate_hz: float, *,
         return None
     lim = path_limits(limits, scale, v_room)
     return time_optimal(q, s, lim.v, lim.a, lim.j, sd_start=sd_start, sdd_start=sdd_start,
-                        rate_hz=rate_hz, smooth=True)
+                        rate_hz=rate_hz, smooth=True, torque=lim.torque)
 
 
 def _tangent(q: NDArray, s: NDArray) -> NDArray:
@@ -201,7 +202,7 @@ def _projection(state: JointState, q: NDArray, s: NDArray, limits: JointLimits,
     if norm2 > 0:
         lim = path_limits(limits, scale, v_room)
         sd0 = max(0.0, float(d1 @ qd0) / norm2)
-        fastest = max_start_speed(q, s, lim.v, lim.a)
+        fastest = max_start_speed(q, s, lim.v, lim.a, torque=lim.torque)
         sd0 = min(sd0, (START_SPEED_SHARE if lim.j is None else START_SPEED_SHARE_JERK)
                   * fastest)
         sdd0 = float(d1 @ (qdd0 - d2 * sd0 ** 2)) / norm2
@@ -300,7 +301,9 @@ def windowed(state: JointState, q: NDArray, s: NDArray, law: PathTiming | None, 
     v_s[:n_b] = v_w
     a_s[:n_b] = limits.a * (k * m) ** 2
     try:
-        law = time_optimal(q, s, v_s, a_s, sd_start=sd0, rate_hz=rate_hz, smooth=True)
+        law = time_optimal(q, s, v_s, a_s, sd_start=sd0, rate_hz=rate_hz, smooth=True,
+                           torque=None if limits.torque is None
+                           else limits.torque.shrunk(MOVING_SCALE * m))
     except InputError:
         return None
     return law, BlendOut(rv, np.zeros_like(rv), tb)

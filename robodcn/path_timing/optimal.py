@@ -39,7 +39,7 @@ import math
 from collections.abc import Sequence
 
 import numpy as np
-from numpy.typing import ArrayLike
+from numpy.typing import ArrayLike, NDArray
 
 from robodcn.errors import InputError
 from robodcn.path_timing import reachability
@@ -52,10 +52,12 @@ from robodcn.path_timing.topp import (
     check_number,
     grid_of,
     interpolated,
+    interpolated_rows,
     path_derivatives,
     solve,
     stage_times,
 )
+from robodcn.path_timing.torque import TorqueLimits, TorqueRows
 
 #: stream rate the jerk pass checks at when the caller gives none, Hz
 CHECK_RATE_HZ = 1000.0
@@ -66,7 +68,8 @@ def time_optimal(q: ArrayLike, s: ArrayLike, v_max: ArrayLike, a_max: ArrayLike,
                  sdd_start: float = 0.0, sd_end: float = 0.0, stops: Sequence[float] = (),
                  rate_hz: float | None = None, scale: float = 1.0,
                  max_stages: int = MAX_STAGES, accel_share: float = 0.95,
-                 smooth: bool = False, sd_cap: ArrayLike | None = None) -> PathTiming:
+                 smooth: bool = False, sd_cap: ArrayLike | None = None,
+                 torque: TorqueLimits | None = None) -> PathTiming:
     """Least-duration time law s(t) along the joint path q(s) under per-joint limits.
 
     Parameters
@@ -92,6 +95,10 @@ def time_optimal(q: ArrayLike, s: ArrayLike, v_max: ArrayLike, a_max: ArrayLike,
     sd_cap : (n,) the largest ṡ allowed at each sample of ``q`` (a speed scale that must not
         make a slower plan faster: k × its own ṡ), None = none; it bounds the reachability
         sets' ṡ² like a velocity limit of the path itself
+    torque : joint torque limits with the arm's dynamics and payload
+        (:class:`~robodcn.path_timing.torque.TorqueLimits`): |τ(q, q̇, q̈)| ≤ τ_max on every
+        joint as the linear rows of τ = a s̈ + b ṡ² + c (the scale applies to a s̈ + b ṡ²);
+        None = no torque limit
 
     Returns
     -------
@@ -146,20 +153,33 @@ def time_optimal(q: ArrayLike, s: ArrayLike, v_max: ArrayLike, a_max: ArrayLike,
                              field="sd_cap", value=sd_cap.shape)
         cap = np.minimum(cap, sd_cap[grid] ** 2)
     cap[np.searchsorted(grid, stop_idx)] = 0.0
+    rows = torque_rows(torque, q[grid], dq, ddq, scale)
     if not jerk:
         v, a = (lim[grid] if lim.ndim == 2 else lim for lim in (v, a))
-        x, u = solve(sg, dq, ddq, v, a, cap, sd_start ** 2, sd_end ** 2)
+        x, u = solve(sg, dq, ddq, v, a, cap, sd_start ** 2, sd_end ** 2, rows)
         dt = stage_times(sg, x)
         tb = np.concatenate([[0.0], np.cumsum(dt)])
         return PathTiming(tb, sg, np.sqrt(x), u)
     return jerk_limited(s, derivs, grid, cap, v, a, j, sd_start=sd_start, sdd_start=sdd_start,
                         stop_idx=stop_idx, rate_hz=rate_hz or CHECK_RATE_HZ,
-                        accel_share=accel_share, smooth=smooth)
+                        accel_share=accel_share, smooth=smooth, rows=rows)
+
+
+def torque_rows(torque: TorqueLimits | None, q: NDArray, dq: NDArray, ddq: NDArray,
+                scale: float = 1.0) -> TorqueRows | None:
+    """The torque rows on the grid (None without torque limits or without a finite one)."""
+    if torque is None or not np.isfinite(torque.tau).any():
+        return None
+    if torque.tau.shape != (q.shape[1],):
+        raise InputError(f"torque limits must have one entry per joint ({q.shape[1]}), got "
+                         f"{torque.tau.shape}", field="torque", value=torque.tau.shape)
+    return torque.rows(q, dq, ddq, scale)
 
 
 def max_start_speed(q: ArrayLike, s: ArrayLike, v_max: ArrayLike, a_max: ArrayLike, *,
                     stops: Sequence[float] = (), scale: float = 1.0,
-                    max_stages: int = MAX_STAGES) -> float:
+                    max_stages: int = MAX_STAGES, torque: TorqueLimits | None = None
+                    ) -> float:
     """The fastest ṡ at s[0] from which the path can still be followed within the velocity
     and acceleration limits and brought to rest by the end (or the first stop): √x_max,0 of
     the TOPP-RA controllable set. Without a jerk limit any ``sd_start`` up to it is accepted
@@ -175,10 +195,13 @@ def max_start_speed(q: ArrayLike, s: ArrayLike, v_max: ArrayLike, a_max: ArrayLi
     dq, ddq = path_derivatives(q, s, stop_idx.tolist(), 2)
     grid = grid_of(q.shape[0], stop_idx, max(1, int(max_stages)))
     dq, ddq = dq[grid], ddq[grid]
+    rows = torque_rows(torque, q[grid], dq, ddq, scale)
     v, a = (lim[grid] if lim.ndim == 2 else lim for lim in (v, a))
     if INTERPOLATED:  # the same discretisation as time_optimal's
         dq, ddq, v, a = interpolated(s[grid], dq, ddq, v, a)
-    p_lo, _, r, x_cap = reachability.stage_constraints(dq, ddq, v, a)
+        if rows is not None:
+            rows = interpolated_rows(s[grid], rows)
+    p_lo, _, r, x_cap = reachability.stage_constraints(dq, ddq, v, a, rows)
     x_cap[np.searchsorted(grid, stop_idx)] = 0.0
     x_max = reachability.controllable(np.diff(s[grid]), p_lo, r, x_cap, 0.0)
     return math.sqrt(float(x_max[0]))

@@ -14,6 +14,11 @@ the feasible x at a stage is [0, x_cap] with x_cap from the pairwise crossings U
 (vectorised over stages), the backward controllable-set step is the largest x with
 x + 2Δ max_j L_j(x) ≤ x_max,i+1 (a minimum of k affine roots), and the forward greedy step
 takes u = min(min_j U_j(x_i), (x_max,i+1 - x_i) / 2Δ_i).
+
+Further linear rows lo ≤ A u + B x ≤ hi (joint torque τ = a s̈ + b ṡ² + c:
+:mod:`robodcn.path_timing.torque`) join as more (L, U) pairs with their own lower and upper
+offsets (p_lo, p_hi no longer ∓ the same half-width); the crossings, the backward step and
+the greedy step read them like the acceleration rows.
 """
 
 from __future__ import annotations
@@ -27,19 +32,23 @@ _FLAT = 1e-9
 
 
 def stage_constraints(dq: NDArray[np.float64], ddq: NDArray[np.float64],
-                      v_max: NDArray[np.float64], a_max: NDArray[np.float64]
+                      v_max: NDArray[np.float64], a_max: NDArray[np.float64],
+                      rows: tuple[NDArray, NDArray, NDArray, NDArray] | None = None
                       ) -> tuple[NDArray, NDArray, NDArray, NDArray]:
-    """Per stage and joint: (p_lo, p_hi, r, x_cap) with L = p_lo + r x, U = p_hi + r x.
+    """Per stage and constraint row: (p_lo, p_hi, r, x_cap) with L = p_lo + r x, U = p_hi + r x.
 
     Parameters
     ----------
     dq, ddq : (N, k) q'(s_i), q''(s_i)
-    v_max, a_max : (k,) limits, inf where unlimited
+    v_max, a_max : (k,) or (N, k) limits, inf where unlimited
+    rows : optional further linear rows (A, B, lo, hi), each (N, m): lo ≤ A u + B x ≤ hi
+        (the torque rows of :mod:`robodcn.path_timing.torque`; lo ≤ 0 ≤ hi, so rest is
+        feasible)
 
     Returns
     -------
-    p_lo, p_hi, r : (N, k); x_cap : (N,) the largest feasible x at each stage (velocity
-        limits, and the acceleration-limited maximum velocity curve).
+    p_lo, p_hi, r : (N, k [+ m]); x_cap : (N,) the largest feasible x at each stage
+        (velocity limits, and the maximum velocity curve of every row pair).
     """
     moving = np.abs(dq) > _FLAT
     safe = np.where(moving, dq, 1.0)
@@ -49,12 +58,38 @@ def stage_constraints(dq: NDArray[np.float64], ddq: NDArray[np.float64],
         x_vel = np.where(moving, (v_max / safe) ** 2, np.inf).min(axis=1)
         # a joint that does not move still feels q'' x: |q''| x ≤ a
         still = np.where(~moving & (np.abs(ddq) > 0), a_max / np.abs(ddq), np.inf).min(axis=1)
-        # U_l(x) ≥ L_j(x) for every pair: (half_l + half_j) + (r_l - r_j) x ≥ 0
-        gap = half[:, :, None] + half[:, None, :]
+    p_lo, p_hi = -half, half
+    if rows is not None:
+        lo_t, hi_t, r_t, still_t = _rows(*rows)
+        p_lo = np.hstack([p_lo, lo_t])
+        p_hi = np.hstack([p_hi, hi_t])
+        r = np.hstack([r, r_t])
+        still = np.minimum(still, still_t)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        # U_l(x) ≥ L_j(x) for every pair: (p_hi,l − p_lo,j) + (r_l − r_j) x ≥ 0
+        gap = p_hi[:, :, None] - p_lo[:, None, :]
         slope = r[:, :, None] - r[:, None, :]
         cross = np.where(slope < 0, gap / -np.where(slope < 0, slope, -1.0), np.inf)
     x_cap = np.minimum(np.minimum(x_vel, still), cross.min(axis=(1, 2)))
-    return -half, half, r, x_cap
+    return p_lo, p_hi, r, x_cap
+
+
+def _rows(a: NDArray, b: NDArray, lo: NDArray, hi: NDArray
+          ) -> tuple[NDArray, NDArray, NDArray, NDArray]:
+    """General rows lo ≤ a u + b x ≤ hi as u-bounds p_lo + r x ≤ u ≤ p_hi + r x, and the
+    x-bound of the rows with a = 0 (b x within [lo, hi])."""
+    moving = np.abs(a) > _FLAT
+    safe = np.where(moving, a, 1.0)
+    up = safe > 0
+    with np.errstate(divide="ignore", invalid="ignore"):
+        p_lo = np.where(moving, np.where(up, lo, hi) / safe, -np.inf)
+        p_hi = np.where(moving, np.where(up, hi, lo) / safe, np.inf)
+        r = np.where(moving, -b / safe, 0.0)
+        bound = np.where(b > 0, hi / np.where(b > 0, b, 1.0),
+                         np.where(b < 0, lo / np.where(b < 0, b, -1.0), np.inf))
+    still = np.where(moving, np.inf, bound).min(axis=1)
+    # rows without a bound (unlimited, or off): no slope either, so no crossing
+    return p_lo, p_hi, r, still
 
 
 def controllable(delta: NDArray[np.float64], p_lo: NDArray, r: NDArray, x_cap: NDArray,

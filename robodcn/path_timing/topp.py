@@ -19,6 +19,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from robodcn.errors import InputError
 from robodcn.path_timing import reachability
+from robodcn.path_timing.torque import TorqueRows
 
 #: stages of the reachability grid at most (the samples are subsampled evenly above this)
 MAX_STAGES = 1000
@@ -129,12 +130,27 @@ def interpolated(sg: NDArray, dq: NDArray, ddq: NDArray, v: NDArray, a: NDArray
             np.concatenate([a, a], axis=-1))
 
 
+def interpolated_rows(sg: NDArray, rows: TorqueRows) -> TorqueRows:
+    """Further rows (A, B, lo, hi) in the "interpolation" discretisation (as
+    :func:`interpolated`): stage i also bounds A_{i+1} u + B_{i+1} x_{i+1}, i.e. the row
+    (A_{i+1} + 2Δ_i B_{i+1}) u + B_{i+1} x within [lo_{i+1}, hi_{i+1}]."""
+    a, b, lo, hi = rows
+    step = np.concatenate([np.diff(sg), [0.0]])[:, None]
+    nxt = [np.vstack([m[1:], m[-1:]]) for m in rows]
+    return (np.hstack([a, nxt[0] + 2.0 * step * nxt[1]]), np.hstack([b, nxt[1]]),
+            np.hstack([lo, nxt[2]]), np.hstack([hi, nxt[3]]))
+
+
 def solve(sg: NDArray, dq: NDArray, ddq: NDArray, v: NDArray, a: NDArray, extra_cap: NDArray,
-           x_start: float, x_end: float) -> tuple[NDArray, NDArray]:
-    """x (N + 1,), u (N,) of TOPP-RA on grid sg; raises when the start is not controllable."""
+           x_start: float, x_end: float, rows: TorqueRows | None = None
+           ) -> tuple[NDArray, NDArray]:
+    """x (N + 1,), u (N,) of TOPP-RA on grid sg; raises when the start is not controllable.
+    ``rows``: further linear constraints (torque: :mod:`robodcn.path_timing.torque`)."""
     if INTERPOLATED:
         dq, ddq, v, a = interpolated(sg, dq, ddq, v, a)
-    p_lo, p_hi, r, x_cap = reachability.stage_constraints(dq, ddq, v, a)
+        if rows is not None:
+            rows = interpolated_rows(sg, rows)
+    p_lo, p_hi, r, x_cap = reachability.stage_constraints(dq, ddq, v, a, rows)
     x_cap = np.minimum(x_cap, extra_cap)
     delta = np.diff(sg)
     x_max = reachability.controllable(delta, p_lo, r, x_cap, x_end)

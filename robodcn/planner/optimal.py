@@ -123,11 +123,23 @@ def stretch_factors(req: PlanRequest, joints: NDArray, history: NDArray | None) 
     lim = JointLimits.of(req.arm)
     rate = req.rate_hz
     f = np.ones(joints.shape[0])
+    ratios = []
     for order, limit in ((1, lim.v), (2, lim.a), (3, lim.jerk)):
         if not np.isfinite(limit).any():
             continue
         d = validate.differences(joints, order, history) * rate ** order
-        r = (d / limit).max(axis=1) ** (1.0 / order)
+        ratios.append((order, (d / limit).max(axis=1) ** (1.0 / order)))
+    torque = validate.torque_limits(req)
+    if torque is not None and joints.shape[0] > 1:
+        # τ = (a s̈ + b ṡ²) + g: a stretch λ divides the first part by λ², so λ² =
+        # |τ − g| / (τ_max − |g|); where gravity alone overloads a stretch cannot help
+        tau, grav = validate.sample_torques(torque, joints, rate, history)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            room = torque.tau - np.abs(grav)
+            need = np.where(np.abs(tau) > torque.tau,
+                            np.sqrt(np.abs(tau - grav) / np.where(room > 0, room, np.inf)), 1.0)
+        ratios.append((2, np.nan_to_num(need, nan=1.0).max(axis=1)))
+    for order, r in ratios:
         for back in range(order + 1):  # every sample the difference spans
             f[:f.shape[0] - back] = np.maximum(f[:f.shape[0] - back], r[back:])
     return f
@@ -174,7 +186,7 @@ class OptimalTiming:
     def __init__(self, req: PlanRequest, pieces: list[DensePiece]) -> None:
         self.req = req
         self.pieces = by_arc_length(req, pieces)
-        self.limits = JointLimits.of(req.arm)
+        self.limits = JointLimits.of(req.arm, getattr(req, "payload_kg", None))
         state = req.start_state
         self.start_state = state
         self.state = None if state is None else JointState(*state.arrays())

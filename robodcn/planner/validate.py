@@ -8,6 +8,12 @@ Finite differences at the sample rate (planner module docstring): velocity
 sample i + 1 and jerk (q_{i+2} − 3q_{i+1} + 3q_i − q_{i−1})·rate³ to sample i + 2, the first
 sample that cannot be reached in time. The arm rests before t = 0 and after the end, so the
 sequence is padded with copies of its first and last samples.
+
+Torque (arms with ``max_torque_nm``): the inverse dynamics (robodcn.dynamics: links, payload
+at the tool point, gravity, rotor inertia) of each sample q_i with the central differences
+q̇ = (q_{i+1} − q_{i−1})·rate/2 and q̈ = (q_{i+1} − 2q_i + q_{i−1})·rate², charged like the
+acceleration to sample i + 1; the payload is the request's ``payload_kg`` (default the
+arm's).
 """
 
 from __future__ import annotations
@@ -25,6 +31,7 @@ from robodcn.contract.request import PlanRequest
 from robodcn.errors import QUANTITY_UNITS, VIOLATION_ERRORS, UnreachableError, Violation
 from robodcn.messages import describe_violation
 from robodcn.path_timing.limits import JointLimits
+from robodcn.path_timing.torque import TorqueLimits
 
 #: Relative slack on velocity/acceleration/jerk limits, for float rounding only (auto timing
 #: itself uses the exact limits, so auto plans never rely on it).
@@ -33,7 +40,7 @@ LIMIT_SLACK = 1e-9
 ANGLE_SLACK = 1e-9
 #: The finite-difference order of each dynamic quantity (what a uniform stretch λ divides by
 #: λ^order).
-ORDER = {"velocity": 1, "acceleration": 2, "jerk": 3}
+ORDER = {"velocity": 1, "acceleration": 2, "jerk": 3, "torque": 2}
 
 
 def fmt_pose(pose: Sequence[float]) -> str:
@@ -98,6 +105,33 @@ def differences(joints: NDArray, order: int, history: NDArray | None = None) -> 
     return d
 
 
+def torque_limits(req: PlanRequest) -> TorqueLimits | None:
+    """The request's torque limits: the arm's ``max_torque_nm`` with the request's payload
+    (``payload_kg``, default the arm's), None when no joint sets one."""
+    return TorqueLimits.of(req.arm, getattr(req, "payload_kg", None))
+
+
+def sample_torques(torque: TorqueLimits, joints: NDArray, rate: float,
+                   history: NDArray | None = None) -> tuple[NDArray, NDArray]:
+    """(τ, g), each (n, k): the torque of every sample's central differences (module doc),
+    row r charged to sample min(r, n − 1) as :func:`differences` charges the acceleration
+    (the larger |τ| of the rows past the end), and the gravity torque of the same rows."""
+    pre = np.repeat(joints[:1], 2, axis=0) if history is None else history[-2:]
+    padded = np.concatenate([pre, joints, joints[-1:]])
+    mid = padded[1:-1]
+    qd = (padded[2:] - padded[:-2]) * (0.5 * rate)
+    qdd = (padded[2:] - 2.0 * mid + padded[:-2]) * (rate * rate)
+    tau = torque.torques(mid, qd, qdd)
+    grav = torque.torques(mid, np.zeros_like(mid), np.zeros_like(mid))
+    n = joints.shape[0]
+    if tau.shape[0] > n:  # rows past the end belong to the last sample
+        last = np.argmax(np.abs(tau[n - 1:]), axis=0)
+        cols = np.arange(tau.shape[1])
+        tau = np.concatenate([tau[:n - 1], tau[n - 1:][last, cols][None]])
+        grav = np.concatenate([grav[:n - 1], grav[n - 1:][last, cols][None]])
+    return tau, grav
+
+
 def _fine(joints: NDArray, ticks: NDArray, lo: NDArray, hi: NDArray, tmin: NDArray,
           tmax: NDArray, limits: tuple[NDArray, NDArray, NDArray] | None, rate: float,
           slack: float) -> bool:
@@ -160,8 +194,13 @@ def check(req: PlanRequest, poses: NDArray, joints: NDArray, *, dynamics: bool =
     tmin = np.array([j.servo.min_tick for j in arm.joints])
     tmax = np.array([j.servo.max_tick for j in arm.joints])
     slack = 1.0 + LIMIT_SLACK
+    torque = torque_limits(req) if dynamics and n > 1 else None
+    tau = grav = None
+    if torque is not None:
+        tau, grav = sample_torques(torque, joints, rate, history)
     if (history is None or not dynamics) and _fine(
-            joints, ticks, lo, hi, tmin, tmax, (v, a, jk) if dynamics else None, rate, slack):
+            joints, ticks, lo, hi, tmin, tmax, (v, a, jk) if dynamics else None, rate, slack) \
+            and (tau is None or (np.abs(tau) <= torque.tau * slack).all()):
         return ticks, None
     rates = []
     if dynamics:
@@ -176,6 +215,10 @@ def check(req: PlanRequest, poses: NDArray, joints: NDArray, *, dynamics: bool =
     checks = [("position", pos_excess > 0.0, pos_excess, joints),
               ("ticks", tick_excess > 0.0, tick_excess, ticks)]
     checks += [(q, d / limit > slack, d / limit, d) for q, d, limit in rates]
+    if tau is not None:
+        assert torque is not None
+        score = np.abs(tau) / torque.tau
+        checks.append(("torque", score > slack, score, np.abs(tau)))
     first, chosen = n, None
     for quantity, bad, score, values in checks:
         rows = bad.any(axis=1)
@@ -195,14 +238,19 @@ def check(req: PlanRequest, poses: NDArray, joints: NDArray, *, dynamics: bool =
     elif quantity == "ticks":
         limit = float(spec.servo.min_tick if value < spec.servo.min_tick
                       else spec.servo.max_tick)
+    elif quantity == "torque":
+        assert torque is not None
+        limit = float(torque.tau[j])
     else:
         limit = float({"velocity": v, "acceleration": a, "jerk": jk}[quantity][j])
     waypoint = (marks or {}).get(i) if quantity in ("position", "ticks") else None
     segment = None
     if segment_of is not None and segment_of[i] >= 0:
         segment = (int(segment_of[i]), int(segment_of[i]) + 1)
-    field = "duration" if quantity in ("velocity", "acceleration", "jerk") else (
+    field = "duration" if quantity in ("velocity", "acceleration", "jerk", "torque") else (
         f"waypoints[{waypoint}]" if waypoint is not None else "waypoints")
+    if quantity == "torque" and grav is not None and abs(float(grav[i, j])) > limit:
+        field = "payload_kg"  # gravity alone overloads the joint there: no duration helps
     if segment is None and segment_of is not None and quantity in ("position", "ticks") \
             and req.start_joints is not None:
         field = "start_joints"
@@ -235,4 +283,15 @@ def elbow_branches(joints: NDArray) -> tuple[str | None, tuple[int, ...]]:
 def raise_for(violation: Violation) -> NoReturn:
     """Raise the PlanError of ``violation`` (message in SI and JSON names)."""
     cls = VIOLATION_ERRORS[violation.quantity]
+    if violation.quantity == "torque":
+        raise cls(describe_torque(violation), violation=violation)
     raise cls(describe_violation(violation, "si"), violation=violation)
+
+
+def describe_torque(v: Violation) -> str:
+    """One line for a torque violation (sample, time, pose, joint, torque and limit)."""
+    pose = ", ".join(f"{x:.4f}" for x in v.pose)
+    cure = ("gravity alone (links and payload) needs more than max_torque_nm there"
+            if v.field == "payload_kg" else "lengthen duration")
+    return (f"sample {v.sample} (t={v.t:.3f} s, pose [{pose}]): joint {v.joint!r} needs "
+            f"{v.value:.4g} N·m, limit {v.limit:.4g} N·m (torque): {cure}")

@@ -1,0 +1,78 @@
+"""Joint torque limits along a path: the linear constraints TOPP-RA takes beside v and a.
+
+On a path q(s) the inverse dynamics is linear in (s̈, ṡ²) (Pham & Pham, "A New Approach to
+Time-Optimal Path Parameterization Based on Reachability Analysis", IEEE T-RO 34(3), 2018,
+§III; :func:`robodcn.dynamics.path_torque_coefficients`)::
+
+    τ(s) = a(s)·s̈ + b(s)·ṡ² + c(s)
+
+with links, the payload at the tool point, gravity and each servo's reflected rotor inertia
+(armature) in a, b and c. |τ_j| ≤ τ_max,j is the row −τ_max − c ≤ a·s̈ + b·ṡ² ≤ τ_max − c of
+the reachability analysis (:mod:`robodcn.path_timing.reachability`), like the acceleration
+row −a_max ≤ q′·s̈ + q″·ṡ² ≤ a_max.
+
+A speed scale k (the law s(k t)) multiplies a·s̈ + b·ṡ² by k² and leaves c: the scaled law
+keeps k²·(±τ_max − c). A stage where gravity alone needs more than τ_max (|c| > τ_max: the
+arm cannot hold itself there) gets no torque row: the law is timed without it and the
+planner's validation names the sample and joint (TorqueLimitError).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, replace
+
+import numpy as np
+from numpy.typing import NDArray
+
+from robodcn.config import Arm, rigid_chain
+from robodcn.dynamics import RigidChain, inverse_dynamics, path_torque_coefficients
+
+__all__ = ["TorqueLimits", "TorqueRows"]
+
+#: (A, B, lo, hi), each (N, k): lo ≤ A·s̈ + B·ṡ² ≤ hi per stage and joint
+TorqueRows = tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64],
+                   NDArray[np.float64]]
+
+
+@dataclass(frozen=True)
+class TorqueLimits:
+    """Per-joint torque limits ``tau`` (k,) N·m (inf: none) of the rigid ``chain`` carrying
+    ``payload_kg`` at the tool point."""
+
+    chain: RigidChain
+    tau: NDArray[np.float64]
+    payload_kg: float = 0.0
+
+    @classmethod
+    def of(cls, arm: Arm, payload_kg: float | None = None) -> TorqueLimits | None:
+        """The arm's ``max_torque_nm`` limits (None when no joint sets one); the payload
+        defaults to the arm's ``[dynamics] payload_kg``."""
+        raw = arm.max_torques
+        if all(t is None for t in raw):
+            return None
+        tau = np.array([math.inf if t is None else float(t) for t in raw], dtype=np.float64)
+        load = arm.payload_kg if payload_kg is None else float(payload_kg)
+        return cls(rigid_chain(arm), tau, load)
+
+    def shrunk(self, share: float) -> TorqueLimits:
+        """Every torque limit times ``share`` (a margin)."""
+        return replace(self, tau=self.tau * share)
+
+    def rows(self, q: NDArray, dq: NDArray, ddq: NDArray, scale: float = 1.0) -> TorqueRows:
+        """The rows (A, B, lo, hi) at the path samples q with q′, q″ (module doc); a joint
+        without a limit, or one gravity alone overloads there, gets lo = −inf, hi = inf."""
+        a, b, c = path_torque_coefficients(self.chain, q, dq, ddq, self.payload_kg)
+        k2 = scale * scale
+        tau = self.tau[None, :]
+        lo, hi = k2 * (-tau - c), k2 * (tau - c)
+        off = ~np.isfinite(tau) | (np.abs(c) > tau)
+        if off.any():
+            off = np.broadcast_to(off, c.shape)
+            a, b = np.where(off, 0.0, a), np.where(off, 0.0, b)
+            lo, hi = np.where(off, -np.inf, lo), np.where(off, np.inf, hi)
+        return a, b, lo, hi
+
+    def torques(self, q: NDArray, qd: NDArray, qdd: NDArray) -> NDArray[np.float64]:
+        """τ (n, k) of the motion (q, q̇, q̈) (robodcn.dynamics.inverse_dynamics)."""
+        return inverse_dynamics(self.chain, q, qd, qdd, self.payload_kg)
