@@ -83,7 +83,7 @@ def test_recording_as_json_and_csv():
     assert np.allclose(data["joints"], servo_units.ticks_to_radians(
         np.array([t[1] for t in ticks]), ARM.servos))
     rows = list(csv.reader(io.StringIO(recording_csv(ARM, ticks))))
-    assert rows[0][:2] == ["t", "q_shoulder"] and len(rows) == 3
+    assert rows[0][:2] == ["t_s", "q_shoulder_rad"] and len(rows) == 3
     assert [int(v) for v in rows[2][4:7]] == [2100, 2000, 2048]
     assert recording(ARM, [])["ticks"] == []
 
