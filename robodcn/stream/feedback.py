@@ -32,8 +32,8 @@ from numpy.typing import NDArray
 
 from robodcn.bus import ServoBus, describe_hardware_error
 from robodcn.errors import BusError, CommError
-from robodcn.kinematics import fk
 from robodcn.planner import Trajectory
+from robodcn.planner.path import user_pose
 from robodcn.servo_units import radians_per_tick
 from robodcn.stream.clock import Clock
 from robodcn.stream.collision import predicted_currents, threshold_profile
@@ -43,6 +43,14 @@ from robodcn.stream.report import StreamStop, tracking_error
 from robodcn.stream.trace import TraceRecorder
 
 log = logging.getLogger("robodcn.stream")
+
+
+def _pose_text(pose: Sequence[float]) -> str:
+    """A tool pose for a message: x, y, θ (planar) or x, y, z, pitch (a yawed arm)."""
+    if len(pose) == 4:
+        return (f"x {pose[0]:.3f} m, y {pose[1]:.3f} m, z {pose[2]:.3f} m, "
+                f"pitch {math.degrees(pose[3]):.1f}°")
+    return f"x {pose[0]:.3f} m, y {pose[1]:.3f} m, θ {math.degrees(pose[2]):.1f}°"
 
 
 class Timeline(Protocol):
@@ -252,20 +260,19 @@ class Feedback:
             "joint": self.joint_names[j], "servo_id": int(self.bus.ids[j]),
             "current_a": float(current[j]), "threshold_a": float(threshold[j]),
             "sample": int(sample), "time_s": sample * period,
-            "pose": [float(pose[0]), float(pose[1]), float(pose[2])]}
+            "pose": [float(v) for v in pose]}
         raise StreamStop("collision",
                          f"collision at joint {self.joint_names[j]!r}: current "
                          f"{current[j]:.2f} A above {threshold[j]:.2f} A for "
                          f"{self.collision_cycles} cycles at sample {sample} "
-                         f"(t = {sample * period:.3f} s, pose x {pose[0]:.3f} m, "
-                         f"y {pose[1]:.3f} m, θ {math.degrees(pose[2]):.1f}°)")
+                         f"(t = {sample * period:.3f} s, pose {_pose_text(pose)})")
 
     def _pose_at(self, source: Any, sample: int) -> NDArray[np.float64]:
         """Planned tool pose of sample i: the trajectory's, or of the commanded joints when
         an online operation swapped the source (its samples may outrun the plan's)."""
         joint = getattr(source, "joint", None)
         if joint is not None and self.arm is not None:
-            return fk(self.arm.links, np.asarray(joint(sample))[None, :])[0]
+            return user_pose(self.arm, np.asarray(joint(sample))[None, :])[0]
         return self.poses[min(sample, len(self.poses) - 1)]
 
     # -- health ---------------------------------------------------------------------------
