@@ -15,27 +15,42 @@ Every surface that starts a move through an :class:`~robodcn.controller.ArmContr
 4. **start** it with the ticks read (the executor does not read them again).
 
 A replacement (``replace`` while a move runs) skips 2–4: it is planned from the running
-move's commanded state (:meth:`ArmController.replace_move`).
+move's commanded state (:meth:`ArmController.replace_move`): it never visits its first
+waypoint (the caller's view of where the arm is).
+
+A body of one waypoint (``{"waypoints": [G]}``) means "from the present state", for a new
+move and for a replacement alike: the surface hands a :data:`Parse` (``MoveOrder.parse``)
+and admission parses the body once the present joints are known
+(:func:`robodcn.contract.parse_request` with ``start_joints`` = the present; for a
+replacement the present pose becomes the first waypoint, which a replacement never visits).
 """
 
 from __future__ import annotations
 
 import contextlib
+import dataclasses
 from collections.abc import Callable
 from contextlib import AbstractContextManager
 from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import NDArray
 
 from robodcn import servo_units
 from robodcn.controller import ArmController
 from robodcn.errors import InputError
 from robodcn.moves import MoveRecord
 from robodcn.planner import PlanRequest, Trajectory
+from robodcn.planner.path import user_pose
 from robodcn.present import plan_from_present
 from robodcn.workflow import files
 
 #: How a surface paces planning (the HTTP service takes turns on a lock per plan size):
 #: a context manager for the request about to be planned.
 Planning = Callable[[PlanRequest], AbstractContextManager[object]]
+#: A move body parsed once the present is known: the present joints (k,) rad → the request
+#: starting there (``start_joints`` = them; a body of one waypoint needs them).
+Parse = Callable[[tuple[float, ...]], PlanRequest]
 
 
 def _unpaced(request: PlanRequest) -> AbstractContextManager[object]:
@@ -44,18 +59,46 @@ def _unpaced(request: PlanRequest) -> AbstractContextManager[object]:
 
 @dataclass(frozen=True)
 class MoveOrder:
-    """What a surface asks the arm to do: plan ``request`` from where the arm is, or play a
-    given ``trajectory`` (exactly one of the two); ``replace``: take over the running move
-    in flight (waypoints only) instead of refusing while one runs."""
+    """What a surface asks the arm to do: plan ``request`` from where the arm is, plan the
+    request ``parse`` gives once the present joints are read (a body of one waypoint: from
+    the present state), or play a given ``trajectory`` (exactly one of the three);
+    ``replace``: take over the running move in flight (waypoints only) instead of refusing
+    while one runs."""
 
     request: PlanRequest | None = None
     trajectory: Trajectory | None = None
     replace: bool = False
+    parse: Parse | None = None
 
     def __post_init__(self) -> None:
-        if (self.request is None) == (self.trajectory is None):
-            raise InputError("a move order takes a plan request or a trajectory, not both "
-                             "or neither", field="order", value=None)
+        given = [v for v in (self.request, self.trajectory, self.parse) if v is not None]
+        if len(given) != 1:
+            raise InputError("a move order takes a plan request, a parse or a trajectory: "
+                             "exactly one", field="order", value=None)
+
+    def request_at(self, joints: NDArray[np.float64]) -> PlanRequest:
+        """The plan request starting at the present ``joints`` (k,) rad: ``request``, or
+        ``parse`` of them (InputError naming the body's field, nothing moves)."""
+        if self.request is not None:
+            return self.request
+        assert self.parse is not None
+        return self.parse(tuple(float(v) for v in joints))
+
+
+def _replacement(controller: ArmController, order: MoveOrder) -> PlanRequest:
+    """The request of a replacement: ``order.request``, or a one-waypoint body parsed at the
+    running move's present joints with the pose there as its first waypoint (a replacement
+    never visits its first waypoint: it leaves from the commanded moving state) and no
+    start_joints (the start is the commanded state)."""
+    if order.request is not None:
+        return order.request
+    joints = np.asarray(controller.state().joints, dtype=np.float64)
+    request = order.request_at(joints)
+    if request.start_joints is None:
+        return request
+    here = tuple(float(v) for v in user_pose(controller.arm, joints[None, :])[0])
+    return dataclasses.replace(request, waypoints=(here, *request.waypoints),
+                               start_joints=None)
 
 
 def admit(controller: ArmController, order: MoveOrder, *,
@@ -68,19 +111,21 @@ def admit(controller: ArmController, order: MoveOrder, *,
     moves) and BusError when the servos cannot be read.
     """
     if order.replace and controller.busy:
-        if order.request is None:
+        if order.trajectory is not None:
             raise InputError("replace takes waypoints: a given trajectory cannot take over a "
                              "running move in flight (stop it first)", field="replace",
                              value=True)
-        with planning(order.request):
-            return controller.replace_move(order.request)
+        request = _replacement(controller, order)
+        with planning(request):
+            return controller.replace_move(request)
     arm = controller.arm
     with controller.admitting():
         ticks = controller.present_ticks()
         joints = servo_units.ticks_to_radians(ticks[None, :], arm.servos)[0]
-        if order.request is not None:
-            with planning(order.request):
-                trajectory = plan_from_present(arm, None, order.request, joints=joints)
+        if order.trajectory is None:
+            request = order.request_at(joints)
+            with planning(request):
+                trajectory = plan_from_present(arm, None, request, joints=joints)
         else:
             given = order.trajectory
             assert given is not None
@@ -91,4 +136,4 @@ def admit(controller: ArmController, order: MoveOrder, *,
                                      present_ticks=tuple(int(v) for v in ticks))
 
 
-__all__ = ["MoveOrder", "Planning", "admit"]
+__all__ = ["MoveOrder", "Parse", "Planning", "admit"]

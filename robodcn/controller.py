@@ -42,7 +42,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from robodcn import kinematics, servo_units
+from robodcn import servo_units
 from robodcn.bus import ServoBus, describe_hardware_error
 from robodcn.bus_worker import DEVICE_ERRORS, STATE_TIMEOUT, BusWorker, device_fault
 from robodcn.config import Arm
@@ -52,7 +52,7 @@ from robodcn.planner import Trajectory
 from robodcn.results import MoveStatus, State, StopAnswer
 from robodcn.stream import STOP_MODES, ExecutionOptions, ExecutionReport, Progress
 from robodcn.stream.online import Execution, PlanningTimes, SwitchMissed, prepare
-from robodcn.workflow import admin
+from robodcn.workflow import admin, poses
 
 log = logging.getLogger("robodcn.controller")
 
@@ -453,7 +453,7 @@ class ArmController:
                     source: str, record: MoveRecord | None) -> State:
         ticks = np.asarray(ticks, dtype=np.int64)
         joints = servo_units.ticks_to_radians(ticks[None, :], self.arm.servos)[0]
-        pose = kinematics.fk(self.arm.links, joints[None, :])[0]
+        pose = poses.tool_pose(self.arm, joints)
         return State(
             joints=joints.tolist(), pose=pose.tolist(), ticks=ticks.tolist(),
             joint_names=list(self.arm.joint_names), torque=torque,

@@ -20,7 +20,13 @@ from robodcn.http.context import Service, controller_of
 from robodcn.http.framing import HTTPError, Reply, Request, stream_head
 from robodcn.http.jsonbody import read_json, read_optional
 from robodcn.http.limits import MAX_RESPONSE
-from robodcn.http.planbody import parse_move, parse_plan, parse_trajectory_move
+from robodcn.http.planbody import (
+    check_move,
+    from_present,
+    parse_move,
+    parse_plan,
+    parse_trajectory_move,
+)
 from robodcn.http.planning import check_response_size, planning_lane
 from robodcn.planner import Trajectory, plan_request
 from robodcn.results import ArmInfo, ExecutionInfo, Health, RebootAnswer, TorqueAnswer
@@ -72,10 +78,16 @@ def _given_trajectory(server: Service, body: dict[str, Any]) -> Trajectory:
 
 def move_order(server: Service, body: Any) -> MoveOrder:
     """The :class:`~robodcn.admission.MoveOrder` of a ``POST /v1/moves`` body: waypoints to
-    plan, or a given trajectory; with or without ``replace``."""
+    plan, or a given trajectory; with or without ``replace``. One waypoint is a move from
+    the present state: its body is parsed by admission once the present joints are read
+    (its own rules are checked now)."""
     body, replace = online_ops.take_replace(body)
     if isinstance(body, dict) and "trajectory" in body:
         return MoveOrder(trajectory=_given_trajectory(server, body), replace=replace)
+    if from_present(body):
+        check_move(body)
+        arm = server.arm
+        return MoveOrder(parse=lambda joints: parse_move(arm, body, joints), replace=replace)
     return MoveOrder(request=parse_move(server.arm, body), replace=replace)
 
 

@@ -22,9 +22,19 @@ def plan_body_schema(arm: Arm | None = None) -> dict[str, Any]:
     return contract.request_schema(arm)
 
 
+#: What ``waypoints`` means in a move body, beyond the contract's description.
+MOVE_WAYPOINTS = ("In a move, one waypoint [G] runs from the arm's present state to G; with "
+                  "replace while a move runs, from the running move's commanded moving state "
+                  "(a replacement never visits its first waypoint of two or more: it is the "
+                  "caller's view of where the arm is, dropped at the switch).")
+
+
 def move_body_schema(arm: Arm | None = None) -> dict[str, Any]:
-    """JSON Schema of a ``POST /v1/moves`` body."""
-    return contract.request_schema(arm, omit=contract.MOVE_OMIT)
+    """JSON Schema of a ``POST /v1/moves`` body (``waypoints``: :data:`MOVE_WAYPOINTS`)."""
+    schema = contract.request_schema(arm, omit=contract.MOVE_OMIT)
+    waypoints = schema["properties"]["waypoints"]
+    waypoints["description"] = f"{waypoints['description']} {MOVE_WAYPOINTS}"
+    return schema
 
 
 def _over_max_items(body: Any, schema: dict[str, Any]) -> bool:
@@ -44,13 +54,14 @@ def _over_max_items(body: Any, schema: dict[str, Any]) -> bool:
     return False
 
 
-def _parse(arm: Arm, body: Any, omit: tuple[str, ...]) -> PlanRequest:
+def _parse(arm: Arm, body: Any, omit: tuple[str, ...],
+           start_joints: tuple[float, ...] | None = None) -> PlanRequest:
     """The contract's parse; a cap the body's declared schema states (``maxItems``: more
     waypoints than it takes) is a schema violation like any other, 422 naming the field.
     413 stays for bodies over the byte limit and plans too large to answer (samples), which
     no schema of the body can say."""
     try:
-        return contract.parse_request(body, arm, omit=omit)
+        return contract.parse_request(body, arm, omit=omit, start_joints=start_joints)
     except TooLargeError as exc:
         if not _over_max_items(body, contract.request_schema(arm, omit=omit)):
             raise
@@ -63,9 +74,25 @@ def parse_plan(arm: Arm, body: Any) -> PlanRequest:
     return _parse(arm, body, ())
 
 
-def parse_move(arm: Arm, body: Any) -> PlanRequest:
-    """A decoded ``/v1/moves`` body → a validated PlanRequest without start_joints."""
-    return _parse(arm, body, contract.MOVE_OMIT)
+def parse_move(arm: Arm, body: Any, start_joints: tuple[float, ...] | None = None
+               ) -> PlanRequest:
+    """A decoded ``/v1/moves`` body → a validated PlanRequest: without start_joints, or
+    starting at the present ``start_joints`` (k,) rad (then one waypoint is enough: from
+    the present state to it)."""
+    return _parse(arm, body, contract.MOVE_OMIT, start_joints)
+
+
+def from_present(body: Any) -> bool:
+    """A move body of one waypoint (``{"waypoints": [G]}``): it runs from the present state,
+    so it is parsed once the present joints are read (:func:`parse_move` with them)."""
+    return isinstance(body, dict) and isinstance(body.get("waypoints"), list) \
+        and len(body["waypoints"]) == 1
+
+
+def check_move(body: Any) -> None:
+    """The rules of a move body that need no start (an object, known fields, JSON types;
+    :func:`robodcn.contract.check_body`): refused now, before the arm is read."""
+    contract.check_body(body, contract.MOVE_OMIT)
 
 
 def _fields(omit: tuple[str, ...] = ()) -> dict[str, tuple[dict[str, Any], str]]:
