@@ -1,0 +1,81 @@
+"""Moving the packaged OpenMANIPULATOR-X from the command line, on the wire (firmware_sim's
+physics omx under gravity): ``sim``/``plan``/``move`` with four-number poses, torque off that
+asks ``--yes`` on an arm that would fall (``torque off``, ``--release``), lowering to the
+rest pose first."""
+
+from __future__ import annotations
+
+import json
+import math
+
+import numpy as np
+import pytest
+from conftest import CONFIGS
+from workflow_helpers import run_cli
+
+from robodcn import kinematics, servo_units
+from robodcn.config import load_arm
+from robodcn.simulated import simulated_arm
+
+OMX = load_arm(CONFIGS / "omx.toml")
+#: A reachable goal in front of the arm, turned 20° to the left: x, y, z (m), pitch (deg).
+GOAL = (0.18, 0.065, 0.15, -20.0)
+GOAL_ARG = ",".join(f"{v:g}" for v in GOAL)
+COMPLETED = (0, 5)
+
+
+@pytest.fixture
+def held_omx():
+    """firmware_sim's physics omx (ids 11-15), held at its home pose as a previous session
+    left it; yields the SimBus, whose pty the command under test opens."""
+    with simulated_arm(OMX, timing="fast") as s:
+        s.bus.close()                     # the command opens the pty itself
+        yield s.sim
+    assert not s.sim.errors, s.sim.errors
+
+
+def joints_of(sim) -> np.ndarray:
+    ticks = [sim.servo(i).present_position for i in OMX.servo_ids]
+    return servo_units.ticks_to_radians(np.array(ticks), OMX.servos)
+
+
+def pose_of(sim) -> np.ndarray:
+    return kinematics.fk_yawed(OMX.chain, joints_of(sim)[None])[0]
+
+
+def near_goal(pose, goal=GOAL, tol_m=0.004, tol_deg=1.5) -> bool:
+    x, y, z, pitch = pose
+    return (np.allclose((x, y, z), goal[:3], atol=tol_m)
+            and abs(math.degrees(pitch) - goal[3]) < tol_deg)
+
+
+# -- task: sim, plan and move with four numbers --------------------------------------------------
+
+def test_sim_and_plan_take_x_y_z_pitch(monkeypatch, capsys):
+    assert run_cli(monkeypatch, ["sim", "--arm", "omx", "--to", GOAL_ARG, "--timing", "fast",
+                                 "--json"]) in COMPLETED
+    report = json.loads(capsys.readouterr().out)
+    assert report["stop_reason"] == "completed" and report["joint_names"] == list(
+        OMX.joint_names)
+    assert max(abs(e) for e in report["final_error_ticks"]) <= 2
+    q = np.array(report["final_positions"], dtype=float)
+    q = servo_units.ticks_to_radians(q, OMX.servos)
+    assert near_goal(kinematics.fk_yawed(OMX.chain, q[None])[0])
+    assert run_cli(monkeypatch, ["plan", "--arm", "omx", "--from", "0.2,0,0.2,0", "--to",
+                                 GOAL_ARG, "--format", "json"]) == 0
+    traj = json.loads(capsys.readouterr().out)
+    assert len(traj["poses"][0]) == 4
+    assert np.allclose(traj["poses"][-1][:3], GOAL[:3], atol=1e-6)
+    assert math.degrees(traj["poses"][-1][3]) == pytest.approx(GOAL[3], abs=1e-6)
+
+
+def test_move_on_the_wire_reaches_the_goal_and_holds_it(held_omx, monkeypatch, capsys):
+    assert near_goal(pose_of(held_omx), (*OMX.home[:3], math.degrees(OMX.home[3])))
+    code = run_cli(monkeypatch, ["move", "--arm", "omx", "--device", held_omx.port_path,
+                                 "--to", GOAL_ARG, "--json"])
+    report = json.loads(capsys.readouterr().out)
+    assert code in COMPLETED, report
+    assert report["stop_reason"] == "completed" and not report["released"]
+    assert max(abs(e) for e in report["final_error_ticks"]) <= 2
+    assert near_goal(pose_of(held_omx))
+    assert all(held_omx.servo(i).torque_enabled for i in OMX.servo_ids)   # it holds
