@@ -172,6 +172,17 @@ class ArmInfo:
     servo_ids: list[int]
     source: str | None
     config: dict[str, Any] = field(metadata=_doc("robodcn.config.Arm.to_dict()"))
+    pose_axes: list[str] = field(default_factory=lambda: ["x", "y", "theta"], metadata={
+        "description": "the numbers of a pose (waypoints rows, Trajectory poses, State "
+                       "pose), in order: x, y, theta of a planar arm; x, y, z, pitch of an "
+                       "arm with a base yaw (m, rad)",
+        "schema": {"oneOf": [{"const": ["x", "y", "theta"]},
+                             {"const": ["x", "y", "z", "pitch"]}]}})
+    payload_kg: float = field(default=0.0, metadata=_doc(
+        "the default payload (kg) at the tool point: the payload_kg of a plan or move body "
+        "that gives none ([dynamics] payload_kg)"))
+    gripper: bool = field(default=False, metadata=_doc(
+        "the arm has a [gripper] (POST /v1/gripper drives it)"))
     execution: ExecutionInfo | None = field(default=None, metadata=_doc(
         "what every move the service starts executes with, or null (no arm attached)"))
 
@@ -221,6 +232,8 @@ class MoveInfo:
     duration: float
     tracking_error: float | None
     error: ErrorDetail | None
+    report: dict[str, Any] | None = field(default=None, metadata=_doc(
+        "the move's report once it has finished (robodcn.stream.ExecutionReport), else null"))
 
 
 @dataclass

@@ -47,7 +47,8 @@ def op_arm(server: Service, request: Request, params: dict[str, str]
     execution = None if controller is None else ExecutionInfo.of(controller.execute_options)
     return 200, ArmInfo(name=arm.name, dof=arm.dof, joint_names=list(arm.joint_names),
                         servo_ids=list(arm.servo_ids), source=arm.source, config=arm.to_dict(),
-                        execution=execution)
+                        pose_axes=list(arm.pose_keys), payload_kg=arm.payload_kg,
+                        gripper=arm.gripper is not None, execution=execution)
 
 
 def op_plan(server: Service, request: Request, params: dict[str, str]
