@@ -11,11 +11,20 @@ Three laws, all sampled at the stream rate:
 * :func:`brake` — phase-plane braking (Bobrow, Dubowsky & Gibson, "Time-optimal control of
   robotic manipulators along specified paths", IJRR 4(3), 1985): from the present (σ, σ̇)
   integrate the most negative σ̈ that keeps every joint's acceleration
-  q'σ̈ + q''σ̇² within ±a, until σ̇ = 0. With the semi-implicit step σ̇ₙ₊₁ = σ̇ₙ + uₙΔt,
-  σₙ₊₁ = σₙ + σ̇ₙ₊₁Δt the second difference of σ is exactly uₙΔt², so the joints'
-  finite-difference accelerations on the wire are the ones the step allowed.
+  q'σ̈ + q''σ̇² within ±a (and, on an arm with torque limits, every joint's torque
+  τ = A(σ)σ̈ + B(σ)σ̇² + C(σ) within ±τ_max: :func:`robodcn.dynamics.
+  path_torque_coefficients`, the rows TOPP-RA takes), until σ̇ = 0. With the
+  semi-implicit step σ̇ₙ₊₁ = σ̇ₙ + uₙΔt, σₙ₊₁ = σₙ + σ̇ₙ₊₁Δt the second difference of σ
+  is exactly uₙΔt², so the joints' finite-difference accelerations on the wire are the
+  ones the step allowed.
 * :func:`retime` — :func:`robodcn.path_timing.time_optimal` (TOPP-RA) on the rest of the
-  path from the present σ̇ (speed scaling: limits v·k, a·k², j·k³).
+  path from the present σ̇ (speed scaling: limits v·k, a·k², j·k³; the torque limits, which
+  are physical, unscaled).
+
+Every law is checked on the joints it sends (:func:`excess`: finite differences at the
+stream rate; the torque of each sample from its central differences by
+:func:`robodcn.dynamics.inverse_dynamics`, as the planner's validation does) and slowed
+until it holds.
 * :func:`brake_jerk` — the same brake on an arm with jerk limits: the path acceleration σ̈
   moves at most one sample of the jerk bound per sample (|q'σ⃛ + 3q''σ̇σ̈| ≤ j), down to the
   most negative σ̈ the acceleration limits allow and back up to 0 exactly when σ̇ reaches
@@ -36,6 +45,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
+from robodcn.dynamics import inverse_dynamics, path_torque_coefficients
 from robodcn.errors import InputError
 from robodcn.path_timing import (
     JointLimits,
@@ -44,6 +54,7 @@ from robodcn.path_timing import (
     path_derivatives,
     time_optimal,
 )
+from robodcn.path_timing.torque import TorqueLimits
 
 #: share of each acceleration limit a brake uses (margin for the O(Δt) error of the step)
 BRAKE_SHARE = 0.995
@@ -179,28 +190,41 @@ Limits = JointLimits  # re-export (transitional): the old name of the one JointL
 
 
 def brake(path: JointPath, sigma0: float, sd0: float, a: NDArray[np.float64], rate_hz: float,
-          *, until_sd: float = 0.0, max_samples: int = 1_000_000) -> NDArray[np.float64]:
+          *, until_sd: float = 0.0, max_samples: int = 1_000_000,
+          torque: TorqueLimits | None = None) -> NDArray[np.float64]:
     """σ of the samples after (σ₀, σ̇₀) of the fastest brake along the path (module doc).
 
     Ends at the first sample with σ̇ ≤ ``until_sd`` (0: at rest; the last σ then repeats no
-    earlier one). Uses ``BRAKE_SHARE`` of ``a``. Returns σ (m,), m ≥ 0.
+    earlier one). Uses ``BRAKE_SHARE`` of ``a``; ``torque`` (None: none) bounds σ̈ by the
+    torque rows A σ̈ + B σ̇² + C within ±τ_max as given (a share is the caller's:
+    :func:`brake_checked`). Returns σ (m,), m ≥ 0.
     """
     dt = 1.0 / rate_hz
     derivs = path.derivatives()
+    rows = None if torque is None else torque_coefficients(path, torque)
     grid = path.sigma
     amax = np.asarray(a, dtype=np.float64) * BRAKE_SHARE
     out: list[float] = []
     s, sd = float(sigma0), float(sd0)
     while sd > until_sd and len(out) < max_samples:
         d1, d2 = _local(derivs, grid, s)
-        u = min(_bounds(d1, d2 * sd * sd, amax)[0], 0.0)
+        lo = _bounds(d1, d2 * sd * sd, amax)[0]
+        t_lo = -math.inf
+        if rows is not None:
+            ta, tb, tc = _local(rows, grid, s)
+            t_lo = _bounds(ta, tb * sd * sd + tc, torque.tau)[0]
+            lo = max(lo, t_lo)
+        u = min(lo, 0.0)
         nxt = sd + u * dt
         if nxt <= until_sd or not math.isfinite(nxt):
             if until_sd > 0.0:
                 nxt = until_sd
             else:
                 # the last step to rest has no centripetal part: |q'|·σ̇/Δt within a
+                # (and A·(−σ̇/Δt) + C within the torque limits)
                 final = _bounds(d1, np.zeros_like(d1), amax)[1] * dt
+                if rows is not None:
+                    final = min(final, max(-_bounds(ta, tc, torque.tau)[0], 0.0) * dt)
                 if sd <= final:
                     break
                 nxt = final
@@ -210,6 +234,62 @@ def brake(path: JointPath, sigma0: float, sd0: float, a: NDArray[np.float64], ra
         if s >= path.length:
             break
     return np.asarray(out, dtype=np.float64)
+
+
+def brake_checked(path: JointPath, sigma0: float, sd0: float, a: NDArray[np.float64],
+                  rate_hz: float, torque: TorqueLimits | None,
+                  history: NDArray[np.float64] | None = None, *,
+                  until_sd: float = 0.0) -> NDArray[np.float64]:
+    """:func:`brake` under ``torque`` (None: exactly :func:`brake`), checked on the joints
+    it sends after ``history`` (the commanded samples up to the switch, or None) by
+    :func:`torque_excess`: the torque limits' share is lowered until every sample holds
+    (the chords between samples and the σ̇ of a central difference land a little off the
+    rows' model); the last share tried when none within :data:`BRAKE_TRIES` does."""
+    if torque is None:
+        return brake(path, sigma0, sd0, a, rate_hz, until_sd=until_sd)
+    share = BRAKE_SHARE
+    for _ in range(BRAKE_TRIES):
+        out = brake(path, sigma0, sd0, a, rate_hz, until_sd=until_sd,
+                    torque=torque.shrunk(share))
+        if not out.size:
+            return out
+        joints = path.at(out) if history is None else np.vstack([history, path.at(out)])
+        over = torque_excess(joints, torque, rate_hz, to_rest=until_sd <= 0.0)
+        if over <= 1.0:
+            break
+        share *= 0.99 / over
+    return out
+
+
+def torque_coefficients(path: JointPath, torque: TorqueLimits
+                        ) -> tuple[NDArray, NDArray, NDArray]:
+    """(A, B, C) (m, k) at the path samples: τ = A σ̈ + B σ̇² + C
+    (:func:`robodcn.dynamics.path_torque_coefficients` on q, q′, q″; kept per payload)."""
+    key = (id(torque.chain), torque.payload_kg)
+    cached = path.__dict__.get("_abc")
+    if cached is None or cached[0] != key:
+        d1, d2 = path.derivatives()
+        cached = (key, path_torque_coefficients(torque.chain, path.q, d1, d2,
+                                                torque.payload_kg))
+        object.__setattr__(path, "_abc", cached)
+    return cached[1]
+
+
+def torque_excess(joints: NDArray[np.float64], torque: TorqueLimits, rate_hz: float, *,
+                  to_rest: bool = True) -> float:
+    """Largest |τ|/τ_max of the samples of ``joints`` (at ``rate_hz``; with ``to_rest`` the
+    arm holds the last sample after): τ of each interior sample q_i from the central
+    differences q̇ = (q_{i+1} − q_{i−1})·rate/2, q̈ = (q_{i+1} − 2q_i + q_{i−1})·rate²
+    (:func:`robodcn.dynamics.inverse_dynamics`: links, payload, gravity, rotor inertia), as
+    the planner's validation charges it. ≤ 1 when every torque limit holds."""
+    q = np.vstack([joints, joints[-1:], joints[-1:]]) if to_rest else joints
+    if q.shape[0] < 3:
+        return 0.0
+    mid = q[1:-1]
+    qd = (q[2:] - q[:-2]) * (0.5 * rate_hz)
+    qdd = (q[2:] - 2.0 * mid + q[:-2]) * (rate_hz * rate_hz)
+    tau = inverse_dynamics(torque.chain, mid, qd, qdd, torque.payload_kg)
+    return float((np.abs(tau) / torque.tau).max())
 
 
 def _local(derivs: tuple[NDArray, ...], grid: NDArray, s: float) -> list[NDArray]:
@@ -243,7 +323,8 @@ def brake_jerk(path: JointPath, sigma0: float, sd0: float, sdd0: float, limits: 
                max_samples: int = 1_000_000) -> NDArray[np.float64] | None:
     """σ of the samples after (σ₀, σ̇₀, σ̈₀) of the fastest jerk-limited brake (module doc).
 
-    Each sample chooses σ̈ₙ: as low as the acceleration bound (|q'σ̈ + q''σ̇²| ≤ a) and the
+    Each sample chooses σ̈ₙ: as low as the acceleration bound (|q'σ̈ + q''σ̇²| ≤ a; with
+    ``limits.torque`` also |Aσ̈ + Bσ̇² + C| ≤ τ_max, :func:`torque_coefficients`) and the
     jerk bound from σ̈ₙ₋₁ (|q'(σ̈ₙ − σ̈ₙ₋₁)/Δt + 3q''σ̇σ̈ₙ₋₁ + q'''σ̇³| ≤ j) allow, but no lower than
     the ramp back to σ̈ = 0 can recover: σ̇ₙ − loss(σ̈ₙ) ≥ ``until_sd`` (the velocity a ramp
     at the jerk bound takes, :func:`_ramp_loss`, from the quadratic's root). What rounding
@@ -258,6 +339,8 @@ def brake_jerk(path: JointPath, sigma0: float, sd0: float, sdd0: float, limits: 
     derivs = path.derivatives(3)
     grid = path.sigma
     amax, jmax = limits.a * share, limits.j * share
+    torque = None if limits.torque is None else limits.torque.shrunk(share)
+    rows = None if torque is None else torque_coefficients(path, torque)
     s, sd, u = float(sigma0), float(sd0), float(sdd0)
     accel: list[float] = []
     ramp_start = 0
@@ -268,6 +351,9 @@ def brake_jerk(path: JointPath, sigma0: float, sd0: float, sdd0: float, limits: 
                              field="sd_start", value=sd0)
         d1, d2, d3 = _local(derivs, grid, s)
         a_lo, _ = _bounds(d1, d2 * sd * sd, amax)
+        if rows is not None:
+            ta, tb, tc = _local(rows, grid, s)
+            a_lo = max(a_lo, _bounds(ta, tb * sd * sd + tc, torque.tau)[0])
         w_lo, w_hi = _bounds(d1, 3.0 * d2 * sd * u + d3 * sd ** 3, jmax)
         w_lo, w_hi = min(w_lo, 0.0), max(w_hi, 1e-9)
         hi = u + w_hi * dt
@@ -341,7 +427,8 @@ def controllable_speed(path: JointPath, sigma0: float, limits: JointLimits, *,
     if s.shape[0] < 3:
         return 0.0
     return max_start_speed(q, s, limits.v, limits.a, stops=stops,
-                           max_stages=ONLINE_STAGES if max_stages is None else max_stages)
+                           max_stages=ONLINE_STAGES if max_stages is None else max_stages,
+                           **_torque_kw(limits.torque))
 
 
 def retime(path: JointPath, sigma0: float, sd0: float, limits: JointLimits, rate_hz: float,
@@ -369,8 +456,9 @@ def retime(path: JointPath, sigma0: float, sd0: float, limits: JointLimits, rate
     for _ in range(4):
         v, a = limits.v * share, limits.a * share
         j = None if limits.j is None else limits.j * share
+        torque = None if limits.torque is None else limits.torque.shrunk(share)
         law = _law(q, s, v, a, j, sd0, sdd0 if limits.j is not None else 0.0, stops,
-                   rate_hz, None if sd_cap is None else sd_cap(s))
+                   rate_hz, None if sd_cap is None else sd_cap(s), torque)
         out = law.sample(rate_hz).s[1:]
         # the final samples may sit at the end within rounding: keep one
         end = np.flatnonzero(out >= s[-1] - 1e-12)
@@ -389,7 +477,8 @@ def excess(joints: NDArray[np.float64], limits: JointLimits, rate_hz: float, *,
            to_rest: bool = True) -> float:
     """Largest ratio of a finite-difference joint velocity, acceleration or (with jerk
     limits) jerk of ``joints`` (sampled at ``rate_hz``; with ``to_rest`` the arm holds the
-    last sample after) to its limit: ≤ 1 when every limit holds. The jerk needs four
+    last sample after) to its limit, and (with ``limits.torque``) of a sample's torque
+    (:func:`torque_excess`): ≤ 1 when every limit holds. The jerk needs four
     samples: give the three commanded before a switch first to check across it."""
     q = np.vstack([joints, joints[-1:], joints[-1:]]) if to_rest else joints
     if q.shape[0] < 3:
@@ -399,31 +488,45 @@ def excess(joints: NDArray[np.float64], limits: JointLimits, rate_hz: float, *,
     worst = max((np.abs(vel) / limits.v).max(), (np.abs(acc) / limits.a).max())
     if limits.j is not None and acc.shape[0] > 1:
         worst = max(worst, (np.abs(np.diff(acc, axis=0)) * rate_hz / limits.j).max())
+    if limits.torque is not None:
+        worst = max(worst, torque_excess(joints, limits.torque, rate_hz, to_rest=to_rest))
     return float(worst)
 
 
 def _law(q: NDArray, s: NDArray, v: NDArray, a: NDArray, j: NDArray | None, sd0: float,
          sdd0: float, stops: Sequence[float], rate_hz: float,
-         sd_cap: NDArray | None = None) -> PathTiming:
-    """time_optimal from σ̇₀; a σ̇₀ over the controllable speed by rounding only (1e-3) starts
-    at that speed instead (a larger excess is raised: brake first)."""
+         sd_cap: NDArray | None = None, torque: TorqueLimits | None = None) -> PathTiming:
+    """time_optimal from σ̇₀ (under ``torque`` too); a σ̇₀ over the controllable speed by
+    rounding only (1e-3) starts at that speed instead (a larger excess is raised: brake
+    first)."""
+    extra = _torque_kw(torque)
     try:
         return time_optimal(q, s, v, a, j, sd_start=sd0, sdd_start=sdd0, stops=stops,
-                            rate_hz=rate_hz, max_stages=ONLINE_STAGES, sd_cap=sd_cap)
+                            rate_hz=rate_hz, max_stages=ONLINE_STAGES, sd_cap=sd_cap,
+                            **extra)
     except InputError:
         # (time_optimal refuses a σ̇₀ above the controllable speed before anything else:
         # within rounding of it, start at it)
-        top = controllable_at(q, s, v, a, stops)
+        top = controllable_at(q, s, v, a, stops, torque)
         if not top < sd0 <= top * 1.001:
             raise
         return time_optimal(q, s, v, a, j, sd_start=top, sdd_start=sdd0, stops=stops,
-                            rate_hz=rate_hz, max_stages=ONLINE_STAGES, sd_cap=sd_cap)
+                            rate_hz=rate_hz, max_stages=ONLINE_STAGES, sd_cap=sd_cap,
+                            **extra)
 
 
 def controllable_at(q: NDArray, s: NDArray, v: NDArray, a: NDArray,
-                    stops: Sequence[float]) -> float:
-    """max_start_speed of (q, s) under v, a (the start speed time_optimal accepts)."""
-    return max_start_speed(q, s, v, a, stops=stops, max_stages=ONLINE_STAGES)
+                    stops: Sequence[float], torque: TorqueLimits | None = None) -> float:
+    """max_start_speed of (q, s) under v, a and ``torque`` (the start speed time_optimal
+    accepts)."""
+    return max_start_speed(q, s, v, a, stops=stops, max_stages=ONLINE_STAGES,
+                           **_torque_kw(torque))
+
+
+def _torque_kw(torque: TorqueLimits | None) -> dict[str, TorqueLimits]:
+    """``torque=`` for the path timing when there are torque limits (none otherwise: an arm
+    without them is timed by exactly the call it always was)."""
+    return {} if torque is None else {"torque": torque}
 
 
 def blend_start(q_new: NDArray[np.float64], direction: NDArray[np.float64],

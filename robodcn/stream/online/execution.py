@@ -12,6 +12,9 @@ any thread): :meth:`Execution.stop` (``"smooth"``: brake along the path, then ho
 (:mod:`~robodcn.stream.online.speed`) and :meth:`Execution.retarget`
 (:mod:`~robodcn.stream.online.retarget`).
 
+On an arm with torque limits (``max_torque_nm``) every law keeps |τ| ≤ τ_max on every joint
+at every sample (the rigid-body inverse dynamics with the move's ``payload_kg``, default the
+arm's: :class:`~robodcn.path_timing.torque.TorqueLimits` in the :class:`Timing`'s limits).
 On an arm with jerk limits every law keeps them too, across the switch: the brake ramps
 the path acceleration within the jerk bound, the re-timing starts from (σ̇, σ̈), and every
 new tail is checked with the three samples before it. A retarget under jerk limits goes
@@ -31,12 +34,12 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from robodcn import kinematics
 from robodcn.bus import ServoBus
 from robodcn.config import Arm
 from robodcn.errors import InputError, RobodcnError
 from robodcn.path_timing import JointLimits
 from robodcn.planner import PlanRequest, Trajectory
+from robodcn.planner.path import user_pose
 from robodcn.stream.online.counts import report_from
 from robodcn.stream.online.planning_times import PlanningTimes
 from robodcn.stream.online.retarget import Retargeting
@@ -46,7 +49,7 @@ from robodcn.stream.online.state import State
 from robodcn.stream.online.stop import PathEnds, PauseKeeper, brake_to_rest, pause_hold
 from robodcn.stream.online.switch import Switch, Switcher
 from robodcn.stream.online.timing import Timing
-from robodcn.stream.online_path import JointPath, brake, retime
+from robodcn.stream.online_path import JointPath, brake_checked, retime
 from robodcn.stream.options import ExecutionOptions
 from robodcn.stream.report import ExecutionReport
 from robodcn.stream.signal import StopSignal
@@ -76,14 +79,14 @@ def warm_up(trajectory: Trajectory, arm: Arm | None, planning_times: PlanningTim
         return
     mid = float(sigma[len(sigma) // 2])
     retime(path, mid, 0.0, limits, rate)
-    brake(path, mid, 1e-3, limits.a, rate)
+    brake_checked(path, mid, 1e-3, limits.a, rate, limits.torque)
     q = trajectory.joints
     i = len(q) // 2
     if planning_times.warmed or limits.j is not None or i < 2:
         return
     planning_times.warmed = True
     state = State.of_history(i, q[i - 2:i + 1], path, float(sigma[i]), rate)
-    end = tuple(kinematics.fk(arm.links, q[-1:])[0])
+    end = tuple(float(v) for v in user_pose(arm, q[-1:])[0])
     try:
         # (its time is not a guess for a switch: planning beside a running stream, which
         # shares the interpreter, takes about twice as long)
@@ -145,13 +148,21 @@ class Execution:
         if self.arm is None and planned.trajectory.request is not None:
             self.arm = planned.trajectory.request.arm
         if self.arm is not None:
-            self._timing = Timing(JointLimits.of(self.arm), root.rate_hz)
+            self._timing = Timing(JointLimits.of(self.arm, self._payload(planned.trajectory)),
+                                  root.rate_hz)
             self._timing.register_law(root.path, root.sigma, 1.0)
             self._switcher = Switcher(stream, self.bus, self._timing, self.planning_times,
                                       self._done, self._lock)
         self._stream = stream
         self.status = "running"
         self._attached.set()
+
+    def _payload(self, trajectory: Trajectory) -> float | None:
+        """The payload the online laws' torque limits carry: the move's request's
+        ``payload_kg`` (None without a request: the arm's)."""
+        request = trajectory.request if trajectory.request is not None else (
+            self.trajectory.request)
+        return None if request is None else request.payload_kg
 
     def run(self) -> ExecutionReport | None:
         """Stream on the calling thread until the end (:func:`prepare`); the report, or
@@ -239,8 +250,8 @@ class Execution:
         index = range(first, end)
         joints = np.array([src.joint(i) for i in index])
         ticks = np.array([src.goal(i) for i in index])
-        poses = kinematics.fk(self.arm.links, joints)
-        poses[:, 2] = np.unwrap(poses[:, 2])
+        poses = user_pose(self.arm, joints)
+        poses[:, -1] = np.unwrap(poses[:, -1])
         method = request.method if request is not None else "sclerp"
         if isinstance(method, tuple):
             method = list(method)

@@ -34,11 +34,11 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from robodcn import kinematics
 from robodcn.config import Arm
 from robodcn.errors import AccelerationLimitError, InputError, VelocityLimitError
 from robodcn.path_timing import JointLimits, moving_start
 from robodcn.path_timing.moving_start import JointState, StartSegment
+from robodcn.planner.path import user_pose
 from robodcn.stream.online.replacement import Replacement, Target
 from robodcn.stream.online.samples import Segment
 from robodcn.stream.online.state import State
@@ -174,7 +174,7 @@ class Retargeting:
     def geometry(self, q: NDArray, rep: Replacement) -> JointPath:
         """The planner's path from joints ``q`` through the goals, by arc length (its
         first sample exactly ``q``; C² between its samples)."""
-        here = tuple(kinematics.fk(self.arm.links, q[None, :])[0])
+        here = tuple(float(v) for v in user_pose(self.arm, q[None, :])[0])
         try:
             joints = rep.geometry(q, here, GEOMETRY_RATE_HZ, GEOMETRY_DURATION_S)
         except (VelocityLimitError, AccelerationLimitError):

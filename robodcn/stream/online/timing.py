@@ -1,7 +1,9 @@
 """The time laws an online operation puts on the present path, from a commanded state.
 
-A :class:`Timing` holds an execution's full limits and stream rate and the first law each
-path was timed with (what a speed scale k must stay k × under):
+A :class:`Timing` holds an execution's full limits (with the torque limits of its arm and
+payload when the arm sets ``max_torque_nm``: ``limits.torque``; every law below keeps them)
+and stream rate and the first law each path was timed with (what a speed scale k must stay
+k × under):
 
 * :meth:`Timing.brake` — the fastest brake along the path to a speed (jerk-limited on an
   arm with jerk limits: :func:`~robodcn.stream.online_path.brake_jerk_checked`), or None
@@ -31,7 +33,7 @@ from robodcn.stream.online.samples import Segment
 from robodcn.stream.online.state import State
 from robodcn.stream.online_path import (
     JointPath,
-    brake,
+    brake_checked,
     brake_jerk_checked,
     controllable_speed,
     retime,
@@ -72,7 +74,8 @@ class Timing:
         ``until_sd``) under the full limits; None when the path ends first."""
         limits, rate = self.limits, self.rate
         if limits.j is None:
-            sigma = brake(state.path, state.sigma, state.sd, limits.a, rate, until_sd=until_sd)
+            sigma = brake_checked(state.path, state.sigma, state.sd, limits.a, rate,
+                                  limits.torque, state.history, until_sd=until_sd)
             # a brake that runs into the path's end is cut there (a step to rest): the move's
             # own end, braking within the limits, comes first
             ends = sigma.size and sigma[-1] >= state.path.length - 1e-12 and state.sd > 0.0
@@ -124,7 +127,9 @@ class Timing:
         if allowed is None:
             allowed = allow(s0) if sd > 0 else math.inf
         if sd > allowed * 0.98:
-            pre = brake(path, s0, sd, full.a, rate, until_sd=allowed * 0.95)
+            pre = brake_checked(path, s0, sd, full.a, rate, full.torque,
+                                state.history if path is state.path else None,
+                                until_sd=allowed * 0.95)
             if pre.size:
                 sd = (pre[-1] - (pre[-2] if pre.size > 1 else s0)) * rate
                 s0 = float(pre[-1])
@@ -142,7 +147,8 @@ class Timing:
                 to_rest = attempt >= RETIME_TRIES - 2
                 until = 0.0 if to_rest else min(0.8 * sd, 0.95 * allow(s0))
                 prev = pre[-1] if pre.size else s0
-                more = brake(path, s0, sd, full.a, rate, until_sd=until)
+                more = brake_checked(path, s0, sd, full.a, rate, full.torque,
+                                     until_sd=until)
                 if to_rest:
                     # one sample at rest where the brake ends (its last step and the law's
                     # first step from rest are two accelerations, not one)

@@ -1,0 +1,223 @@
+"""Torque limits in the online operations (issue 19): a smooth stop, a pause and resume, a
+speed change and a retarget keep |τ| ≤ max_torque_nm on every joint at every commanded
+sample, on firmware_sim over a pty on virtual time (as tests/test_online_virtual.py).
+
+The arm is the packaged OpenMANIPULATOR-X with acceleration (×15) and velocity (×3, at most
+4.5 rad/s) limits its servos cannot always deliver: on the packaged arm the acceleration
+limits alone keep every torque under max_torque_nm (a test there could not fail). τ is
+:func:`robodcn.dynamics.inverse_dynamics` of the commanded samples' central differences
+(from the three samples before the switch on, the arm at rest after the last), with the
+move's payload. Each operation is run again with the online laws blind to torque (the
+execution's limits without ``torque``): that exceeds the torque limits, so these tests can
+fail. Arms without ``max_torque_nm`` get the same laws bit for bit as before (digests of
+the laws' samples, recorded from the code before the torque limits).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import hashlib
+
+import numpy as np
+import pytest
+from conftest import ARM3R, CONFIGS
+from online_helpers import GOAL, JERK_ARM, START
+
+import robodcn.stream.online.execution as execution_module
+from robodcn import kinematics, plan, servo_units
+from robodcn.config import load_arm, rigid_chain
+from robodcn.dynamics import inverse_dynamics
+from robodcn.path_timing import JointLimits
+from robodcn.planner.path import user_pose
+from robodcn.simulated import simulated_arm
+from robodcn.stream import VirtualClock, start
+from robodcn.stream.online.retarget import Retargeting
+from robodcn.stream.online.state import State
+from robodcn.stream.online.timing import Timing
+from robodcn.stream.online_path import JointPath
+
+OMX = load_arm(CONFIGS / "omx.toml")
+#: the OM-X with acceleration and velocity limits torque binds under
+FAST = dataclasses.replace(OMX, joints=tuple(
+    dataclasses.replace(j, max_acceleration=15.0 * j.max_acceleration,
+                        max_velocity=min(3.0 * j.max_velocity, 4.5)) for j in OMX.joints))
+TAU = np.array(FAST.max_torques, dtype=np.float64)
+CHAIN = rigid_chain(FAST)
+Q0 = np.array([0.0, -1.0, 0.3, 0.7])
+Q1 = np.array([1.5, 0.9, -0.8, 1.2])
+#: a retarget's new goal: joints, and the pose there
+Q_NEW = np.array([-0.6, 0.6, -0.4, 1.0])
+#: rounding of a central difference on top of the laws' own margins
+SLACK = 1e-6
+
+
+def _pose(q: np.ndarray) -> tuple[float, ...]:
+    return tuple(float(v) for v in user_pose(FAST, q[None])[0])
+
+
+@pytest.fixture
+def sa():
+    with simulated_arm(FAST, timing="fast", dynamics=False, start_joints=Q0) as s:
+        yield s
+
+
+def _move(payload: float):
+    return plan(FAST, [_pose(Q0), _pose(Q1)], start_joints=tuple(Q0), payload_kg=payload)
+
+
+def _run(sa, traj, steps, timeout=60.0):
+    """On virtual time: for each (sample, op) let the loop send samples up to ``sample`` − 1,
+    hold it there and run ``op(execution)``; release, wait. The execution and the commanded
+    joints of every sample sent (the wire carries exactly their ticks)."""
+    rate = traj.rate_hz
+    clock = VirtualClock()
+    clock.hold(0.0)
+    sa.sim.clear_log()
+    ids = FAST.servo_ids
+    before = len(sa.sim.goal_history(ids[0]))
+    ex = start(traj, sa.bus, skip_late=False, compensation=False, clock=clock, watchdog_ms=0)
+    try:
+        assert clock.wait_parked(), ex.error
+        for at, op in steps:
+            clock.hold(ex.stream.t_start + (at - 0.5) / rate)
+            assert clock.wait_parked()
+            assert ex.sample == at - 1
+            op(ex)
+    finally:
+        clock.release()
+    report = ex.wait(timeout)
+    assert report is not None and ex.done
+    index, _, joints = ex.sent()
+    assert (np.diff(index) == 1).all()
+    wire = np.array([sa.sim.goal_history(i)[before:] for i in ids]).T
+    ticks = servo_units.radians_to_ticks(joints, FAST.servos)
+    assert np.array_equal(wire[:len(ticks)], ticks)
+    return report, ex, joints
+
+
+def _torque_ratio(joints: np.ndarray, first: int, payload: float) -> np.ndarray:
+    """max |τ|/τ_max per joint over the samples from ``first`` − 3 on (central differences
+    at the stream rate, at rest after the last sample)."""
+    rate = _move_rate()
+    q = np.vstack([joints[first - 4:], joints[-1:], joints[-1:]])
+    mid = q[1:-1]
+    qd = (q[2:] - q[:-2]) * (0.5 * rate)
+    qdd = (q[2:] - 2.0 * mid + q[:-2]) * rate * rate
+    return (np.abs(inverse_dynamics(CHAIN, mid, qd, qdd, payload)) / TAU).max(axis=0)
+
+
+def _move_rate() -> float:
+    return float(FAST.bus.rate_hz)
+
+
+class _BlindTiming(Timing):
+    """The online laws without torque limits: the execution's limits lack ``torque``."""
+
+    def __init__(self, limits: JointLimits, rate_hz: float) -> None:
+        super().__init__(dataclasses.replace(limits, torque=None), rate_hz)
+
+
+def _blind(monkeypatch) -> None:
+    """Executions started from here on time their online operations with
+    :class:`_BlindTiming` (the plan itself is the same)."""
+    monkeypatch.setattr(execution_module, "Timing", _BlindTiming)
+
+
+def _stop(traj):
+    return [(len(traj.t) // 2, lambda ex: ex.stop("smooth"))]
+
+
+def _pause_resume(traj):
+    return [(len(traj.t) // 2, lambda ex: ex.pause()),
+            (len(traj.t) // 2 + 40, lambda ex: ex.resume())]
+
+
+def _speed(traj):
+    return [(len(traj.t) // 2, lambda ex: ex.set_speed(0.5))]
+
+
+def _retarget(traj):
+    return [(len(traj.t) // 2, lambda ex: ex.retarget([None, _pose(Q_NEW)]))]
+
+
+OPERATIONS = {"smooth-stop": _stop, "pause-resume": _pause_resume, "speed": _speed,
+              "retarget": _retarget}
+
+
+@pytest.mark.parametrize("payload", [0.0, 0.5])
+@pytest.mark.parametrize("name", list(OPERATIONS))
+def test_online_operations_keep_the_torque_limits(sa, name, payload):
+    traj = _move(payload)
+    report, ex, joints = _run(sa, traj, OPERATIONS[name](traj))
+    assert ex.switches, "the operation was applied"
+    first = ex.switches[0][1]
+    ratio = _torque_ratio(joints, first, payload)
+    assert (ratio <= 1.0 + SLACK).all(), ratio
+    if name == "retarget":
+        assert np.abs(joints[-1] - Q_NEW).max() < 1e-6
+    elif name != "smooth-stop":
+        assert np.abs(joints[-1] - Q1).max() < 1e-6 and report.outcome == "done"
+
+
+@pytest.mark.parametrize("payload", [0.0, 0.5])
+@pytest.mark.parametrize("name", list(OPERATIONS))
+def test_the_same_operations_blind_to_torque_exceed_it(sa, monkeypatch, name, payload):
+    """The check above can fail: without the torque limits in the online laws the same
+    operation at the same sample asks more of some joint than max_torque_nm."""
+    _blind(monkeypatch)
+    traj = _move(payload)
+    _report, ex, joints = _run(sa, traj, OPERATIONS[name](traj))
+    assert ex.switches
+    ratio = _torque_ratio(joints, ex.switches[0][1], payload)
+    assert ratio.max() > 1.05, ratio
+
+
+# -- arms without max_torque_nm: the laws as before ------------------------------------------
+
+def _laws(arm, q0, q1, goal, rate=None) -> list[np.ndarray]:
+    """The samples of a plan and, from two of its states, a brake, a re-timing at speed 0.5
+    and (with ``goal``) a retarget's segments."""
+    extra = {} if rate is None else {"rate_hz": rate}
+    traj = plan(arm, [tuple(user_pose(arm, q0[None])[0]), tuple(user_pose(arm, q1[None])[0])],
+                start_joints=tuple(q0), **extra)
+    path, sig = JointPath.of_samples(traj.joints)
+    out = [traj.joints]
+    n = len(traj.t)
+    for f in (0.3, 0.6):
+        i = int(f * n)
+        st = State.of_history(i, traj.joints[i - 2:i + 1], path, float(sig[i]), traj.rate_hz)
+        tm = Timing(JointLimits.of(arm), traj.rate_hz)
+        tm.register_law(path, sig, 1.0)
+        out.append(tm.brake(st))
+        out.append(tm.retimed(st, 0.5))
+        if goal is not None:
+            out += [seg[1] for seg in Retargeting(arm, tm, None).tail(st, [None, goal], {})]
+    return out
+
+
+def _digest(arrays: list[np.ndarray]) -> str:
+    h = hashlib.sha256()
+    for a in arrays:
+        h.update(np.ascontiguousarray(np.asarray(a, dtype=np.float64)).tobytes())
+    return h.hexdigest()
+
+
+Q3 = kinematics.ik(ARM3R.links, np.array([START, GOAL]))
+FREE_OMX = dataclasses.replace(OMX, joints=tuple(dataclasses.replace(j, max_torque=None)
+                                                 for j in OMX.joints))
+#: digests of the laws before the torque limits (commit 8a8fe80's online code)
+BEFORE = {
+    "arm3r": ((ARM3R, Q3[0], Q3[1], (0.22, -0.05, 0.3), 1000.0),
+              "af6d034c838fb2464142230876f212ade29bc1e2874281174e0976d147c066f5"),
+    "arm3r-jerk": ((JERK_ARM, Q3[0], Q3[1], (0.22, -0.05, 0.3), 1000.0),
+                   "6acb9743874b86fc556254e2bf502ace636350c28097b353cebe657d9b358c35"),
+    "omx-without-torque": ((FREE_OMX, Q0, Q1, None, None),
+                           "81df38bc02765c62d279c4f23f4be101f7d0e5c2e5237a5bd00f2df4aed127fb"),
+}
+
+
+@pytest.mark.parametrize("name", list(BEFORE))
+def test_arms_without_torque_limits_get_the_laws_bit_for_bit(name):
+    case, digest = BEFORE[name]
+    assert JointLimits.of(case[0]).torque is None
+    assert _digest(_laws(*case)) == digest
