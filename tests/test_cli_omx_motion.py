@@ -11,7 +11,7 @@ import math
 import numpy as np
 import pytest
 from conftest import CONFIGS
-from workflow_helpers import run_cli
+from workflow_helpers import ARM3R, run_cli
 
 from robodcn import kinematics, servo_units
 from robodcn.config import load_arm
@@ -79,3 +79,86 @@ def test_move_on_the_wire_reaches_the_goal_and_holds_it(held_omx, monkeypatch, c
     assert max(abs(e) for e in report["final_error_ticks"]) <= 2
     assert near_goal(pose_of(held_omx))
     assert all(held_omx.servo(i).torque_enabled for i in OMX.servo_ids)   # it holds
+
+
+# -- task: torque off on an arm that falls needs --yes --------------------------------------------
+
+def still(sim, q, ticks: int = 3) -> bool:
+    """The joints within ``ticks`` of ``q`` (a held arm droops by a tick or two)."""
+    return bool(np.all(np.abs(joints_of(sim) - q) <= ticks * servo_units.radians_per_tick(
+        OMX.servos)))
+
+
+def goals_sent(sim) -> dict[int, int]:
+    return {i: len(sim.goal_history(i)) for i in OMX.servo_ids}
+
+
+def test_torque_off_without_yes_warns_and_changes_nothing(held_omx, monkeypatch, capsys):
+    before, q = goals_sent(held_omx), joints_of(held_omx)
+    assert run_cli(monkeypatch, ["torque", "off", "--arm", "omx", "--device",
+                                 held_omx.port_path]) == 2
+    err = capsys.readouterr().err
+    assert "fall under gravity" in err and "shoulder" in err and "N·m" in err
+    assert all(held_omx.servo(i).torque_enabled for i in OMX.servo_ids)
+    assert goals_sent(held_omx) == before and still(held_omx, q)
+    # one joint: the shoulder holds the arm up, the yaw holds nothing against gravity
+    assert run_cli(monkeypatch, ["torque", "off", "--joint", "shoulder", "--arm", "omx",
+                                 "--device", held_omx.port_path]) == 2
+    assert held_omx.servo(12).torque_enabled
+    assert run_cli(monkeypatch, ["torque", "off", "--joint", "yaw", "--arm", "omx",
+                                 "--device", held_omx.port_path]) == 0
+    assert not held_omx.servo(11).torque_enabled and held_omx.servo(12).torque_enabled
+
+
+def test_torque_off_with_yes_lowers_to_the_rest_pose_first(held_omx, monkeypatch, capsys):
+    assert run_cli(monkeypatch, ["torque", "off", "--yes", "--arm", "omx", "--device",
+                                 held_omx.port_path]) == 0
+    out, err = capsys.readouterr()
+    assert "after lowering it to its rest pose" in out and "warning" in err
+    assert not any(held_omx.servo(i).torque_enabled for i in OMX.servo_ids)
+    # the last goals sent are the rest pose's joints
+    rest_q = kinematics.ik_yawed(OMX.chain, np.array([OMX.rest]), OMX.elbow)[0]
+    last = [held_omx.goal_history(i)[-1] for i in OMX.servo_ids]
+    q_last = servo_units.ticks_to_radians(np.array(last), OMX.servos)
+    assert np.allclose(q_last, rest_q, atol=0.01)
+
+
+def test_move_release_without_yes_is_refused_before_moving(held_omx, monkeypatch, capsys):
+    before, q = goals_sent(held_omx), joints_of(held_omx)
+    assert run_cli(monkeypatch, ["move", "--arm", "omx", "--device", held_omx.port_path,
+                                 "--to", GOAL_ARG, "--release"]) == 2
+    assert "fall under gravity" in capsys.readouterr().err
+    assert goals_sent(held_omx) == before and still(held_omx, q)
+    assert all(held_omx.servo(i).torque_enabled for i in OMX.servo_ids)
+
+
+def test_move_release_with_yes_reaches_the_goal_then_lowers_and_releases(
+        held_omx, monkeypatch, capsys):
+    code = run_cli(monkeypatch, ["move", "--arm", "omx", "--device", held_omx.port_path,
+                                 "--to", GOAL_ARG, "--release", "--yes", "--json"])
+    out, err = capsys.readouterr()
+    report = json.loads(out)
+    assert code in COMPLETED, err
+    assert report["stop_reason"] == "completed" and report["released"]
+    assert report["release"]["lowered"] and report["release"]["released"]
+    assert report["release"]["lowering"]["stop_reason"] == "completed"
+    assert "after lowering it to its rest pose" in err
+    assert not any(held_omx.servo(i).torque_enabled for i in OMX.servo_ids)
+
+
+@pytest.mark.parametrize("argv", [
+    ["sim", "--arm", "omx", "--to", GOAL_ARG, "--timing", "fast", "--release"],
+])
+def test_sim_release_on_the_omx_needs_yes(argv, monkeypatch, capsys):
+    assert run_cli(monkeypatch, argv) == 2
+    assert "confirm" in capsys.readouterr().err
+    assert run_cli(monkeypatch, [*argv, "--yes", "--json"]) in COMPLETED
+    report = json.loads(capsys.readouterr().out)
+    assert report["released"] and report["release"]["lowered"]
+
+
+def test_a_horizontal_arm_is_released_as_before(monkeypatch, capsys):
+    assert run_cli(monkeypatch, ["sim", "--arm", ARM3R, "--to", "0.12,0.24,60", "--timing",
+                                 "fast", "--release", "--json"]) in COMPLETED
+    report = json.loads(capsys.readouterr().out)
+    assert report["released"] and "release" not in report

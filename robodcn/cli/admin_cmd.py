@@ -12,7 +12,7 @@ import json
 import math
 import time
 
-from robodcn.cli import options
+from robodcn.cli import options, releasing
 from robodcn.cli.dialogue import confirm
 from robodcn.cli.exit_codes import Exit
 from robodcn.cli.report_text import pose_text
@@ -84,10 +84,14 @@ def run_pose(args: argparse.Namespace) -> int:
 def _add_torque(sub) -> None:
     p = sub.add_parser("torque", help="switch servo torque on or off",
                        description="Torque Enable on or off, on every joint or one (--joint). "
-                                   "Off releases the arm: it may fall. On holds the present "
-                                   "position.")
+                                   "Off releases the arm: an arm under gravity falls, so "
+                                   "off needs --yes there (exit 2 without it, nothing "
+                                   "changes) and, on every joint, first lowers the arm to "
+                                   "its [arm.rest] pose when it has one. On holds the "
+                                   "present position.")
     p.add_argument("state", choices=("on", "off"), help="on or off")
     p.add_argument("--joint", metavar="NAME", help="only this joint (default: every joint)")
+    releasing.add_yes_option(p, what="torque off")
     options.add_arm_option(p)
     add_bus_options(p)
     p.set_defaults(func=run_torque)
@@ -100,9 +104,30 @@ def run_torque(args: argparse.Namespace) -> int:
     ids = joint_ids(arm, args.joint)
     with open_bus(args, arm) as bus:
         check_models(bus, arm)
+        if args.state == "off" and releasing.falls(arm):
+            return _torque_off_under_gravity(args, arm, bus)
         set_torque(bus, arm, args.state == "on", args.joint)
     print(f"torque {args.state}: servo(s) {', '.join(map(str, ids))}")
     return Exit.DONE
+
+
+def _torque_off_under_gravity(args: argparse.Namespace, arm, bus) -> int:
+    """``torque off`` on an arm that falls: refused without --yes (GravityReleaseError,
+    nothing written); confirmed, one joint goes off where it is, every joint after the
+    lowering to the rest pose (:func:`robodcn.workflow.release.release`)."""
+    from robodcn.present import present_joints
+    from robodcn.workflow.admin import set_torque
+    from robodcn.workflow.release import release
+
+    releasing.confirm_release(arm, present_joints(arm, bus), args.yes, joint=args.joint)
+    releasing.warn_falling(arm)
+    if args.joint is not None:
+        ids = set_torque(bus, arm, False, args.joint)
+        print(f"torque off: servo(s) {', '.join(map(str, ids))}")
+        return Exit.DONE
+    result = release(bus, arm, confirm=True)
+    print(releasing.release_line(result).removeprefix("robodcn: "))
+    return Exit.DONE if result.released else Exit.FAULT
 
 
 def _add_reboot(sub) -> None:

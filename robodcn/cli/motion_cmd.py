@@ -21,7 +21,7 @@ from collections.abc import Iterator
 from contextlib import contextmanager
 from typing import Any
 
-from robodcn.cli import keys, options, planning
+from robodcn.cli import keys, options, planning, releasing
 from robodcn.cli.exit_codes import exit_for_report
 from robodcn.cli.output import emit
 from robodcn.cli.report_text import approach_seconds, report_dict, report_text
@@ -41,7 +41,10 @@ def add_execution_options(p: argparse.ArgumentParser) -> None:
                    metavar="DEG",
                    help="stop when a joint lags its goal by more than DEG degrees (default 15)")
     g.add_argument("--release", action="store_true",
-                   help="torque off at the end (default: the servos hold the last pose)")
+                   help="torque off at the end (default: the servos hold the last pose); "
+                        "an arm under gravity falls, so it needs --yes and is lowered to "
+                        "its [arm.rest] pose first")
+    releasing.add_yes_option(g, what="--release")
     g.add_argument("--realtime", action="store_true",
                    help="stream from a real-time (SCHED_FIFO) thread; Linux, needs "
                         "CAP_SYS_NICE or root (warns and carries on otherwise)")
@@ -190,12 +193,28 @@ def stream(args: argparse.Namespace, traj, arm, bus) -> tuple[Any, _LiveProgress
         try:
             report = execute(traj, bus, feedback_every=args.feedback_every,
                              tracking_limit=math.radians(args.tracking_limit), stop=stop,
-                             progress=live, release=args.release, realtime=args.realtime,
-                             compensation=compensation(args), recover=args.recover,
-                             settle=SETTLE_S)
+                             progress=live, release=releasing.release_in_stream(args, arm),
+                             realtime=args.realtime, compensation=compensation(args),
+                             recover=args.recover, settle=SETTLE_S)
         finally:
             live.finish()
     return report, live
+
+
+def stream_and_release(args: argparse.Namespace, traj, arm, bus
+                       ) -> tuple[Any, _LiveProgress, Any]:
+    """:func:`stream`, with ``--release`` on an arm under gravity confirmed (``--yes``,
+    else GravityReleaseError before anything moves) and done after the move by lowering it
+    to its rest pose (:mod:`robodcn.cli.releasing`); returns (report, live, the
+    ReleaseResult or None)."""
+    gravity_release = bool(getattr(args, "release", False)) and releasing.falls(arm)
+    if gravity_release:
+        releasing.confirm_release(arm, traj.joints[-1], args.yes)
+    report, live = stream(args, traj, arm, bus)
+    released = None
+    if gravity_release:
+        released = releasing.release_after_move(bus, arm, report)
+    return report, live, released
 
 
 def _execute_with_keys(args: argparse.Namespace, traj, arm, bus, stop, live):
@@ -205,9 +224,9 @@ def _execute_with_keys(args: argparse.Namespace, traj, arm, bus, stop, live):
     sys.stderr.write(f"keys: {keys.MOVE_KEYS}\n")
     execution = start(traj, bus, feedback_every=args.feedback_every,
                       tracking_limit=math.radians(args.tracking_limit), stop=stop,
-                      progress=live, release=args.release, realtime=args.realtime,
-                      compensation=compensation(args), recover=args.recover,
-                      settle=SETTLE_S, arm=arm)
+                      progress=live, release=releasing.release_in_stream(args, arm),
+                      realtime=args.realtime, compensation=compensation(args),
+                      recover=args.recover, settle=SETTLE_S, arm=arm)
     try:
         with keys.TerminalKeys() as terminal:
             keys.drive(execution, terminal,
@@ -221,11 +240,17 @@ def _execute_with_keys(args: argparse.Namespace, traj, arm, bus, stop, live):
 
 
 def finish(args: argparse.Namespace, arm, traj, report, live: _LiveProgress, *,
-           waypoints=None) -> int:
-    """Print the report (text or --json), draw --plot, return the outcome's exit code."""
+           waypoints=None, released=None) -> int:
+    """Print the report (text or --json; ``released``: what ``--release`` did on an arm
+    under gravity, as the JSON's ``release``), draw --plot, return the outcome's exit
+    code."""
     approach = approach_seconds(report, traj)
     if args.json:
-        emit(json.dumps(report_dict(report, approach), indent=2) + "\n")
+        data = report_dict(report, approach)
+        if released is not None:
+            data["release"] = released.to_dict()
+            data["released"] = released.released
+        emit(json.dumps(data, indent=2) + "\n")
     else:
         emit(report_text(report, approach) + "\n")
     plot(args.plot, arm, traj, samples=live.samples, report=report, waypoints=waypoints)
@@ -246,13 +271,13 @@ def run_move(args: argparse.Namespace) -> int:
         with ServoBus(device, args.baud or arm.bus.baud,
                       servos=[j.servo for j in arm.joints]) as bus:
             traj = planning.plan_from_present(request, arm, bus)   # verifies the servos
-            report, live = stream(args, traj, arm, bus)
+            report, live, released = stream_and_release(args, traj, arm, bus)
     except (OSError, termios.error) as exc:
         # The device went away under the SDK (unplugged, simulator killed): a bus fault.
         raise BusError(f"{device}: the serial device failed ({_os_reason(exc)}); check the "
                        "cable and the adapter, then run the move again", field="device",
                        value=device) from exc
-    return finish(args, arm, traj, report, live)
+    return finish(args, arm, traj, report, live, released=released)
 
 
 def _os_reason(exc: BaseException) -> str:
@@ -267,5 +292,5 @@ def run_sim(args: argparse.Namespace) -> int:
     request = planning.motion_request(args, arm)
     with simulated_arm(arm, timing=args.timing, dynamics=args.dynamics == "on") as sim:
         traj = planning.plan_from_present(request, arm, sim.bus)
-        report, live = stream(args, traj, arm, sim.bus)
-    return finish(args, arm, traj, report, live)
+        report, live, released = stream_and_release(args, traj, arm, sim.bus)
+    return finish(args, arm, traj, report, live, released=released)

@@ -136,13 +136,14 @@ def run(args: argparse.Namespace) -> int:
 
         with simulated_arm(arm, timing="fast") as sim:
             traj = plan_run(args, arm, sim.bus, kind, loaded)
-            report, live = motion_cmd.stream(args, traj, arm, sim.bus)
+            report, live, released = motion_cmd.stream_and_release(args, traj, arm, sim.bus)
     else:
         with open_bus(args, arm) as bus:
             traj = plan_run(args, arm, bus, kind, loaded)
-            report, live = motion_cmd.stream(args, traj, arm, bus)
+            report, live, released = motion_cmd.stream_and_release(args, traj, arm, bus)
     return motion_cmd.finish(args, arm, traj, report, live,
-                             waypoints=loaded["waypoints"] if kind == "waypoints" else None)
+                             waypoints=loaded["waypoints"] if kind == "waypoints" else None,
+                             released=released)
 
 
 __all__ = ["load_run_file", "overrides", "plan_run", "register", "run"]
