@@ -42,7 +42,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from robodcn import servo_units
+from robodcn import servo_admin, servo_units
 from robodcn.bus import ServoBus, describe_hardware_error
 from robodcn.bus_worker import DEVICE_ERRORS, STATE_TIMEOUT, BusWorker, device_fault
 from robodcn.config import Arm
@@ -53,6 +53,7 @@ from robodcn.results import MoveStatus, State, StopAnswer
 from robodcn.stream import STOP_MODES, ExecutionOptions, ExecutionReport, Progress
 from robodcn.stream.online import Execution, PlanningTimes, SwitchMissed, prepare
 from robodcn.workflow import admin, poses
+from robodcn.workflow.gripper import GripperResult
 
 log = logging.getLogger("robodcn.controller")
 
@@ -113,11 +114,6 @@ class ArmController:
         #: Where every move's online operations place their switches from (measured once
         #: for the service, not again per move).
         self._planning_times = PlanningTimes()
-        if arm.yawed:
-            # workaround (transitional): stream.online.execution.warm_up's retarget warm-up
-            # takes the end pose by planar FK (kinematics.fk(arm.links, ...)), which refuses
-            # a yawed arm's joints and failed every move; marked done, it is skipped
-            self._planning_times.warmed = True
 
     # -- moves --------------------------------------------------------------------------------
 
@@ -522,7 +518,7 @@ class ArmController:
 
     # -- servo admin ----------------------------------------------------------------------------
 
-    def _admin(self, fn: Any, what: str) -> Any:
+    def _admin(self, fn: Any, what: str, timeout: float | None = None) -> Any:
         """Run an admin job on the worker thread, refused (BusyError) while a move runs."""
         with self._lock:
             self._check_free()
@@ -531,18 +527,31 @@ class ArmController:
             with self.bus.claim():
                 return fn()
 
-        return self._worker.call(job, what)
+        return self._worker.call(job, what, timeout)
 
-    def set_torque(self, on: bool, joint: str | None = None) -> tuple[int, ...]:
+    def set_torque(self, on: bool, joint: str | None = None, *,
+                   confirm: bool = False) -> tuple[int, ...]:
         """Torque on (holding where the arm is) or off, for ``joint`` or every joint
-        (:func:`robodcn.workflow.admin.set_torque`); returns the servo ids written.
+        (:func:`robodcn.servo_admin.set_torque`: torque off on an arm under gravity needs
+        ``confirm``, GravityReleaseError 409 otherwise); returns the servo ids written.
 
-        Raises InputError for an unknown joint, BusyError while a move runs, BusError."""
-        if not isinstance(on, bool):
-            raise InputError(f"on must be true or false, got {on!r}", field="on", value=on)
-        admin.joint_ids(self.arm, joint)  # an unknown joint is refused before the bus
-        return self._admin(lambda: admin.set_torque(self.bus, self.arm, on, joint),
+        Raises InputError for an unknown joint or a non-boolean ``on``/``confirm``,
+        BusyError while a move runs, BusError."""
+        servo_admin.check_torque(self.arm, on, joint, confirm)  # refused before the bus
+        return self._admin(lambda: servo_admin.set_torque(self.bus, self.arm, on, joint,
+                                                          confirm=confirm),
                            "switching torque")
+
+    def gripper(self, command: str | None = None, *,
+                width_m: float | None = None) -> GripperResult:
+        """Drive the arm's ``[gripper]`` to ``command`` ("open" | "close") or a jaw width
+        ``width_m`` (m) and wait until the jaws rest (:func:`robodcn.servo_admin.gripper`).
+
+        Raises InputError (field "gripper": the arm has none; "command" or "width_m": a
+        bad goal), all before the bus; BusyError while a move runs; BusError."""
+        servo_admin.gripper_goal(self.arm, command, width_m)  # refused before the bus
+        return self._admin(lambda: servo_admin.gripper(self.bus, self.arm, command, width_m),
+                           "driving the gripper", timeout=servo_admin.GRIPPER_TIMEOUT)
 
     def reboot(self, joint: str | None = None) -> tuple[int, ...]:
         """Reboot ``joint``'s servo, or every servo (clears hardware errors; torque is off

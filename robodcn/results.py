@@ -11,6 +11,8 @@ import math
 from dataclasses import dataclass, field
 from typing import Any, Literal
 
+from robodcn.workflow.gripper import GripperResult
+
 #: Move lifecycle. ``done``: every sample sent; ``degraded``: completed with samples skipped;
 #: ``stopped``: stopped by a request (the arm holds); ``fault``: a bus or servo fault ended
 #: it after motion began; ``collision``: the collision stop ended it; ``failed``: refused
@@ -259,6 +261,7 @@ EVENTS: dict[str, type] = {"state": StateEvent, "move": MoveStatus, "alert": Ale
 
 RESULTS: dict[str, type] = {"Move": MoveStatus, "State": State, "Stop": StopAnswer,
                             "Health": Health, "Arm": ArmInfo, "Torque": TorqueAnswer,
+                            "Gripper": GripperResult,
                             "Reboot": RebootAnswer, "Record": Recording,
                             "Error": ErrorResponse, "StateEvent": StateEvent,
                             "AlertEvent": AlertEvent}

@@ -178,10 +178,6 @@ def test_a_one_waypoint_move_on_the_omx(omx_server: Any) -> None:
     assert traj["request"]["waypoints"] == [HOME] and traj["approach_samples"] == 0
 
 
-@pytest.mark.xfail(strict=True, raises=AssertionError, reason=(
-    "stream/online/retarget.py (Retargeting.geometry) takes the pose by planar FK "
-    "(kinematics.fk(arm.links, ...)): a retarget of a yawed arm is refused with 'joint "
-    "angles must have shape (n, 3)'"))
 def test_a_one_waypoint_replace_with_a_payload_on_the_omx(omx_server: Any) -> None:
     server, sa = omx_server
     status, _, old = call(server, "POST", "/v1/moves",
@@ -200,3 +196,109 @@ def test_a_one_waypoint_replace_with_a_payload_on_the_omx(omx_server: Any) -> No
     _at(sa, NEAR)
     status, _, traj = call(server, "GET", f"/v1/moves/{new['id']}/trajectory")
     assert traj["request"]["payload_kg"] == 0.0
+
+
+# -- the gripper ---------------------------------------------------------------------------------
+
+def test_the_gripper_opens_closes_and_takes_a_width(omx_server: Any) -> None:
+    server, _ = omx_server
+    spec = OMX.gripper
+    assert spec is not None
+    for sent, width in (({"command": "open"}, spec.open_width),
+                        ({"command": "close"}, spec.closed_width),
+                        ({"width_m": 0.05}, 0.05)):
+        status, _, result = call(server, "POST", "/v1/gripper", sent)
+        assert status == 200, result
+        assert result["command"] == sent.get("command", "width")
+        assert result["settled"] is True and result["blocked"] is False, result
+        assert abs(result["goal_width_m"] - width) < 1e-9
+        assert abs(result["final_width_m"] - width) < 2e-3, result
+        assert abs(result["present_current_a"]) <= result["grip_current_a"] + 0.1
+
+
+@pytest.mark.parametrize(("sent", "field"), [
+    ({"command": "grab"}, "command"),
+    ({"command": 1}, "command"),
+    ({}, "command"),                                   # neither
+    ({"command": "open", "width_m": 0.05}, "command"),  # both
+    ({"width_m": 0.5}, "width_m"),                     # outside the stroke
+    ({"width_m": "wide"}, "width_m"),
+    ({"width_m": True}, "width_m"),
+    ({"force": 1}, "force"),
+])
+def test_a_bad_gripper_body_is_422_naming_the_field(omx_server: Any, sent: dict[str, Any],
+                                                    field: str) -> None:
+    server, sa = omx_server
+    before = len(sa.sim.goal_history(OMX.gripper.servo.id))
+    status, _, body = call(server, "POST", "/v1/gripper", sent)
+    assert status == 422, body
+    assert error_of(body)["field"] == field, body
+    assert len(sa.sim.goal_history(OMX.gripper.servo.id)) == before  # nothing was written
+
+
+def test_the_gripper_is_409_while_a_move_runs(omx_server: Any) -> None:
+    server, _ = omx_server
+    status, _, move = call(server, "POST", "/v1/moves",
+                           {"waypoints": [NEAR], "duration": 2.0, "payload_kg": 0.0})
+    assert status == 202, move
+    status, _, body = call(server, "POST", "/v1/gripper", {"command": "open"})
+    assert status == 409 and error_of(body)["code"] == "busy", body
+    poll_move(server, move["id"], finished, timeout=20)
+
+
+def test_an_arm_without_a_gripper_answers_404_and_the_route_is_documented() -> None:
+    with serving_arm(ARM) as (server, _):
+        status, _, body = call(server, "POST", "/v1/gripper", {"command": "open"})
+        assert status == 404 and error_of(body)["field"] == "gripper", body
+    with serving_arm(OMX) as (server, _):
+        status, _, doc = call(server, "GET", "/openapi.json")
+    op = doc["paths"]["/v1/gripper"]["post"]
+    assert {"200", "404", "409", "422"} <= set(op["responses"])
+    assert op["requestBody"]["content"]["application/json"]["schema"]["$ref"] == \
+        "#/components/schemas/GripperBody"
+    props = doc["components"]["schemas"]["GripperBody"]["properties"]
+    assert props["command"] == {**props["command"], "type": "string", "enum": ["open", "close"]}
+    assert props["width_m"]["type"] == "number"
+    assert props["width_m"]["minimum"] == OMX.gripper.closed_width
+    assert props["width_m"]["maximum"] == OMX.gripper.open_width
+    result = doc["components"]["schemas"]["Gripper"]
+    assert {"command", "final_width_m", "blocked", "settled"} <= set(result["required"])
+
+
+# -- torque off under gravity ------------------------------------------------------------------
+
+def _torque_on(sa: Any) -> list[bool]:
+    return [sa.sim.servo(i).torque_enabled for i in OMX.servo_ids]
+
+
+def test_torque_off_on_the_omx_needs_confirm() -> None:
+    with serving_arm(OMX) as (server, sa):
+        status, _, body = call(server, "POST", "/v1/torque", {"on": False})
+        assert status == 409, body
+        error = error_of(body)
+        assert error["code"] == "gravity_release" and error["field"] == "confirm", error
+        assert "shoulder" in error["message"]
+        assert all(_torque_on(sa))                          # nothing switched
+        status, _, body = call(server, "POST", "/v1/torque",
+                               {"on": False, "joint": "elbow"})
+        assert status == 409 and error_of(body)["field"] == "confirm", body
+        status, _, body = call(server, "POST", "/v1/torque", {"on": False, "confirm": "yes"})
+        assert status == 422 and error_of(body)["field"] == "confirm", body
+        # the yaw holds nothing against gravity: no confirmation needed
+        status, _, body = call(server, "POST", "/v1/torque", {"on": False, "joint": "yaw"})
+        assert status == 200 and body["servo_ids"] == [OMX.servo_ids[0]], body
+        status, _, body = call(server, "POST", "/v1/torque", {"on": False, "confirm": True})
+        assert status == 200 and body == {"on": False, "joint": None,
+                                          "servo_ids": list(OMX.servo_ids)}, body
+        assert not any(_torque_on(sa))
+        status, _, body = call(server, "POST", "/v1/torque", {"on": True})
+        assert status == 200 and all(_torque_on(sa))
+        status, _, doc = call(server, "GET", "/openapi.json")
+        confirm = doc["components"]["schemas"]["TorqueBody"]["properties"]["confirm"]
+        assert confirm["type"] == "boolean" and "409" in confirm["description"]
+
+
+def test_torque_off_on_a_horizontal_arm_needs_no_confirm() -> None:
+    with serving_arm(ARM) as (server, _):
+        status, _, body = call(server, "POST", "/v1/torque", {"on": False})
+        assert status == 200 and body["on"] is False, body

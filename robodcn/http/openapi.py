@@ -15,6 +15,7 @@ from robodcn.http.planbody import move_body_schema, plan_body_schema, trajectory
 from robodcn.http.routes import ROUTES, TRANSPORT_ERRORS, Route
 from robodcn.planner import Trajectory
 from robodcn.results import EVENTS, RESULTS
+from robodcn.workflow.gripper import COMMANDS as GRIPPER_COMMANDS
 
 
 def schemas(arm: Arm | None = None) -> dict[str, dict[str, Any]]:
@@ -31,7 +32,10 @@ def schemas(arm: Arm | None = None) -> dict[str, dict[str, Any]]:
         "TorqueBody": {"type": "object", "additionalProperties": False, "required": ["on"],
                        "properties": {"on": {"type": "boolean", "description": "torque on "
                                              "(holds where the arm is) or off"},
-                                      "joint": _joint(arm)}},
+                                      "joint": _joint(arm),
+                                      "confirm": {"type": "boolean", "default": False,
+                                                  "description": CONFIRM}}},
+        "GripperBody": gripper_body_schema(arm),
         "RebootBody": {"type": "object", "additionalProperties": False,
                        "properties": {"joint": _joint(arm)},
                        "description": "Empty or {} reboots every servo."},
@@ -48,6 +52,34 @@ def schemas(arm: Arm | None = None) -> dict[str, dict[str, Any]]:
                                     "given trajectory to play after a joint-space approach "
                                     "from the present joints."},
     }
+
+
+#: What ``confirm`` of a torque body means.
+CONFIRM = ("Torque off on an arm under gravity (a chain in a vertical plane) lets it fall: "
+           "without confirm true it is refused, 409 gravity_release naming the joints gravity "
+           "loads and the torque each holds (a joint gravity does not load, e.g. a base yaw, "
+           "needs none). Confirmed, torque goes off where the arm is (no lowering).")
+
+
+def gripper_body_schema(arm: Arm | None = None) -> dict[str, Any]:
+    """A ``POST /v1/gripper`` body: ``{"command": "open" | "close"}`` or ``{"width_m": w}``,
+    ``w`` within the arm's jaw stroke (``[gripper]``)."""
+    width: dict[str, Any] = {"type": "number", "description": "jaw width, m (within the "
+                             "stroke between the closed and open widths)"}
+    if arm is not None and arm.gripper is not None:
+        low, high = sorted((arm.gripper.closed_width, arm.gripper.open_width))
+        width.update(minimum=low, maximum=high)
+    else:
+        width["minimum"] = 0.0
+    has = "" if arm is None or arm.gripper is not None else (
+        f" Arm {arm.name!r} has no [gripper]: 404.")
+    return {"type": "object", "additionalProperties": False,
+            "properties": {"command": {"type": "string", "enum": list(GRIPPER_COMMANDS),
+                                       "description": "open, or close (an object in the "
+                                       "jaws is held with the grip current)"},
+                           "width_m": width},
+            "oneOf": [{"required": ["command"]}, {"required": ["width_m"]}],
+            "description": "A command or a width, not both." + has}
 
 
 def events_schema() -> dict[str, Any]:
@@ -105,7 +137,7 @@ def openapi(arm: Arm | None = None, *, token: bool = False,
         codes = set(route.errors) | set(TRANSPORT_ERRORS)
         if route.name in ("start_move", "get_move", "stop", "state", "move_trajectory",
                           "move_record", "torque", "reboot", "events", "pause", "resume",
-                          "set_speed"):
+                          "set_speed", "gripper"):
             codes.add(503)  # no arm attached, or a bus fault
         if route.method == "POST" and token:
             codes.add(401)

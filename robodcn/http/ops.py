@@ -142,12 +142,24 @@ def _admin_body(server: Service, body: Any, fields: tuple[str, ...],
 def op_torque(server: Service, request: Request, params: dict[str, str]
               ) -> tuple[int, Any]:
     controller = controller_of(server)
-    body = _admin_body(server, read_json(request), ("on", "joint"), "torque")
+    body = _admin_body(server, read_json(request), ("on", "joint", "confirm"), "torque")
     if not isinstance(body.get("on"), bool):
         raise InputError(f"on must be true or false, got {body.get('on')!r}"
                          if "on" in body else "on is missing: true or false", field="on")
-    ids = controller.set_torque(body["on"], body.get("joint"))
+    ids = controller.set_torque(body["on"], body.get("joint"),
+                                confirm=body.get("confirm", False))
     return 200, TorqueAnswer(on=body["on"], joint=body.get("joint"), servo_ids=list(ids))
+
+
+def op_gripper(server: Service, request: Request, params: dict[str, str]
+               ) -> tuple[int, Any]:
+    controller = controller_of(server)
+    arm = server.arm
+    if arm.gripper is None:
+        raise HTTPError(404, "not_found", f"arm {arm.name!r} has no gripper (a [gripper] "
+                        "table in its file)", "gripper")
+    body = _admin_body(server, read_json(request), ("command", "width_m"), "gripper")
+    return 200, controller.gripper(body.get("command"), width_m=body.get("width_m"))
 
 
 def op_reboot(server: Service, request: Request, params: dict[str, str]

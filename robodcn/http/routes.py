@@ -96,7 +96,11 @@ ROUTES: tuple[Route, ...] = (
           "joints, ticks and pose per feedback read (CSV with Accept: text/csv)", 200,
           "Record", None, (404,), pool="read", alt_media=("text/csv",)),
     Route("POST", "/v1/torque", "torque", "Switch torque on (holding where the arm is) or "
-          "off, for one joint or all", 200, "Torque", "TorqueBody", (*BODY_ERRORS, 409)),
+          "off, for one joint or all (off on an arm under gravity needs \"confirm\": true, "
+          "409 otherwise)", 200, "Torque", "TorqueBody", (*BODY_ERRORS, 409)),
+    Route("POST", "/v1/gripper", "gripper", "Open or close the gripper, or set its jaw "
+          "width (current-based position mode: an object is held with the grip current)",
+          200, "Gripper", "GripperBody", (*BODY_ERRORS, 404, 409)),
     Route("POST", "/v1/reboot", "reboot", "Reboot one servo or all (clears hardware "
           "errors; torque is off afterwards)", 200, "Reboot", "RebootBody",
           (*BODY_ERRORS, 409), body_required=False),
