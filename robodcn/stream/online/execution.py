@@ -134,6 +134,8 @@ class Execution:
         self._stream: Any = None
         self._switcher: Switcher | None = None
         self._timing: Timing | None = None
+        #: a retarget's time laws when it was told another payload (set while planning it)
+        self._told: Timing | None = None
         self._thread: threading.Thread | None = None
         opts = ExecutionOptions.build(options)
         self._options = ExecutionOptions.build(opts, {"stop": stop, "attach": self._attach})
@@ -371,8 +373,12 @@ class Execution:
         self._need_arm("retarget")
         with self._lock:
             self.paused = False
+            self._told = None
             first = self._apply("retarget", lambda st: self._retarget_tail(st, target,
                                                                            plan_options))
+            if self._told is not None:
+                # the replacement was told another payload: the operations after it too
+                self._timing = self._told
             self.status = "running"
             return first
 
@@ -388,8 +394,10 @@ class Execution:
                        plan_options: dict[str, Any]) -> list[Segment]:
         """The new samples of a retarget from ``state`` (:class:`Retargeting`)."""
         assert self.arm is not None
-        return Retargeting(self.arm, self._laws(), self._stream.source,
-                           self.speed).tail(state, target, plan_options)
+        retargeting = Retargeting(self.arm, self._laws(), self._stream.source, self.speed)
+        segments = retargeting.tail(state, target, plan_options)
+        self._told = retargeting.timing if retargeting.timing is not self._timing else None
+        return segments
 
 
 def prepare(trajectory: Trajectory, bus: ServoBus, options: ExecutionOptions | None = None,

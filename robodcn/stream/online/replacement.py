@@ -12,7 +12,8 @@ Every plan field of a :class:`~robodcn.planner.PlanRequest` is honoured or refus
 planner, ``duration`` by the time law (a number: the new motion takes that long from the
 switch; "auto": as fast as the limits allow), ``profile`` "optimal" only (a uniform law
 starts from rest, the replacement starts moving), ``rate_hz`` the running stream's,
-``start_joints`` / ``start_state`` none (the start is the commanded state).
+``start_joints`` / ``start_state`` none (the start is the commanded state), ``payload_kg`` by
+the torque limits of every law of the replacement (not told: the running move's payload).
 """
 
 from __future__ import annotations
@@ -75,6 +76,15 @@ class Replacement:
                              "first waypoint may be None)", field="waypoints", value=wp)
         return cls(arm, tuple(tuple(float(v) for v in g) for g in goals), duration,
                    options=opts)
+
+    @property
+    def payload_kg(self) -> float | None:
+        """The payload the replacement says it carries (the request's ``payload_kg``, or the
+        ``payload_kg`` keyword), None when not told: the running move's stands."""
+        if self.request is not None:
+            return self.request.payload_kg
+        told = self.options.get("payload_kg")
+        return None if told is None else float(told)
 
     def geometry(self, q: NDArray[np.float64], here: tuple[float, ...], rate_hz: float,
                  duration: float) -> NDArray[np.float64]:

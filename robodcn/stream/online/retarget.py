@@ -12,7 +12,9 @@ Replacement` describes (goals after the switch pose, plan fields honoured or ref
   checked with the three commanded before the switch (:func:`~robodcn.stream.online_path.
   excess`) and a start that fails takes the next, slower blend
   (:func:`~robodcn.path_timing.moving_start.retry`); when none is left it goes through
-  rest (below) — each step says what it found as data, nothing is caught;
+  rest (below) — each step says what it found as data, nothing is caught; on an arm with
+  torque limits (which the checks count) a start found only after retries is compared
+  with the way through rest, and the one with fewer samples taken;
 * **through rest** (under jerk limits, and the last resort without) — the jerk-limited
   brake to rest along the present path (or its own end when that comes first), then the
   new path from rest. From a moving state neither the blend (its q⁽³⁾ at speed) nor the
@@ -38,6 +40,7 @@ from robodcn.config import Arm
 from robodcn.errors import AccelerationLimitError, InputError, VelocityLimitError
 from robodcn.path_timing import JointLimits, moving_start
 from robodcn.path_timing.moving_start import JointState, StartSegment
+from robodcn.path_timing.torque import TorqueLimits
 from robodcn.planner.path import user_pose
 from robodcn.stream.online.replacement import Replacement, Target
 from robodcn.stream.online.samples import Segment
@@ -94,8 +97,15 @@ class Retargeting:
     def tail(self, state: State, target: Target, options: dict[str, Any]) -> list[Segment]:
         """The new samples after ``state`` (segments on their paths). Raises the planner's
         errors and InputError for a field the replacement cannot honour (nothing
-        changes)."""
+        changes). A replacement told another ``payload_kg`` (on an arm with torque limits)
+        is timed with it: ``self.timing`` is then that payload's (the execution keeps it
+        for the operations after the switch)."""
         rep = Replacement.of(self.arm, target, options, self.timing.rate)
+        torque = self.timing.limits.torque
+        if torque is not None and rep.payload_kg is not None \
+                and rep.payload_kg != torque.payload_kg:
+            # told another payload: every law of the replacement carries it
+            self.timing = self.timing.with_torque(TorqueLimits.of(self.arm, rep.payload_kg))
         k = self.speed
         if self.timing.jerk:
             # from rest: the law under the limits × k λ lasts 1/λ × as long
@@ -205,6 +215,7 @@ class Retargeting:
                                                      allow_brake=not ahead)
         blended = ahead
         braked = not ahead
+        tried = 0
         while seg is not None:
             joints = self._sampled(seg, q1, s1, rep, limits)
             if joints is None:  # a brake that would end outside the joint limits
@@ -212,8 +223,15 @@ class Retargeting:
                                                  allow_brake=False), True
                 continue
             joints = np.vstack([joints, self._rest(path, pieces, limits)])
+            tried += 1
             if excess(np.vstack([history, joints]), full, rate) <= 1.0 + LIMIT_SLACK:
-                return [segment_of(state.q, joints)]
+                found = [segment_of(state.q, joints)]
+                if full.torque is None or tried == 1:
+                    return found
+                # the torque limits slowed the moving start (its blend and brake along q̇₀
+                # keep them only when slow): through rest may be the faster way
+                rest = self.through_rest(state, rep, k)
+                return rest if _count(rest) < _count(found) else found
             if seg.kind == "brake" and not blended:
                 seg, blended = moving_start.join(js, q1, s1, limits, rate,
                                                  allow_brake=False), True

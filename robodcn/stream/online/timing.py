@@ -29,6 +29,7 @@ from numpy.typing import NDArray
 
 from robodcn.errors import InputError
 from robodcn.path_timing import JointLimits
+from robodcn.path_timing.torque import TorqueLimits
 from robodcn.stream.online.samples import Segment
 from robodcn.stream.online.state import State
 from robodcn.stream.online_path import (
@@ -68,6 +69,13 @@ class Timing:
         self.jerk = limits.j is not None
         #: id(path) → (path, σ midpoints, σ̇ at speed 1) of the first law on each path
         self._laws: dict[int, tuple[JointPath, NDArray, NDArray]] = {}
+
+    def with_torque(self, torque: TorqueLimits | None) -> Timing:
+        """The same laws under other torque limits (another payload); the first laws of
+        the paths (:meth:`register_law`) are shared."""
+        other = Timing(dataclasses.replace(self.limits, torque=torque), self.rate)
+        other._laws = self._laws
+        return other
 
     def brake(self, state: State, until_sd: float = 0.0) -> NDArray | None:
         """σ samples of the fastest brake along the present path from ``state`` (to
