@@ -291,3 +291,82 @@ def test_brake_without_velocity_is_no_brake():
     with np.errstate(divide="raise", invalid="raise"):
         seg = join(state, q, s, lim, 100.0)
     assert seg.law is not None and np.isfinite(seg.law.duration)
+
+
+def _plain_min_affine(x0, slope, offset):
+    """The recurrence x_{i+1} = max(0, min_j(slope_ij x_i + offset_ij)) stage by stage."""
+    out = [x0]
+    for w, z in zip(slope, offset, strict=True):
+        out.append(max(0.0, min(wj * out[-1] + zj for wj, zj in zip(w, z, strict=True))))
+    return np.asarray(out)
+
+
+@pytest.mark.parametrize("seed", range(6))
+@pytest.mark.parametrize("rounds", [0, 1, 8])
+def test_min_affine_scan_matches_the_stage_loop(seed, rounds, monkeypatch):
+    """The policy-iteration scan (path_timing._scan) against the plain loop: random stages
+    with a cap piece (slope 0), pieces that never bind (inf), and the floor at 0; with 0 or
+    1 rounds the fallback finishes from wherever the scan got to."""
+    from robodcn.path_timing import _scan
+
+    monkeypatch.setattr(_scan, "ROUNDS", rounds)
+    rng = np.random.default_rng(seed)
+    n, m = 300, 4
+    slope = rng.uniform(0.9, 1.05, (n, m))
+    offset = rng.uniform(-0.05, 0.2, (n, m))
+    offset[rng.random((n, m)) < 0.1] = np.inf
+    cap = rng.uniform(0.5, 3.0, n)
+    cap[rng.random(n) < 0.02] = 0.0  # stops
+    slope = np.hstack([slope, np.zeros((n, 1))])
+    offset = np.hstack([offset, cap[:, None]])
+    want = _plain_min_affine(0.0, slope, offset)
+    calls = []
+
+    def sequential(x, first):
+        calls.append(first)
+        return _plain_min_affine(x, slope[first:], offset[first:])
+
+    got = _scan.min_affine(0.0, slope, offset, sequential)
+    np.testing.assert_allclose(got, want, rtol=1e-11, atol=1e-13)
+    assert (rounds == 0) == (calls == [0])
+
+
+def test_reachability_passes_match_their_stage_loops():
+    """controllable and greedy_forward (scan) against their own plain loops on a real
+    TOPP-RA problem (3 joints, interpolated rows)."""
+    from robodcn.path_timing import reachability, topp
+
+    s = np.linspace(0.0, 1.0, 500)
+    q = np.stack([np.sin(3 * s), s ** 2 - s, np.cos(2 * s) * 0.5], axis=1)
+    dq, ddq = topp.path_derivatives(q, s, [], 2)
+    dq2, ddq2, v, a = topp.interpolated(s, dq, ddq, np.full(3, 2.0), np.full(3, 5.0))
+    p_lo, p_hi, r, cap = reachability.stage_constraints(dq2, ddq2, v, a)
+    delta = np.diff(s)
+    n = delta.shape[0]
+    x_max = reachability.controllable(delta, p_lo, r, cap, 0.0)
+    slope = 1.0 + 2.0 * delta[:, None] * r[:n]
+    good = (slope > 0) & np.isfinite(p_lo[:n])
+    w = np.where(good, 1.0 / np.where(good, slope, 1.0), 0.0)
+    z = np.where(good, -2.0 * delta[:, None] * np.where(good, p_lo[:n], 0.0) * w, np.inf)
+    plain = reachability._backward(min(0.0, cap[n]), np.hstack([w, np.zeros((n, 1))])[::-1],
+                                   np.hstack([z, cap[:n, None]])[::-1])[::-1]
+    np.testing.assert_allclose(x_max, plain, rtol=1e-11, atol=1e-13)
+    x, u = reachability.greedy_forward(delta, p_hi, r, x_max, 0.0)
+    fw = np.hstack([1.0 + 2.0 * delta[:, None] * r[:n], np.zeros((n, 1))])
+    fz = np.hstack([2.0 * delta[:, None] * p_hi[:n], x_max[1:, None]])
+    np.testing.assert_allclose(x, reachability._forward(0.0, fw, fz), rtol=1e-11, atol=1e-13)
+    np.testing.assert_allclose(x[1:], x[:-1] + 2.0 * delta * u, rtol=1e-12, atol=1e-14)
+    assert x.max() > 0.1  # the law moves
+
+
+@pytest.mark.parametrize("n", [2, 3, 5, 400])
+@pytest.mark.parametrize("uniform", [True, False])
+def test_shared_gradient_is_numpys_bit_for_bit(n, uniform):
+    """path_derivatives' gradient (coefficients once per grid) against numpy.gradient."""
+    from robodcn.path_timing._gradient import Gradient
+
+    rng = np.random.default_rng(n)
+    x = np.linspace(0.0, 1.0, n) if uniform else np.sort(rng.random(n))
+    for f in (rng.random((n, 4)), rng.random(n)):
+        np.testing.assert_array_equal(Gradient(x)(f),
+                                      np.gradient(f, x, axis=0, edge_order=2 if n > 2 else 1))

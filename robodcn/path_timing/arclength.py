@@ -32,6 +32,8 @@ from collections.abc import Callable
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from robodcn.path_timing._gradient import Gradient
+
 __all__ = ["UNEVEN", "Monotone", "Smooth", "arc_grid", "arc_length"]
 
 #: Largest step of σ over its mean that counts as even (no resampling needed).
@@ -112,11 +114,11 @@ class Smooth:
         self.x = np.asarray(x, dtype=np.float64)
         self.y = np.asarray(y, dtype=np.float64)
         self.monotone = monotone
-        edge = 2 if self.x.shape[0] > 2 else 1
-        self.d1 = np.gradient(self.y, self.x, axis=0, edge_order=edge)
+        grad = Gradient(self.x)  # numpy.gradient, edge order 2 (1 for two samples)
+        self.d1 = grad(self.y)
         if monotone:
             self.d1 = np.maximum(self.d1, 0.0)
-        self.d2 = np.gradient(self.d1, self.x, axis=0, edge_order=edge)
+        self.d2 = grad(self.d1)
         self.h = np.diff(self.x)
 
     def __call__(self, xq: ArrayLike) -> NDArray[np.float64]:

@@ -41,16 +41,19 @@ class JointLimits:
     torque: TorqueLimits | None = None
 
     @classmethod
-    def of(cls, arm: Arm, payload_kg: float | None = None) -> JointLimits:
+    def of(cls, arm: Arm, payload_kg: float | None = None, *, torque: bool = True
+           ) -> JointLimits:
         """The arm's joint limits (``j`` None when no joint sets ``max_jerk``, ``torque``
-        None when none sets ``max_torque_nm``; ``payload_kg`` None: the arm's)."""
+        None when none sets ``max_torque_nm`` or ``torque=False``: the kinematic limits
+        only, without building the arm's rigid-body model; ``payload_kg`` None: the
+        arm's)."""
         jerk = [jt.max_jerk for jt in arm.joints]
         return cls(np.array([jt.max_velocity for jt in arm.joints], dtype=np.float64),
                    np.array([jt.max_acceleration for jt in arm.joints], dtype=np.float64),
                    None if all(x is None for x in jerk)
                    else np.array([math.inf if x is None else x for x in jerk],
                                  dtype=np.float64),
-                   TorqueLimits.of(arm, payload_kg))
+                   TorqueLimits.of(arm, payload_kg) if torque else None)
 
     @property
     def jerk_limited(self) -> bool:

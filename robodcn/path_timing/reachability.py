@@ -23,8 +23,12 @@ the greedy step read them like the acceleration rows.
 
 from __future__ import annotations
 
+import functools
+
 import numpy as np
 from numpy.typing import NDArray
+
+from robodcn.path_timing import _scan
 
 # |q'| below this (rad per unit s) counts as "this joint does not move along the path here":
 # its acceleration bound then limits x only, through |q''| x ≤ a.
@@ -65,13 +69,23 @@ def stage_constraints(dq: NDArray[np.float64], ddq: NDArray[np.float64],
         p_hi = np.hstack([p_hi, hi_t])
         r = np.hstack([r, r_t])
         still = np.minimum(still, still_t)
-    with np.errstate(divide="ignore", invalid="ignore"):
-        # U_l(x) ≥ L_j(x) for every pair: (p_hi,l − p_lo,j) + (r_l − r_j) x ≥ 0
-        gap = p_hi[:, :, None] - p_lo[:, None, :]
-        slope = r[:, :, None] - r[:, None, :]
-        cross = np.where(slope < 0, gap / -np.where(slope < 0, slope, -1.0), np.inf)
-    x_cap = np.minimum(np.minimum(x_vel, still), cross.min(axis=(1, 2)))
+    x_cap = np.minimum(x_vel, still)
+    m = r.shape[1]
+    if m > 1:
+        # U_l(x) ≥ L_j(x) for every pair: (p_hi,l − p_lo,j) + (r_l − r_j) x ≥ 0 bounds x
+        # where r_l < r_j; of each unordered pair at most one order does
+        il, jl = _pairs(m)
+        d = r[:, il] - r[:, jl]
+        gap = np.where(d < 0, p_hi[:, il] - p_lo[:, jl], p_hi[:, jl] - p_lo[:, il])
+        with np.errstate(divide="ignore", invalid="ignore"):
+            cross = np.where(d != 0, gap / np.abs(d), np.inf)
+        x_cap = np.minimum(x_cap, cross.min(axis=1))
     return p_lo, p_hi, r, x_cap
+
+
+@functools.cache
+def _pairs(m: int) -> tuple[NDArray[np.int64], NDArray[np.int64]]:
+    return np.triu_indices(m, 1)
 
 
 def _rows(a: NDArray, b: NDArray, lo: NDArray, hi: NDArray
@@ -98,7 +112,9 @@ def controllable(delta: NDArray[np.float64], p_lo: NDArray, r: NDArray, x_cap: N
 
     K_N = [0, x_end] (x_end = ṡ_end²); x_max,i is the largest x ≤ x_cap,i from which the
     strongest deceleration of stage i lands in K_{i+1}. Each root of
-    x (1 + 2Δ r_j) + 2Δ p_lo,j = c is c·W_j + Z_j; slopes ≤ 0 give no upper bound.
+    x (1 + 2Δ r_j) + 2Δ p_lo,j = c is c·W_j + Z_j; slopes ≤ 0 give no upper bound. So
+    x_max,i = max(0, min(x_cap,i, min_j (W_ij x_max,i+1 + Z_ij))), solved over all stages
+    at once (:func:`robodcn.path_timing._scan.min_affine`; the stage loop as fallback).
     """
     n_stages = delta.shape[0]
     slope = 1.0 + 2.0 * delta[:, None] * r[:n_stages]
@@ -107,46 +123,27 @@ def controllable(delta: NDArray[np.float64], p_lo: NDArray, r: NDArray, x_cap: N
     z = np.where(good, -2.0 * delta[:, None] * np.where(good, p_lo[:n_stages], 0.0) * w,
                  np.inf)
     c = min(float(x_end), float(x_cap[n_stages]))
-    if w.shape[1] <= 3:
-        # pad to three joints with roots that never bind (W = 0, Z = ∞) and unroll
-        pad = 3 - w.shape[1]
-        w = np.hstack([w, np.zeros((n_stages, pad))])
-        z = np.hstack([z, np.full((n_stages, pad), np.inf)])
-        out = _backward3(c, x_cap[n_stages - 1::-1].tolist(), *(col[::-1].tolist() for pair in
-                         zip(w.T, z.T, strict=True) for col in pair))
-        return np.concatenate([out[::-1], [c]])
-    x_max = np.empty(n_stages + 1)
-    x_max[n_stages] = c
-    caps = x_cap[:n_stages].tolist()
-    ws = w.tolist()
-    zs = z.tolist()
-    # inherently sequential: a few scalar operations per stage on precomputed lists
-    for i in range(n_stages - 1, -1, -1):
-        m = caps[i]
-        for wj, zj in zip(ws[i], zs[i], strict=True):
+    # stages in reverse order, the cap as one more piece (slope 0)
+    pieces_w = np.hstack([w, np.zeros((n_stages, 1))])[::-1]
+    pieces_z = np.hstack([z, x_cap[:n_stages, None]])[::-1]
+
+    def sequential(c0: float, first: int) -> NDArray[np.float64]:
+        return _backward(c0, pieces_w[first:], pieces_z[first:])
+
+    return _scan.min_affine(c, pieces_w, pieces_z, sequential)[::-1].copy()
+
+
+def _backward(c: float, w: NDArray, z: NDArray) -> NDArray[np.float64]:
+    """The plain loop of :func:`controllable` (stages in reverse order, the cap the last
+    piece): c and every later value."""
+    out = [c]
+    append = out.append
+    for ws, zs in zip(w.tolist(), z.tolist(), strict=True):
+        m = np.inf
+        for wj, zj in zip(ws, zs, strict=True):
             root = c * wj + zj
             if root < m:
                 m = root
-        c = m if m > 0.0 else 0.0
-        x_max[i] = c
-    return x_max
-
-
-def _backward3(c: float, caps: list, w0: list, z0: list, w1: list, z1: list, w2: list,
-               z2: list) -> NDArray[np.float64]:
-    """The backward recursion unrolled for up to three joints (stages in reverse order)."""
-    out = []
-    append = out.append
-    for m, a0, b0, a1, b1, a2, b2 in zip(caps, w0, z0, w1, z1, w2, z2, strict=True):
-        r = c * a0 + b0
-        if r < m:
-            m = r
-        r = c * a1 + b1
-        if r < m:
-            m = r
-        r = c * a2 + b2
-        if r < m:
-            m = r
         c = m if m > 0.0 else 0.0
         append(c)
     return np.asarray(out)
@@ -157,61 +154,35 @@ def greedy_forward(delta: NDArray[np.float64], p_hi: NDArray, r: NDArray,
                    ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
     """Forward pass: the greedy u_i = max feasible u keeping x_{i+1} in K_{i+1} (paper §III).
 
+    x_{i+1} = x_i + 2Δ_i u_i with u_i = min(min_j U_ij(x_i), (x_max,i+1 − x_i) / 2Δ_i), at
+    rest (0) where rounding would land below: x_{i+1} = max(0, min(x_max,i+1,
+    min_j ((1 + 2Δ_i r_ij) x_i + 2Δ_i p_hi,ij))), solved over all stages at once
+    (:func:`robodcn.path_timing._scan.min_affine`; the stage loop as fallback).
     Returns x (N + 1,) and u (N,).
     """
     n_stages = delta.shape[0]
-    two_d = (2.0 * delta).tolist()
-    ph = p_hi[:n_stages].tolist()
-    rs = r[:n_stages].tolist()
-    xm = x_max.tolist()
-    if p_hi.shape[1] <= 3:
-        pad = 3 - p_hi.shape[1]
-        ph3 = np.hstack([p_hi[:n_stages], np.full((n_stages, pad), np.inf)])
-        r3 = np.hstack([r[:n_stages], np.zeros((n_stages, pad))])
-        return _forward3(float(x_start), two_d, xm[1:], *(col.tolist() for pair in
-                         zip(ph3.T, r3.T, strict=True) for col in pair))
-    x = [0.0] * (n_stages + 1)
-    u = [0.0] * n_stages
-    xi = float(x_start)
-    x[0] = xi
-    for i in range(n_stages):
-        d2 = two_d[i]
-        ui = (xm[i + 1] - xi) / d2
-        for pj, rj in zip(ph[i], rs[i], strict=True):
-            bound = pj + rj * xi
-            if bound < ui:
-                ui = bound
-        xn = xi + d2 * ui
-        if xn < 0.0:  # rounding at a stop: land exactly at rest
-            xn = 0.0
-            ui = -xi / d2
-        u[i] = ui
-        x[i + 1] = xn
-        xi = xn
-    return np.asarray(x), np.asarray(u)
+    two_d = 2.0 * delta[:, None]
+    with np.errstate(invalid="ignore"):
+        pieces_w = np.hstack([1.0 + two_d * r[:n_stages], np.zeros((n_stages, 1))])
+        pieces_z = np.hstack([two_d * p_hi[:n_stages], x_max[1:, None]])
+
+    def sequential(x0: float, first: int) -> NDArray[np.float64]:
+        return _forward(x0, pieces_w[first:], pieces_z[first:])
+
+    x = _scan.min_affine(float(x_start), pieces_w, pieces_z, sequential)
+    return x, np.diff(x) / (2.0 * delta)
 
 
-def _forward3(xi: float, two_d: list, x_next: list, p0: list, r0: list, p1: list, r1: list,
-              p2: list, r2: list) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
-    """The forward recursion unrolled for up to three joints."""
-    xs = [xi]
-    us = []
-    for d2, xm, a0, b0, a1, b1, a2, b2 in zip(two_d, x_next, p0, r0, p1, r1, p2, r2,
-                                               strict=True):
-        ui = (xm - xi) / d2
-        bound = a0 + b0 * xi
-        if bound < ui:
-            ui = bound
-        bound = a1 + b1 * xi
-        if bound < ui:
-            ui = bound
-        bound = a2 + b2 * xi
-        if bound < ui:
-            ui = bound
-        xi = xi + d2 * ui
-        if xi < 0.0:  # rounding at a stop: land exactly at rest
-            ui = -xs[-1] / d2
-            xi = 0.0
-        us.append(ui)
-        xs.append(xi)
-    return np.asarray(xs), np.asarray(us)
+def _forward(x: float, w: NDArray, z: NDArray) -> NDArray[np.float64]:
+    """The plain loop of :func:`greedy_forward` (the cap x_max,i+1 the last piece)."""
+    out = [x]
+    append = out.append
+    for ws, zs in zip(w.tolist(), z.tolist(), strict=True):
+        m = np.inf
+        for wj, zj in zip(ws, zs, strict=True):
+            v = x * wj + zj
+            if v < m:
+                m = v
+        x = m if m > 0.0 else 0.0
+        append(x)
+    return np.asarray(out)

@@ -19,6 +19,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from robodcn.errors import InputError
 from robodcn.path_timing import reachability
+from robodcn.path_timing._gradient import Gradient
 from robodcn.path_timing.torque import TorqueRows
 
 #: stages of the reachability grid at most (the samples are subsampled evenly above this)
@@ -94,11 +95,9 @@ def path_derivatives(q: NDArray[np.float64], s: NDArray[np.float64], cuts: Seque
                     raise InputError("s repeats a parameter with different joint samples (a "
                                      "jump of the path)", field="s", value=s.shape)
                 f, x = f[keep], x[keep]
+        grad = Gradient(x) if f.shape[0] >= 2 else None
         for d in range(order):
-            if f.shape[0] < 2:  # one distinct sample: nothing moves
-                f = np.zeros_like(f)
-            else:
-                f = np.gradient(f, x, axis=0, edge_order=2 if f.shape[0] > 2 else 1)
+            f = np.zeros_like(f) if grad is None else grad(f)  # one sample: nothing moves
             out[d][a:b + 1] = f if index is None else f[index]
     return out
 

@@ -120,7 +120,7 @@ def stretch_factors(req: PlanRequest, joints: NDArray, history: NDArray | None) 
     """Per sample, the uniform stretch λ that brings its finite differences within the limits:
     max(|q̇|/v, √(|q̈|/a), ∛(|q⃛|/j)) over the joints, charged as validation charges them
     (to the last sample of each difference), and spread back over the samples they span."""
-    lim = JointLimits.of(req.arm)
+    lim = JointLimits.of(req.arm, torque=False)  # torque: below, with the request's payload
     rate = req.rate_hz
     f = np.ones(joints.shape[0])
     ratios = []

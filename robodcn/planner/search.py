@@ -26,7 +26,7 @@ MAX_SEARCH_STEPS = 40
 def fd_need(q: NDArray[np.float64], arm: Arm) -> float:
     """Shortest duration (s) of the sampled joints q under the arm's limits (jerk included
     where a joint sets one)."""
-    lim = JointLimits.of(arm)
+    lim = JointLimits.of(arm, torque=False)
     return timing.fd_min_duration(q, lim.v, lim.a, j_max=lim.j)
 
 

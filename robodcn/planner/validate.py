@@ -65,7 +65,7 @@ def check_waypoints(req: PlanRequest) -> None:
 
 def dynamic_limits(arm: Arm) -> tuple[NDArray, NDArray, NDArray]:
     """Per-joint velocity, acceleration and jerk limits (inf where no jerk limit is set)."""
-    lim = JointLimits.of(arm)
+    lim = JointLimits.of(arm, torque=False)
     return lim.v, lim.a, lim.jerk
 
 

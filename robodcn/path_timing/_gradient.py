@@ -1,0 +1,63 @@
+"""numpy.gradient along axis 0 with its coefficients computed once per grid.
+
+The path's q′ and q″ (:func:`~robodcn.path_timing.topp.path_derivatives`) and the C²
+interpolant's slopes (:class:`~robodcn.path_timing.arclength.Smooth`) differentiate several
+arrays on one grid x; numpy.gradient recomputes its coefficients (and checks) every call.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numpy.typing import NDArray
+
+__all__ = ["Gradient"]
+
+
+class Gradient:
+    """numpy.gradient(f, x, axis=0, edge_order=2 (1 for two samples)) with its coefficients
+    computed once for every f on the same x (the same formulas and operation order as
+    numpy's, so the same bits: second-order central differences inside, one-sided at the
+    ends; the uniform-spacing case as numpy takes it)."""
+
+    def __init__(self, x: NDArray[np.float64]) -> None:
+        dx = np.diff(x)
+        self.n = x.shape[0]
+        self.uniform = bool((dx == dx[0]).all())
+        if self.uniform:
+            h = dx[0]
+            self.h = h
+            self.left = (-1.5 / h, 2.0 / h, -0.5 / h)
+            self.right = (0.5 / h, -2.0 / h, 1.5 / h)
+            return
+        self.dx = dx
+        if self.n > 2:
+            dx1, dx2 = dx[:-1], dx[1:]
+            self.a = -dx2 / (dx1 * (dx1 + dx2))
+            self.b = (dx2 - dx1) / (dx1 * dx2)
+            self.c = dx1 / (dx2 * (dx1 + dx2))
+            d1, d2 = dx[0], dx[1]
+            self.left = (-(2.0 * d1 + d2) / (d1 * (d1 + d2)), (d1 + d2) / (d1 * d2),
+                         -d1 / (d2 * (d1 + d2)))
+            d1, d2 = dx[-2], dx[-1]
+            self.right = (d2 / (d1 * (d1 + d2)), -(d2 + d1) / (d1 * d2),
+                          (2.0 * d2 + d1) / (d2 * (d1 + d2)))
+
+    def __call__(self, f: NDArray[np.float64]) -> NDArray[np.float64]:
+        out = np.empty_like(f)
+        if self.n == 2:  # numpy's edge_order=1
+            h0 = self.h if self.uniform else self.dx[0]
+            h1 = self.h if self.uniform else self.dx[-1]
+            out[0] = (f[1] - f[0]) / h0
+            out[-1] = (f[-1] - f[-2]) / h1
+            return out
+        if self.uniform:
+            out[1:-1] = (f[2:] - f[:-2]) / (2.0 * self.h)
+        else:
+            a, b, c = ((m if f.ndim == 1 else m.reshape((-1,) + (1,) * (f.ndim - 1)))
+                       for m in (self.a, self.b, self.c))
+            out[1:-1] = a * f[:-2] + b * f[1:-1] + c * f[2:]
+        a, b, c = self.left
+        out[0] = a * f[0] + b * f[1] + c * f[2]
+        a, b, c = self.right
+        out[-1] = a * f[-3] + b * f[-2] + c * f[-1]
+        return out
