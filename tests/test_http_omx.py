@@ -198,6 +198,23 @@ def test_a_one_waypoint_replace_with_a_payload_on_the_omx(omx_server: Any) -> No
     assert traj["request"]["payload_kg"] == 0.0
 
 
+
+@pytest.mark.xfail(strict=True, raises=AssertionError, reason=(
+    "robodcn/workflow/record.py takes the poses by planar FK (kinematics.fk(arm.links, ...)) "
+    "and writes x_m, y_m, theta_rad: GET /v1/moves/{id}/record on a yawed arm is 422 "
+    "'joint angles must have shape (n, 3)'"))
+def test_the_record_of_an_omx_move_has_four_number_poses(omx_server: Any) -> None:
+    server, _ = omx_server
+    status, _, body = call(server, "POST", "/v1/moves", {"waypoints": [NEAR],
+                                                          "payload_kg": 0.0})
+    assert status == 202, body
+    poll_move(server, body["id"], finished, timeout=20)
+    status, _, rec = call(server, "GET", f"/v1/moves/{body['id']}/record")
+    assert status == 200, rec
+    assert rec["poses"] and all(len(p) == 4 for p in rec["poses"])
+    assert np.allclose(rec["poses"][-1], tool_pose(OMX, rec["joints"][-1]), atol=1e-9)
+
+
 # -- the gripper ---------------------------------------------------------------------------------
 
 def test_the_gripper_opens_closes_and_takes_a_width(omx_server: Any) -> None:
