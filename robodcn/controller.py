@@ -20,8 +20,10 @@ the present state once, plan once, start). The most recent ``history`` moves are
 results of :mod:`robodcn.results` (MoveStatus, State, StopAnswer); the surfaces turn them
 into JSON.
 
-Servo admin (:meth:`ArmController.set_torque`, :meth:`ArmController.reboot`) runs on the same
-worker thread through :mod:`robodcn.workflow.admin`, refused (BusyError) while a move runs.
+Servo admin (:meth:`ArmController.set_torque`, :meth:`ArmController.reboot`,
+:meth:`ArmController.gripper`) runs on the same worker thread through
+:mod:`robodcn.servo_admin` and :mod:`robodcn.workflow.admin`, refused (BusyError) while a
+move runs; torque off on an arm under gravity needs ``confirm``.
 
 Losing the serial device is a bus fault, never a crash (:mod:`robodcn.bus_worker`): the
 move ends ``fault`` with a report of what was sent, reads raise CommError (503), and the
