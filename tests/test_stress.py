@@ -27,12 +27,11 @@ import numpy as np
 import pytest
 from http_helpers import ARM, HOME, call, finished, running
 
-from robodcn import servo_units
 from robodcn.controller import ArmController
 from robodcn.http import make_server, openapi
 from robodcn.http.service import open_device
-from robodcn.path_timing.limits import JointLimits
 from robodcn.simulated import sim_arm_document, simulated_arm, start_ticks
+from robodcn.stream.compensation import max_steps
 
 pytestmark = pytest.mark.serial
 
@@ -98,12 +97,10 @@ class GoalLog:
         goals.wrote, goals.acted = timed_wrote, timed_acted
 
     def steps_beyond_limits(self) -> list[str]:
-        """Goal steps of a joint larger than its velocity limit allows over the time since
-        its previous goal (at least one stream period), with a margin for the wire's jitter
-        and one tick of rounding."""
-        limits = JointLimits.of(ARM)
-        per_tick = servo_units.radians_per_tick(ARM.servos)
-        period = 1.0 / ARM.bus.rate_hz
+        """Goal steps of a joint beyond v_max·T (+1 tick of rounding) from the goal before
+        it, at every goal written (T the stream period; robodcn.stream.step_guard)."""
+        allowed = np.floor(max_steps(ARM, ARM.servos, 1.0 / ARM.bus.rate_hz,
+                                     len(ARM.servos))) + 1
         out = []
         for j, servo_id in enumerate(ARM.servo_ids):
             rows = [(t, g) for t, i, g in self.rows if i == servo_id]
@@ -111,12 +108,10 @@ class GoalLog:
                 continue
             t = np.array([r[0] for r in rows])
             g = np.array([r[1] for r in rows], dtype=np.int64)
-            dt = np.maximum(np.diff(t), period)
-            allowed = 1.5 * limits.v[j] * dt / per_tick[j] + 2
             step = np.abs(np.diff(g))
-            for k in np.flatnonzero(step > allowed)[:5]:
+            for k in np.flatnonzero(step > allowed[j])[:5]:
                 out.append(f"servo {servo_id}: goal {g[k]} -> {g[k + 1]} ({step[k]} ticks) in "
-                           f"{1e3 * (t[k + 1] - t[k]):.1f} ms, allowed {allowed[k]:.0f}; "
+                           f"{1e3 * (t[k + 1] - t[k]):.1f} ms, allowed {allowed[j]:.0f}; "
                            f"requests in the 0.3 s before: {_before(t[k + 1])}")
         return out
 

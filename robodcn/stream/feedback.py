@@ -53,6 +53,23 @@ def _pose_text(pose: Sequence[float]) -> str:
     return f"x {pose[0]:.3f} m, y {pose[1]:.3f} m, θ {math.degrees(pose[2]):.1f}°"
 
 
+def _alert_seen(ids: Sequence[int], alert_ids: Sequence[int], fb: Any,
+                sample: int) -> tuple[list[int], str]:
+    """The servos a feedback read flagged and how: the Alert bit of their status packets
+    and the Hardware Error Status bytes of the feedback map, with that read's positions."""
+    parts = []
+    if alert_ids:
+        parts.append(f"Alert bit in the status of servo(s) {list(alert_ids)}")
+    flagged = list(alert_ids)
+    if fb is not None and fb.hardware_errors.any():
+        errors = {int(i): int(e) for i, e in zip(ids, fb.hardware_errors, strict=True) if e}
+        parts.append(f"feedback Hardware Error Status {errors}")
+        flagged = flagged or list(errors)
+    if fb is not None:
+        parts.append(f"present {[int(v) for v in fb.positions]}")
+    return flagged, f"feedback read at sample {sample}: " + ", ".join(parts)
+
+
 class Timeline(Protocol):
     """What a read needs of the loop: where the plan is now (its clock and source)."""
 
@@ -179,8 +196,7 @@ class Feedback:
             self.currents.append(np.abs(fb.currents))
             self.feedback_samples.append(sample)
         if bus.last_alert_ids or (fb is not None and fb.hardware_errors.any()):
-            self.alert(bus.last_alert_ids
-                       or [i for i, e in zip(bus.ids, fb.hardware_errors, strict=True) if e])
+            self.alert(*_alert_seen(bus.ids, bus.last_alert_ids, fb, sample))
         self.last_error = error
         self.errors.append(error)
         self.read_samples.append(sample)
@@ -277,16 +293,21 @@ class Feedback:
 
     # -- health ---------------------------------------------------------------------------
 
-    def alert(self, ids: Sequence[int]) -> None:
-        """Stop on a hardware alert of ``ids`` (reading what each servo reports)."""
+    def alert(self, ids: Sequence[int], seen: str = "") -> None:
+        """Stop on a hardware alert of ``ids`` (reading what each servo reports); ``seen``:
+        how the alert showed (for the message: the bits a read saw where Hardware Error
+        Status reads 0 by now)."""
         try:
             self.hardware = self.bus.hardware_errors()
-        except BusError:
+        except BusError as exc:
             self.hardware = {i: -1 for i in ids}
+            seen = f"{seen}; Hardware Error Status unreadable: {exc.message}".lstrip("; ")
         described = {i: describe_hardware_error(e) if e > 0 else "alert bit set"
                      for i, e in self.hardware.items() if e}
-        raise StreamStop("hardware_alert",
-                         f"hardware alert on servo(s) {described or list(ids)}")
+        message = f"hardware alert on servo(s) {described or list(ids)}"
+        if not described:
+            message += " (Hardware Error Status reads 0 now)"
+        raise StreamStop("hardware_alert", f"{message}: {seen}" if seen else message)
 
     def health(self) -> None:
         """One health poll in place of a position read: Hardware Error Status and the Bus
@@ -298,7 +319,9 @@ class Feedback:
                 alerts = self.bus.last_alert_ids
                 self.failures.ok()
                 if any(errors.values()) or alerts:
-                    self.alert(alerts or [i for i, e in errors.items() if e])
+                    self.alert(alerts or [i for i, e in errors.items() if e],
+                               f"health poll: Alert bit of {list(alerts)}, Hardware Error "
+                               f"Status {errors}")
             else:
                 self.check_watchdog()
         except CommError as exc:

@@ -12,6 +12,10 @@ rest. Time is never accumulated: a late cycle makes only its own write late. Rul
   the skipped ones; motion stays on the planned clock. With ``skip_late=False`` every
   sample is sent instead, the late ones back to back until the loop has caught up.
 
+Every goal written keeps the joints' velocity limits (:mod:`robodcn.stream.step_guard`: a
+source's goal beyond v_max·T of the one written before is slewed toward, and after the last
+sample the loop writes on until the servos' goal is the source's last one).
+
 A cycle reads at most once: a health poll takes the place of that cycle's position read
 (the last sample always reads positions), so no cycle carries two round trips. The source
 is read afresh at every sample: :meth:`Stream.swap` replaces it between two (online
@@ -30,10 +34,12 @@ from numpy.typing import NDArray
 
 from robodcn.bus import ServoBus
 from robodcn.errors import CommError
+from robodcn.stream.compensation import max_steps
 from robodcn.stream.feedback import CommFailures, Feedback
 from robodcn.stream.options import ExecutionOptions
 from robodcn.stream.realtime import SPIN_S
 from robodcn.stream.report import Ending, Progress, StreamStop
+from robodcn.stream.step_guard import StepGuard
 
 log = logging.getLogger("robodcn.stream")
 
@@ -92,6 +98,11 @@ class Stream:
         self.failed_writes = 0
         self.overruns = 0
         self.retries_start = bus.retries_used
+        #: the bound on every goal written (module notes); the first from the goal the
+        #: servos held, where the source read it
+        self.guard = StepGuard(max_steps(getattr(source, "arm", None), bus.servos,
+                                         self.period, len(bus.ids)),
+                               getattr(source, "start_goal", None))
         self.last_goal: NDArray[np.int64] | None = None
         self.previous_goal: NDArray[np.int64] | None = None
         self.ending = Ending()
@@ -132,6 +143,7 @@ class Stream:
     def run(self) -> None:
         """Stream every sample (or until a stop); the outcome is in :attr:`ending`."""
         bus, period, clock, records = self.bus, self.period, self.clock, self.records
+        guard = self.guard
         feedback_every = self.feedback_every
         watchdog_s = bus.watchdog_ms / 1000.0
         t0 = clock.now() + min(period, 0.002)
@@ -165,7 +177,7 @@ class Stream:
                 source = self.source
                 start = clock.now()
                 try:
-                    bus.write_encoded(source.encoded(i))
+                    bus.write_encoded(guard.row(i, source.encoded(i)))
                 except CommError as exc:
                     self.failed_writes += 1
                     self.failures.failed(exc)
@@ -181,7 +193,11 @@ class Stream:
                 if (i + 1) % self.health_every == 0 and i != n - 1:
                     self.feedback.health()
                 elif (feedback_every and i % feedback_every == 0) or i == n - 1:
-                    self.feedback.read(self, i, goal, self.previous_goal)
+                    previous = self.previous_goal
+                    lag = guard.lag()
+                    if lag is not None:     # the loop's own lag: not the servos' error
+                        previous = goal - np.asarray(lag, dtype=np.int64)
+                    self.feedback.read(self, i, goal, previous)
                 self.previous_goal = goal
                 self.last_goal = goal
                 records.work[slot] = clock.now() - start
@@ -190,6 +206,8 @@ class Stream:
                     self._last_progress = start
                     self._report_progress(i, start)
                 i += 1
+            if guard.behind():
+                self._catch_up(t0, i)
         except StreamStop as stop:
             self.ending = stop.ending
             requested = getattr(self.stop, "requested_at", None)
@@ -199,6 +217,22 @@ class Stream:
         self.t_end = clock.now()
         if self.progress is not None and records.count:
             self._report_progress(records.last_index(), self.t_end)
+
+    def _catch_up(self, t0: float, i: int) -> None:
+        """After the last sample: write slewed goals on the schedule until the servos' goal
+        is the source's last (a few periods at most; a stop request ends it, the hold keeps
+        the goal written)."""
+        guard, period = self.guard, self.period
+        while guard.behind():
+            if self.clock.wait_until(t0 + i * period, self.stop, self.spin):
+                raise StreamStop("stopped", self._stop_message())
+            try:
+                self.bus.write_encoded(guard.catch_up(i))
+            except CommError as exc:
+                self.failed_writes += 1
+                self.failures.failed(exc)
+            i += 1
+        log.debug("goal steps slewed to the velocity limit: %d", guard.slewed)
 
     def _stop_message(self) -> str:
         reason = getattr(self.stop, "reason", None)

@@ -75,13 +75,16 @@ class PlannedSamples:
         self.arm = None if request is None else request.arm
         self.payload_kg = None if request is None else getattr(request, "payload_kg", None)
         self.i_gains: tuple[int, ...] | None = None
+        #: the Goal Position (k,) the servos held before the stream, ticks (read with
+        #: compensation; None otherwise): the loop's first write is step-limited from it
+        self.start_goal: NDArray[np.int64] | None = None
         self._bus = bus
         if compensation:
-            start_goal, present, self.i_gains = servo_state(bus)
+            self.start_goal, present, self.i_gains = servo_state(bus)
             self.commanded = compensated_ticks(
                 trajectory.joints, self.period, bus.servos, bus.limits, arm=self.arm,
-                p_gains=bus.position_p_gains, i_gains=self.i_gains, start_goal=start_goal,
-                present=present, payload_kg=self.payload_kg)
+                p_gains=bus.position_p_gains, i_gains=self.i_gains,
+                start_goal=self.start_goal, present=present, payload_kg=self.payload_kg)
         self._encoded = bus.encode_goals(self.commanded)
 
     def commanded_for(self, joints: NDArray[np.float64], *,
