@@ -1,5 +1,12 @@
 """Planner and IK speed: an end-to-end 10 s, 1 kHz plan and 10⁶-pose analytic IK.
 
+The planner's fixed cost against a yard-stick in the same run (issue 17 §5): a bare-numpy
+pipeline for the same samples — the quintic s(t), the closed-form planar ScLERP (rotation
+about the segment's fixed centre, complex arithmetic), the elbow-up 3R IK and the ticks,
+no checks, no validation, no search — and the planner's plan of the same waypoints at the
+same rate and sample count; the targets are ratios (small plan ≤ 15×, 10 s @ 1 kHz quintic
+≤ 3×, default ≤ 5×).
+
 Optional comparison against roboticstoolbox-python's numerical IK (``ik_LM``, C++, and
 ``ikine_LM``, Python) on the same planar 3R arm, when that package is installed; it is not a
 dependency of robodcn and the rows say so when it is missing.
@@ -23,6 +30,10 @@ ROOT = Path(__file__).resolve().parent.parent
 WAYPOINTS = [[0.25, 0.10, 0.0], [0.15, 0.20, 1.0], [0.0, 0.28, 1.5]]
 PLAN_TARGET_MS = 5.0
 IK_TARGET = 10e6  # poses/s
+#: the planner's time over the yard-stick's for the same samples, at most (issue 17 §5)
+SMALL_RATIO_TARGET = 15.0
+LONG_QUINTIC_RATIO_TARGET = 3.0
+LONG_DEFAULT_RATIO_TARGET = 5.0
 
 
 def median_seconds(fn: Callable[[], object], repeat: int, warmup: int = 2) -> float:
@@ -62,6 +73,68 @@ def rtb_rows(links: tuple[float, ...], poses: np.ndarray, ours_per_pose: float) 
         rows.append(f"| roboticstoolbox {rtb.__version__} `{name}`, per pose ({count} poses, "
                     f"{solved} solved) | "
                     f"{per_pose * 1e6:.1f} µs ({per_pose / ours_per_pose:,.0f}× ours) | — |")
+    return rows
+
+
+def yardstick(links: tuple[float, ...], servos, waypoints: list[list[float]],
+              periods: list[int]) -> np.ndarray:
+    """The bare-numpy pipeline (module doc): ticks (n, 3) of the waypoints' ScLERP segments,
+    each over its sample periods with the quintic s, stopping at every via."""
+    l1, l2, l3 = links
+    out = []
+    for (x0, y0, t0), (x1, y1, t1), n in zip(waypoints, waypoints[1:], periods,
+                                             strict=False):
+        u = np.arange(n + 1) / n
+        s = u * u * u * (10.0 + u * (-15.0 + 6.0 * u))
+        d = (t1 - t0 + np.pi) % (2.0 * np.pi) - np.pi
+        z0, z1 = complex(x0, y0), complex(x1, y1)
+        if abs(d) > 1e-12:
+            turn = np.exp(1j * d)
+            centre = (z1 - turn * z0) / (1.0 - turn)
+            z = centre + np.exp(1j * d * s) * (z0 - centre)
+        else:
+            z = z0 + (z1 - z0) * s
+        theta = t0 + d * s
+        w = z - l3 * np.exp(1j * theta)
+        c2 = (w.real ** 2 + w.imag ** 2 - l1 * l1 - l2 * l2) / (2.0 * l1 * l2)
+        q2 = -np.arccos(np.clip(c2, -1.0, 1.0))
+        q1 = np.angle(w) - np.arctan2(l2 * np.sin(q2), l1 + l2 * np.cos(q2))
+        q = np.stack([q1, q2, theta - q1 - q2], axis=1)
+        out.append(q if not out else q[1:])
+    q = np.concatenate(out)
+    scale = np.array([sv.direction * sv.ticks_per_turn / (2.0 * np.pi) for sv in servos])
+    offset = np.array([sv.zero_offset for sv in servos])
+    return np.rint(q * scale).astype(np.int64) + offset
+
+
+def yardstick_rows(arm) -> list[str]:
+    """The planner against the yard-stick for the same samples, as ratios (module doc)."""
+    ok = lambda good: "✅" if good else "❌"  # noqa: E731
+    rows = []
+    cases = (
+        ("two-pose plan, 100 Hz, default (optimal)", WAYPOINTS[:2], {"rate_hz": 100},
+         SMALL_RATIO_TARGET, 200),
+        ("two-pose plan, 100 Hz, quintic", WAYPOINTS[:2], {"rate_hz": 100,
+                                                           "profile": "quintic"},
+         SMALL_RATIO_TARGET, 200),
+        ("10 s @ 1 kHz, 3 waypoints, quintic", WAYPOINTS,
+         {"rate_hz": 1000, "duration": 10.0, "profile": "quintic"},
+         LONG_QUINTIC_RATIO_TARGET, 30),
+        ("10 s @ 1 kHz, 3 waypoints, default (optimal)", WAYPOINTS,
+         {"rate_hz": 1000, "duration": 10.0}, LONG_DEFAULT_RATIO_TARGET, 30),
+    )
+    for name, wps, kwargs, target, repeat in cases:
+        traj = plan(arm, wps, **kwargs)
+        n = traj.t.shape[0] - 1
+        segments = len(wps) - 1
+        periods = [n // segments + (i < n % segments) for i in range(segments)]
+        t_plan = median_seconds(lambda wps=wps, kw=kwargs: plan(arm, wps, **kw), repeat)
+        t_bare = median_seconds(lambda wps=wps, p=periods: yardstick(
+            arm.links, arm.servos, wps, p), repeat)
+        ratio = t_plan / t_bare
+        rows.append(f"| yard-stick: {name}, {n + 1:,} samples: planner {t_plan * 1e3:.2f} ms"
+                    f" / bare numpy {t_bare * 1e3:.3f} ms | {ratio:.1f}× | ≤ {target:g}× "
+                    f"{ok(ratio <= target)} |")
     return rows
 
 
@@ -109,6 +182,7 @@ def run() -> str:
         f"| analytic IK (`kinematics.ik`, one branch), 10⁶ poses | {t_ik * 1e3:.1f} ms = "
         f"{rate_ik / 1e6:.1f} M poses/s | ≥ {IK_TARGET / 1e6:g} M poses/s "
         f"{ok(rate_ik >= IK_TARGET)} |",
+        *yardstick_rows(arm),
         *rtb_rows(arm.links, poses[:200], t_ik / poses.shape[0]),
     ]
     return "\n".join(rows) + "\n"

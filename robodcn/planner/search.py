@@ -41,17 +41,23 @@ def estimate(piece: Piece, arm: Arm, reference: NDArray | None
     return fd_need(q, arm), q[-1]
 
 
-def search(piece: Piece, arm: Arm, reference: NDArray | None, rate: float) -> int:
+def search(piece: Piece, arm: Arm, reference: NDArray | None, rate: float,
+           cache: dict[int, tuple] | None = None) -> int:
     """Smallest N (sample periods) whose samples pass the velocity/acceleration checks.
 
     Bracket, then bisect: from the estimate, grow N (to the finite-difference closed form's
     ⌈T_fd(N)·rate⌉, at least doubling) until it passes; then try the closed form's guess just
     below and bisect between the largest failing and the smallest passing N until they are
     neighbours. The result passes and N − 1 fails (or N = 1). Typically 2–3 evaluations.
+    ``cache`` (a dict) keeps each evaluation's ``piece.sample(N, arm, reference)`` by N, so
+    the caller need not sample the chosen N again.
     """
 
     def need(n: int) -> float | None:
-        q = piece.sample(n, arm, reference)[1]
+        sampled = piece.sample(n, arm, reference)
+        if cache is not None:
+            cache[n] = sampled
+        q = sampled[1]
         # None: out of reach; validation reports it with the real sample index
         return None if q is None else fd_need(q, arm)
 

@@ -57,8 +57,11 @@ def _pieces(req: PlanRequest) -> tuple[list[Piece], NDArray | None]:
     return pieces, start
 
 
-def _counts(req: PlanRequest, pieces: list[Piece], start: NDArray | None) -> list[int]:
-    """Sample periods per piece; the joint reference threads through the pieces."""
+def _counts(req: PlanRequest, pieces: list[Piece], start: NDArray | None,
+            caches: list[tuple[NDArray | None, dict]] | None = None) -> list[int]:
+    """Sample periods per piece; the joint reference threads through the pieces. With
+    ``caches`` (a list), each piece's (reference, {N: piece.sample(N, …)}) of the search is
+    appended to it."""
     arm = req.arm
     rate = req.rate_hz
     counts: list[int] = []
@@ -67,14 +70,20 @@ def _counts(req: PlanRequest, pieces: list[Piece], start: NDArray | None) -> lis
     for piece in pieces:
         shape_trapezoid(piece, arm, ref)
         last = None
+        cache: dict[int, tuple] = {}
+        if caches is not None:
+            caches.append((ref, cache))
         if req.duration == "auto" or piece.path is None:
-            counts.append(search.search(piece, arm, ref, rate))
+            counts.append(search.search(piece, arm, ref, rate, cache))
         else:
             need, last = search.estimate(piece, arm, ref)
             estimates.append(need)
             counts.append(0)
         if last is None:
-            q = piece.sample(counts[-1] or COARSE, arm, ref)[1]
+            n = counts[-1] or COARSE
+            sampled = cache[n] if n in cache else piece.sample(n, arm, ref)
+            cache[n] = sampled
+            q = sampled[1]
             last = ref if q is None else q[-1]
         ref = last
     if req.duration != "auto":
@@ -95,7 +104,10 @@ class UniformTiming:
         self.pieces, self.reference = _pieces(req)
         if counts is not None and len(counts) != len(self.pieces):
             counts = [COARSE] * len(self.pieces)  # an approach on one branch, not the other
-        self.counts = _counts(req, self.pieces, self.reference) if counts is None else counts
+        #: per piece the search's samples by count, and the reference they were taken from
+        self._cache: list[tuple[NDArray | None, dict]] = []
+        self.counts = _counts(req, self.pieces, self.reference, self._cache) \
+            if counts is None else counts
 
     def sample(self) -> Sampled | Violation:
         """Every piece sampled at its count; or the first sample out of reach (or an earlier
@@ -124,7 +136,7 @@ class UniformTiming:
                 segment_of[offset:offset + n + 1] = segment + np.minimum(
                     inner, len(piece.path.segments) - 1)
                 segment = last
-            p, q, bad = piece.sample(n, arm, ref)
+            p, q, bad = self._sampled(len(starts), piece, n, ref)
             if q is None:
                 assert bad is not None
                 return self._unreachable(piece, ref, offset, poses, joints, segment_of, p, bad)
@@ -137,6 +149,17 @@ class UniformTiming:
         approach = counts[0] if self.pieces[0].path is None else 0
         return Sampled(poses, joints, segment_of, marks, np.asarray(starts, dtype=np.int64),
                        approach)
+
+    def _sampled(self, index: int, piece: Piece, n: int, ref: NDArray | None) -> tuple:
+        """piece.sample(n, arm, ref), taken from the search's evaluations when it made this
+        one from the same reference (the same computation)."""
+        if index < len(self._cache):
+            cached_ref, cache = self._cache[index]
+            same = (ref is None and cached_ref is None) or (
+                ref is not None and cached_ref is not None and np.array_equal(ref, cached_ref))
+            if same and n in cache:
+                return cache[n]
+        return piece.sample(n, self.req.arm, ref)
 
     def _unreachable(self, piece: Piece, ref: NDArray | None, offset: int, poses: NDArray,
                      joints: NDArray, segment_of: NDArray, piece_poses: NDArray,
