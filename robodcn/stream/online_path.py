@@ -38,6 +38,7 @@ until it holds.
 
 from __future__ import annotations
 
+import logging
 import math
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
@@ -55,6 +56,8 @@ from robodcn.path_timing import (
     time_optimal,
 )
 from robodcn.path_timing.torque import TorqueLimits
+
+log = logging.getLogger("robodcn.stream")
 
 #: share of each acceleration limit a brake uses (margin for the O(Δt) error of the step)
 BRAKE_SHARE = 0.995
@@ -244,7 +247,8 @@ def brake_checked(path: JointPath, sigma0: float, sd0: float, a: NDArray[np.floa
     it sends after ``history`` (the commanded samples up to the switch, or None) by
     :func:`torque_excess`: the torque limits' share is lowered until every sample holds
     (the chords between samples and the σ̇ of a central difference land a little off the
-    rows' model); the last share tried when none within :data:`BRAKE_TRIES` does."""
+    rows' model); the last share tried when none within :data:`BRAKE_TRIES` does (a
+    warning: a stop is not refused)."""
     if torque is None:
         return brake(path, sigma0, sd0, a, rate_hz, until_sd=until_sd)
     share = BRAKE_SHARE
@@ -256,8 +260,10 @@ def brake_checked(path: JointPath, sigma0: float, sd0: float, a: NDArray[np.floa
         joints = path.at(out) if history is None else np.vstack([history, path.at(out)])
         over = torque_excess(joints, torque, rate_hz, to_rest=until_sd <= 0.0)
         if over <= 1.0:
-            break
+            return out
         share *= 0.99 / over
+    log.warning("brake: %.4g × a torque limit at every share tried (gravity alone may "
+                "need that much here); braking with the last", over)
     return out
 
 
