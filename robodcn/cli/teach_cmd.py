@@ -1,8 +1,16 @@
 """``robodcn teach``: record waypoints by moving the arm by hand into a waypoints file.
 
 The dialogue over :class:`robodcn.workflow.teach.Teaching`: Enter records the present pose,
-``u`` undoes the last one, ``q`` (or end of input) finishes; the file is
+``o`` / ``c`` open / close the gripper there (the waypoint gets ``gripper = "open" |
+"close"``), ``u`` undoes the last one, ``q`` (or end of input) finishes; the file is
 :func:`robodcn.workflow.teach.waypoints_toml`, for ``robodcn run``.
+
+Torque goes off so a hand moves the arm — on an arm under gravity only with ``--yes`` (it
+falls). ``--float`` holds a vertical arm in float mode instead
+(:class:`robodcn.workflow.teach.FloatSession`: current control with the present pose's
+gravity currents, refreshed on its own thread while the prompt waits): it stays where the
+hand leaves it, and at the end holds there in position mode; ``--release`` then lets it go
+(``--yes``; lowered to ``[arm.rest]`` first).
 """
 
 from __future__ import annotations
@@ -10,23 +18,39 @@ from __future__ import annotations
 import argparse
 
 from robodcn import contract
-from robodcn.cli import options
+from robodcn.cli import options, releasing
 from robodcn.cli.dialogue import say, stdin_prompt
 from robodcn.cli.report_text import pose_text
 from robodcn.cli.servo_session import add_bus_options, open_bus
 from robodcn.errors import InputError
 
 PROMPT = "Enter: record the present pose, u: undo the last one, q: finish"
+GRIPPER_PROMPT = ("Enter: record the present pose, o/c: open/close the gripper here, "
+                  "u: undo the last one, q: finish")
+#: The dialogue's gripper keys → the command a waypoint records.
+GRIPPER_KEYS = {"o": "open", "c": "close"}
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
     p = subparsers.add_parser(
         "teach", help="record waypoints by moving the arm by hand",
-        description="Torque off; each Enter records the present pose (FK of the present "
-                    "joints) as a waypoint, 'u' undoes the last one, 'q' (or end of input) "
-                    "finishes and writes the waypoints file for 'robodcn run'.")
+        description="Torque off (an arm under gravity falls: --yes, or --float); each "
+                    "Enter records the present pose (FK of the present joints) as a "
+                    "waypoint, 'o'/'c' open/close the gripper and mark the waypoint there "
+                    "gripper = \"open\"/\"close\" (run comes to rest and acts on it), 'u' "
+                    "undoes the last one, 'q' (or end of input) finishes and writes the "
+                    "waypoints file for 'robodcn run'.")
     options.add_arm_option(p)
     add_bus_options(p)
+    p.add_argument("--float", action="store_true", dest="float_mode",
+                   help="hold a vertical arm in float mode (current control with the "
+                        "gravity current of the present pose, refreshed at >= 50 Hz) while "
+                        "a hand moves it: it stays where it is left, and holds there in "
+                        "position mode at the end")
+    p.add_argument("--release", action="store_true",
+                   help="with --float: torque off at the end (an arm under gravity needs "
+                        "--yes; lowered to its [arm.rest] pose first)")
+    releasing.add_yes_option(p, what="torque off (teach without --float, or --release)")
     p.add_argument("--out", required=True, metavar="POSES.toml", help="waypoints file")
     p.add_argument("--force", action="store_true", help="overwrite --out if it exists")
     p.add_argument("--method", metavar="M[,M...]",
@@ -46,43 +70,106 @@ def choices(text: str | None, option: str, name: str) -> str | list[str] | None:
 
 
 def record(teaching) -> None:
-    """The Enter / u / q dialogue over ``teaching`` until q or end of input."""
+    """The Enter / o / c / u / q dialogue over ``teaching`` until q or end of input."""
+    has_gripper = teaching.arm.gripper is not None
+    prompt = GRIPPER_PROMPT if has_gripper else PROMPT
     while True:
         try:
-            answer = stdin_prompt(f"[{len(teaching)} recorded] {PROMPT}").strip().lower()
+            answer = stdin_prompt(f"[{len(teaching)} recorded] {prompt}").strip().lower()
         except EOFError:
             return
         if answer == "":
             pose = teaching.record()
             say(f"waypoint {len(teaching) - 1}: {pose_text(teaching.arm.pose_keys, pose)}")
+        elif answer in GRIPPER_KEYS and has_gripper:
+            _gripper(teaching, GRIPPER_KEYS[answer])
         elif answer == "u":
             say(f"undone; {len(teaching)} recorded" if teaching.undo() else "nothing to undo")
         elif answer == "q":
             return
         else:
-            say(f"unknown answer {answer!r}: {PROMPT}")
+            say(f"unknown answer {answer!r}: {prompt}")
+
+
+def _gripper(teaching, command: str) -> None:
+    from robodcn.cli.gripper_cmd import result_line
+
+    index, result = teaching.gripper(command)
+    pose = teaching.poses[index]
+    say(f"{result_line(result)}\nwaypoint {index}: "
+        f"{pose_text(teaching.arm.pose_keys, pose)}, gripper = {command!r}")
+
+
+def _check_segments(method, turn, count: int, out) -> None:
+    for option, value in (("--method", method), ("--turn", turn)):
+        if isinstance(value, list) and len(value) != count - 1:
+            raise InputError(f"{option} lists {len(value)} values for {count - 1} "
+                             f"segments; {out} not written", field=option.lstrip("-"),
+                             value=value)
+
+
+def _teach(args: argparse.Namespace, arm, bus):
+    """The dialogue on ``bus``: floating (--float) or with torque off; the Teaching."""
+    from robodcn.present import present_joints
+    from robodcn.workflow.teach import FloatSession, Teaching
+
+    gravity = releasing.falls(arm)
+    if args.float_mode:
+        if args.release and gravity:
+            releasing.confirm_release(arm, present_joints(arm, bus), args.yes)
+        with FloatSession(bus, arm, joints=arm.joint_names) as session:   # the yaw too
+            say(f"float: joints {', '.join(session.float.joint_names)} hold against gravity; "
+                "move the arm by hand, it stays where you leave it")
+            teaching = Teaching(bus, arm, torque_off=False, run=session.call)
+            record(teaching)
+        report = session.report
+        if report is not None:
+            clipped = (f"; above the current limit (sagged): {', '.join(report.clipped)}"
+                       if report.clipped else "")
+            say(f"float off: {report.cycles} refreshes at {report.rate_hz:.0f} Hz{clipped}; "
+                "the arm holds where it was left (position mode)")
+        if args.release:
+            _release_at_end(args, arm, bus)
+        return teaching
+    if gravity and not args.yes:
+        say("robodcn: teach --float holds a vertical arm while a hand moves it")
+        releasing.confirm_release(arm, present_joints(arm, bus), args.yes)
+    if gravity:
+        releasing.warn_falling(arm)
+    teaching = Teaching(bus, arm)
+    record(teaching)
+    return teaching
+
+
+def _release_at_end(args: argparse.Namespace, arm, bus) -> None:
+    from robodcn.present import present_joints
+    from robodcn.workflow.release import release
+
+    releasing.confirm_release(arm, present_joints(arm, bus), args.yes)
+    if releasing.falls(arm):
+        releasing.warn_falling(arm)
+    say(releasing.release_line(release(bus, arm, confirm=True)))
 
 
 def run(args: argparse.Namespace) -> int:
-    from robodcn.workflow.teach import Teaching, waypoints_toml
+    from robodcn.workflow.teach import waypoints_toml
 
     arm = options.load_arm(args)
     out = options.check_output_path(args.out, "--out", overwrite=args.force)
     method = choices(args.method, "--method", "method")
     turn = choices(args.turn, "--turn", "turn")
+    if args.release and not args.float_mode:
+        raise InputError("--release applies to teach --float (without it torque is already "
+                         "off)", field="release", value=True)
     with open_bus(args, arm) as bus:
-        teaching = Teaching(bus, arm)
-        record(teaching)
+        teaching = _teach(args, arm, bus)
     poses = teaching.poses
     if len(poses) < 2:
         raise InputError(f"recorded {len(poses)} waypoint(s), a motion needs at least 2; "
                          f"{out} not written", field="waypoints", value=len(poses))
-    for option, value in (("--method", method), ("--turn", turn)):
-        if isinstance(value, list) and len(value) != len(poses) - 1:
-            raise InputError(f"{option} lists {len(value)} values for {len(poses) - 1} "
-                             f"segments; {out} not written", field=option.lstrip("-"),
-                             value=value)
+    _check_segments(method, turn, len(poses), out)
     out.write_text(waypoints_toml(poses, arm_name=arm.name, method=method, turn=turn,
-                                  beta=args.beta, keys=arm.pose_keys), encoding="utf-8")
+                                  beta=args.beta, keys=arm.pose_keys,
+                                  extras=teaching.actions), encoding="utf-8")
     say(f"wrote {len(poses)} waypoints to {out}")
     return 0

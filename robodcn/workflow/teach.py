@@ -6,48 +6,123 @@ arm with a base yaw. A :class:`Teaching` session records and undoes poses on an 
 (a surface drives the dialogue: ``robodcn teach``); :func:`waypoints_toml` writes the
 waypoints file that :func:`robodcn.workflow.files.load_waypoints` reads back
 (``robodcn run poses.toml``).
+
+On a vertical arm the arm would fall with torque off: :class:`FloatSession` holds it in
+float mode instead (:class:`robodcn.workflow.float_teach.FloatTeach`: current control with
+the present pose's gravity currents, refreshed on a thread of its own) while a hand moves
+it; the session's bus work (recording, the gripper) runs on that thread between two
+refreshes (:meth:`FloatSession.call`), since the float loop holds the bus. Leaving it, the
+arm holds in position mode where it was left. :meth:`Teaching.gripper` opens or closes the
+gripper (:mod:`robodcn.workflow.gripper`) and marks the waypoint there ``gripper =
+"open" | "close"``: ``robodcn run`` comes to rest and acts on it there.
 """
 
 from __future__ import annotations
 
 import logging
-from collections.abc import Mapping, Sequence
-from typing import Any
+import queue
+import threading
+from collections.abc import Callable, Mapping, Sequence
+from concurrent.futures import Future
+from types import TracebackType
+from typing import Any, Self, TypeVar
 
 import numpy as np
 from numpy.typing import NDArray
 
 from robodcn.bus import ServoBus
 from robodcn.config import PLANAR_POSE, Arm
+from robodcn.errors import InputError
 from robodcn.workflow.admin import present_state
+from robodcn.workflow.float_teach import FloatReport, FloatSample, FloatTeach
+from robodcn.workflow.gripper import COMMANDS as GRIPPER_ACTIONS
+from robodcn.workflow.gripper import GripperResult, actuate
 from robodcn.workflow.poses import file_key, pose_table
 
 log = logging.getLogger(__name__)
 
+T = TypeVar("T")
+#: A gripper action on a pose within this of the last waypoint's goes on that waypoint
+#: (m; rad for the angles): the arm was not moved in between.
+SAME_POSE_M = 1e-3
+SAME_POSE_RAD = 0.02
+#: Longest wait for the float thread to run a piece of bus work (s).
+CALL_TIMEOUT_S = 10.0
+
+
+def _direct(fn: Callable[[], T]) -> T:
+    return fn()
+
 
 class Teaching:
-    """Poses taught by hand on an open ``bus``: torque goes off when the session starts."""
+    """Poses taught by hand on an open ``bus``.
 
-    def __init__(self, bus: ServoBus, arm: Arm) -> None:
+    With ``torque_off`` (default) torque goes off when the session starts (the hand moves
+    the arm freely; an arm under gravity falls: the surfaces ask to confirm it); without,
+    the arm is held otherwise (float mode: pass the :class:`FloatSession`'s ``call`` as
+    ``run``, which every bus access goes through).
+    """
+
+    def __init__(self, bus: ServoBus, arm: Arm, *, torque_off: bool = True,
+                 run: Callable[[Callable[[], Any]], Any] = _direct) -> None:
         self.bus = bus
         self.arm = arm
+        self._run = run
         self._poses: list[NDArray[np.float64]] = []
-        bus.torque(False)
+        self._actions: list[dict[str, Any]] = []
+        if torque_off:
+            run(lambda: bus.torque(False))
 
-    def record(self) -> NDArray[np.float64]:
-        """Record the present pose (the arm's pose keys: x, y, θ or x, y, z, pitch) as the
-        next waypoint and return it."""
-        pose = present_state(self.bus, self.arm).pose
-        self._poses.append(pose)
+    def present_pose(self) -> NDArray[np.float64]:
+        """The present pose (the arm's pose keys), read on the bus."""
+        return self._run(lambda: present_state(self.bus, self.arm).pose)
+
+    def record(self, pose: NDArray[np.float64] | None = None) -> NDArray[np.float64]:
+        """Record the present pose (or ``pose``; the arm's pose keys: x, y, θ or x, y, z,
+        pitch) as the next waypoint and return it."""
+        if pose is None:
+            pose = self.present_pose()
+        self._poses.append(np.asarray(pose, dtype=np.float64))
+        self._actions.append({})
         log.info("waypoint %d: %s", len(self._poses) - 1, pose)
         return pose
 
+    def gripper(self, command: str, **options: Any) -> tuple[int, GripperResult]:
+        """Open or close the gripper here and mark the waypoint ``gripper = command``: the
+        last one when the arm has not moved since it was recorded, else the present pose
+        recorded as a new one. Returns (the waypoint's index, what the gripper did).
+        ``options`` go to :func:`robodcn.workflow.gripper.actuate`."""
+        if command not in GRIPPER_ACTIONS:
+            raise InputError(f"gripper must be one of {', '.join(GRIPPER_ACTIONS)}, got "
+                             f"{command!r}", field="gripper", value=command)
+        if self.arm.gripper is None:
+            raise InputError(f"arm {self.arm.name!r} has no [gripper] table", field="gripper",
+                             value=self.arm.name)
+        gripper = self.arm.gripper
+        pose = self.present_pose()
+        result = self._run(lambda: actuate(self.bus, gripper, command, **options))
+        if not self._poses or not self._same_pose(self._poses[-1], pose):
+            self.record(pose)
+        self._actions[-1]["gripper"] = command
+        return len(self._poses) - 1, result
+
+    def _same_pose(self, a: NDArray[np.float64], b: NDArray[np.float64]) -> bool:
+        d = np.abs(np.asarray(a) - np.asarray(b))
+        return bool(np.all(d[:-1] <= SAME_POSE_M) and d[-1] <= SAME_POSE_RAD)
+
     def undo(self) -> bool:
-        """Drop the last waypoint; False when there was none."""
+        """Drop the last waypoint (and its actions); False when there was none."""
         if not self._poses:
             return False
         self._poses.pop()
+        self._actions.pop()
         return True
+
+    @property
+    def actions(self) -> tuple[dict[str, Any], ...]:
+        """Per waypoint what it does there (``{"gripper": "close"}``, or empty), for
+        :func:`waypoints_toml`'s ``extras``."""
+        return tuple(dict(a) for a in self._actions)
 
     @property
     def poses(self) -> NDArray[np.float64]:
@@ -56,6 +131,76 @@ class Teaching:
 
     def __len__(self) -> int:
         return len(self._poses)
+
+
+class FloatSession:
+    """Float mode (:class:`~robodcn.workflow.float_teach.FloatTeach`) refreshed on a thread
+    of its own while a dialogue runs; :meth:`call` runs bus work on that thread between two
+    refreshes (the loop holds the bus). Leaving stops the loop and restores position mode
+    at the present pose. ``float_options`` go to FloatTeach (joints, rate_hz,
+    payload_kg)."""
+
+    def __init__(self, bus: ServoBus, arm: Arm, **float_options: Any) -> None:
+        self.float = FloatTeach(bus, arm, **float_options)
+        self._jobs: queue.SimpleQueue[tuple[Callable[[], Any], Future[Any]]] = \
+            queue.SimpleQueue()
+        self._thread: threading.Thread | None = None
+        self._error: BaseException | None = None
+        self.report: FloatReport | None = None
+
+    def __enter__(self) -> Self:
+        self.float.__enter__()
+        self._thread = threading.Thread(target=self._loop, name="robodcn-float", daemon=True)
+        self._thread.start()
+        return self
+
+    def _loop(self) -> None:
+        try:
+            self.report = self.float.run(on_sample=self._serve)
+        except BaseException as error:       # handed to the caller
+            self._error = error
+            log.warning("float: the refresh loop stopped: %s", error)
+        finally:
+            self._serve(None)
+
+    def _serve(self, _sample: FloatSample | None) -> None:
+        while True:
+            try:
+                fn, future = self._jobs.get_nowait()
+            except queue.Empty:
+                return
+            if not future.set_running_or_notify_cancel():
+                continue
+            try:
+                future.set_result(fn())
+            except BaseException as error:   # raised by call()
+                future.set_exception(error)
+
+    def call(self, fn: Callable[[], T]) -> T:
+        """Run ``fn`` (bus work) on the float thread between two refreshes; its result."""
+        if self._thread is None or not self._thread.is_alive():
+            if self._error is not None:
+                raise self._error
+            return fn()
+        future: Future[T] = Future()
+        self._jobs.put((fn, future))
+        return future.result(timeout=CALL_TIMEOUT_S)
+
+    @property
+    def latest(self) -> FloatSample | None:
+        """The float loop's last sample."""
+        return self.float.latest
+
+    def __exit__(self, exc_type: type[BaseException] | None, exc: BaseException | None,
+                 tb: TracebackType | None) -> None:
+        self.float.stop()
+        if self._thread is not None:
+            self._thread.join(timeout=CALL_TIMEOUT_S)
+        self.float.__exit__(exc_type, exc, tb)
+        if self.report is None:
+            self.report = self.float.report()
+        if self._error is not None and exc is None:
+            raise self._error
 
 
 def _toml_string(text: str) -> str:
