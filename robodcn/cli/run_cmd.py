@@ -5,15 +5,29 @@ JSON through the path ``move`` uses (:func:`robodcn.cli.motion_cmd.stream` and
 The file and every option are checked before the bus opens (:func:`load_run_file`); the
 plan options take the same types and choices as ``plan``'s (:mod:`robodcn.contract`) and
 override a waypoints file's ``[plan]``.
+
+A waypoints file whose waypoints act (``gripper``, ``payload_kg``) plays leg by leg
+(:func:`robodcn.workflow.run.legs`): each leg is planned from where the arm is with its
+payload, streamed, the arm comes to rest, the gripper acts (:mod:`robodcn.workflow.gripper`)
+and the next leg starts; a leg that does not complete, or jaws that do not come to rest,
+end the run there. The report is each leg's (``--json``: the last leg's fields and
+``legs``; ``--plot FILE.png`` draws one ``FILE-legN.png`` a leg).
 """
 
 from __future__ import annotations
 
 import argparse
+import json
+from collections.abc import Iterator
+from contextlib import contextmanager
+from pathlib import Path
 from typing import Any
 
 from robodcn import contract
 from robodcn.cli import motion_cmd, options, planning
+from robodcn.cli.dialogue import say
+from robodcn.cli.exit_codes import Exit, exit_for_report
+from robodcn.cli.output import emit
 from robodcn.cli.servo_session import add_bus_options, open_bus
 from robodcn.config import Arm
 from robodcn.errors import InputError
@@ -131,6 +145,13 @@ def run(args: argparse.Namespace) -> int:
     arm = options.load_arm(args)
     motion_cmd.check_plot(args.plot)
     kind, loaded = load_run_file(args, arm)
+    if kind == "waypoints":
+        from robodcn.workflow import files
+        from robodcn.workflow.run import legs
+
+        wp = files.load_waypoints(args.file, arm)
+        if wp.has_actions:
+            return run_legs(args, arm, legs(wp, loaded, arm))
     if args.sim:
         from robodcn.simulated import simulated_arm
 
@@ -146,4 +167,75 @@ def run(args: argparse.Namespace) -> int:
                              released=released)
 
 
-__all__ = ["load_run_file", "overrides", "plan_run", "register", "run"]
+@contextmanager
+def _bus(args: argparse.Namespace, arm: Arm) -> Iterator[Any]:
+    if args.sim:
+        from robodcn.simulated import simulated_arm
+
+        with simulated_arm(arm, timing="fast") as sim:
+            yield sim.bus
+    else:
+        with open_bus(args, arm) as bus:
+            yield bus
+
+
+def _leg_plot(path: str | None, k: int) -> str | None:
+    if path is None:
+        return None
+    p = Path(path)
+    return str(p.with_name(f"{p.stem}-leg{k}{p.suffix}"))
+
+
+def run_legs(args: argparse.Namespace, arm: Arm, plan_legs: list[Any]) -> int:
+    """Play ``plan_legs`` (module docstring): plan each from the present joints, stream it,
+    act at its end; returns the exit code of the first leg that did not complete, else
+    degraded (5) if any leg was, else 0."""
+    from robodcn.cli.gripper_cmd import result_line
+    from robodcn.cli.report_text import approach_seconds, report_dict, report_text
+    from robodcn.present import present_joints
+    from robodcn.workflow.gripper import actuate
+    from robodcn.workflow.run import plan_leg
+
+    held = argparse.Namespace(**{**vars(args), "release": False})
+    done: list[dict[str, Any]] = []
+    code, last, released = Exit.DONE, None, None
+    with _bus(args, arm) as bus:
+        for k, leg in enumerate(plan_legs, start=1):
+            final = k == len(plan_legs)
+            traj = plan_leg(arm, leg, present_joints(arm, bus), source=args.file)
+            say(f"leg {k}/{len(plan_legs)}: waypoints {leg.first}..{leg.last}, payload "
+                f"{leg.payload_kg:g} kg{f', then gripper {leg.gripper}' if leg.gripper else ''}")
+            if final:
+                report, live, released = motion_cmd.stream_and_release(args, traj, arm, bus)
+            else:
+                report, live = motion_cmd.stream(held, traj, arm, bus)
+            approach = approach_seconds(report, traj)
+            entry = {**leg.to_dict(), "report": report_dict(report, approach)}
+            done.append(entry)
+            last = entry["report"]
+            if not args.json:
+                emit(report_text(report, approach) + "\n")
+            motion_cmd.plot(_leg_plot(args.plot, k), arm, traj, samples=live.samples,
+                            report=report)
+            leg_code = exit_for_report(report)
+            if leg_code not in (Exit.DONE, Exit.DEGRADED):
+                code = leg_code
+                break
+            code = max(code, leg_code)
+            if leg.gripper is not None:
+                result = actuate(bus, arm.gripper, leg.gripper)
+                entry["gripper_result"] = result.to_dict()
+                say(result_line(result))
+                if not result.settled:
+                    code = Exit.FAULT
+                    break
+    if args.json:
+        data = {**(last or {}), "legs": done}
+        if released is not None:
+            data["release"] = released.to_dict()
+            data["released"] = released.released
+        emit(json.dumps(data, indent=2) + "\n")
+    return code
+
+
+__all__ = ["load_run_file", "overrides", "plan_run", "register", "run", "run_legs"]

@@ -6,6 +6,13 @@ joints with the file's ``[plan]`` options overridden by :class:`PlanOverrides`; 
 Trajectory or JointTrajectory plays as saved after a joint-space approach to its first
 sample (:func:`robodcn.workflow.files.with_approach`). A planner error raised while a file's
 request is checked or planned names the file (:func:`naming_file`).
+
+A waypoints file whose waypoints act (``gripper = "open" | "close"``, ``payload_kg``) plays
+as legs (:func:`legs`): it is split at each waypoint with an action; each leg is planned
+from the arm's present joints when it starts (the first from wherever the arm is, the
+next from rest at the waypoint the last one ended on) with the payload carried on it
+(the file's or ``--payload``'s at the start, then each waypoint's ``payload_kg`` from there
+on), streamed, and the arm comes to rest before the waypoint's gripper action runs.
 """
 
 from __future__ import annotations
@@ -75,6 +82,73 @@ def waypoints_fields(wp: WaypointsPlan, arm: Arm, overrides: PlanOverrides
     return fields
 
 
+@dataclass(frozen=True)
+class Leg:
+    """One leg of a waypoints file that acts: waypoints ``first``..``last`` (indices into
+    the file), the PlanRequest keyword fields that plan it from the present joints
+    (``waypoints``: the file's first waypoint for the first leg, else None — the present
+    pose, where the last leg came to rest — then the leg's other waypoints), the payload
+    carried on it (kg) and the gripper command at its last waypoint (None: none)."""
+
+    first: int
+    last: int
+    fields: dict[str, Any]
+    payload_kg: float
+    gripper: str | None
+
+    def to_dict(self) -> dict[str, Any]:
+        return {"waypoints": [self.first, self.last], "payload_kg": self.payload_kg,
+                "gripper": self.gripper}
+
+
+def _segment_slice(value: Any, first: int, last: int) -> Any:
+    """A per-segment tuple cut to segments first..last-1; one value as it is."""
+    return tuple(value[first:last]) if isinstance(value, tuple | list) else value
+
+
+def legs(wp: WaypointsPlan, fields: dict[str, Any], arm: Arm) -> list[Leg]:
+    """The legs of ``wp`` (module docstring), planned with ``fields`` (the file's checked
+    request fields, :func:`waypoints_fields`). A file without actions is one leg. A numeric
+    duration is shared among the legs in proportion to their segments."""
+    n = len(wp.waypoints)
+    actions = list(wp.actions) or [{} for _ in range(n)]
+    ends = [i for i, a in enumerate(actions) if a and i < n - 1] + [n - 1]
+    payload = float(fields.get("payload_kg", arm.payload_kg))
+    duration = fields.get("duration")
+    out: list[Leg] = []
+    first = 0
+    for last in ends:
+        if "payload_kg" in actions[first]:          # carried from this waypoint on
+            payload = float(actions[first]["payload_kg"])
+        leg = dict(fields)
+        for key in ("method", "turn", "beta"):
+            if key in leg:
+                leg[key] = _segment_slice(leg[key], first, last)
+                if leg[key] == ():                  # the approach to waypoint 0 alone
+                    del leg[key]
+        rows = [tuple(float(v) for v in row) for row in wp.waypoints[first:last + 1]]
+        leg["waypoints"] = rows if first == 0 else [None, *rows[1:]]
+        if last == first:
+            leg.pop("duration", None)
+        elif isinstance(duration, int | float) and not isinstance(duration, bool):
+            leg["duration"] = float(duration) * (last - first) / (n - 1)
+        leg["payload_kg"] = payload
+        out.append(Leg(first, last, leg, payload, actions[last].get("gripper")))
+        first = last
+    return out
+
+
+def plan_leg(arm: Arm, leg: Leg, present: ArrayLike, *, source: str) -> Trajectory:
+    """The trajectory of ``leg`` from the ``present`` joints (k,) rad."""
+    from robodcn import present as present_pose
+
+    fields = dict(leg.fields)
+    with naming_file(source):
+        return present_pose.plan_from_present(arm, None, fields.pop("waypoints"),
+                                              joints=np.asarray(present, dtype=np.float64),
+                                              **fields)
+
+
 def trajectory_to_run(arm: Arm, kind: str, loaded: dict[str, Any] | Trajectory,
                       present: ArrayLike, *, source: str) -> Trajectory:
     """The trajectory ``run`` streams from the ``present`` joints (k,) rad: the waypoints
@@ -93,4 +167,5 @@ def trajectory_to_run(arm: Arm, kind: str, loaded: dict[str, Any] | Trajectory,
     return with_approach(loaded, arm, q)
 
 
-__all__ = ["KINDS", "PlanOverrides", "naming_file", "trajectory_to_run", "waypoints_fields"]
+__all__ = ["KINDS", "Leg", "PlanOverrides", "legs", "naming_file", "plan_leg",
+           "trajectory_to_run", "waypoints_fields"]
