@@ -19,6 +19,7 @@ from http_helpers import ARM, ROOT, call, error_of, finished, poll_move, serving
 from robodcn import servo_units
 from robodcn.config import load_arm
 from robodcn.workflow.poses import tool_pose
+from robodcn.workflow.record import recording_csv
 
 OMX = load_arm(ROOT / "configs" / "omx.toml")
 HOME = list(OMX.home)
@@ -199,10 +200,6 @@ def test_a_one_waypoint_replace_with_a_payload_on_the_omx(omx_server: Any) -> No
 
 
 
-@pytest.mark.xfail(strict=True, raises=AssertionError, reason=(
-    "robodcn/workflow/record.py takes the poses by planar FK (kinematics.fk(arm.links, ...)) "
-    "and writes x_m, y_m, theta_rad: GET /v1/moves/{id}/record on a yawed arm is 422 "
-    "'joint angles must have shape (n, 3)'"))
 def test_the_record_of_an_omx_move_has_four_number_poses(omx_server: Any) -> None:
     server, _ = omx_server
     status, _, body = call(server, "POST", "/v1/moves", {"waypoints": [NEAR],
@@ -213,6 +210,9 @@ def test_the_record_of_an_omx_move_has_four_number_poses(omx_server: Any) -> Non
     assert status == 200, rec
     assert rec["poses"] and all(len(p) == 4 for p in rec["poses"])
     assert np.allclose(rec["poses"][-1], tool_pose(OMX, rec["joints"][-1]), atol=1e-9)
+    rows = list(zip(rec["t"], rec["ticks"], strict=True))
+    header = recording_csv(OMX, rows).splitlines()[0]
+    assert header.endswith(",x_m,y_m,z_m,pitch_rad") and "q_yaw_rad" in header
 
 
 # -- the gripper ---------------------------------------------------------------------------------
