@@ -6,6 +6,11 @@ search (:mod:`~robodcn.planner.search`) or a numeric duration split over them; t
 (:mod:`robodcn.planner.build`) samples and validates them through :class:`UniformTiming`,
 which slows every path piece by a violation's ratio when their joins fail (uniform time
 scaling: v ∝ 1/T, a ∝ 1/T², jerk ∝ 1/T³).
+
+A blend never takes longer than stopping (the optimal law's rule,
+:mod:`~robodcn.planner.optimal`): with ``duration="auto"`` the same waypoints are also
+timed with stops at the vias, and when that takes fewer periods the plan stops there (a
+uniform law over the whole blended curve runs as slowly as its hardest stretch needs).
 """
 
 from __future__ import annotations
@@ -108,6 +113,16 @@ class UniformTiming:
         self._cache: list[tuple[NDArray | None, dict]] = []
         self.counts = _counts(req, self.pieces, self.reference, self._cache) \
             if counts is None else counts
+        if counts is None and req.blend and req.segments > 1 and req.duration == "auto":
+            self._stop_if_faster()
+
+    def _stop_if_faster(self) -> None:
+        """The same waypoints with stops at the vias, when they take fewer periods (module
+        doc); the law then plans that request (its pieces, counts and samples)."""
+        stops = UniformTiming(dataclasses.replace(self.req, blend=False))
+        if sum(stops.counts) < sum(self.counts):
+            self.req, self.pieces, self.reference = stops.req, stops.pieces, stops.reference
+            self.counts, self._cache = stops.counts, stops._cache
 
     def sample(self) -> Sampled | Violation:
         """Every piece sampled at its count; or the first sample out of reach (or an earlier
