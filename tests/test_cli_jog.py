@@ -169,3 +169,35 @@ def test_ctrl_c_exits_130_with_a_closing_summary(capsys):
     code = run_jog(args, Script([(0.0, "q")]))            # q: a plain end, exit 0
     summary = capsys.readouterr().err.strip().splitlines()[-1]
     assert code == 0 and summary.startswith("jog: 0 move(s)") and "Ctrl-C" not in summary
+
+
+def test_a_yawed_arm_jogs_x_y_z_and_pitch():
+    from conftest import CONFIGS
+
+    from robodcn.cli.jog_cmd import YAWED_JOG_KEYS, jog_keys
+    from robodcn.config import load_arm
+
+    omx = load_arm(CONFIGS / "omx.toml")
+    assert jog_keys(omx) == YAWED_JOG_KEYS and set(jog_keys(ARM3R)) == {
+        "right", "left", "up", "down", "a", "d"}
+    with simulated_arm(omx, timing="fast") as sa:
+        def pose():
+            ticks = [sa.sim.servo(i).present_position for i in omx.servo_ids]
+            q = servo_units.ticks_to_radians(np.array([ticks]), omx.servos)
+            return kinematics.fk_yawed(omx.chain, q)[0]
+
+        start = pose()
+        out = io.StringIO()
+        jog = Jogger(omx, sa.bus, step=0.01, step_rad=math.radians(5), method="sclerp",
+                     rate_hz=100.0, out=out)
+        script = Script([(0.0, "right"), (0.0, "up"), (0.0, "s"), (0.0, "s"), (0.0, "d"),
+                         (2.5, "q")])
+        jog.run(script)
+        end = pose()
+        want = start + np.array([0.01, 0.01, -0.02, -math.radians(5)])
+        assert np.allclose(end[:3], want[:3], atol=3e-3), (end, want)
+        assert abs(end[3] - want[3]) < math.radians(1.0)
+        text = out.getvalue()
+        assert "w/s z" in text and "a/d pitch" in text and "z=" in text and "pitch=" in text
+        assert "ended at x=" in jog.summary() and "pitch=" in jog.summary()
+        assert all(r.outcome in ("done", "degraded") for r in jog.reports)

@@ -5,7 +5,10 @@ turn θ by ``--step-deg`` (counter-clockwise/clockwise); each press re-plans a s
 from where the arm is commanded to be, moving or not (:meth:`Execution.retarget`), so
 presses in quick succession blend into one motion. The status line shows the target, the
 commanded pose and the tracking error. ``q`` or Ctrl-C stops smoothly along the path and
-quits; a second Ctrl-C holds at once. ``--sim`` jogs a simulated arm, else the servos on
+quits; a second Ctrl-C holds at once. On an arm with a base yaw (the OpenMANIPULATOR-X:
+poses x, y, z, pitch) the arrows step x and y in the base frame, ``w``/``s`` raise and
+lower z by ``--step``, and ``a``/``d`` tilt the pitch up/down by ``--step-deg``; the yaw
+follows from x, y. ``--sim`` jogs a simulated arm, else the servos on
 ``--device``. It ends with one summary line (moves, retargets, where the arm was
 commanded) and exits 0 after ``q``, 130 after Ctrl-C (as ``sim`` and ``move``), 4 after a
 fault.
@@ -25,20 +28,34 @@ import numpy as np
 from robodcn.cli import keys, options, planning
 from robodcn.cli.exit_codes import Exit
 from robodcn.errors import BusError, InputError, RobodcnError
+from robodcn.workflow.poses import tool_pose
 
 #: key → (dx, dy, dθ) in steps
 JOG_KEYS: dict[str, tuple[int, int, int]] = {
     "right": (1, 0, 0), "left": (-1, 0, 0), "up": (0, 1, 0), "down": (0, -1, 0),
     "a": (0, 0, 1), "d": (0, 0, -1),
 }
+#: key → (dx, dy, dz, dpitch) in steps, on an arm with a base yaw
+YAWED_JOG_KEYS: dict[str, tuple[int, int, int, int]] = {
+    "right": (1, 0, 0, 0), "left": (-1, 0, 0, 0), "up": (0, 1, 0, 0), "down": (0, -1, 0, 0),
+    "w": (0, 0, 1, 0), "s": (0, 0, -1, 0), "a": (0, 0, 0, 1), "d": (0, 0, 0, -1),
+}
 HELP = "keys: ←/→ x · ↑/↓ y · a/d θ · space pause · q or Ctrl-C stop"
+YAWED_HELP = "keys: ←/→ x · ↑/↓ y · w/s z · a/d pitch · space pause · q or Ctrl-C stop"
+
+
+def jog_keys(arm: Any) -> dict[str, tuple[int, ...]]:
+    """The keys that step ``arm``'s pose: x, y, θ, or a yawed arm's x, y, z, pitch."""
+    return dict(YAWED_JOG_KEYS) if arm.yawed else dict(JOG_KEYS)
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
     p = subparsers.add_parser(
         "jog", help="teleoperate the arm from the keyboard (each key a retarget in flight)",
         description="Arrow keys step the target pose in x (left/right) and y (up/down) by "
-                    "--step metres, a/d turn theta by --step-deg; each key press re-plans "
+                    "--step metres, a/d turn theta by --step-deg; on an arm with a base yaw "
+                    "(poses x,y,z,pitch, e.g. --arm omx) w/s step z by --step and a/d tilt "
+                    "the pitch by --step-deg (the yaw follows x, y); each key press re-plans "
                     "from where the arm is commanded to be, moving or not, so presses in "
                     "quick succession blend into one motion. Shows the target, the commanded "
                     "pose and the tracking error. q or Ctrl-C stops smoothly along the path "
@@ -46,9 +63,9 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     options.add_arm_option(p)
     g = p.add_argument_group("jog")
     g.add_argument("--step", type=options.positive_float, default=0.01, metavar="M",
-                   help="x/y step per key press, metres (default 0.01)")
+                   help="x/y (and z) step per key press, metres (default 0.01)")
     g.add_argument("--step-deg", type=options.positive_float, default=5.0, metavar="DEG",
-                   help="θ step per key press, degrees (default 5)")
+                   help="θ (or pitch) step per key press, degrees (default 5)")
     g.add_argument("--method", default="sclerp",
                    choices=("sclerp", "kenlerp", "seplerp", "dlb"),
                    help="interpolation of each step (default sclerp)")
@@ -68,15 +85,15 @@ class Jogger:
 
     def __init__(self, arm: Any, bus: Any, *, step: float, step_rad: float, method: str,
                  rate_hz: float, out: Any = None, payload_kg: float | None = None) -> None:
-        from robodcn import kinematics
         from robodcn.present import present_joints
         self.arm, self.bus = arm, bus
+        self.keys = jog_keys(arm)
         self.step, self.step_rad, self.method, self.rate_hz = step, step_rad, method, rate_hz
         #: the plan's payload (None: the arm's [dynamics] payload_kg)
         self.plan_options = {} if payload_kg is None else {"payload_kg": payload_kg}
         self.out = out if out is not None else sys.stderr
         q = present_joints(arm, bus)
-        self.target = np.array(kinematics.fk(arm.links, q[None, :])[0])
+        self.target = np.array(tool_pose(arm, q))
         self.execution: Any = None
         self.commanded = self.target.copy()
         self.tracking = 0.0
@@ -91,9 +108,9 @@ class Jogger:
     # -- motion ---------------------------------------------------------------------------
 
     def _progress(self, p: Any) -> None:
-        from robodcn import kinematics, servo_units
-        q = servo_units.ticks_to_radians(np.array([p.goals]), self.arm.servos)
-        self.commanded = kinematics.fk(self.arm.links, q)[0]
+        from robodcn import servo_units
+        q = servo_units.ticks_to_radians(np.array(p.goals), self.arm.servos)
+        self.commanded = tool_pose(self.arm, q)
         if p.present is not None:
             lag = np.abs(np.subtract(p.present, p.goals))
             rad = np.array([2 * math.pi / s.ticks_per_turn for s in self.arm.servos])
@@ -136,12 +153,12 @@ class Jogger:
         if key == " " and self.execution is not None and not self.execution.done:
             self.message = keys.move_key(self.execution, " ") or ""
             return
-        delta = JOG_KEYS.get(key)
+        delta = self.keys.get(key)
         if delta is None:
             return
         before = self.target.copy()
-        self.target = self.target + np.array([delta[0] * self.step, delta[1] * self.step,
-                                              delta[2] * self.step_rad])
+        scale = np.array([self.step] * (len(delta) - 1) + [self.step_rad])
+        self.target = self.target + np.array(delta) * scale
         try:
             self.go()
             self.message = ""
@@ -166,9 +183,9 @@ class Jogger:
                 outcomes[report.outcome] = outcomes.get(report.outcome, 0) + 1
         c = self.commanded
         ended = ", ".join(f"{n} {k}" for k, n in sorted(outcomes.items())) or "no move"
+        where = ", ".join(_terms(self.arm, c, metres=" m", width=1))
         return (f"jog: {len(self.reports)} move(s), {self.retargets} retarget(s) in flight "
-                f"({ended}); ended at x={c[0]:+.3f} m, y={c[1]:+.3f} m, "
-                f"θ={math.degrees(c[2]):+.1f}°"
+                f"({ended}); ended at {where}"
                 + ("; stopped by Ctrl-C" if self.interrupted else ""))
 
     def finish(self, timeout: float = 10.0) -> None:
@@ -180,8 +197,8 @@ class Jogger:
 
     def status(self) -> str:
         t, c = self.target, self.commanded
-        return (f"target x={t[0]:+.3f} y={t[1]:+.3f} θ={math.degrees(t[2]):+6.1f}°  "
-                f"commanded x={c[0]:+.3f} y={c[1]:+.3f} θ={math.degrees(c[2]):+6.1f}°  "
+        return (f"target {' '.join(_terms(self.arm, t))}  "
+                f"commanded {' '.join(_terms(self.arm, c))}  "
                 f"tracking {math.degrees(self.tracking):4.2f}°  {self.message[:60]}")
 
     def show(self) -> None:
@@ -191,7 +208,7 @@ class Jogger:
     def run(self, read_key: Callable[[float], str | None], poll: float = 0.05) -> None:
         """Until q/Ctrl-C: read keys (``read_key(timeout)``) and show the status line."""
         ctrl_c = keys.CtrlC(lambda: self._interrupt("smooth"), lambda: self._interrupt("hold"))
-        self.out.write(HELP + "\n")
+        self.out.write((YAWED_HELP if self.arm.yawed else HELP) + "\n")
         with ctrl_c.installed():
             while not self.quit:
                 key = read_key(poll)
@@ -201,6 +218,15 @@ class Jogger:
         self.finish()
         self.show()
         self.out.write("\n")
+
+
+def _terms(arm: Any, pose: Any, *, metres: str = "", width: int = 6) -> list[str]:
+    """``x=+0.123`` … for each of the arm's pose keys (the angle in degrees)."""
+    names = {"theta": "θ"}
+    *lengths, angle = arm.pose_keys
+    out = [f"{k}={v:+.3f}{metres}" for k, v in zip(lengths, pose, strict=False)]
+    out.append(f"{names.get(angle, angle)}={math.degrees(pose[-1]):+{width}.1f}°")
+    return out
 
 
 def run_jog(args: argparse.Namespace, read_key: Callable[[float], str | None] | None = None
