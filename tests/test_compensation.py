@@ -91,3 +91,15 @@ def test_cli_sim_switches_physics_and_compensation(capsys):
     compensated = sim()
     assert compensated["compensation"] is True
     assert max(abs(e) for e in compensated["final_error_ticks"]) <= 1
+
+
+def test_limit_steps_without_a_step_limit_keeps_the_goals():
+    """An unlimited joint (no arm: step ∞) keeps its goals; 0·∞ made the first NaN."""
+    from robodcn.stream.compensation import limit_steps
+
+    goals = np.array([[100.0, 10.0], [140.0, 12.0], [150.0, 40.0]])
+    out = limit_steps(goals, [np.inf, np.inf], start=[90.0, 0.0])
+    assert np.array_equal(out, goals)
+    mixed = limit_steps(goals, [np.inf, 5.0], start=[90.0, 0.0])
+    assert np.array_equal(mixed[:, 0], goals[:, 0]) and np.isfinite(mixed).all()
+    assert np.abs(np.diff(np.concatenate([[0.0], mixed[:, 1]]))).max() <= 5.0 + 1e-12

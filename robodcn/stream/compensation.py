@@ -178,6 +178,10 @@ def limit_steps(goals: NDArray[np.float64], step: ArrayLike,
     if n == 0:
         return g.copy()
     delta = np.broadcast_to(np.asarray(step, dtype=np.float64), g.shape[1:])
+    free = ~np.isfinite(delta)           # no step limit (no arm): 0·∞ would make NaN goals
+    if free.all():
+        return g.copy()
+    delta = np.where(free, 0.0, delta)
     index = np.arange(n, dtype=np.float64)[:, None]
     ramp = index * delta
     upper = np.maximum(np.maximum.accumulate(g + ramp, axis=0) - ramp,
@@ -192,7 +196,7 @@ def limit_steps(goals: NDArray[np.float64], step: ArrayLike,
         first = np.asarray(start, dtype=np.float64)
         from_start = (index + 1) * delta
         out = np.clip(out, first - from_start, first + from_start)
-    return out
+    return np.where(free, g, out)
 
 
 def max_steps(arm: Arm | None, servos: Sequence[ServoSpec], period: float,
