@@ -45,6 +45,8 @@ class Prepared:
     trajectory: Trajectory
     approach: Approach | None
     warnings: tuple[dict[str, Any], ...]
+    #: the Present Position (k,) ticks the checks worked from (read once per execution)
+    present: NDArray[np.int64] | None = None
 
 
 def check_arguments(trajectory: Any, bus: Any, opts: ExecutionOptions,
@@ -143,7 +145,7 @@ def preflight(trajectory: Trajectory, bus: ServoBus, opts: ExecutionOptions,
     # -- the first writes ------------------------------------------------------------------
     if not bus.configured or not all(bus.torque_enabled().values()):
         bus.configure(opts.profile)
-    return Prepared(trajectory, approach, tuple(issued))
+    return Prepared(trajectory, approach, tuple(issued), present)
 
 
 def arm_watchdog(bus: ServoBus, opts: ExecutionOptions, period: float) -> None:

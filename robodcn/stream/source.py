@@ -29,10 +29,12 @@ def _signed(raw: bytes) -> int:
     return int.from_bytes(raw, "little", signed=True)
 
 
-def servo_state(bus: ServoBus) -> tuple[NDArray[np.int64] | None, NDArray[np.int64] | None,
-                                        tuple[int, ...] | None]:
+def servo_state(bus: ServoBus, present: NDArray[np.int64] | None = None
+                ) -> tuple[NDArray[np.int64] | None, NDArray[np.int64] | None,
+                           tuple[int, ...] | None]:
     """What the lead starts from: the Goal Position the servos hold and their Present
-    Position (ticks, bus order) and Position I Gains, each None where it cannot be read."""
+    Position (ticks, bus order; ``present`` when the caller has just read it) and Position
+    I Gains, each None where it cannot be read."""
     def read(address: int, length: int) -> list[int] | None:
         try:
             return [_signed(raw) for raw in bus.sync_read(address, length)]
@@ -40,10 +42,11 @@ def servo_state(bus: ServoBus) -> tuple[NDArray[np.int64] | None, NDArray[np.int
             return None
 
     goal = read(ADDR_GOAL_POSITION, 4)
-    try:
-        present = bus.read_positions()
-    except BusError:
-        present = None
+    if present is None:
+        try:
+            present = bus.read_positions()
+        except BusError:
+            present = None
     i_gains = getattr(bus, "position_i_gains", None)
     if i_gains is None:
         read_i = read(ADDR_POSITION_I_GAIN, 2)
@@ -63,7 +66,8 @@ class PlannedSamples:
     """
 
     def __init__(self, trajectory: Trajectory, bus: ServoBus, *,
-                 compensation: bool = False) -> None:
+                 compensation: bool = False, present: NDArray[np.int64] | None = None
+                 ) -> None:
         self.trajectory = trajectory
         self.ticks: NDArray[np.int64] = trajectory.ticks
         self.rate_hz = trajectory.rate_hz
@@ -80,7 +84,7 @@ class PlannedSamples:
         self.start_goal: NDArray[np.int64] | None = None
         self._bus = bus
         if compensation:
-            self.start_goal, present, self.i_gains = servo_state(bus)
+            self.start_goal, present, self.i_gains = servo_state(bus, present)
             self.commanded = compensated_ticks(
                 trajectory.joints, self.period, bus.servos, bus.limits, arm=self.arm,
                 p_gains=bus.position_p_gains, i_gains=self.i_gains,

@@ -98,7 +98,8 @@ def execute(trajectory: Trajectory, bus: ServoBus, options: ExecutionOptions | N
     with bus.claim():
         prepared = preflight(trajectory, bus, opts, present)
         trajectory = prepared.trajectory
-        source = PlannedSamples(trajectory, bus, compensation=opts.compensation)
+        source = PlannedSamples(trajectory, bus, compensation=opts.compensation,
+                                present=prepared.present)
         failures = CommFailures(bus, opts.max_comm_failures)
         feedback = Feedback(bus, opts, trajectory, failures, opts.clock, len(source))
         issued = prepared.warnings + tuple(feedback.plan_limits(trajectory, opts,
