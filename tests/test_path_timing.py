@@ -370,3 +370,21 @@ def test_shared_gradient_is_numpys_bit_for_bit(n, uniform):
     for f in (rng.random((n, 4)), rng.random(n)):
         np.testing.assert_array_equal(Gradient(x)(f),
                                       np.gradient(f, x, axis=0, edge_order=2 if n > 2 else 1))
+
+
+@pytest.mark.parametrize("ndim", [1, 2])
+def test_smooth_power_basis_matches_the_hermite_basis(ndim):
+    """Smooth evaluates many queries from per-interval power-basis coefficients (Horner)
+    and few by the Hermite basis: the same quintic (to rounding), exact on a quadratic."""
+    from robodcn.path_timing.arclength import Smooth
+
+    rng = np.random.default_rng(3)
+    x = np.sort(np.concatenate([[0.0, 1.0], rng.random(60)]))
+    y = 2.0 * x * x - x + 0.5 if ndim == 1 else np.stack([np.sin(3 * x), x ** 2], axis=1)
+    smooth = Smooth(x, y)
+    xq = np.linspace(0.0, 1.0, 1001)
+    many = smooth(xq)                                          # > 2 queries per interval
+    few = np.concatenate([smooth(xq[k:k + 10]) for k in range(0, 1001, 10)])  # Hermite
+    np.testing.assert_allclose(many, few, rtol=0, atol=1e-13)
+    if ndim == 1:
+        np.testing.assert_allclose(many, 2.0 * xq * xq - xq + 0.5, rtol=0, atol=1e-12)

@@ -100,6 +100,15 @@ class Monotone:
                 + (-2 * t3 + 3 * t2) * self.y[i + 1] + (t3 - t2) * h * self.d[i + 1])
 
 
+#: The quintic Hermite basis (y₀, h y₀′, h² y₀″/2, y₁, h y₁′, h² y₁″/2) in powers t⁰ … t⁵
+_POWERS = np.array([[1.0, 0.0, 0.0, -10.0, 15.0, -6.0],
+                    [0.0, 1.0, 0.0, -6.0, 8.0, -3.0],
+                    [0.0, 0.0, 1.0, -3.0, 3.0, -1.0],
+                    [0.0, 0.0, 0.0, 10.0, -15.0, 6.0],
+                    [0.0, 0.0, 0.0, -4.0, 7.0, -3.0],
+                    [0.0, 0.0, 0.0, 1.0, -2.0, 1.0]])
+
+
 class Smooth:
     """y(x) through (x_i, y_i), x strictly increasing, y (n,) or (n, k): on each interval the
     quintic Hermite matching y, y′ and y″ at both ends, y′ and y″ by ``numpy.gradient``
@@ -120,12 +129,43 @@ class Smooth:
             self.d1 = np.maximum(self.d1, 0.0)
         self.d2 = grad(self.d1)
         self.h = np.diff(self.x)
+        self._table: NDArray[np.float64] | None = None
 
     def __call__(self, xq: ArrayLike) -> NDArray[np.float64]:
         xq = np.clip(np.asarray(xq, dtype=np.float64), self.x[0], self.x[-1])
         i = np.clip(np.searchsorted(self.x, xq, side="right") - 1, 0, self.h.shape[0] - 1)
         h = self.h[i]
         t = (xq - self.x[i]) / h
+        if xq.ndim == 1 and xq.shape[0] > 2 * self.h.shape[0]:
+            out = self._horner(i, t)  # many queries per interval: per-interval polynomials
+        else:
+            out = self._hermite(i, t, h)
+        if not self.monotone:
+            return out
+        if xq.ndim == 1 and xq.shape[0] > 1 and (np.diff(xq) >= 0).all():
+            out = np.maximum.accumulate(out)
+        return np.clip(out, self.y[0], self.y[-1])
+
+    def _horner(self, i: NDArray[np.int64], t: NDArray[np.float64]) -> NDArray[np.float64]:
+        """The same quintic from its power-basis coefficients in t (one table per Smooth),
+        by Horner's rule."""
+        if self._table is None:
+            h = self.h[:, None] if self.y.ndim == 2 else self.h
+            hh = 0.5 * h * h
+            data = np.stack([self.y[:-1], self.d1[:-1] * h, self.d2[:-1] * hh, self.y[1:],
+                             self.d1[1:] * h, self.d2[1:] * hh], axis=1)
+            self._table = np.einsum("mp,im...->ip...", _POWERS, data)
+        c = self._table[i]
+        if c.ndim == 3:
+            t = t[:, None]
+        out = c[:, 5]
+        for p in (4, 3, 2, 1, 0):
+            out = out * t + c[:, p]
+        return out
+
+    def _hermite(self, i: NDArray[np.int64], t: NDArray[np.float64], h: NDArray[np.float64]
+                 ) -> NDArray[np.float64]:
+        """The quintic Hermite basis times the end data of each query's interval."""
         t2 = t * t
         t3 = t2 * t
         t4, t5 = t3 * t, t3 * t2
@@ -135,13 +175,8 @@ class Smooth:
         if self.y.ndim == 2:
             basis = tuple(b[:, None] for b in basis)
         y, d1, d2 = self.y, self.d1, self.d2
-        out = (basis[0] * y[i] + basis[1] * d1[i] + basis[2] * d2[i]
-               + basis[3] * y[i + 1] + basis[4] * d1[i + 1] + basis[5] * d2[i + 1])
-        if not self.monotone:
-            return out
-        if xq.ndim == 1 and xq.shape[0] > 1 and (np.diff(xq) >= 0).all():
-            out = np.maximum.accumulate(out)
-        return np.clip(out, self.y[0], self.y[-1])
+        return (basis[0] * y[i] + basis[1] * d1[i] + basis[2] * d2[i]
+                + basis[3] * y[i + 1] + basis[4] * d1[i + 1] + basis[5] * d2[i + 1])
 
 
 def uneven(sigma: NDArray[np.float64]) -> float:
