@@ -132,6 +132,19 @@ def test_admitting_a_move_makes_other_requests_busy(rig: Any) -> None:
         ctl.present_joints()
 
 
+def settled(read: Any, timeout: float = 2.0) -> np.ndarray:
+    """The reading once it has not changed for 50 ms (AssertionError after ``timeout``)."""
+    deadline = time.monotonic() + timeout
+    last, since = np.array(read()), time.monotonic()
+    while time.monotonic() - since < 0.05:
+        assert time.monotonic() < deadline, "the arm did not come to rest"
+        time.sleep(0.005)
+        now = np.array(read())
+        if not np.array_equal(now, last):
+            last, since = now, time.monotonic()
+    return last
+
+
 def test_stop_holds_the_arm(rig: Any) -> None:
     sa, controller = rig
     traj = short_move(duration=2.0)
@@ -141,18 +154,26 @@ def test_stop_holds_the_arm(rig: Any) -> None:
     assert state.source == "stream" and state.moving and state.move == record.id
     t0 = time.monotonic()
     result = controller.stop()
+    at_stop = np.array(present(sa))
     assert time.monotonic() - t0 < 1.0
     assert result == StopAnswer(stopped=True, move=record.id, status="stopped")
     assert record.report is not None and record.report.stop_reason == "stopped"
     assert 0.1 < record.progress < 1.0
-    # Holding: no more goals arrive and the servos stay where they stopped.
+    # Holding: no more goals arrive; the servos come to rest on the held goals (the goals
+    # they were following: a hold never steps back to the lagging present position) and
+    # stay there.
     goals = [len(sa.sim.goal_history(i)) for i in ARM.servo_ids]
-    held = present(sa)
+    assert list(record.report.hold_goals) == [sa.sim.servo(i).goal_position
+                                              for i in ARM.servo_ids]
+    held = settled(lambda: present(sa))
+    # it rests between where it was when the hold came and the held goal (friction may
+    # stop it short): no step back, no overshoot
+    lo = np.minimum(at_stop, np.array(record.report.hold_goals)) - 1
+    hi = np.maximum(at_stop, np.array(record.report.hold_goals)) + 1
+    assert np.all((lo <= held) & (held <= hi)), (at_stop, held, record.report.hold_goals)
     time.sleep(0.2)
     assert [len(sa.sim.goal_history(i)) for i in ARM.servo_ids] == goals
     assert np.abs(np.array(present(sa)) - held).max() <= 1
-    assert list(record.report.hold_goals) == [sa.sim.servo(i).goal_position
-                                              for i in ARM.servo_ids]
     assert controller.stop().stopped is False
 
 

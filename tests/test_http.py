@@ -516,6 +516,19 @@ def test_two_concurrent_moves_one_is_409(arm_server: Any) -> None:
     assert call(server, "GET", "/healthz")[2]["moving"] is False
 
 
+def settled(read: Any, timeout: float = 2.0) -> np.ndarray:
+    """The reading once it has not changed for 50 ms (AssertionError after ``timeout``)."""
+    deadline = time.monotonic() + timeout
+    last, since = np.array(read()), time.monotonic()
+    while time.monotonic() - since < 0.05:
+        assert time.monotonic() < deadline, "the arm did not come to rest"
+        time.sleep(0.005)
+        now = np.array(read())
+        if not np.array_equal(now, last):
+            last, since = now, time.monotonic()
+    return last
+
+
 def test_stop_during_a_move_holds(arm_server: Any) -> None:
     server, sa = arm_server
     status, _, body = call(server, "POST", "/v1/moves", {**BODY, "duration": 2.0})
@@ -526,18 +539,26 @@ def test_stop_during_a_move_holds(arm_server: Any) -> None:
     assert status == 200 and state["moving"] and state["source"] == "stream"
     assert state["move"] == body["id"]
     status, _, stopped = call(server, "POST", "/v1/stop", {"mode": "hold"})
+    at_stop = np.array(present(sa))
     assert status == 200
     assert stopped == {"stopped": True, "move": body["id"], "status": "stopped"}
     final = poll_move(server, body["id"], lambda b: b["status"] != "running")
     assert final["status"] == "stopped" and final["report"]["stop_reason"] == "stopped"
     assert final["progress"] < 1.0
-    # The arm holds: goals stop changing and the servos stay put.
+    # The arm holds: goals stop changing; the servos come to rest on the held goals (the
+    # goals they were following: a hold never steps back to the lagging present position)
+    # and stay there.
     goals = [sa.sim.goal_history(i) for i in ARM.servo_ids]
-    held = present(sa)
+    assert final["report"]["hold_goals"] == [g[-1] for g in goals]
+    held = settled(lambda: present(sa))
+    # it rests between where it was when the hold came and the held goal (friction may
+    # stop it short): no step back, no overshoot
+    lo = np.minimum(at_stop, np.array(final["report"]["hold_goals"])) - 1
+    hi = np.maximum(at_stop, np.array(final["report"]["hold_goals"])) + 1
+    assert np.all((lo <= held) & (held <= hi)), (at_stop, held, final["report"]["hold_goals"])
     time.sleep(0.2)
     assert [sa.sim.goal_history(i) for i in ARM.servo_ids] == goals
     assert np.abs(np.array(present(sa)) - held).max() <= 1
-    assert final["report"]["hold_goals"] == [g[-1] for g in goals]
     # Stopping again is harmless; a body other than {} is refused.
     assert call(server, "POST", "/v1/stop", {})[2]["stopped"] is False
     status, _, data = call(server, "POST", "/v1/stop", {"now": True})
