@@ -99,6 +99,7 @@ def test_torque_off_without_yes_warns_and_changes_nothing(held_omx, monkeypatch,
                                  held_omx.port_path]) == 2
     err = capsys.readouterr().err
     assert "fall under gravity" in err and "shoulder" in err and "N·m" in err
+    assert err.rstrip().endswith("--yes confirms")
     assert all(held_omx.servo(i).torque_enabled for i in OMX.servo_ids)
     assert goals_sent(held_omx) == before and still(held_omx, q)
     # one joint: the shoulder holds the arm up, the yaw holds nothing against gravity

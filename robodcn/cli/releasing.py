@@ -18,6 +18,7 @@ from typing import Any
 from numpy.typing import ArrayLike
 
 from robodcn.cli.dialogue import say
+from robodcn.cli.error_text import error_text
 from robodcn.config import Arm
 
 
@@ -46,7 +47,9 @@ def confirm_release(arm: Arm, joints: ArrayLike, yes: bool, *,
     check = release.check_release(arm, joints)
     if not check.falls or (joint is not None and joint not in check.joints):
         return
-    raise release._refusal(check)   # the library's own warning (private: see the report)
+    error = release._refusal(check)   # the library's own warning (private: see the report)
+    error.cli_text = f"{error_text(error)}; --yes confirms"
+    raise error
 
 
 def warn_falling(arm: Arm) -> None:
