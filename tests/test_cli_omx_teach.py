@@ -192,3 +192,36 @@ gripper = "open"
     assert got[0].fields["duration"] == pytest.approx(2.0)
     assert got[1].fields["duration"] == pytest.approx(4.0)
     assert got[1].fields["payload_kg"] == 0.1
+
+
+def test_an_action_on_the_first_waypoint_is_a_leg_of_its_own(monkeypatch, capsys, tmp_path):
+    path = tmp_path / "first.toml"
+    path.write_text("""
+[plan]
+method = "sclerp"
+
+[[waypoints]]
+x = 0.20
+y = 0.0
+z = 0.20
+pitch_deg = 0
+gripper = "open"
+
+[[waypoints]]
+x = 0.20
+y = 0.05
+z = 0.12
+pitch_deg = -30
+gripper = "close"
+""")
+    wp = files.load_waypoints(path, OMX)
+    got = legs(wp, waypoints_fields(wp, OMX, PlanOverrides(method=("dlb",))), OMX)
+    assert [(g.first, g.last, g.gripper) for g in got] == [(0, 0, "open"), (0, 1, "close")]
+    assert got[0].fields["waypoints"] == [tuple(wp.waypoints[0])] and "method" not in \
+        got[0].fields
+    assert got[1].fields["method"] == ("dlb",)
+    assert run_cli(monkeypatch, ["run", str(path), "--arm", "omx", "--sim", "--json"]) in \
+        COMPLETED
+    report = json.loads(capsys.readouterr().out)
+    assert [leg["gripper_result"]["command"] for leg in report["legs"]] == ["open", "close"]
+    assert all(leg["report"]["stop_reason"] == "completed" for leg in report["legs"])
