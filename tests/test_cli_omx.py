@@ -288,3 +288,15 @@ def test_readme_omx_commands_run(tmp_path):
             (tmp_path / redirect).write_text(out.stdout)
     assert load_arm(tmp_path / "omx.toml").name == "omx"
     assert (tmp_path / "omx-workspace.png").stat().st_size > 0
+
+
+def test_a_move_from_outside_the_joint_limits_says_where_the_arm_is(omx_bus, monkeypatch,
+                                                                    capsys):
+    """An arm left with torque off has fallen past a joint limit: the refusal says the
+    start is the present position the servos report."""
+    backdrive(omx_bus, {12: 3782, 13: 1674})               # the shoulder at 152°
+    assert run_cli(monkeypatch, ["move", "--arm", "omx", "--device", omx_bus.port_path,
+                                 "--to", "0.18,0.065,0.15,-20"]) == 2   # InputError
+    err = capsys.readouterr().err
+    assert "shoulder" in err and "outside" in err
+    assert "the arm's present joints, read from the servos; `robodcn pose` shows them" in err

@@ -59,7 +59,14 @@ def error_text(exc: RobodcnError, *, vias: int | None = None) -> str:
     if option and option not in text:
         text = (f"{text} ({exc.field} is {option})" if exc.field.startswith("waypoints")
                 else f"{option}: {text}")
+    elif vias is not None and (exc.field or "").startswith("start_joints"):
+        text = f"{text} ({PRESENT_JOINTS})"
     return shorten(one_line(text))
+
+
+#: What ``start_joints`` is on the command line: where the servos are.
+PRESENT_JOINTS = ("start_joints are the arm's present joints, read from the servos; "
+                  "`robodcn pose` shows them")
 
 
 def shorten(text: str, limit: int = MAX_CHARS) -> str:
