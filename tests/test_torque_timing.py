@@ -231,3 +231,25 @@ def test_gravity_overload_names_the_payload():
     g = mujoco_torques(np.zeros((1, 4)) + np.asarray(plan(
         OMX_ARM, WAYPOINTS[0], rate_hz=RATE).joints)[:1], 0.5)
     assert abs(g[0, 1]) > 0.2  # MuJoCo agrees that the start pose needs more than 0.2
+
+
+@pytest.mark.parametrize("goal", [[0.2, -0.1, 0.2, 0.0], [0.25, 0.0, 0.05, 0.0]])
+def test_moving_start_brakes_within_max_torque(goal):
+    """A retarget from the middle of a torque-bound loaded move (goal ahead, and back to
+    where it came from): the brake and the blend keep every joint within max_torque_nm,
+    by MuJoCo across t = 0 (the samples before it continue the given state)."""
+    from robodcn.contract.request import StartState
+    from robodcn.planner.validate import start_history
+
+    first = plan(FAST, WAYPOINTS[0], payload_kg=0.5, rate_hz=RATE)
+    q = np.asarray(first.joints)
+    k = q.shape[0] // 3
+    qd = (q[k + 1] - q[k - 1]) * RATE / 2
+    qdd = (q[k + 1] - 2 * q[k] + q[k - 1]) * RATE ** 2
+    state = StartState(tuple(q[k]), tuple(qd), tuple(qdd))
+    tr = plan(FAST, [WAYPOINTS[0][0], goal], payload_kg=0.5, rate_hz=RATE, start_state=state)
+    history = start_history(q[k], qd, qdd, RATE)
+    joints = np.concatenate([history, np.asarray(tr.joints)])
+    tau = mujoco_torques(joints, 0.5)[history.shape[0]:]
+    assert (np.abs(tau) <= np.array(FAST.max_torques) * (1 + 1e-6)).all(), \
+        np.abs(tau).max(axis=0)

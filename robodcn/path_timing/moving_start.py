@@ -339,10 +339,39 @@ def brake_line(state: JointState, limits: JointLimits, rate_hz: float) -> Brake:
         # no 1/T₀)
         still = PathTiming(np.zeros(2), np.array([0.0, 1.0]), np.zeros(2), np.zeros(1))
         return Brake(state.q, state.q.copy(), s, np.repeat(state.q[None, :], 3, axis=0), still)
+    if limits.torque is not None:
+        braked = _torque_brake(state, limits, a_m, t0, rate_hz)
+        if braked is not None:
+            return braked
     q_stop = state.q + state.qd * t0
     q = state.q + np.outer(s, q_stop - state.q)
     law = time_optimal(q, s, limits.v, a_m, sd_start=1.0 / t0, rate_hz=rate_hz)
     return Brake(state.q, q_stop, s, q, law)
+
+
+#: Samples of a brake line timed with torque limits (M(q) and g(q) vary along it), and the
+#: lengthenings of T₀ tried when the servos' torque cannot brake within the line
+TORQUE_BRAKE_SAMPLES = 41
+TORQUE_BRAKE_LONGER = (1.0, 1.3, 1.7, 2.2, 3.0, 4.0, 6.0)
+
+
+def _torque_brake(state: JointState, limits: JointLimits, a_m: NDArray, t0: float,
+                  rate_hz: float) -> Brake | None:
+    """The brake line within the torque limits too: T₀ (so the line) lengthened until its
+    law can stop within it; None when none can (the start needs more torque than the
+    servos have: the caller brakes as without torque and validation names the sample)."""
+    s = np.linspace(0.0, 1.0, TORQUE_BRAKE_SAMPLES)
+    for k in TORQUE_BRAKE_LONGER:
+        t = t0 * k
+        q_stop = state.q + state.qd * t
+        q = state.q + np.outer(s, q_stop - state.q)
+        try:
+            law = time_optimal(q, s, limits.v, a_m, sd_start=1.0 / t, rate_hz=rate_hz,
+                               torque=limits.torque.shrunk(GRID_MARGIN))
+        except InputError:
+            continue
+        return Brake(state.q, q_stop, s, q, law)
+    return None
 
 
 def _next_blend(state: JointState, q: NDArray, s: NDArray, limits: JointLimits,
