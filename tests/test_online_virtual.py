@@ -259,11 +259,15 @@ def test_speed_scale_out_of_range_names_scale(sa):
 
 
 def test_with_compensation_a_retarget_tail_is_led_like_the_plan(sa):
-    """The tail's goals are the compensated goals of its joints (continuous across the
-    switch), not its bare ticks: without the lead the goals would jump back by the lag."""
-    from robodcn.stream.compensation import compensated_ticks
+    """The tail's goals are the compensated goals of its joints, led like the plan's: the
+    plan from the goal the servos held before the stream, the tail from the goal sent
+    before the switch (its first goal within one step v_max·T of it), not its bare ticks:
+    without the lead the goals would jump back by the lag."""
+    from robodcn.stream.compensation import compensated_ticks, max_steps
+    from robodcn.stream.source import servo_state
 
     traj = _move(sa, duration=2.0)
+    held = servo_state(sa.bus)[0]
 
     def ops(ex):
         ex.retarget([None, (0.22, -0.05, 0.3)])
@@ -272,17 +276,26 @@ def test_with_compensation_a_retarget_tail_is_led_like_the_plan(sa):
     assert report.stop_reason == "completed" and report.compensation, report.headline
     _index, _, joints = ex.sent()
     first = ex.switches[0][1]
-    led = compensated_ticks(joints, 1.0 / RATE, sa.bus.servos, sa.bus.limits, arm=ARM3R,
-                            p_gains=sa.bus.position_p_gains)
+    kw = dict(arm=ARM3R, p_gains=sa.bus.position_p_gains)
+    plan = compensated_ticks(traj.joints, 1.0 / RATE, sa.bus.servos, sa.bus.limits,
+                             start_goal=held, **kw)
+    led = compensated_ticks(joints[first:], 1.0 / RATE, sa.bus.servos, sa.bus.limits,
+                            start_goal=wire[first - 1], **kw)
     bare = servo_units.radians_to_ticks(joints, ARM3R.servos)
     tail = slice(first, len(joints))
     # the lead is large while moving fast: the bare ticks are far from the wire there
     assert np.abs(wire[tail] - bare[tail]).max() > 10
-    # one lead for the whole stream, but for the two samples before the switch: they were
-    # led (central differences) towards the old path's next samples, encoded before it
-    off = np.abs(wire[:len(joints)] - led).max(axis=1)
-    off[first - 2:first] = 0
-    assert off.max() <= 1
+    # before the switch the plan's goals, led from the goal held; after it the tail's,
+    # led from the goal sent last
+    assert np.array_equal(wire[:first], plan[:first])
+    assert np.array_equal(wire[tail], led)
+    # so the tail's own goals (the source's, before the loop's step guard) step no further
+    # than v_max·T (+ a tick of rounding) across the switch: the guard slews nothing there
+    step = max_steps(ARM3R, sa.bus.servos, 1.0 / RATE, len(ARM3R.servos))
+    src = ex.stream.source
+    own = np.array([src.sent_goal(i) for i in range(first - 3, first + 10)])
+    around = np.abs(np.diff(own, axis=0))
+    assert (around <= np.floor(step) + 1).all(), around
 
 
 def test_a_late_read_compares_with_the_swapped_source_past_the_plans_end(sa):

@@ -11,13 +11,18 @@ from __future__ import annotations
 from collections.abc import Callable, Sequence
 
 import numpy as np
-from numpy.typing import NDArray
+from numpy.typing import ArrayLike, NDArray
 
 from robodcn import servo_units
 from robodcn.bus import ServoBus
 from robodcn.planner import Trajectory
+from robodcn.stream.compensation import max_steps
 from robodcn.stream.online_path import JointPath
 from robodcn.stream.source import PlannedSamples
+
+#: how a node's joints (m, k) rad are led into goal ticks from the goal sent before them
+#: (:meth:`robodcn.stream.source.PlannedSamples.commanded_for`; None: the joints are sent)
+Lead = Callable[..., NDArray[np.int64] | None]
 
 
 class OnlineSamples:
@@ -31,8 +36,8 @@ class OnlineSamples:
     def __init__(self, prev: OnlineSamples | None, switch: int, joints: NDArray[np.float64],
                  sigma: NDArray[np.float64], path: JointPath, bus: ServoBus, rate_hz: float,
                  joint_names: Sequence[str], *, ticks: NDArray[np.int64] | None = None,
-                 encoded: list | None = None, hold: int = 0,
-                 lead: Callable[[NDArray[np.float64]], NDArray[np.int64] | None] | None = None
+                 encoded: list | None = None, hold: int = 0, lead: Lead | None = None,
+                 commanded: NDArray[np.int64] | None = None, step: ArrayLike | None = None
                  ) -> None:
         self.prev = prev
         self.switch = int(switch)
@@ -51,48 +56,77 @@ class OnlineSamples:
         #: plan's: :meth:`robodcn.stream.source.PlannedSamples.commanded_for`), or None
         self.lead = lead if lead is not None else (None if prev is None else prev.lead)
         self.compensated = self.lead is not None
+        #: each joint's largest goal step δ = v_max·T, ticks (inf: none; as the plan's)
+        self.step = np.asarray(step if step is not None else
+                               (np.inf if prev is None else prev.step), dtype=np.float64)
+        #: the goals sent for this node's own samples, ticks (m, k)
+        self.commanded = np.asarray(commanded if commanded is not None else
+                                    self._commanded(), dtype=np.int64)
         if encoded is None:
-            encoded = bus.encode_goals(self._commanded())
+            encoded = bus.encode_goals(self.commanded)
         self._encoded = encoded
         self.hold = int(hold)
         self._own = len(self.ticks)
 
     def _commanded(self) -> NDArray[np.int64]:
         """What is sent for this node's joints: the plan's ticks, or with a lead the
-        compensated goals, from finite differences that start at the two samples before
-        the switch (no step in the lead where the tail begins)."""
+        compensated goals, led like the plan's from the goal sent before the switch
+        (``start_goal``: the previous node's goal at sample switch − 1, so the first goal
+        steps at most δ from it and a lead that differs from the one before the switch
+        is ramped in over the next samples instead of stepping there).
+
+        Where the tail is too short to ramp from that goal to its own last goal within δ
+        per sample, the start's cone would keep the tail off its last goal: the tail is led
+        without it then (its last goal kept; the loop's step guard slews the step)."""
         if self.lead is None:
             return self.ticks
-        before = [self.prev.joint(i) for i in range(max(0, self.switch - 2), self.switch)] \
-            if self.prev is not None else []
-        joints = np.vstack([*before, self.joints]) if before else self.joints
-        commanded = self.lead(joints)
-        return self.ticks if commanded is None else commanded[len(before):]
+        start = None if self.prev is None else self.prev.sent_goal(self.switch - 1)
+        commanded = self.lead(self.joints, start_goal=start)
+        if commanded is None:
+            return self.ticks
+        if start is not None and len(commanded):
+            reach = len(commanded) * self.step - 0.5
+            if (np.abs(commanded[-1] - start) >= reach).any():
+                free = self.lead(self.joints, start_goal=None)
+                if free is not None and not np.array_equal(free[-1], commanded[-1]):
+                    return free
+        return commanded
+
+    def sent_goal(self, i: int) -> NDArray[np.int64]:
+        """The goal ticks (k,) sample i sends (the lead's; the plan's ticks without one)."""
+        node, j = self._node(i)
+        return node.commanded[j]
 
     @classmethod
     def of_trajectory(cls, trajectory: Trajectory, bus: ServoBus,
-                      encoded: list | None = None,
-                      lead: Callable[[NDArray[np.float64]], NDArray[np.int64] | None]
-                      | None = None) -> OnlineSamples:
-        """The root of a chain: the planned samples (``encoded``: as the streamer encoded
-        them; ``lead``: how a tail's goals are compensated, None to send the joints)."""
+                      encoded: list | None = None, lead: Lead | None = None,
+                      commanded: NDArray[np.int64] | None = None,
+                      step: ArrayLike | None = None) -> OnlineSamples:
+        """The root of a chain: the planned samples (``encoded``, ``commanded``: as the
+        streamer encoded and sent them; ``lead``: how a tail's goals are compensated, None
+        to send the joints; ``step``: the joints' goal step limit δ, ticks)."""
         path, sigma = JointPath.of_samples(trajectory.joints)
+        if commanded is None and lead is None:
+            commanded = trajectory.ticks
         return cls(None, 0, trajectory.joints, sigma, path, bus, trajectory.rate_hz,
-                   trajectory.joint_names, ticks=trajectory.ticks, encoded=encoded, lead=lead)
+                   trajectory.joint_names, ticks=trajectory.ticks, encoded=encoded, lead=lead,
+                   commanded=commanded, step=step)
 
     @classmethod
     def of_planned(cls, planned: PlannedSamples, bus: ServoBus) -> OnlineSamples:
         """The root of a chain over the streamer's planned samples, encoded and led as they
         are (:class:`~robodcn.stream.source.PlannedSamples`)."""
         lead = planned.commanded_for if planned.compensated else None
+        step = max_steps(planned.arm, bus.servos, planned.period, len(bus.servos))
         return cls.of_trajectory(planned.trajectory, bus, encoded=planned.encoded_rows,
-                                 lead=lead)
+                                 lead=lead, commanded=planned.commanded, step=step)
 
     def held(self, hold: int) -> OnlineSamples:
         """This source with ``hold`` repeats of its last goal (shares every array)."""
         return OnlineSamples(self.prev, self.switch, self.joints, self.sigma, self.path,
                              self.bus, self.rate_hz, self.joint_names, ticks=self.ticks,
-                             encoded=self._encoded, hold=hold, lead=self.lead)
+                             encoded=self._encoded, hold=hold, lead=self.lead,
+                             commanded=self.commanded, step=self.step)
 
     def __len__(self) -> int:
         return self.switch + self._own + self.hold
