@@ -1,6 +1,6 @@
 """robodcn.dynamics: the Newton–Euler inverse dynamics checked against its own laws (linearity
 in q̈, the energy balance, the TOPP coefficients, V's gradient), against independent formulas
-(the yaw inertia of a pose, the planar model of robodcn.stream.servo_model, a mirrored chain)
+(the yaw inertia of a pose, the planar model of tests/planar_reference.py, a mirrored chain)
 and against the OM-X's published holding torques (../shared/omx.md: rough figures, loose
 tolerances). MuJoCo's view of the same arm is in test_mujoco_omx.py."""
 
@@ -14,6 +14,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 from omx_numbers import LOWER, OMX, OMX_ANISO, UPPER, XM430_ARMATURE
+from planar_reference import ArmDynamics
 
 from robodcn.dynamics import (
     GRAVITY_DOWN,
@@ -29,7 +30,6 @@ from robodcn.dynamics import (
     tool_point,
 )
 from robodcn.errors import InputError
-from robodcn.stream.servo_model import ArmDynamics
 
 small = st.floats(-0.3, 0.3, allow_nan=False)
 positive = st.floats(0.01, 1.0, allow_nan=False)
@@ -189,7 +189,7 @@ def test_tool_point_is_the_chain_of_link_vectors(chain, data):
        st.data())
 def test_horizontal_planar_arm_matches_the_streams_model(rows, gx, gy, payload, data):
     """A planar CCW chain (arm3r-like, gravity in the plane) gives the torques of
-    robodcn.stream.servo_model.ArmDynamics (Lagrangian, absolute angles)."""
+    planar_reference.ArmDynamics (Lagrangian, absolute angles)."""
     lengths = tuple(r[0] for r in rows)
     model = ArmDynamics(lengths, tuple(r[1] for r in rows),
                         tuple(r[0] * r[2] for r in rows), tuple(r[3] for r in rows), payload,

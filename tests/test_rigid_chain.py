@@ -4,12 +4,12 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from planar_reference import ArmDynamics
 
 from robodcn import load_arm
 from robodcn.config import rigid_chain
 from robodcn.dynamics import gravity_torque, inverse_dynamics, tool_point
 from robodcn.kinematics import fk_yawed
-from robodcn.stream.servo_model import ArmDynamics
 
 OMX = load_arm("configs/omx.toml")
 ARM3R = load_arm("configs/arm3r.toml")
