@@ -19,6 +19,9 @@ from firmware_sim.bus import SimBus
 from robodcn import cli
 from robodcn.bus import (
     ADDR_GOAL_POSITION,
+    ADDR_POSITION_D_GAIN,
+    ADDR_POSITION_I_GAIN,
+    ADDR_POSITION_P_GAIN,
     ADDR_PRESENT_POSITION,
     MODEL_NUMBERS,
     LatencyTimerWarning,
@@ -179,6 +182,23 @@ def test_configure_leaves_torque_on_when_eeprom_is_already_right(sim, bus):
     assert (1, 64, b"\x00") not in writes and all(a != 64 or d == b"\x01" for _, a, d in writes)
     assert all(a >= 64 for _, a, _ in writes)       # no EEPROM write either
     assert all(sim.servo(i).torque_enabled for i in (1, 2, 3))
+
+
+def test_configure_reads_each_servos_position_gains(sim, bus):
+    """The Position P, I and D Gains (84, 82, 80) are read per servo, in bus order: the
+    stream's lead takes the I gain from ``bus.position_i_gains`` (no read of its own)."""
+    bus.verify()
+    assert bus.position_i_gains is None             # not read before configure
+    for i, (p, i_gain, d) in zip((1, 2, 3), [(800, 0, 0), (640, 300, 10), (900, 1200, 0)],
+                                 strict=True):
+        servo = sim.servo(i)
+        assert servo.write(ADDR_POSITION_P_GAIN, p.to_bytes(2, "little")) == 0
+        assert servo.write(ADDR_POSITION_I_GAIN, i_gain.to_bytes(2, "little")) == 0
+        assert servo.write(ADDR_POSITION_D_GAIN, d.to_bytes(2, "little")) == 0
+    bus.configure()
+    assert bus.position_p_gains == (800, 640, 900)
+    assert bus.position_i_gains == (0, 300, 1200)
+    assert bus.position_d_gains == (0, 10, 0)
 
 
 def test_positions_round_trip_through_goals(sim, bus):

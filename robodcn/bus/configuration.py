@@ -22,6 +22,7 @@ from robodcn.bus.control_table import (
     ADDR_GOAL_POSITION,
     ADDR_OPERATING_MODE,
     ADDR_POSITION_D_GAIN,
+    ADDR_POSITION_I_GAIN,
     ADDR_POSITION_P_GAIN,
     ADDR_PRESENT_POSITION,
     ADDR_PROFILE_ACCELERATION,
@@ -64,9 +65,10 @@ def map_addresses(data: bytes | list[int]) -> list[int]:
 class Configuration(Reads):
     """:meth:`configure` and the indirect feedback map it writes and checks."""
 
-    #: Per servo, read by :meth:`configure`: Position P and D Gains, Current Limit (A;
+    #: Per servo, read by :meth:`configure`: Position P, I and D Gains, Current Limit (A;
     #: the stall current where the model has no such item).
     position_p_gains: tuple[int, ...] | None
+    position_i_gains: tuple[int, ...] | None
     position_d_gains: tuple[int, ...] | None
     current_limits: tuple[float, ...] | None
 
@@ -118,10 +120,11 @@ class Configuration(Reads):
             self.configured = True
 
     def _read_gains(self) -> None:
-        """Position P and D Gains and the current limit of every servo."""
-        gains, d_gains, limits = [], [], []
+        """Position P, I and D Gains and the current limit of every servo."""
+        gains, i_gains, d_gains, limits = [], [], [], []
         for spec in self.servos:
             gains.append(self._read_int(spec.id, ADDR_POSITION_P_GAIN, 2))
+            i_gains.append(self._read_int(spec.id, ADDR_POSITION_I_GAIN, 2))
             d_gains.append(self._read_int(spec.id, ADDR_POSITION_D_GAIN, 2))
             if spec.model == "xm430-w350":
                 limits.append(self._read_int(spec.id, ADDR_CURRENT_LIMIT, 2)
@@ -129,6 +132,7 @@ class Configuration(Reads):
             else:
                 limits.append(STALL_CURRENT_A.get(spec.model, 1.4))
         self.position_p_gains = tuple(gains)
+        self.position_i_gains = tuple(i_gains)
         self.position_d_gains = tuple(d_gains)
         self.current_limits = tuple(limits)
 

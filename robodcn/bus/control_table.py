@@ -15,6 +15,7 @@ ADDR_MAX_POSITION_LIMIT = 48   # 4 bytes, EEPROM
 ADDR_MIN_POSITION_LIMIT = 52   # 4 bytes, EEPROM
 ADDR_CURRENT_LIMIT = 38        # 2 bytes, EEPROM, 2.69 mA a unit (XM430 only)
 ADDR_POSITION_D_GAIN = 80      # 2 bytes, RAM
+ADDR_POSITION_I_GAIN = 82      # 2 bytes, RAM
 ADDR_POSITION_P_GAIN = 84      # 2 bytes, RAM
 ADDR_TORQUE_ENABLE = 64        # 1 byte, RAM; 1 locks the EEPROM area
 ADDR_HARDWARE_ERROR = 70       # 1 byte, R

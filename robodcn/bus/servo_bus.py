@@ -71,6 +71,7 @@ class ServoBus(Configuration, Verification, Writes, Modes):
         self.fast_read = fast_read
         self.last_alert_ids = ()
         self.position_p_gains = None
+        self.position_i_gains = None
         self.position_d_gains = None
         self.current_limits = None
         self._current_units = current_units([s.model for s in self.servos])
