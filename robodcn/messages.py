@@ -25,10 +25,11 @@ Units = Literal["cli", "si"]
 #: (CLI unit, factor from SI) per SI unit.
 _CLI_UNITS = {"rad": ("°", 180.0 / math.pi), "rad/s": ("deg/s", 180.0 / math.pi),
               "rad/s^2": ("deg/s²", 180.0 / math.pi), "rad/s^3": ("deg/s³", 180.0 / math.pi),
-              "m": ("m", 1.0), "tick": ("", 1.0)}
+              "m": ("m", 1.0), "tick": ("", 1.0), "N*m": ("N·m", 1.0)}
 _SI_UNITS = {"rad": " rad", "rad/s": " rad/s", "rad/s^2": " rad/s²", "rad/s^3": " rad/s³",
-             "m": " m", "tick": ""}
-_WHAT = {"velocity": "velocity", "acceleration": "acceleration", "jerk": "jerk"}
+             "m": " m", "tick": "", "N*m": " N·m"}
+_WHAT = {"velocity": "velocity", "acceleration": "acceleration", "jerk": "jerk",
+         "torque": "torque"}
 
 
 def quantity(value: float, unit: str, units: Units) -> str:
@@ -123,6 +124,11 @@ def describe_violation(v: Violation, units: Units = "si",
                 f"{quantity(v.limit, v.unit, units)}")
     elif v.quantity == "ticks":
         text = f"{head}: {who}needs tick {v.value:.0f}, outside its tick limit {v.limit:.0f}"
+    elif v.quantity == "torque" and v.field == "payload_kg":
+        # gravity alone (links and payload) overloads the joint there: no timing helps
+        text = (f"{head}: {who}needs {quantity(v.value, v.unit, units)} just to hold the "
+                f"arm, limit {quantity(v.limit, v.unit, units)} (torque): lighten "
+                f"{field_name('payload_kg', units)} or avoid that pose")
     else:
         option = field_name("duration", units)
         text = (f"{head}: {who}needs {quantity(v.value, v.unit, units)}, limit "

@@ -85,8 +85,10 @@ def test_schema_of_a_result_dataclass() -> None:
     schema = contract.schema_of(Violation)
     props = schema["properties"]
     assert props["quantity"]["enum"] == ["reach", "position", "velocity", "acceleration",
-                                         "jerk", "ticks"]
-    assert props["pose"]["prefixItems"] == [{"type": "number"}] * 3
+                                         "jerk", "ticks", "torque"]
+    # x, y, θ, or a yawed arm's x, y, z, pitch
+    assert props["pose"]["items"] == {"type": "number"}
+    assert (props["pose"]["minItems"], props["pose"]["maxItems"]) == (3, 4)
     assert props["joint"]["type"] == ["string", "null"]
     assert "description" in props["sample"]
     assert set(schema["required"]) == {"sample", "t", "pose", "quantity", "value", "limit",

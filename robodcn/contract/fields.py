@@ -192,7 +192,7 @@ FIELDS: tuple[Field, ...] = (
     Field("payload_kg", {"type": ["number", "null"], "minimum": 0.0, "maximum": MAX_PAYLOAD},
           "Mass carried at the tool point, for the torque limits the timing keeps "
           "(max_torque_nm). Default: the arm's [dynamics] payload_kg.",
-          default=DEFAULTS.payload_kg, unit="kg"),
+          default=DEFAULTS.payload_kg, unit="kg", cli_option="--payload"),
 )
 _BY_NAME = {f.name: f for f in FIELDS}
 

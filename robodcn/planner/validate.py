@@ -282,16 +282,5 @@ def elbow_branches(joints: NDArray) -> tuple[str | None, tuple[int, ...]]:
 
 def raise_for(violation: Violation) -> NoReturn:
     """Raise the PlanError of ``violation`` (message in SI and JSON names)."""
-    cls = VIOLATION_ERRORS[violation.quantity]
-    if violation.quantity == "torque":
-        raise cls(describe_torque(violation), violation=violation)
-    raise cls(describe_violation(violation, "si"), violation=violation)
-
-
-def describe_torque(v: Violation) -> str:
-    """One line for a torque violation (sample, time, pose, joint, torque and limit)."""
-    pose = ", ".join(f"{x:.4f}" for x in v.pose)
-    cure = ("gravity alone (links and payload) needs more than max_torque_nm there"
-            if v.field == "payload_kg" else "lengthen duration")
-    return (f"sample {v.sample} (t={v.t:.3f} s, pose [{pose}]): joint {v.joint!r} needs "
-            f"{v.value:.4g} N·m, limit {v.limit:.4g} N·m (torque): {cure}")
+    raise VIOLATION_ERRORS[violation.quantity](describe_violation(violation, "si"),
+                                               violation=violation)
