@@ -298,6 +298,32 @@ def test_with_compensation_a_retarget_tail_is_led_like_the_plan(sa):
     assert (around <= np.floor(step) + 1).all(), around
 
 
+def test_a_led_tail_starts_within_a_step_of_the_goal_before_it_and_ends_on_its_own(sa):
+    """A compensated tail is led from the goal sent before its switch (its first goal
+    within v_max·T of it); one too short to ramp from there to its own last goal is led
+    without that start, so it still ends on its last goal (the step guard slews)."""
+    from robodcn.stream.compensation import max_steps
+    from robodcn.stream.online import OnlineSamples
+    from robodcn.stream.source import PlannedSamples
+
+    traj = _move(sa, duration=1.0)
+    planned = PlannedSamples(traj, sa.bus, compensation=True)
+    root = OnlineSamples.of_planned(planned, sa.bus)
+    step = max_steps(ARM3R, sa.bus.servos, 1.0 / RATE, len(ARM3R.servos))
+    switch = len(traj.t) // 2
+    before = root.sent_goal(switch - 1)
+    back = traj.joints[switch::-1]                  # back the way it came, from the switch
+    path, sigma = JointPath.of_samples(back)
+    node = OnlineSamples(root, switch, back, sigma, path, sa.bus, RATE, traj.joint_names)
+    assert (np.abs(node.sent_goal(switch) - before) <= np.ceil(step)).all()
+    assert np.array_equal(node.sent_goal(len(node) - 1), planned.commanded_for(back)[-1])
+    short = np.repeat(traj.joints[:1], 1, axis=0)   # one sample, far from the goal before
+    path, sigma = JointPath.of_samples(np.vstack([short, short]))
+    node = OnlineSamples(root, switch, short, sigma[:1], path, sa.bus, RATE, traj.joint_names)
+    assert np.array_equal(node.sent_goal(switch), planned.commanded_for(short)[-1])
+    assert (np.abs(node.sent_goal(switch) - before) > 2 * step).any()
+
+
 def test_a_late_read_compares_with_the_swapped_source_past_the_plans_end(sa):
     """The tracking reference of a read that lands late is the swapped source's goal there,
     also past the planned trajectory's own samples (it indexed the tail node's own ticks
