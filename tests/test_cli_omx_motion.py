@@ -108,6 +108,7 @@ def test_torque_off_without_yes_warns_and_changes_nothing(held_omx, monkeypatch,
     assert held_omx.servo(12).torque_enabled
     assert run_cli(monkeypatch, ["torque", "off", "--joint", "yaw", "--arm", "omx",
                                  "--device", held_omx.port_path]) == 0
+    assert "warning" not in capsys.readouterr().err
     assert not held_omx.servo(11).torque_enabled and held_omx.servo(12).torque_enabled
 
 

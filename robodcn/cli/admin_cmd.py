@@ -119,8 +119,8 @@ def _torque_off_under_gravity(args: argparse.Namespace, arm, bus) -> int:
     from robodcn.workflow.admin import set_torque
     from robodcn.workflow.release import release
 
-    releasing.confirm_release(arm, present_joints(arm, bus), args.yes, joint=args.joint)
-    releasing.warn_falling(arm)
+    if releasing.confirm_release(arm, present_joints(arm, bus), args.yes, joint=args.joint):
+        releasing.warn_falling(arm, lowering=args.joint is None)
     if args.joint is not None:
         ids = set_torque(bus, arm, False, args.joint)
         print(f"torque off: servo(s) {', '.join(map(str, ids))}")

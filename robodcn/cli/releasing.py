@@ -37,25 +37,31 @@ def falls(arm: Arm) -> bool:
 
 
 def confirm_release(arm: Arm, joints: ArrayLike, yes: bool, *,
-                    joint: str | None = None) -> None:
+                    joint: str | None = None) -> bool:
     """Refuse (GravityReleaseError, exit 2) torque off at ``joints`` (rad) unless ``yes``
-    when the arm would fall; with ``joint``, only when that joint is one gravity loads."""
+    when the arm would fall; with ``joint``, only when that joint is one gravity loads.
+    Returns whether it falls (confirmed)."""
     from robodcn.workflow import release
 
-    if yes:
-        return
     check = release.check_release(arm, joints)
     if not check.falls or (joint is not None and joint not in check.joints):
-        return
+        return False
+    if yes:
+        return True
     error = release._refusal(check)   # the library's own warning (private: see the report)
     error.cli_text = f"{error_text(error)}; --yes confirms"
     raise error
 
 
-def warn_falling(arm: Arm) -> None:
-    """The confirmed warning: the arm is let go under gravity."""
-    rest = ("it is lowered to its rest pose first" if arm.rest is not None
-            else "it has no [arm.rest] pose to be lowered to")
+def warn_falling(arm: Arm, *, lowering: bool = True) -> None:
+    """The confirmed warning: the arm is let go under gravity (``lowering``: after being
+    lowered to its rest pose, when it has one; else where it is: hold it)."""
+    if not lowering:
+        rest = "where it is now: hold it"
+    elif arm.rest is not None:
+        rest = "it is lowered to its rest pose first"
+    else:
+        rest = "it has no [arm.rest] pose to be lowered to"
     say(f"robodcn: warning: torque off lets arm {arm.name!r} fall under gravity ({rest}); "
         "confirmed by --yes")
 

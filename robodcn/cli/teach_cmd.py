@@ -135,7 +135,7 @@ def _teach(args: argparse.Namespace, arm, bus):
         say("robodcn: teach --float holds a vertical arm while a hand moves it")
         releasing.confirm_release(arm, present_joints(arm, bus), args.yes)
     if gravity:
-        releasing.warn_falling(arm)
+        releasing.warn_falling(arm, lowering=False)
     teaching = Teaching(bus, arm)
     record(teaching)
     return teaching
