@@ -164,3 +164,16 @@ def test_a_horizontal_arm_is_released_as_before(monkeypatch, capsys):
                                  "fast", "--release", "--json"]) in COMPLETED
     report = json.loads(capsys.readouterr().out)
     assert report["released"] and "release" not in report
+
+
+def test_run_release_on_the_omx_needs_yes(monkeypatch, capsys, tmp_path):
+    path = tmp_path / "two.toml"
+    path.write_text("[[waypoints]]\nx = 0.2\ny = 0.0\nz = 0.2\npitch_deg = 0\n\n"
+                    f"[[waypoints]]\nx = {GOAL[0]}\ny = {GOAL[1]}\nz = {GOAL[2]}\n"
+                    f"pitch_deg = {GOAL[3]}\n")
+    argv = ["run", str(path), "--arm", "omx", "--sim", "--release"]
+    assert run_cli(monkeypatch, argv) == 2
+    assert "--yes confirms" in capsys.readouterr().err
+    assert run_cli(monkeypatch, [*argv, "--yes", "--json"]) in COMPLETED
+    report = json.loads(capsys.readouterr().out)
+    assert report["released"] and report["release"]["lowered"]

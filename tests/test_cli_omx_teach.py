@@ -225,3 +225,33 @@ gripper = "close"
     report = json.loads(capsys.readouterr().out)
     assert [leg["gripper_result"]["command"] for leg in report["legs"]] == ["open", "close"]
     assert all(leg["report"]["stop_reason"] == "completed" for leg in report["legs"])
+
+
+def test_teach_float_release_needs_yes_and_lowers_at_the_end(held_omx, monkeypatch, capsys,
+                                                             tmp_path):
+    out = tmp_path / "r.toml"
+    argv = ["teach", "--arm", "omx", "--device", held_omx.port_path, "--out", str(out),
+            "--float", "--release"]
+    assert run_cli(monkeypatch, argv, ["", "q"]) == 2          # refused before the float
+    assert "--yes confirms" in capsys.readouterr().err and not out.exists()
+    assert all(held_omx.servo(i).operating_mode == 3 for i in OMX.servo_ids)
+    steps = [wait(0.2), then(hand(held_omx, 12, -0.3), ""), "q"]
+    assert run_cli(monkeypatch, [*argv, "--yes"], steps) == 0
+    err = capsys.readouterr().err
+    assert "after lowering it to its rest pose" in err and out.exists()
+    assert not any(held_omx.servo(i).torque_enabled for i in OMX.servo_ids)
+
+
+def test_run_plots_one_file_a_leg(monkeypatch, capsys, tmp_path):
+    path = tmp_path / "legs.toml"
+    path.write_text("[[waypoints]]\nx = 0.2\ny = 0.0\nz = 0.2\npitch_deg = 0\n"
+                    "gripper = \"open\"\n\n"
+                    "[[waypoints]]\nx = 0.2\ny = 0.05\nz = 0.12\npitch_deg = -30\n"
+                    "gripper = \"close\"\n")
+    png = tmp_path / "legs.png"
+    assert run_cli(monkeypatch, ["run", str(path), "--arm", "omx", "--sim", "--plot",
+                                 str(png)]) in COMPLETED
+    err = capsys.readouterr().err
+    for k in (1, 2):
+        leg = tmp_path / f"legs-leg{k}.png"
+        assert leg.read_bytes()[:4] == b"\x89PNG" and f"plot: {leg}" in err
