@@ -185,6 +185,10 @@ class Feedback:
         except CommError as exc:
             self.failures.failed(exc)
             return
+        if bus.last_alert_ids or (fb is not None and fb.hardware_errors.any()):
+            # a stop, or a misread reply: then nothing of this read counts
+            self.alert(*_alert_seen(bus.ids, bus.last_alert_ids, fb, sample))
+            return
         self.failures.ok()
         self.reads += 1
         self.last_present = present
@@ -195,8 +199,6 @@ class Feedback:
             self.velocities.append(np.abs(fb.velocities))
             self.currents.append(np.abs(fb.currents))
             self.feedback_samples.append(sample)
-        if bus.last_alert_ids or (fb is not None and fb.hardware_errors.any()):
-            self.alert(*_alert_seen(bus.ids, bus.last_alert_ids, fb, sample))
         self.last_error = error
         self.errors.append(error)
         self.read_samples.append(sample)
@@ -294,9 +296,15 @@ class Feedback:
     # -- health ---------------------------------------------------------------------------
 
     def alert(self, ids: Sequence[int], seen: str = "") -> None:
-        """Stop on a hardware alert of ``ids`` (reading what each servo reports); ``seen``:
-        how the alert showed (for the message: the bits a read saw where Hardware Error
-        Status reads 0 by now)."""
+        """Stop on a hardware alert of ``ids``, confirmed by reading what each servo reports
+        (Hardware Error Status stays set until a reboot: e-manual "Shutdown(63)"); ``seen``:
+        how the alert showed, for the message.
+
+        An alert that the confirming read does not show (every servo 0, no Alert bit in its
+        status) was not the servos' but a reply misread — a straggler of an earlier read
+        that timed out, taken for this one's answer (status packets carry no sequence
+        number; a Bus Watchdog poll's 50 read as Hardware Error Status): it counts as a
+        communication failure (:class:`CommFailures`), not a stop."""
         try:
             self.hardware = self.bus.hardware_errors()
         except BusError as exc:
@@ -304,9 +312,15 @@ class Feedback:
             seen = f"{seen}; Hardware Error Status unreadable: {exc.message}".lstrip("; ")
         described = {i: describe_hardware_error(e) if e > 0 else "alert bit set"
                      for i, e in self.hardware.items() if e}
+        if not described and not self.bus.last_alert_ids:
+            log.warning("hardware alert not confirmed (Hardware Error Status reads 0 on "
+                        "every servo): a misread reply, counted as a communication "
+                        "failure: %s", seen)
+            self.failures.failed(CommError(f"a read showed a hardware alert that Hardware "
+                                           f"Error Status does not ({seen})", field="bus",
+                                           value=list(ids)))
+            return
         message = f"hardware alert on servo(s) {described or list(ids)}"
-        if not described:
-            message += " (Hardware Error Status reads 0 now)"
         raise StreamStop("hardware_alert", f"{message}: {seen}" if seen else message)
 
     def health(self) -> None:
