@@ -48,7 +48,7 @@ def confirm_release(arm: Arm, joints: ArrayLike, yes: bool, *,
         return False
     if yes:
         return True
-    error = release._refusal(check)   # the library's own warning (private: see the report)
+    error = release.refusal(check)    # the library's own warning
     error.cli_text = f"{error_text(error)}; --yes confirms"
     raise error
 

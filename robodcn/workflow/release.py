@@ -104,7 +104,7 @@ def check_release(arm: Arm, joints: ArrayLike) -> ReleaseCheck:
     return ReleaseCheck(arm.name, True, loaded or chain, arm.joint_names, torques, arm.rest)
 
 
-def _refusal(check: ReleaseCheck) -> GravityReleaseError:
+def refusal(check: ReleaseCheck) -> GravityReleaseError:
     """The error that asks for confirmation, naming what holds how much."""
     if check.holding_torque_nm is None:
         held = "gravity loads " + ", ".join(check.joints)
@@ -146,7 +146,7 @@ def release(bus: ServoBus, arm: Arm, *, confirm: bool = False, lower: bool = Tru
     q = present_joints(arm, bus, verify=verify)
     check = check_release(arm, q)
     if check.falls and not confirm:
-        raise _refusal(check)
+        raise refusal(check)
     lowering = None
     if check.falls and lower and arm.rest is not None:
         trajectory = plan(arm, [tool_pose(arm, q), arm.rest], start_joints=q,
@@ -162,4 +162,5 @@ def release(bus: ServoBus, arm: Arm, *, confirm: bool = False, lower: bool = Tru
     return ReleaseResult(check, lowering is not None, lowering, True, tuple(bus.ids))
 
 
-__all__ = ["ARRIVED", "LOADED_NM", "ReleaseCheck", "ReleaseResult", "check_release", "release"]
+__all__ = ["ARRIVED", "LOADED_NM", "ReleaseCheck", "ReleaseResult", "check_release", "refusal",
+           "release"]
