@@ -63,9 +63,9 @@ class Service:
 
 
 def _serve(token: str | None, target: tuple[str, ...] = ("--sim",),
-           port: int = 0) -> Iterator[Service]:
+           port: int = 0, arm: str = str(ROOT / "configs" / "arm3r.toml")) -> Iterator[Service]:
     args = [sys.executable, "-m", "robodcn", "serve", *target, "--port", str(port),
-            "--arm", str(ROOT / "configs" / "arm3r.toml")]
+            "--arm", arm]
     if token:
         args += ["--token", token]
     proc = subprocess.Popen(args, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
@@ -90,6 +90,13 @@ def _terminate(proc: subprocess.Popen) -> None:
 @pytest.fixture(scope="module")
 def service() -> Iterator[Service]:
     yield from _serve(None)
+
+
+@pytest.fixture(scope="module")
+def omx_service() -> Iterator[Service]:
+    """``robodcn serve --sim --arm omx``: the packaged OpenMANIPULATOR-X (a base yaw, a
+    chain under gravity, a gripper), named as a new user names it."""
+    yield from _serve(None, arm="omx")
 
 
 @pytest.fixture(scope="module")

@@ -101,7 +101,9 @@ export function detectFeatures() {
   f.betaRange = numberRange(plan.beta);
   const torque = bodyProps("/v1/torque", "post");
   f.torque = op("/v1/torque", "post") ? (Object.keys(torque).find((k) =>
-    torque[k].type === "boolean") || "enabled") : null;
+    torque[k].type === "boolean" && k !== "confirm") || "enabled") : null;
+  // Torque off on an arm under gravity asks to be confirmed (409 gravity_release otherwise).
+  f.torqueConfirm = f.torque && torque.confirm && torque.confirm.type === "boolean" ? "confirm" : null;
   const gripper = bodyProps("/v1/gripper", "post");
   f.gripper = op("/v1/gripper", "post") ? {
     commands: enumOf(gripper.command), width: "width_m" in gripper,

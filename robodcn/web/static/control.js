@@ -30,9 +30,11 @@ export async function startMove() {
   } catch (e) {
     showError(e.error);
     if (e.status === 422) {  // show where the refused plan fails
+      // The error's field indexes the body sent (one waypoint: waypoints[0] is the target);
+      // a sample is located with the same plan from the present joints.
       const again = planBody(method);
       if (S.state) again.start_joints = S.state.joints;
-      S.plans = { [method]: await failure(e.error, again) };
+      S.plans = { [method]: await failure(e.error, body, again) };
       S.planOrder = [method];
       redraw();
     }
@@ -77,16 +79,51 @@ export function setSpeed(k) {
     .finally(() => { S.speedEditing = false; });
 }
 
-export function torque(on) {
-  return post("/v1/torque", { [S.features.torque]: on });
+/** POST /v1/torque. Off on an arm under gravity the service refuses without confirm (409
+ * gravity_release, saying what gravity holds): the page asks the user with those words and
+ * sends it again confirmed only when they agree. */
+export async function torque(on) {
+  const body = { [S.features.torque]: on };
+  try {
+    clearError();
+    return await api("POST", "/v1/torque", body);
+  } catch (e) {
+    const err = e.error || {};
+    if (on || e.status !== 409 || err.code !== "gravity_release" || !S.features.torqueConfirm) {
+      showError(err);
+      return null;
+    }
+    if (!window.confirm(`${err.message}.\n\nThe arm will fall. Switch torque off?`)) {
+      showError({ message: "torque stays on (switching it off was not confirmed)" });
+      return null;
+    }
+    return post("/v1/torque", { ...body, [S.features.torqueConfirm]: true });
+  }
 }
 
-/** POST /v1/gripper: "open", "close" or a width typed in millimetres. */
-export function gripper(what) {
+/** What a gripper command did (the service's answer), in the user's units. */
+function showGripper(what, result) {
+  const box = $("gripper-state");
+  if (!result) { box.textContent = ""; return; }
+  const mm = (m) => (1000 * m).toFixed(1);
+  const word = { open: "open", close: "closed", width: "set" }[result.command] || what;
+  const held = result.blocked ? " · holding an object" : result.settled ? "" : " · not settled";
+  const width = typeof result.final_width_m === "number" ? result.final_width_m : null;
+  box.textContent = width === null ? word : `${word}: ${mm(width)} mm${held}`;
+  box.dataset.widthM = width === null ? "" : String(width);
+}
+
+/** POST /v1/gripper: "open", "close" or a width typed in millimetres; the answer is shown
+ * beside the buttons. */
+export async function gripper(what) {
+  let body = { command: what };
   if (what === "width") {
     const mm = parseFloat($("gripper-width").value);
     if (!Number.isFinite(mm)) { showError({ message: "the gripper width must be a number (mm)", field: "width_m" }); return null; }
-    return post("/v1/gripper", { width_m: mm / 1000 });
+    body = { width_m: mm / 1000 };
   }
-  return post("/v1/gripper", { command: what });
+  $("gripper-state").textContent = "…";
+  const result = await post("/v1/gripper", body);
+  showGripper(what, result);
+  return result;
 }

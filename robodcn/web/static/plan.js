@@ -94,9 +94,11 @@ async function locateSample(error, body) {
   }
 }
 
-/** A failed plan and where on the canvas it fails (mark null when the error cannot say). */
-export async function failure(error, body) {
-  return { error, body, mark: markOf(error, body) || await locateSample(error, body) };
+/** A failed plan and where on the canvas it fails (mark null when the error cannot say):
+ * the error's own pose or waypoint of `body` (the request refused), else the failing sample
+ * located by `locate` (a plan request from the present joints; default `body`). */
+export async function failure(error, body, locate = body) {
+  return { error, body, mark: markOf(error, body) || await locateSample(error, locate) };
 }
 
 export async function preview() {
