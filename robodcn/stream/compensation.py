@@ -215,7 +215,7 @@ def compensated_ticks(joints: NDArray[np.float64], period: float,
                       i_gains: Sequence[int] | None = None,
                       start_goal: ArrayLike | None = None,
                       present: ArrayLike | None = None,
-                      payload_kg: float | None = None) -> NDArray[np.int64]:
+                      payload_kg: float | None = None, first: int = 0) -> NDArray[np.int64]:
     """Goal ticks (n, k) that make the servos follow ``joints`` (n, k) rad (module notes).
 
     Parameters
@@ -231,6 +231,9 @@ def compensated_ticks(joints: NDArray[np.float64], period: float,
     present : Present Position (k,) before sample 0, ticks: the friction sign before the
         first motion (None: no Coulomb term before it).
     payload_kg : the point mass at the tool point (None: the arm file's ``payload_kg``).
+    first : rows before it only give the differences (an online tail's samples before its
+        switch): the step limit applies from row ``first``, ``start_goal`` being the goal
+        held before that row; the rows before are led but not limited.
     """
     joints = np.asarray(joints, dtype=np.float64)
     qd, qdd = derivatives(joints, period)
@@ -250,7 +253,8 @@ def compensated_ticks(joints: NDArray[np.float64], period: float,
         lag = lag_pulses(PWM_FULL * u, period, p[j], i[j]) * spec.ticks_per_turn / 4096.0
         led[:, j] = spec.zero_offset + spec.direction * (
             q_m[:, j] * spec.ticks_per_turn / (2.0 * math.pi) + lag)
-    led = limit_steps(led, max_steps(arm, servos, period, len(servos)), start_goal)
+    led[first:] = limit_steps(led[first:], max_steps(arm, servos, period, len(servos)),
+                              start_goal)
     lo, hi = limits[:, 0], limits[:, 1]
     return np.clip(np.round(led), lo, hi).astype(np.int64)
 

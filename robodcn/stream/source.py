@@ -92,17 +92,21 @@ class PlannedSamples:
         self._encoded = bus.encode_goals(self.commanded)
 
     def commanded_for(self, joints: NDArray[np.float64], *,
-                      start_goal: NDArray[np.int64] | None = None) -> NDArray[np.int64] | None:
+                      start_goal: NDArray[np.int64] | None = None,
+                      first: int = 0) -> NDArray[np.int64] | None:
         """The goals this source would send for other joint samples (n, k) rad at its
         period: compensated like its own (None without compensation: the plan is sent).
         An online tail (:mod:`robodcn.stream.online`) is led the same way as the plan;
-        ``start_goal`` (the goal last sent, ticks) limits its first step like the plan's."""
+        ``start_goal`` (the goal sent before row ``first``, ticks) limits the step into
+        row ``first`` like the plan's first (rows before ``first``: the samples before the
+        switch, for the differences only)."""
         if not self.compensated:
             return None
         bus = self._bus
         return compensated_ticks(joints, self.period, bus.servos, bus.limits, arm=self.arm,
                                  p_gains=bus.position_p_gains, i_gains=self.i_gains,
-                                 start_goal=start_goal, payload_kg=self.payload_kg)
+                                 start_goal=start_goal, payload_kg=self.payload_kg,
+                                 first=first)
 
     def sent_goal(self, i: int) -> NDArray[np.int64]:
         """The goal ticks (k,) sample i sends (``commanded``; the plan without a lead)."""
