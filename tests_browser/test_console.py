@@ -8,9 +8,7 @@ server is checked independently (its own JSON API) rather than trusting the page
 from __future__ import annotations
 
 import math
-import os
 import re
-import shutil
 import time
 from pathlib import Path
 from typing import Any
@@ -159,8 +157,6 @@ def test_move_runs_to_done(driver: Any, until: Any, service: Any, tmp_path: Path
     shot = tmp_path / "console.png"
     driver.save_screenshot(str(shot))
     assert shot.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
-    if os.environ.get("ROBODCN_SCREENSHOT"):  # docs/console.png is made this way
-        shutil.copy(shot, os.environ["ROBODCN_SCREENSHOT"])
     until(lambda d: el(d, "move-status").text in FINISHED, 20)
     status, info = service.call("GET", f"/v1/moves/{move_id}")
     assert status == 200 and info["status"] in FINISHED

@@ -80,8 +80,11 @@ function drawWorkspace(ctx, canvas, k) {
   }
   const a = m.angleName;
   ctx.fillStyle = "#66707c"; ctx.font = "11px system-ui";
-  ctx.fillText(`${m.yawed ? "side view (r, z) · " : ""}grid 5 cm · shaded: reach ${R.toFixed(2)} m ` +
-    `(any ${a}) · dashed ring: reach at the target's ${a} · black: measured tool path`, 8, canvas.height - 8);
+  // The legend, as much of it as fits the canvas's width.
+  const parts = [m.yawed ? "side view (r, z)" : "", "grid 5 cm", `shaded: reach ${R.toFixed(2)} m (any ${a})`,
+    `dashed ring: reach at the target's ${a}`, "black: measured tool path"].filter(Boolean);
+  while (parts.length > 1 && ctx.measureText(parts.join(" · ")).width > canvas.width - 16) parts.pop();
+  ctx.fillText(parts.join(" · "), 8, canvas.height - 8);
 }
 
 /** The failing sample (or waypoint) of each infeasible plan, in its method's colour. */
