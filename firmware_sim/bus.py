@@ -15,11 +15,13 @@ the port's rate; the replies follow it as :mod:`firmware_sim.replies` describes.
 from __future__ import annotations
 
 import threading
+import time
 import traceback
 from collections.abc import Iterable, Mapping
 from typing import Any
 
 from firmware_sim.bus_config import SimBusConfig, layout
+from firmware_sim.clock import VirtualClock
 from firmware_sim.dispatch import Dispatcher
 from firmware_sim.faults import FaultInjector
 from firmware_sim.goals import GoalHistory
@@ -32,7 +34,9 @@ from firmware_sim.transport import PtyPort
 
 __all__ = ["LogEntry", "SimBus", "SimBusConfig", "sleep_until"]
 
-_SELECT_TIMEOUT_S = 0.01     # how soon the server thread notices close()
+_SELECT_TIMEOUT_S = 0.005    # how soon the server thread notices close()
+#: The server thread keeps every servo's physics at most this far behind the clock, s.
+KEEP_UP_S = 0.005
 
 
 class SimBus:
@@ -105,6 +109,7 @@ class SimBus:
         self._stop = threading.Event()
         #: Packets received (also those with a bad CRC).
         self.rx_packets = 0
+        self._keeps_up = not isinstance(self._servos[0].clock, VirtualClock)
 
     # ---- settings -------------------------------------------------------------------
     @property
@@ -208,20 +213,41 @@ class SimBus:
     def _serve(self) -> None:
         self._pacer.adopt_thread()
         parser = PacketParser()
+        kept = time.monotonic()
         while not self._stop.is_set():
             try:
                 received = self._port.receive(_SELECT_TIMEOUT_S)
             except OSError:
                 self.errors.append(traceback.format_exc())
                 return
-            if received is None:
-                continue
-            data, now = received
-            for pkt in parser.feed(data, now):
+            if received is not None:
+                data, now = received
+                for pkt in parser.feed(data, now):
+                    try:
+                        self._handle(pkt)
+                    except Exception:
+                        self.errors.append(traceback.format_exc())
+            if self._keeps_up and time.monotonic() - kept >= KEEP_UP_S:
+                kept = time.monotonic()
                 try:
-                    self._handle(pkt)
+                    self.keep_up()
                 except Exception:
                     self.errors.append(traceback.format_exc())
+
+    def keep_up(self) -> None:
+        """Advance every servo's physics (the arm's plant, the watchdogs) to now.
+
+        The model is lazy: a servo's plant steps only when it is read or written. An arm
+        left moving (falling with torque off, say) while nobody talks to the bus would
+        otherwise be integrated all at once by the first packet after the pause — seconds
+        of 0.5 ms steps, far longer than the client's packet timeout, so that packet (the
+        first ping of a client that took a second to start) went unanswered. The server
+        thread calls this every :data:`KEEP_UP_S` between packets, so the catch-up before
+        any reply stays a few steps. On a :class:`~firmware_sim.clock.VirtualClock` (a
+        test that moves time itself) the server thread leaves the physics lazy."""
+        with self.lock:
+            for s in self._servos:
+                s.update()
 
     def _handle(self, pkt: Packet) -> None:
         self.rx_packets += 1
