@@ -192,7 +192,8 @@ class Feedback:
         self.failures.ok()
         self.reads += 1
         self.last_present = present
-        error = tracking_error(present, previous_goal, self.plan_at_read(timeline, sample, goal))
+        error = self._tracking_error(present, previous_goal, goal,
+                                     self.plan_at_read(timeline, sample, goal))
         self.trace.record(sample, self.clock.now() - timeline.t_start, present, error,
                           None if fb is None else fb.currents)
         if fb is not None:
@@ -224,6 +225,20 @@ class Feedback:
             bus.write_goals(goals)
         except BusError as exc:
             log.debug("back-off write failed: %s", exc.message)
+
+    @staticmethod
+    def _tracking_error(present: NDArray[np.int64], previous_goal: NDArray[np.int64] | None,
+                        goal: NDArray[np.int64],
+                        plan: NDArray[np.float64]) -> NDArray[np.int64]:
+        """:func:`~robodcn.stream.report.tracking_error` against the span of the previous
+        goal, the goal just written and the plan at the end of the read: a read that lands
+        late (the host stalled between the write and the read) widens the span toward the
+        plan, never shifts it off the goal the servos were given — on the first sample too,
+        where there is no previous goal (a stall there once read as 224 ticks of error)."""
+        first = goal if previous_goal is None else previous_goal
+        lo = np.minimum(np.minimum(first, goal), plan)
+        hi = np.maximum(np.maximum(first, goal), plan)
+        return tracking_error(present, lo, hi)
 
     def plan_at_read(self, timeline: Timeline, sample: int,
                      goal: NDArray[np.int64]) -> NDArray[np.float64]:
