@@ -12,6 +12,10 @@ depends on robodcn. It uses::
     shoulder_height = 0.0             # m, where the chain starts on the yaw axis
     [[joints]] ... [joints.servo] id, model, ticks_per_turn, zero_offset, direction
     [gripper] id, model, zero_offset, ...    # a servo that is not a joint (optional)
+    [arm.rest] x, y, z, pitch_deg     # the resting pose (optional; :mod:`.arm_pose`)
+    end_stops = true                  # [arm]: mechanical end stops on the chain's joints
+                                      #   (default: when the arm is under gravity)
+    end_stop_margin_deg = 3.0         # [arm]: each stop this far beyond [[joints]] min/max
 
 An arm may also be named (``load_arm("omx")``, ``--arm omx``): :mod:`.arm_files`.
 
@@ -45,6 +49,7 @@ from pathlib import Path
 from typing import Any
 
 from firmware_sim.arm_files import SEARCH_DIRS, find_arm, is_name, known_arms
+from firmware_sim.arm_pose import joint_limits, rest_joints
 from firmware_sim.chain import Chain, Vec
 
 #: Default mass of a link, kg (a bracket with the next servo's share of a light arm).
@@ -52,6 +57,8 @@ DEFAULT_LINK_MASS_KG = 0.10
 #: Inertia a gripper's servo carries, kg·m² at its output: jaws and their rack, ~30 g at
 #: ~2 cm (an estimate; tiny beside the rotor's reflected 0.0125 kg·m²).
 GRIPPER_INERTIA_KG_M2 = 1.2e-5
+#: How far beyond a joint's configured limit its mechanical end stop sits, degrees.
+END_STOP_MARGIN_DEG = 3.0
 _DYNAMICS_KEYS = frozenset({"link_masses", "link_com", "link_inertias", "link_inertias_r",
                             "link_inertias_z", "payload_kg",
                             "gravity", "gravity_m_s2", "yaw_body_mass", "yaw_body_com",
@@ -105,6 +112,13 @@ class ArmModel:
     inertias_r, inertias_z : tuple of float or None
         Per link its moments at the centre of mass about the radial and the vertical axis
         at zero, kg·m² (a yawed arm; None: 0, only the point masses turn with the yaw).
+    stops : tuple of (float, float) or None
+        Per joint its mechanical end stops (low, high), rad, or None (free): the chain's
+        joints under gravity, ``end_stop_margin_deg`` beyond their limits (the yaw has
+        none); :class:`firmware_sim.dynamics.Plant` makes them inelastic.
+    rest : tuple of float or None
+        The ``[arm.rest]`` pose's joint angles, rad (:mod:`.arm_pose`): where an arm under
+        gravity starts, lying on its support.
     """
 
     links: tuple[Vec, ...]
@@ -121,6 +135,8 @@ class ArmModel:
     shoulder_height: float = 0.0
     inertias_r: tuple[float, ...] | None = None
     inertias_z: tuple[float, ...] | None = None
+    stops: tuple[tuple[float, float] | None, ...] | None = None
+    rest: tuple[float, ...] | None = None
 
     def __post_init__(self) -> None:
         chain = Chain(self.links, self.masses, self.com, self.inertias, self.payload,
@@ -316,11 +332,38 @@ def arm_from_dict(data: Mapping[str, Any]) -> ArmModel:
     about_r, about_z = (None if key not in dyn else
                         _per_link(dyn, key, n, [0.0] * n, positive=False)
                         for key in ("link_inertias_r", "link_inertias_z"))
+    gravity = _gravity(dyn, plane == "vertical")
+    stops = _stops(arm, joints_raw, base_yaw, gravity)
+    rest = None
+    if isinstance(arm.get("rest"), Mapping) and gravity != (0.0, 0.0):
+        rest = rest_joints(arm["rest"], links, base_yaw, (0.0, height),
+                           str(arm.get("elbow", "up")))
+        if rest is None:
+            raise ArmConfigError(f"arm.rest = {dict(arm['rest'])!r}: out of reach of the "
+                                 "chain (or the chain is not of 2 or 3 links)")
     return ArmModel(links, masses, _com(dyn, links), inertias,
-                    _non_negative(dyn, "payload_kg"), _gravity(dyn, plane == "vertical"),
+                    _non_negative(dyn, "payload_kg"), gravity,
                     joints, base_yaw=base_yaw, yaw_inertia=yaw_inertia,
                     rotor_inertia=_rotor(dyn, dof), gripper=gripper, shoulder_height=height,
-                    inertias_r=about_r, inertias_z=about_z)
+                    inertias_r=about_r, inertias_z=about_z, stops=stops, rest=rest)
+
+
+def _stops(arm: Mapping[str, Any], joints_raw: Sequence[Any], base_yaw: bool,
+           gravity: Vec) -> tuple[tuple[float, float] | None, ...] | None:
+    """Per joint its end stops (the class notes), None for an arm without them."""
+    on = arm.get("end_stops", gravity != (0.0, 0.0))
+    if not isinstance(on, bool):
+        raise ArmConfigError(f"arm.end_stops = {on!r}: expected true or false")
+    margin = math.radians(_number(arm.get("end_stop_margin_deg", END_STOP_MARGIN_DEG),
+                                  "arm.end_stop_margin_deg"))
+    if margin < 0:
+        raise ArmConfigError(f"arm.end_stop_margin_deg = {math.degrees(margin)!r}: must be "
+                             "non-negative")
+    if not on:
+        return None
+    limits = joint_limits(joints_raw)
+    return tuple(None if lim is None or (base_yaw and j == 0) else
+                 (lim[0] - margin, lim[1] + margin) for j, lim in enumerate(limits))
 
 
 def load_arm(source: str | Path | Mapping[str, Any]) -> ArmModel:

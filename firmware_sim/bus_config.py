@@ -4,6 +4,7 @@ and the servo layout it resolves to (:func:`layout`)."""
 from __future__ import annotations
 
 import dataclasses
+import math
 import os
 from collections.abc import Iterable, Mapping
 from dataclasses import dataclass
@@ -73,7 +74,9 @@ class SimBusConfig:
     arm : path or mapping, optional
         An arm TOML file (or its parsed dict): its servos drive the arm's rigid-body
         dynamics (:mod:`firmware_sim.arm_model`); needs ``dynamics=True``. Each arm servo
-        (and the file's gripper servo) starts at its zero_offset.
+        (and the file's gripper servo) starts at its zero_offset, except that an arm under
+        gravity with an ``[arm.rest]`` pose starts resting there when ``positions`` is not
+        given (:func:`rest_ticks`).
     positions : mapping id -> int, optional
         Initial Present Position per servo (default 2048).
     supply_voltage : float
@@ -164,6 +167,16 @@ class BusLayout:
         return [jm.servo_id for jm in self.arm.joints] if self.arm is not None else []
 
 
+def rest_ticks(arm: ArmModel) -> dict[int, int]:
+    """Servo id → Present Position of the arm's rest pose: tick = zero_offset +
+    direction·q·ticks_per_turn/2π (rounded); empty for an arm without one."""
+    if arm.rest is None:
+        return {}
+    return {jm.servo_id: round(jm.zero_offset + jm.direction * q * jm.ticks_per_turn
+                               / (2 * math.pi)) for jm, q in zip(arm.joints, arm.rest,
+                                                                 strict=True)}
+
+
 def _check_ids(ids: Iterable[int]) -> list[int]:
     id_list = [int(i) for i in ids]
     if not id_list:
@@ -200,6 +213,8 @@ def layout(config: SimBusConfig) -> BusLayout:
                                else [])]
         if not isinstance(model, Mapping):      # the arm file names its servos' models
             models.update({jm.servo_id: jm.model for jm in maps})
+        if arm.rest is not None and not config.positions:
+            start.update(rest_ticks(arm))        # an arm under gravity starts resting
         for jm in maps:
             start.setdefault(jm.servo_id, jm.zero_offset)
     fw = config.firmware

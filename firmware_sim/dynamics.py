@@ -15,6 +15,15 @@ arm's Coriolis/centrifugal, yaw-coupling and gravity torques (:mod:`firmware_sim
 whose step would reverse it.
 An obstacle clamps a shaft at its angle and stops it (an inelastic stop).
 
+An arm's mechanical end stops (:attr:`ArmModel.stops`, just beyond its joint limits) are
+inelastic too, within the coupled step: a joint whose step would reach a stop moving into
+it is held at the stop with ω⁺ = 0 and the others are solved again with it held (the stop
+reacts whatever torque pushes into it; the momentum A·ω it had goes into the others as in
+a plastic impact). An arm with a rest pose (:attr:`ArmModel.rest`) lies on its support
+there: while every chain joint gravity loads is within ``REST_SUPPORT_RAD`` of its rest
+angle, each is stopped at that angle on the side gravity turns it (the folded OM-X lying
+on its links and base) — so an unpowered arm at rest stays at rest.
+
 Joint i of an arm relates to its servo's shaft by θ = θ₀ + ρ·q with ρ = direction·
 ticks_per_turn/4096 (θ₀ from zero_offset), so M_θ = R⁻¹·M_q·R⁻¹ and b_θ = R⁻¹·b_q, R = diag(ρ).
 
@@ -34,6 +43,13 @@ from firmware_sim.drive import PULSES_PER_RAD, Drive
 PHYSICS_STEP_S = 0.0005
 #: Below this shaft speed, rad/s, static friction may hold the shaft.
 STICTION_RAD_S = 1e-3
+#: The rest support holds while every joint it holds is this close to its rest angle, rad.
+REST_SUPPORT_RAD = math.radians(1.0)
+
+
+def _into(theta: float, omega: float, wall: tuple[float, float]) -> bool:
+    """Whether a shaft moving at ``omega`` reaches ``theta`` at or past a wall it runs into."""
+    return (omega > 0 and theta >= wall[1]) or (omega < 0 and theta <= wall[0])
 
 
 def _solve(a: list[list[float]], b: list[float]) -> list[float]:
@@ -110,9 +126,29 @@ class Plant:
             self.theta0 = [2048 / PULSES_PER_RAD] * self.n
         #: Per shaft: None or (angle rad, side): side +1 blocks θ above it, -1 below.
         self.obstacles: list[tuple[float, int] | None] = [None] * self.n
+        #: Per shaft: None or its end stops (low, high), shaft angles (rad).
+        self.stops: list[tuple[float, float] | None] = [None] * self.n
+        #: (shaft, angle, side) of the rest support, side +1 blocking above, -1 below.
+        self.rest_support: list[tuple[int, float, int]] = []
+        if arm is not None:
+            self._arm_stops(arm)
         #: The servos whose shafts these are (they snapshot their settings before a step).
         self.owners: list = []
         self.steps_taken = 0
+
+    def _arm_stops(self, arm: ArmModel) -> None:
+        """The arm's end stops and its rest support in shaft angles."""
+        for j, stop in enumerate(arm.stops or ()):
+            if stop is not None:
+                ends = sorted(self.shaft_angle(j, q) for q in stop)
+                self.stops[j] = (ends[0], ends[1])
+        if arm.rest is None:
+            return
+        _, bias = arm.dynamics(arm.rest, [0.0] * self.n)     # gravity alone at rest
+        for j, b in enumerate(bias):
+            if b:                     # gravity turns joint j towards −b: the arm lies there
+                side = 1 if -b * self.rho[j] > 0 else -1
+                self.rest_support.append((j, self.shaft_angle(j, arm.rest[j]), side))
 
     # ---- joints ---------------------------------------------------------------------
     def joint_angle(self, j: int) -> float:
@@ -198,6 +234,17 @@ class Plant:
         self.t = t + h
         self.steps_taken += 1
 
+    def _walls(self) -> list[tuple[float, float] | None]:
+        """Per shaft the (low, high) angles it cannot pass now: its end stops, narrowed by
+        the rest support while the arm lies at rest (module notes), or None."""
+        walls = list(self.stops)
+        rest = self.rest_support
+        if rest and all(abs(self.theta[j] - wall) <= REST_SUPPORT_RAD for j, wall, _ in rest):
+            for j, wall, side in rest:
+                lo, hi = walls[j] or (-math.inf, math.inf)
+                walls[j] = (lo, min(hi, wall)) if side > 0 else (max(lo, wall), hi)
+        return walls
+
     def _step_coupled(self, t: float, h: float) -> None:
         n = self.n
         theta, omega, drives = self.theta, self.omega, self.drives
@@ -230,14 +277,27 @@ class Plant:
             else:
                 rhs[j] -= math.copysign(tc, w)
             free.append(j)
-        new = [0.0] * n
-        if free:
-            af = [[a[i][j] + (h * damp[i] if i == j else 0.0) for j in free] for i in free]
-            bf = [sum(a[i][k] * omega[k] for k in range(n)) + h * rhs[i] for i in free]
-            for i, w in zip(free, _solve(af, bf), strict=True):
-                if omega[i] * w < 0.0 and abs(net[i]) <= drives[i].motor.coulomb:
-                    w = 0.0             # friction stops a reversal it can hold (as stuck)
-                new[i] = w
+        walls = self._walls()
+        locked: list[int] = []          # at an end stop, pushed into it: velocity 0
+        while True:
+            new = [0.0] * n
+            moving = [j for j in free if j not in locked]
+            if moving:
+                af = [[a[i][j] + (h * damp[i] if i == j else 0.0) for j in moving]
+                      for i in moving]
+                bf = [sum(a[i][k] * omega[k] for k in range(n)) + h * rhs[i] for i in moving]
+                for i, w in zip(moving, _solve(af, bf), strict=True):
+                    if omega[i] * w < 0.0 and abs(net[i]) <= drives[i].motor.coulomb:
+                        w = 0.0         # friction stops a reversal it can hold (as stuck)
+                    new[i] = w
+            hit = [j for j in moving if walls[j] is not None
+                   and _into(theta[j] + h * new[j], new[j], walls[j])]
+            if not hit:
+                break
+            locked += hit
+        for j in locked:
+            lo, hi = walls[j]
+            theta[j] = min(max(theta[j], lo), hi)
         for j in range(n):
             th = theta[j] + h * new[j]
             obstacle = self.obstacles[j]

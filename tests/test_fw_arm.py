@@ -168,13 +168,15 @@ def test_free_arm_conserves_energy(doc, omega):
     """The plant with the motors' friction and back-EMF removed keeps the arm's energy."""
     model = load_arm(doc)
     clock = VirtualClock()
-    bus = SimBus(arm=doc, dynamics=True, clock=clock)
+    zero = {jm.servo_id: jm.zero_offset for jm in model.joints}   # not at rest: at zero
+    bus = SimBus(arm=doc, dynamics=True, clock=clock, positions=zero)
     plant = bus.servo(model.joints[0].servo_id).motion.plant
     n = model.dof
     for d in plant.drives:                      # a frictionless, unmotored arm
         d.motor = type(d.motor)(**{**d.motor.__dict__, "viscous": 0.0, "coulomb": 0.0,
                                    "rotor_inertia": 1e-12})
     plant.inertia = [d.motor.inertia for d in plant.drives]
+    plant.stops, plant.rest_support = [None] * n, []    # nothing to hit: a free chain
     plant.omega = list(omega)
     q0 = [plant.joint_angle(j) for j in range(n)]
 
