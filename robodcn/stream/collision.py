@@ -33,6 +33,7 @@ reads.
 from __future__ import annotations
 
 from collections.abc import Sequence
+from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
@@ -115,5 +116,63 @@ def threshold_profile(predicted: NDArray[np.float64], period: float,
     return np.where(np.isnan(fixed), out, fixed)
 
 
-__all__ = ["LIMIT_SHARE", "MARGIN_A", "MARGIN_FACTOR", "WINDOW_S", "predicted_currents",
-           "threshold_profile", "thresholds"]
+class ChainThresholds:
+    """Per-sample thresholds along what an online execution commands (issue 17 §7): its
+    source is a chain of nodes (:class:`robodcn.stream.online.samples.OnlineSamples`: the
+    plan, then each operation's tail from its ``switch`` on, with ``prev``, ``switch`` and
+    ``joints``), and a tail's motion — a retarget's, a resume's — is not the plan's: a
+    retarget out of a plan that hardly moved a joint would otherwise be held to that
+    plan's 0.5 A. Each node's :func:`threshold_profile` is computed once, from its joints
+    and the two commanded samples before its switch (one inverse dynamics per node, on the
+    first read that needs it); a sample within :data:`WINDOW_S` after a switch takes the
+    larger of its node's threshold and the previous node's last one (the current of the
+    motion before the switch is still decaying)."""
+
+    def __init__(self, period: float, servos: Sequence[ServoSpec], arm: Arm | None,
+                 payload_kg: float | None, limits: Sequence[float],
+                 d_gains: Sequence[int] | None) -> None:
+        self.period = period
+        self.servos = servos
+        self.arm = arm
+        self.payload_kg = payload_kg
+        self.limits = limits
+        self.d_gains = d_gains
+        self.half = max(1, round(WINDOW_S / period))
+        #: id(node.joints) -> (the joints, kept alive so the id stays theirs; the profile)
+        self._profiles: dict[int, tuple[NDArray[np.float64], NDArray[np.float64]]] = {}
+
+    def _profile(self, node: Any) -> NDArray[np.float64]:
+        joints = node.joints
+        known = self._profiles.get(id(joints))
+        if known is not None and known[0] is joints:
+            return known[1]
+        prev = node.prev
+        before = [prev.joint(i) for i in range(max(0, node.switch - 2), node.switch)] \
+            if prev is not None else []
+        rows = np.vstack([*before, joints]) if before else np.asarray(joints)
+        predicted = predicted_currents(rows, self.period, self.servos, self.arm,
+                                       self.payload_kg)
+        profile = threshold_profile(predicted, self.period, self.limits, self.arm,
+                                    self.d_gains)[len(before):]
+        self._profiles[id(joints)] = (joints, profile)
+        return profile
+
+    def at(self, source: Any, sample: int) -> NDArray[np.float64]:
+        """The thresholds (k,) A at ``sample`` of the chain ``source``."""
+        node = source
+        while sample < node.switch and node.prev is not None:
+            node = node.prev
+        profile = self._profile(node)
+        out = profile[min(max(sample - node.switch, 0), len(profile) - 1)]
+        prev = node.prev
+        if prev is not None and sample - node.switch < self.half:
+            while node.switch - 1 < prev.switch and prev.prev is not None:
+                prev = prev.prev
+            before = self._profile(prev)
+            out = np.maximum(out, before[min(max(node.switch - 1 - prev.switch, 0),
+                                             len(before) - 1)])
+        return out
+
+
+__all__ = ["LIMIT_SHARE", "MARGIN_A", "MARGIN_FACTOR", "WINDOW_S", "ChainThresholds",
+           "predicted_currents", "threshold_profile", "thresholds"]

@@ -36,7 +36,7 @@ from robodcn.planner import Trajectory
 from robodcn.planner.path import user_pose
 from robodcn.servo_units import radians_per_tick
 from robodcn.stream.clock import Clock
-from robodcn.stream.collision import predicted_currents, threshold_profile
+from robodcn.stream.collision import ChainThresholds, predicted_currents, threshold_profile
 from robodcn.stream.compensation import holding_goals
 from robodcn.stream.options import ExecutionOptions
 from robodcn.stream.report import StreamStop, tracking_error
@@ -124,6 +124,8 @@ class Feedback:
         self.compensation = opts.compensation
         #: per-sample thresholds (n, k) along the plan (:func:`threshold_profile`)
         self.threshold_at: NDArray[np.float64] | None = None
+        #: the thresholds along an online chain's tails (None with configured thresholds)
+        self.chain: ChainThresholds | None = None
         self.poses = trajectory.poses
         self.reads = 0
         self.health_polls = 0
@@ -158,6 +160,8 @@ class Feedback:
                                                   self.bus.position_d_gains)
             self.threshold = (self.threshold_at.max(axis=0) if len(self.threshold_at)
                               else np.full(len(self.bus.ids), np.inf))
+            self.chain = ChainThresholds(period, self.bus.servos, self.arm, self.payload_kg,
+                                         limits, self.bus.position_d_gains)
         off = [self.joint_names[j] for j in np.nonzero(np.isinf(self.threshold))[0]]
         if not (off and opts.collision):
             return []
@@ -275,11 +279,14 @@ class Feedback:
         """Stop when a joint's |current| stayed above its threshold for N reads in a row."""
         assert self.threshold is not None
         threshold = self.threshold
-        if self.threshold_at is not None and len(self.threshold_at) and \
-                getattr(timeline.source, "joint", None) is None:
-            # the plan's own samples: the threshold of this sample (an online source's
-            # samples are no longer the plan's: the plan's largest)
-            threshold = self.threshold_at[min(sample, len(self.threshold_at) - 1)]
+        source = timeline.source
+        if self.threshold_at is not None and len(self.threshold_at):
+            if self.chain is not None and getattr(source, "prev", None) is not None:
+                # an online chain's samples are no longer all the plan's: the threshold
+                # of what it commands there (robodcn.stream.collision.ChainThresholds)
+                threshold = self.chain.at(source, sample)
+            else:  # the plan's own samples: the threshold of this sample
+                threshold = self.threshold_at[min(sample, len(self.threshold_at) - 1)]
         above = current > threshold
         self.over = np.where(above, self.over + 1, 0)
         hit = self.over >= self.collision_cycles
