@@ -206,14 +206,25 @@ def interpolate(start: ArrayLike, end: ArrayLike, s: ArrayLike, *, method: Metho
     _checks.one_of("turn", turn, dcn.TURNS)
     _checks.one_of("backend", backend, BACKENDS)
     beta = float(_checks.finite("beta", beta)) if method == "kenlerp" else 1.0
-    delta = turn_angle(start[2], end[2], turn)
     if backend == "dcn":
-        return _interpolate_dcn(start, end, delta, s, method, beta)
+        return interpolate_unchecked(start, end, s, method, beta, turn)
+    delta = turn_angle(start[2], end[2], turn)
     if backend == "dq":
         return _interpolate_dq(start, end, delta, s, method, beta)
     poses = _interpolate_matrix(start, end, delta, s, method, beta)
     poses[:, 2] = start[2] + s * delta
     return poses
+
+
+def interpolate_unchecked(start: NDArray[np.float64], end: NDArray[np.float64],
+                          s: NDArray[np.float64], method: str = "sclerp", beta: float = 1.0,
+                          turn: str = "shortest") -> NDArray[np.float64]:
+    """:func:`interpolate` by the DCN closed forms without the argument checks, for callers
+    that validated them (the planner): ``start``, ``end`` finite float64 (3,) poses, ``s`` a
+    finite float64 (n,) array, ``method`` and ``turn`` valid names, ``beta`` a float."""
+    beta = float(beta) if method == "kenlerp" else 1.0
+    delta = turn_angle(start[2], end[2], turn)
+    return _interpolate_dcn(start, end, delta, s, method, beta)
 
 
 def blend(poses: ArrayLike, weights: ArrayLike) -> NDArray[np.float64]:

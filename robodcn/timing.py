@@ -117,10 +117,17 @@ def profile(name: str, tau: ArrayLike, accel_fraction: float = DEFAULT_ACCEL_FRA
     robodcn.path_timing times it.
     """
     _checks.one_of("profile", name, UNIFORM_PROFILES)
+    return profile_unchecked(name, _tau(tau), accel_fraction)
+
+
+def profile_unchecked(name: str, tau: NDArray[np.float64],
+                      accel_fraction: float = DEFAULT_ACCEL_FRACTION) -> NDArray[np.float64]:
+    """:func:`profile` without the checks of ``name`` and ``tau`` (a uniform profile's name,
+    finite float64 τ in [0, 1]): the planner's hot path, its τ built by itself."""
     if name == "linear":
-        return linear(tau)
+        return tau.copy()
     if name == "quintic":
-        return quintic(tau)
+        return tau ** 3 * (10.0 + tau * (-15.0 + 6.0 * tau))
     return trapezoid(tau, accel_fraction)
 
 
@@ -176,6 +183,20 @@ def fd_min_duration(q: ArrayLike, v_max: ArrayLike, a_max: ArrayLike, *,
     """
     q = _checks.finite("q", q)
     v, a = _limits(q, v_max, a_max)
+    j = None
+    if j_max is not None:
+        j = np.asarray(j_max, dtype=np.float64)
+        if j.shape != v.shape:
+            raise InputError(f"j_max must have shape {v.shape}, got {j.shape}", field="j_max",
+                             value=j.shape)
+    return fd_min_duration_unchecked(q, v, a, at_rest=at_rest, j_max=j)
+
+
+def fd_min_duration_unchecked(q: NDArray[np.float64], v: NDArray[np.float64],
+                              a: NDArray[np.float64], *, at_rest: bool = True,
+                              j_max: NDArray[np.float64] | None = None) -> float:
+    """:func:`fd_min_duration` without the argument checks: q a finite float64 (n, k)
+    array, v, a (and j_max, inf where unlimited, or None) float64 (k,) arrays."""
     n = q.shape[0] - 1
     need = 0.0
     samples = q
@@ -187,10 +208,7 @@ def fd_min_duration(q: ArrayLike, v_max: ArrayLike, a_max: ArrayLike, *,
         d2 = np.abs(q[2:] - 2.0 * q[1:-1] + q[:-2]).max(axis=0)
         need = max(need, n * math.sqrt(float(np.max(d2 / a))))
     if j_max is not None:
-        j = np.asarray(j_max, dtype=np.float64)
-        if j.shape != v.shape:
-            raise InputError(f"j_max must have shape {v.shape}, got {j.shape}", field="j_max",
-                             value=j.shape)
+        j = j_max
         limited = np.isfinite(j)
         if limited.any() and n >= 1:
             p = samples[:, limited]

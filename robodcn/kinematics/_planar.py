@@ -106,16 +106,30 @@ def fk(links: Sequence[float], q: ArrayLike) -> NDArray[np.float64]:
 
 def _columns(links: tuple[float, ...], poses: NDArray[np.float64], want: str = "both"
              ) -> tuple[list[NDArray], list[NDArray], NDArray[np.bool_]]:
-    """Both IK branches as per-joint 1-D columns (contiguous, so every step is a fast 1-D
-    ufunc), angles not wrapped; NaN where out of reach.
+    """Both IK branches as per-joint 1-D columns (rows of :func:`_block`), angles not
+    wrapped; NaN where out of reach; ``want`` "up" or "down" computes that branch alone."""
+    block, ok = _block(links, poses, want)
+    if want == "up":
+        return list(block[0]), [], ok
+    if want == "down":
+        return [], list(block[0]), ok
+    return list(block[0]), list(block[1]), ok
+
+
+def _block(links: tuple[float, ...], poses: NDArray[np.float64], want: str = "both"
+           ) -> tuple[NDArray[np.float64], NDArray[np.bool_]]:
+    """Both IK branches as one array (2, k, n): [0] the elbow-up, [1] the elbow-down joint
+    rows (contiguous, so every step is a fast 1-D ufunc), angles not wrapped; NaN where out
+    of reach. With ``want`` "up" or "down", (1, k, n): that branch alone.
 
     q2 = ∓atan2(√(1 − c²), c) with c = cos q2; q1 = atan2(w) ∓ atan2(l2·sin|q2|, l1 + l2·c)
     is evaluated as one atan2 of the complex product w·conj(l1 + l2c ± i·l2·sin|q2|).
     """
     l1, l2 = links[:2]
+    k = len(links)
     x = poses[:, 0]
     y = poses[:, 1]
-    if len(links) == 3:
+    if k == 3:
         th = poses[:, 2]
         # cos θ and sin θ from t = tan(θ/2) (Weierstrass): numpy's SIMD tan is ~15× faster
         # than cos + sin here, and the rational forms lose at most a few ulp.
@@ -141,15 +155,22 @@ def _columns(links: tuple[float, ...], poses: NDArray[np.float64], want: str = "
     im_ab = wy * a
     re_bb = wy * b
     im_bb = wx * b
-    up: list[NDArray] = []
-    down: list[NDArray] = []
+    block = np.empty((1 if want != "both" else 2, k, poses.shape[0]))
     if want != "down":
-        q1_up = np.arctan2(im_ab + im_bb, re_ab - re_bb)
-        up = [q1_up, -q2] if len(links) == 2 else [q1_up, -q2, th - q1_up + q2]
+        up = block[0]
+        np.arctan2(im_ab + im_bb, re_ab - re_bb, out=up[0])
+        np.negative(q2, out=up[1])
+        if k == 3:
+            np.subtract(th, up[0], out=up[2])
+            up[2] += q2
     if want != "up":
-        q1_down = np.arctan2(im_ab - im_bb, re_ab + re_bb)
-        down = [q1_down, q2] if len(links) == 2 else [q1_down, q2, th - q1_down - q2]
-    return up, down, ok
+        down = block[-1]
+        np.arctan2(im_ab - im_bb, re_ab + re_bb, out=down[0])
+        down[1] = q2
+        if k == 3:
+            np.subtract(th, down[0], out=down[2])
+            down[2] -= q2
+    return block, ok
 
 
 def _stack(columns: list[NDArray]) -> NDArray[np.float64]:
@@ -209,12 +230,21 @@ def _raise_unreachable(links: Sequence[float], poses: ArrayLike, ok: NDArray[np.
                            value=poses[i].tolist(), sample=i, pose=poses[i].tolist())
 
 
-def _sq_dist(a: list[NDArray], b: list[NDArray]) -> NDArray[np.float64]:
-    """Squared joint-space distance, every angle difference wrapped into [−π, π]."""
-    total = None
-    for aj, bj in zip(a, b, strict=True):
-        d = wrap(aj - bj)
-        total = d * d if total is None else total + d * d
+def _wrap_in_place(a: NDArray[np.float64]) -> NDArray[np.float64]:
+    """:func:`wrap` of ``a`` written into ``a`` (the same operations, no temporaries)."""
+    t = a * (1.0 / _TWO_PI)
+    np.rint(t, out=t)
+    t *= _TWO_PI
+    a -= t
+    return a
+
+
+def _sq_sum(d: NDArray[np.float64]) -> NDArray[np.float64]:
+    """Σ_j d[..., j, :]² over the joint axis (second to last), summed in joint order."""
+    d *= d
+    total = d[..., 0, :] + d[..., 1, :]
+    for j in range(2, d.shape[-2]):
+        total += d[..., j, :]
     return total
 
 
@@ -223,20 +253,49 @@ def _sq_dist(a: list[NDArray], b: list[NDArray]) -> NDArray[np.float64]:
 SINGULAR_TOLERANCE = 1e-6
 
 
-def _choose(up: list[NDArray], down: list[NDArray], first_down: bool) -> NDArray[np.bool_]:
-    n = up[0].shape[0]
+#: Paths up to this many samples are compared as whole blocks (fewer numpy calls); longer
+#: ones a joint row at a time (each row stays in cache). Both compute the same numbers.
+BLOCK_SAMPLES = 2048
+
+
+def _step_distances(block: NDArray[np.float64]) -> NDArray[np.float64]:
+    """Squared wrapped joint distances (5, n − 1) between samples i and i − 1 of a (2, k, n)
+    block: up→up, down→down, up→down (down now − up before), down→up (up now − down
+    before), and up − down at sample i − 1 (:func:`wrap`; joints summed in order)."""
+    k, n = block.shape[1:]
+    now = block[:, :, 1:]
+    before = block[:, :, :-1]
+    if n <= BLOCK_SAMPLES:
+        d = np.empty((5, k, n - 1))
+        np.subtract(now, before, out=d[0:2])
+        np.subtract(now[::-1], before, out=d[2:4])
+        np.subtract(before[0], before[1], out=d[4])
+        return _sq_sum(_wrap_in_place(d))
+    sq = np.empty((5, n - 1))
+    pairs = ((now[0], before[0]), (now[1], before[1]), (now[1], before[0]),
+             (now[0], before[1]), (before[0], before[1]))
+    for p, (a, b) in enumerate(pairs):
+        d = _wrap_in_place(a[0] - b[0])
+        np.multiply(d, d, out=sq[p])
+        for j in range(1, k):
+            d = _wrap_in_place(a[j] - b[j])
+            d *= d
+            sq[p] += d
+    return sq
+
+
+def _choose(block: NDArray[np.float64], first_down: bool) -> NDArray[np.bool_]:
+    """:func:`choose_branches` of a (2, k, n) block (up, down joint rows)."""
+    n = block.shape[2]
     stay_up = np.ones(n, dtype=bool)
     stay_down = np.ones(n, dtype=bool)
     if n > 1:
-        up_now = [c[1:] for c in up]
-        up_before = [c[:-1] for c in up]
-        down_now = [c[1:] for c in down]
-        down_before = [c[:-1] for c in down]
-        stay_up[1:] = _sq_dist(up_now, up_before) <= _sq_dist(down_now, up_before)
-        stay_down[1:] = _sq_dist(down_now, down_before) <= _sq_dist(up_now, down_before)
+        sq = _step_distances(block)
+        stay_up[1:] = sq[0] <= sq[2]
+        stay_down[1:] = sq[1] <= sq[3]
         # Leaving a singular sample both branches are equally near: keep the branch (the
         # preferred one at a singular start) instead of letting rounding pick.
-        singular = _sq_dist(up_before, down_before) <= SINGULAR_TOLERANCE ** 2
+        singular = sq[4] <= SINGULAR_TOLERANCE ** 2
         stay_up[1:] |= singular
         stay_down[1:] |= singular
     reset = stay_up != stay_down
@@ -261,15 +320,21 @@ def choose_branches(up: ArrayLike, down: ArrayLike, first_down: bool) -> NDArray
     """
     up = np.asarray(up, dtype=np.float64)
     down = np.asarray(down, dtype=np.float64)
-    return _choose(list(up.T), list(down.T), bool(first_down))
+    return _choose(np.stack([up.T, down.T]), bool(first_down))
 
 
 def _unwrap(column: NDArray[np.float64]) -> NDArray[np.float64]:
     """np.unwrap of one column: steps wrapped into [−π, π], then summed."""
-    out = np.empty_like(column)
-    out[0] = column[0]
-    np.cumsum(wrap(np.diff(column)), out=out[1:])
-    out[1:] += column[0]
+    return _unwrap_rows(column[None, :])[0]
+
+
+def _unwrap_rows(rows: NDArray[np.float64]) -> NDArray[np.float64]:
+    """np.unwrap of each row of (k, n): steps wrapped into [−π, π], then summed."""
+    out = np.empty_like(rows)
+    out[:, 0] = rows[:, 0]
+    steps = _wrap_in_place(rows[:, 1:] - rows[:, :-1])
+    np.cumsum(steps, axis=1, out=out[:, 1:])
+    out[:, 1:] += rows[:, :1]
     return out
 
 
@@ -309,7 +374,18 @@ def try_ik_path(links: Sequence[float], poses: ArrayLike, *,
         if reference.shape != (k,):
             raise InputError(f"reference joints must have shape ({k},), got {reference.shape}",
                              field="start_joints", value=reference)
-    up, down, ok = _columns(links, poses)
+    return ik_path_unchecked(links, poses, reference, elbow, limits)
+
+
+def ik_path_unchecked(links: tuple[float, ...], poses: NDArray[np.float64],
+                      reference: NDArray[np.float64] | None = None, elbow: str = "up",
+                      limits: ArrayLike | None = None
+                      ) -> tuple[NDArray[np.float64] | None, int | None]:
+    """:func:`try_ik_path` without the argument checks, for callers that validated them:
+    ``links`` a tuple of 2 or 3 positive floats, ``poses`` a finite (n, 3) float array,
+    ``reference`` None or a finite (k,) float array, ``elbow`` "up" or "down"."""
+    k = len(links)
+    block, ok = _block(links, poses)
     if not ok.all():
         return None, int(np.argmin(ok))
     n = poses.shape[0]
@@ -318,25 +394,21 @@ def try_ik_path(links: Sequence[float], poses: ArrayLike, *,
     if reference is None:
         first_down = elbow == "down"
     else:
-        first_up = [np.array([c[0]]) for c in up]
-        first_dn = [np.array([c[0]]) for c in down]
-        ref = [np.array([v]) for v in reference]
-        d_dn, d_up = _sq_dist(first_dn, ref)[0], _sq_dist(first_up, ref)[0]
+        d_up, d_dn = _sq_sum(_wrap_in_place(block[:, :, :1] - reference[:, None]))[:, 0]
         # A tie (singular first pose or a reference midway) goes to the preferred branch.
         first_down = bool(d_dn < d_up) if abs(d_dn - d_up) > SINGULAR_TOLERANCE ** 2 \
             else elbow == "down"
-    on_down = _choose(up, down, first_down)
+    on_down = _choose(block, first_down)
     if reference is not None:
         target = reference
     elif limits is not None:
         target = np.asarray(limits, dtype=np.float64).mean(axis=1)
     else:
         target = np.zeros(k)
+    rows = _unwrap_rows(np.where(on_down, block[1], block[0]))
+    rows += (_TWO_PI * np.round((target - rows[:, 0]) / _TWO_PI))[:, None]
     q = np.empty((n, k))
-    for j in range(k):
-        column = _unwrap(np.where(on_down, down[j], up[j]))
-        column += _TWO_PI * np.round((target[j] - column[0]) / _TWO_PI)
-        q[:, j] = column
+    q.T[...] = rows
     return q, None
 
 

@@ -295,10 +295,10 @@ def try_ik_yawed_path(chain: Chain, poses: ArrayLike, *, reference: ArrayLike | 
         return np.empty((0, k + 1)), None
     plane = to_plane(poses)
     d = chain.offsets
-    chain_q, bad = _planar.try_ik_path(
-        chain.lengths, _plane_targets(chain, plane),
-        reference=None if reference is None else d - reference[1:], elbow=elbow,
-        limits=None if limits is None else d[:, None] - limits[1:, ::-1])
+    chain_q, bad = _planar.ik_path_unchecked(
+        _planar._links(chain.lengths), _plane_targets(chain, plane),
+        None if reference is None else d - reference[1:], elbow,
+        None if limits is None else d[:, None] - limits[1:, ::-1])
     if chain_q is None:  # pragma: no cover - reachable_yawed checked the same annulus
         return None, bad
     if reference is not None:

@@ -65,9 +65,9 @@ def stage_constraints(dq: NDArray[np.float64], ddq: NDArray[np.float64],
     p_lo, p_hi = -half, half
     if rows is not None:
         lo_t, hi_t, r_t, still_t = _rows(*rows)
-        p_lo = np.hstack([p_lo, lo_t])
-        p_hi = np.hstack([p_hi, hi_t])
-        r = np.hstack([r, r_t])
+        p_lo = np.concatenate([p_lo, lo_t], axis=1)
+        p_hi = np.concatenate([p_hi, hi_t], axis=1)
+        r = np.concatenate([r, r_t], axis=1)
         still = np.minimum(still, still_t)
     x_cap = np.minimum(x_vel, still)
     m = r.shape[1]
@@ -124,8 +124,8 @@ def controllable(delta: NDArray[np.float64], p_lo: NDArray, r: NDArray, x_cap: N
                  np.inf)
     c = min(float(x_end), float(x_cap[n_stages]))
     # stages in reverse order, the cap as one more piece (slope 0)
-    pieces_w = np.hstack([w, np.zeros((n_stages, 1))])[::-1]
-    pieces_z = np.hstack([z, x_cap[:n_stages, None]])[::-1]
+    pieces_w = np.concatenate([w, np.zeros((n_stages, 1))], axis=1)[::-1]
+    pieces_z = np.concatenate([z, x_cap[:n_stages, None]], axis=1)[::-1]
 
     def sequential(c0: float, first: int) -> NDArray[np.float64]:
         return _backward(c0, pieces_w[first:], pieces_z[first:])
@@ -163,8 +163,9 @@ def greedy_forward(delta: NDArray[np.float64], p_hi: NDArray, r: NDArray,
     n_stages = delta.shape[0]
     two_d = 2.0 * delta[:, None]
     with np.errstate(invalid="ignore"):
-        pieces_w = np.hstack([1.0 + two_d * r[:n_stages], np.zeros((n_stages, 1))])
-        pieces_z = np.hstack([two_d * p_hi[:n_stages], x_max[1:, None]])
+        pieces_w = np.concatenate([1.0 + two_d * r[:n_stages], np.zeros((n_stages, 1))],
+                                  axis=1)
+        pieces_z = np.concatenate([two_d * p_hi[:n_stages], x_max[1:, None]], axis=1)
 
     def sequential(x0: float, first: int) -> NDArray[np.float64]:
         return _forward(x0, pieces_w[first:], pieces_z[first:])

@@ -118,11 +118,11 @@ def interpolated(sg: NDArray, dq: NDArray, ddq: NDArray, v: NDArray, a: NDArray
     acceleration limits at both ends of every stage, not only at the grid points it starts
     from (collocation), and the stream's samples between grid points stay within them."""
     delta = np.diff(sg)
-    nxt_dq = np.vstack([dq[1:], dq[-1:]])
-    nxt_ddq = np.vstack([ddq[1:], ddq[-1:]])
+    nxt_dq = np.concatenate([dq[1:], dq[-1:]])
+    nxt_ddq = np.concatenate([ddq[1:], ddq[-1:]])
     step = np.concatenate([delta, [0.0]])[:, None]
-    dq2 = np.hstack([dq, nxt_dq + 2.0 * step * nxt_ddq])
-    ddq2 = np.hstack([ddq, nxt_ddq])
+    dq2 = np.concatenate([dq, nxt_dq + 2.0 * step * nxt_ddq], axis=1)
+    ddq2 = np.concatenate([ddq, nxt_ddq], axis=1)
     # per-stage limits (N, k) work alike: the virtual joint takes its own stage's limits (the
     # tighter ones where a blend-out window ends and the limits rise along the path)
     return (dq2, ddq2, np.concatenate([v, np.full(v.shape, np.inf)], axis=-1),
@@ -135,9 +135,10 @@ def interpolated_rows(sg: NDArray, rows: TorqueRows) -> TorqueRows:
     (A_{i+1} + 2Δ_i B_{i+1}) u + B_{i+1} x within [lo_{i+1}, hi_{i+1}]."""
     a, b, lo, hi = rows
     step = np.concatenate([np.diff(sg), [0.0]])[:, None]
-    nxt = [np.vstack([m[1:], m[-1:]]) for m in rows]
-    return (np.hstack([a, nxt[0] + 2.0 * step * nxt[1]]), np.hstack([b, nxt[1]]),
-            np.hstack([lo, nxt[2]]), np.hstack([hi, nxt[3]]))
+    nxt = [np.concatenate([m[1:], m[-1:]]) for m in rows]
+    return (np.concatenate([a, nxt[0] + 2.0 * step * nxt[1]], axis=1),
+            np.concatenate([b, nxt[1]], axis=1), np.concatenate([lo, nxt[2]], axis=1),
+            np.concatenate([hi, nxt[3]], axis=1))
 
 
 def solve(sg: NDArray, dq: NDArray, ddq: NDArray, v: NDArray, a: NDArray, extra_cap: NDArray,

@@ -18,7 +18,7 @@ from numpy.typing import NDArray
 from robodcn import kinematics, timing
 from robodcn.config import Arm
 from robodcn.contract.request import PlanRequest
-from robodcn.interpolate import interpolate, turn_angle
+from robodcn.interpolate import interpolate_unchecked, turn_angle
 from robodcn.path_timing.limits import JointLimits
 from robodcn.planner import yawed
 
@@ -41,8 +41,8 @@ class Segment(NamedTuple):
         if self.start.shape[0] == 4:
             return yawed.interpolate_plane(self.start, self.end, s, self.method, self.beta,
                                            self.turn)
-        return interpolate(self.start, self.end, s, method=self.method, beta=self.beta,
-                           turn=self.turn)
+        return interpolate_unchecked(self.start, self.end, s, self.method, self.beta,
+                                     self.turn)
 
 
 class Path:
@@ -103,9 +103,10 @@ class Piece:
         local index of the first pose out of reach."""
         tau = np.arange(n + 1) / n
         if self.path is None:
-            q = self.q_from + np.outer(timing.quintic(tau), self.q_to - self.q_from)
+            q = self.q_from + np.outer(timing.profile_unchecked("quintic", tau),
+                                       self.q_to - self.q_from)
             return pose_of(arm, q), q, None
-        poses = self.path(timing.profile(self.profile, tau, self.accel_fraction))
+        poses = self.path(timing.profile_unchecked(self.profile, tau, self.accel_fraction))
         q, bad = joints_of(arm, poses, reference, self.elbow)
         if q is not None and arm.dof == 2:
             poses[:, 2] = q[:, 0] + q[:, 1]  # θ plays no part: report the arm's own (FK)
@@ -153,8 +154,10 @@ def _ik(arm: Arm, poses: NDArray[np.float64], reference: NDArray | None, elbow: 
         ) -> tuple[NDArray[np.float64] | None, int | None]:
     if arm.yawed:
         return yawed.plane_joints(arm, poses, reference, elbow, limits)
-    return kinematics.try_ik_path(arm.links, poses, reference=reference, elbow=elbow,
-                                  limits=limits)
+    # the request is validated: the links, the path's poses and the reference are checked
+    ref = None if reference is None else np.asarray(reference, dtype=np.float64)
+    return kinematics.ik_path_unchecked(tuple(float(v) for v in arm.links), poses, ref, elbow,
+                                        limits)
 
 
 def joints_of(arm: Arm, poses: NDArray[np.float64], reference: NDArray | None, elbow: str

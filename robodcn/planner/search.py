@@ -23,22 +23,24 @@ from robodcn.planner.path import COARSE, Piece
 MAX_SEARCH_STEPS = 40
 
 
-def fd_need(q: NDArray[np.float64], arm: Arm) -> float:
-    """Shortest duration (s) of the sampled joints q under the arm's limits (jerk included
-    where a joint sets one)."""
-    lim = JointLimits.of(arm, torque=False)
-    return timing.fd_min_duration(q, lim.v, lim.a, j_max=lim.j)
+def fd_need(q: NDArray[np.float64], arm: Arm, lim: JointLimits | None = None) -> float:
+    """Shortest duration (s) of the sampled joints q (the planner's own: finite) under the
+    arm's limits (jerk included where a joint sets one; ``lim`` the arm's
+    ``JointLimits.of(arm, torque=False)`` when the caller has them)."""
+    if lim is None:
+        lim = JointLimits.of(arm, torque=False)
+    return timing.fd_min_duration_unchecked(q, lim.v, lim.a, j_max=lim.j)
 
 
-def estimate(piece: Piece, arm: Arm, reference: NDArray | None
-              ) -> tuple[float, NDArray | None]:
+def estimate(piece: Piece, arm: Arm, reference: NDArray | None,
+             lim: JointLimits | None = None) -> tuple[float, NDArray | None]:
     """Shortest duration on a uniform grid of COARSE periods (≈ the closed form), seconds,
     and the piece's last joints; (1 s, None) if the path leaves the workspace (validation
     then names the sample)."""
     _, q, _ = piece.sample(COARSE, arm, reference)
     if q is None:
         return 1.0, None
-    return fd_need(q, arm), q[-1]
+    return fd_need(q, arm, lim), q[-1]
 
 
 def search(piece: Piece, arm: Arm, reference: NDArray | None, rate: float,
@@ -53,15 +55,17 @@ def search(piece: Piece, arm: Arm, reference: NDArray | None, rate: float,
     the caller need not sample the chosen N again.
     """
 
+    lim = JointLimits.of(arm, torque=False)
+
     def need(n: int) -> float | None:
         sampled = piece.sample(n, arm, reference)
         if cache is not None:
             cache[n] = sampled
         q = sampled[1]
         # None: out of reach; validation reports it with the real sample index
-        return None if q is None else fd_need(q, arm)
+        return None if q is None else fd_need(q, arm, lim)
 
-    n = intervals(max(estimate(piece, arm, reference)[0], 1e-12), rate)
+    n = intervals(max(estimate(piece, arm, reference, lim)[0], 1e-12), rate)
     fail, ok = 0, None  # largest N known to fail (0: none), smallest known to pass
     stepped_down = False
     for _ in range(MAX_SEARCH_STEPS):

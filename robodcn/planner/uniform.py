@@ -52,12 +52,12 @@ def _pieces(req: PlanRequest) -> tuple[list[Piece], NDArray | None]:
     else:
         paths = [Path([seg], np.array([0.0, 1.0]), None) for seg in segments]
     pieces = [Piece(path=p, profile=req.profile, elbow=req.branch) for p in paths]
-    first = first_joints(arm, segments[0].start, start, req.branch)
-    if start is not None:
-        first = within_limits(first, limits)
+    if start is None:
+        return pieces, start
+    first = within_limits(first_joints(arm, segments[0].start, start, req.branch), limits)
     # Half the finest servo step: closer than that the servos cannot tell the difference.
     tolerance = min(math.pi / j.servo.ticks_per_turn for j in arm.joints)
-    if start is not None and np.max(np.abs(first - start)) > tolerance:
+    if np.max(np.abs(first - start)) > tolerance:
         pieces.insert(0, Piece(q_from=start, q_to=first, elbow=req.branch))
     return pieces, start
 
@@ -146,7 +146,8 @@ class UniformTiming:
             if piece.path is not None:
                 last = segment + len(piece.path.segments)
                 marks[offset], marks[offset + n] = segment, last
-                u = timing.profile(piece.profile, np.arange(n + 1) / n, piece.accel_fraction)
+                u = timing.profile_unchecked(piece.profile, np.arange(n + 1) / n,
+                                             piece.accel_fraction)
                 inner = np.searchsorted(piece.path.knots[1:-1], u, side="right")
                 segment_of[offset:offset + n + 1] = segment + np.minimum(
                     inner, len(piece.path.segments) - 1)

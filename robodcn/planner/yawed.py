@@ -28,7 +28,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from robodcn import kinematics
 from robodcn.config import Arm
-from robodcn.interpolate import interpolate
+from robodcn.interpolate import interpolate_unchecked
 
 #: Slack (rad) on the yaw joint's limits when choosing a waypoint's turn: float rounding.
 YAW_SLACK = 1e-9
@@ -74,7 +74,7 @@ def interpolate_plane(start: NDArray[np.float64], end: NDArray[np.float64],
     """Plane poses (n, 4) at path parameters s between plane poses ``start`` and ``end``:
     the planar rigid motion of (r, z, pitch) by ``method`` and the yaw linear in s."""
     out = np.empty((s.shape[0], 4))
-    out[:, 1:] = interpolate(start[1:], end[1:], s, method=method, beta=beta, turn=turn)
+    out[:, 1:] = interpolate_unchecked(start[1:], end[1:], s, method, beta, turn)
     out[:, 0] = start[0] + s * (end[0] - start[0])
     return out
 
