@@ -244,8 +244,13 @@ def test_a_replacement_mid_move_draws_its_own_plan(driver: Any, until: Any,
     time.sleep(1.0)
     type_pose(driver, LEFT, duration="3")
     second = click_move_and_wait_running(driver, until, omx_service)
-    until(lambda d: omx_service.call("GET", f"/v1/moves/{first}")[1]["status"] == "replaced",
-          10)
+    from selenium.common.exceptions import TimeoutException
+    try:
+        until(lambda d: omx_service.call("GET", f"/v1/moves/{first}")[1]["status"]
+              == "replaced", 10)
+    except TimeoutException:   # say why: the service's answer as the page shows it
+        raise AssertionError((el(driver, "error").text,
+                              omx_service.call("GET", f"/v1/moves/{first}")[1])) from None
     shown = until(lambda d: d.execute_script(
         "const S = window.robodcnConsole.S;"
         "return S.trackedMove === arguments[0] && S.movePlan", second), 10,
@@ -332,3 +337,25 @@ def test_a_bad_number_names_the_omx_axes(driver: Any, until: Any, omx_service: A
     el(driver, "move").click()
     assert "x, y, z and pitch must be numbers" in until(lambda d: el(d, "error").text, 5)
     assert omx_service.move_count() == count
+
+
+def test_an_unreachable_omx_target_is_refused_and_marked(driver: Any, until: Any,
+                                                         omx_service: Any) -> None:
+    omx_service.wait_idle()
+    open_omx(driver, until, omx_service)
+    count = omx_service.move_count()
+    far = (0.45, 0.0, 0.10, 0.0)                     # past the reach (0.38 m)
+    type_pose(driver, far)
+    el(driver, "move").click()
+    text = until(lambda d: el(d, "error").text, 10)
+    status, answer = omx_service.call("POST", "/v1/moves", {"waypoints": [
+        [*far[:3], math.radians(far[3])]]})
+    assert status == 422, answer
+    assert answer["error"]["message"] in text and answer["error"]["field"] in text, text
+    assert omx_service.move_count() == count
+    # The refused target is marked where it is, in the side view's plane.
+    mark = until(lambda d: d.execute_script(
+        "const p = window.robodcnConsole.S.plans.sclerp; return p && p.mark"), 10)
+    assert np.allclose(mark, [*far[:3], math.radians(far[3])]), mark
+    driver.execute_script("window.robodcnConsole.draw()")
+    assert pixel_near(driver, "arm-canvas", *side_px(driver, far[0], far[2]), (0xB3, 0x26, 0x1E), 3)

@@ -17,6 +17,7 @@ export async function startMove() {
   if (retarget) body.replace = true;
   try {
     const info = await api("POST", "/v1/moves", body);
+    S.sent = { id: info.id, pose: body.waypoints[body.waypoints.length - 1].slice() };
     trackMove(info.id);          // loads the move's own plan where the service offers it
     setMove(info);
     if (!S.features.moveTrajectory) {
@@ -60,13 +61,27 @@ function jogDelta(dir, step) {
   return d;
 }
 
+/** Where a jog steps from: the running move's target (retargeted), else the target of the
+ * move that just completed when the arm is there (within 1 cm and 5°: the last state event
+ * may predate the move's last samples), else the present pose. */
+function jogBase() {
+  if (moveActive() && S.features.replace && S.target) return S.target.slice();
+  const present = presentPose(), sent = S.sent, move = S.move;
+  if (sent && move && move.id === sent.id && ["done", "degraded"].includes(move.status)) {
+    const a = S.model.angleIndex;
+    const dist = Math.hypot(...present.map((v, i) => (i === a ? 0 : v - sent.pose[i])));
+    if (dist < 0.01 && Math.abs(present[a] - sent.pose[a]) < 5 * DEG) return sent.pose.slice();
+  }
+  return present;
+}
+
 export function jog(dir) {
   if (moveActive() && !S.features.replace) {
     showError("a move is running: this service cannot retarget it (no \"replace\"); stop it first");
     return;
   }
   const step = (parseFloat($("jog-step").value) || 1) / 100;
-  const base = moveActive() && S.features.replace && S.target ? S.target.slice() : presentPose();
+  const base = jogBase();
   const d = jogDelta(dir, step);
   setTarget(base.map((v, i) => v + d[i]));
   startMove();

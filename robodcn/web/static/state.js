@@ -13,7 +13,7 @@ export const S = {
   token: sessionStorage.getItem("robodcn-token") || "", tokenRequired: false,
   // The arm's model (geometry.js: loadArm): planar links or a yawed chain.
   model: null, limits: [], dof: 0, home: [0, 0, 0],
-  state: null, move: null, target: null,
+  state: null, move: null, target: null, sent: null,   // sent: {id, pose} of the last move
   plans: {}, planOrder: [], movePlan: null, measured: [],
   trackedMove: null, es: null, backoff: 1000, drag: null, dragOffset: null,
   speedEditing: false, previewSeq: 0,

@@ -49,6 +49,10 @@ export function moveReason(move) {
 export function setMove(info) {
   if (!info) return;
   if (S.move && Number(info.id) < Number(S.move.id)) return;  // an older move's news
+  // A state event read before the move ended may arrive after its end: an ended move stays
+  // ended (no status goes back to queued or running).
+  if (S.move && info.id === S.move.id && !ACTIVE.includes(S.move.status) &&
+      ACTIVE.includes(info.status)) return;
   const was = S.move;
   S.move = { ...(S.move && S.move.id === info.id ? S.move : {}), ...info };
   const move = S.move, el = $("move-status");
