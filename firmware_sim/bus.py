@@ -187,6 +187,12 @@ class SimBus:
         with self.lock:
             return self._goals.history(self.servo(servo_id))
 
+    def timed_goal_history(self, servo_id: int) -> list[tuple[float, int]]:
+        """:meth:`goal_history` with the time each goal was accepted: (seconds on the bus's
+        clock — :func:`time.monotonic` in real time —, goal ticks), in order."""
+        with self.lock:
+            return self._goals.timed(self.servo(servo_id))
+
     @property
     def log(self) -> list[LogEntry]:
         """The packet log, oldest first (empty with ``log=False``)."""

@@ -30,16 +30,24 @@ def touches_goal(servo: Servo, address: int, length: int) -> bool:
 
 
 class GoalHistory:
-    """The newest ``limit`` accepted goals of each servo, and its pending REG_WRITE."""
+    """The newest ``limit`` accepted goals of each servo with the time each was accepted
+    (the servo's clock), and its pending REG_WRITE."""
 
     def __init__(self, servos: Iterable[Servo], limit: int) -> None:
+        servos = list(servos)
         self._goals: dict[int, deque[int]] = {id(s): deque(maxlen=int(limit)) for s in servos}
+        self._times: dict[int, deque[float]] = {id(s): deque(maxlen=int(limit))
+                                                for s in servos}
         self._registered: dict[int, tuple[int, int]] = {}
+
+    def _accepted(self, servo: Servo) -> None:
+        self._goals[id(servo)].append(servo.goal_position)
+        self._times[id(servo)].append(servo.clock.now())
 
     def wrote(self, servo: Servo, address: int, length: int) -> None:
         """After an accepted WRITE (or group write) of ``length`` bytes at ``address``."""
         if touches_goal(servo, address, length):
-            self._goals[id(servo)].append(servo.goal_position)
+            self._accepted(servo)
 
     def registered(self, servo: Servo, address: int, length: int) -> None:
         """After an accepted REG_WRITE: its span is checked when ACTION runs it."""
@@ -49,7 +57,7 @@ class GoalHistory:
         """After an ACTION; the registered write counts if the servo ``accepted`` it."""
         span = self._registered.pop(id(servo), None)
         if accepted and span is not None and touches_goal(servo, *span):
-            self._goals[id(servo)].append(servo.goal_position)
+            self._accepted(servo)
 
     def forget_registered(self, servo: Servo) -> None:
         """A reboot or factory reset discards the pending REG_WRITE."""
@@ -57,3 +65,7 @@ class GoalHistory:
 
     def history(self, servo: Servo) -> list[int]:
         return list(self._goals[id(servo)])
+
+    def timed(self, servo: Servo) -> list[tuple[float, int]]:
+        """(time accepted on the servo's clock, goal) of :meth:`history`'s goals."""
+        return list(zip(self._times[id(servo)], self._goals[id(servo)], strict=True))

@@ -63,7 +63,8 @@ def _documented() -> dict[tuple[str, str], set[int]]:
 
 
 DOCUMENTED = _documented()
-#: (perf_counter at the request, at its answer, what) of every request, to place a goal jump.
+#: (time.monotonic at the request, at its answer, what) of every request, to place a goal
+#: jump (the simulator's clock is time.monotonic too).
 REQUESTS: list[tuple[float, float, str]] = []
 #: Moves of a run that ended without a cause here (collision, fault, failed), with why.
 FINDINGS: list[str] = []
@@ -79,27 +80,18 @@ def _ending(move: dict[str, Any]) -> str:
 
 
 class GoalLog:
-    """Every goal each simulated servo accepted, with the time it arrived (the simulator's
-    goal history, timed: its recording hook wrapped, read-only to firmware_sim)."""
+    """Every goal each simulated servo accepts from now on, with the time it arrived
+    (firmware_sim's timed goal history; the goal held before included)."""
 
     def __init__(self, sim: Any) -> None:
-        self.rows: list[tuple[float, int, int]] = []
-        goals = sim._goals
-        wrote, acted = goals.wrote, goals.acted
+        self.sim = sim
+        self.since = {i: len(sim.goal_history(i)) for i in ARM.servo_ids}
 
-        def timed_wrote(servo: Any, address: int, length: int) -> None:
-            before = len(goals.history(servo))
-            wrote(servo, address, length)
-            if len(goals.history(servo)) != before or before == goals._goals[id(servo)].maxlen:
-                self.rows.append((time.perf_counter(), servo.id, servo.goal_position))
-
-        def timed_acted(servo: Any, accepted: bool) -> None:
-            before = len(goals.history(servo))
-            acted(servo, accepted)
-            if len(goals.history(servo)) != before:
-                self.rows.append((time.perf_counter(), servo.id, servo.goal_position))
-
-        goals.wrote, goals.acted = timed_wrote, timed_acted
+    @property
+    def rows(self) -> list[tuple[float, int, int]]:
+        """(time accepted on the simulator's clock — time.monotonic —, servo id, goal)."""
+        return [(t, i, g) for i in ARM.servo_ids
+                for t, g in self.sim.timed_goal_history(i)[max(0, self.since[i] - 1):]]
 
     def steps_beyond_limits(self) -> list[str]:
         """Goal steps of a joint beyond v_max·T (+1 tick of rounding) from the goal before
@@ -107,8 +99,9 @@ class GoalLog:
         allowed = np.floor(max_steps(ARM, ARM.servos, 1.0 / ARM.bus.rate_hz,
                                      len(ARM.servos))) + 1
         out = []
+        every = self.rows
         for j, servo_id in enumerate(ARM.servo_ids):
-            rows = [(t, g) for t, i, g in self.rows if i == servo_id]
+            rows = [(t, g) for t, i, g in every if i == servo_id]
             if len(rows) < 2:
                 continue
             t = np.array([r[0] for r in rows])
@@ -141,10 +134,10 @@ class Client:
         self.requests = 0
 
     def _request(self, method: str, path: str, body: Any = None) -> tuple[int, Any]:
-        started, at = time.monotonic(), time.perf_counter()
+        started = time.monotonic()
         status, _, answer = call(self.server, method, path, body, timeout=10)
         took = time.monotonic() - started
-        REQUESTS.append((at, time.perf_counter(), f"{method} {path} {json.dumps(body)} -> "
+        REQUESTS.append((started, time.monotonic(), f"{method} {path} {json.dumps(body)} -> "
                          f"{status}"))
         self.requests += 1
         self.last = [*self.last[-7:], f"{method} {path} {json.dumps(body)} -> {status} "
