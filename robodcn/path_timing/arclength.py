@@ -154,13 +154,17 @@ class Smooth:
             hh = 0.5 * h * h
             data = np.stack([self.y[:-1], self.d1[:-1] * h, self.d2[:-1] * hh, self.y[1:],
                              self.d1[1:] * h, self.d2[1:] * hh], axis=1)
-            self._table = np.einsum("mp,im...->ip...", _POWERS, data)
-        c = self._table[i]
+            # powers first, (6, intervals[, k]): each power's gather below is contiguous
+            self._table = np.ascontiguousarray(np.moveaxis(
+                np.einsum("mp,im...->ip...", _POWERS, data), 1, 0))
+        c = np.take(self._table, i, axis=1)
         if c.ndim == 3:
             t = t[:, None]
-        out = c[:, 5]
-        for p in (4, 3, 2, 1, 0):
-            out = out * t + c[:, p]
+        out = c[5] * t
+        for p in (4, 3, 2, 1):
+            out += c[p]
+            out *= t
+        out += c[0]
         return out
 
     def _hermite(self, i: NDArray[np.int64], t: NDArray[np.float64], h: NDArray[np.float64]

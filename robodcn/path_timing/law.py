@@ -61,10 +61,27 @@ class PathTiming:
         self._t_end = float(self._tb[-1])
 
     # -- the jerk-free law s₀ and its antiderivative ---------------------------------------
-    def _law0(self, t: NDArray[np.float64]) -> tuple[NDArray, NDArray, NDArray, NDArray]:
+    def _at0(self, t: NDArray[np.float64]) -> tuple[NDArray, NDArray, NDArray]:
+        """Each time's break index i, whether it is past the end, τ = t − t_i (0 after)."""
         i = np.clip(np.searchsorted(self._tb, t, side="right") - 1, 0, self._u.shape[0] - 1)
         after = t >= self._t_end
-        tau = np.where(after, 0.0, t - self._tb[i])
+        return i, after, np.where(after, 0.0, t - self._tb[i])
+
+    def _s0(self, t: NDArray[np.float64]) -> NDArray:
+        """s of :meth:`_law0` alone (the same operations)."""
+        i, after, tau = self._at0(t)
+        s = self._sb[i] + self._vb[i] * tau + self._u[i] * tau ** 2 / 2
+        return np.where(after, self.s_end, s)
+
+    def _big_s0(self, t: NDArray[np.float64]) -> NDArray:
+        """The antiderivative S of :meth:`_law0` alone (the same operations)."""
+        i, after, tau = self._at0(t)
+        v0, u = self._vb[i], self._u[i]
+        big_s = self._Sb[i] + self._sb[i] * tau + v0 * tau ** 2 / 2 + u * tau ** 3 / 6
+        return np.where(after, self._Sb[-1] + self.s_end * (t - self._t_end), big_s)
+
+    def _law0(self, t: NDArray[np.float64]) -> tuple[NDArray, NDArray, NDArray, NDArray]:
+        i, after, tau = self._at0(t)
         v0, u = self._vb[i], self._u[i]
         s = self._sb[i] + v0 * tau + u * tau ** 2 / 2
         sd = v0 + u * tau
@@ -105,13 +122,29 @@ class PathTiming:
         s = np.minimum(s, self.s_end)
         return Samples(t, s, sd / lam, sdd / lam ** 2, sddd / lam ** 3)
 
-    def sample(self, rate_hz: float) -> Samples:
-        """The law every 1/rate_hz s from t = 0 to the first sample at or after the end."""
+    def positions(self, t: ArrayLike) -> NDArray[np.float64]:
+        """s alone at times t: :meth:`at`'s s (the same operations), without ṡ, s̈, s⃛."""
+        t = np.asarray(t, dtype=np.float64)
+        tl = np.maximum(t / self.stretch_factor, 0.0)
+        w = self.window
+        if w > 0:
+            s = (self._big_s0(tl) - self._big_s0(tl - w)) / w
+        else:
+            s = self._s0(tl + float(self._tb[0]))
+        return np.minimum(s, self.s_end)
+
+    def sample_times(self, rate_hz: float) -> NDArray[np.float64]:
+        """The times of :meth:`sample`: every 1/rate_hz s from t = 0 to the first sample at
+        or after the end."""
         if not (isinstance(rate_hz, int | float) and math.isfinite(rate_hz) and rate_hz > 0):
             raise InputError(f"rate_hz must be a positive number, got {rate_hz!r}",
                              field="rate_hz", value=rate_hz)
         n = max(1, math.ceil(self.duration * rate_hz - 1e-9))
-        return self.at(np.arange(n + 1) / rate_hz)
+        return np.arange(n + 1) / rate_hz
+
+    def sample(self, rate_hz: float) -> Samples:
+        """The law every 1/rate_hz s from t = 0 to the first sample at or after the end."""
+        return self.at(self.sample_times(rate_hz))
 
     def stretch(self, duration: float) -> PathTiming:
         """This law slowed uniformly to a fixed, longer ``duration`` (seconds).
@@ -195,6 +228,18 @@ class ChainTiming(PathTiming):
                 for dst, src in zip(out, m[1:], strict=True):
                     dst[mask] = src
         return Samples(t, *out)
+
+    def positions(self, t: ArrayLike) -> NDArray[np.float64]:
+        """s alone at times t (:meth:`at`'s s)."""
+        t = np.asarray(t, dtype=np.float64)
+        which = np.clip(np.searchsorted(self.offsets, t, side="right") - 1, 0,
+                        len(self.pieces) - 1)
+        out = np.empty_like(t)
+        for k, piece in enumerate(self.pieces):
+            mask = which == k
+            if mask.any():
+                out[mask] = piece.positions(t[mask] - self.offsets[k])
+        return out
 
     def stretch(self, duration: float) -> ChainTiming:
         """Every piece slowed by the same factor to a total ``duration`` (PathTiming.stretch)."""

@@ -78,17 +78,17 @@ def _sample(piece: DensePiece, arm, rate: float, ref: NDArray | None, elbow: str
         q, bad = (piece.joints_line(s), None) if piece.path is None else \
             joints_of(arm, poses, ref, elbow)
         return poses, q, bad, s
-    m = piece.law.sample(rate)
-    piece.count = m.t.shape[0] - 1
+    law_s = piece.law.positions(piece.law.sample_times(rate))  # s alone: no ṡ, s̈ needed
+    piece.count = law_s.shape[0] - 1
     if piece.path is None:
-        q = piece.joints_line(m.s)
-        return path.pose_of(arm, q), q, None, m.s
+        q = piece.joints_line(law_s)
+        return path.pose_of(arm, q), q, None, law_s
     # the joints between the dense samples the law was timed on: their C² interpolant in
     # the law's own parameter (its q′, q″ at every dense sample), the poses their FK — within
     # interpolation error (~h⁴ q⁗) of the path and its IK, without the IK's √ sensitivity
     # at a stretched end or a second IK pass
-    q = Smooth(piece.s, piece.q)(m.s)
-    return path.pose_of(arm, q), q, None, m.s
+    q = Smooth(piece.s, piece.q)(law_s)
+    return path.pose_of(arm, q), q, None, law_s
 
 
 def fit_duration(req: PlanRequest, pieces: list[DensePiece]) -> None:
