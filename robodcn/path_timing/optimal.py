@@ -159,7 +159,9 @@ def time_optimal(q: ArrayLike, s: ArrayLike, v_max: ArrayLike, a_max: ArrayLike,
         x, u = solve(sg, dq, ddq, v, a, cap, sd_start ** 2, sd_end ** 2, rows)
         dt = stage_times(sg, x)
         tb = np.concatenate([[0.0], np.cumsum(dt)])
-        return PathTiming(tb, sg, np.sqrt(x), u)
+        # x = ṡ² ≥ 0; the stage solutions can land a rounding error below 0 at a stop
+        # (seen as -1e-17): no NaN speeds into the law
+        return PathTiming(tb, sg, np.sqrt(np.maximum(x, 0.0)), u)
     return jerk_limited(s, derivs, grid, cap, v, a, j, sd_start=sd_start, sdd_start=sdd_start,
                         stop_idx=stop_idx, rate_hz=rate_hz or CHECK_RATE_HZ,
                         accel_share=accel_share, smooth=smooth, rows=rows)
