@@ -422,3 +422,48 @@ def test_torque_on_some_servos_only_and_unknown_ids_refused(sim3):
         bus.torque(True)
         assert bus.torque_enabled() == {1: True, 2: True, 3: True}
         assert all(sim3.servo(i).torque_enabled for i in (1, 2, 3))
+
+
+class _FakePort:
+    """A port whose replies arrive late: every failed try leaves a straggler that
+    :meth:`flush` clears; a transaction that finds a straggler takes it as its answer."""
+
+    def __init__(self, retries: int) -> None:
+        self.retries, self.retries_used, self.lost = retries, 0, False
+        self.straggler: str | None = None
+        self.flushes = 0
+
+    def flush(self) -> None:
+        self.flushes += 1
+        self.straggler = None
+
+    def failing(self, what: str):
+        def fn() -> str:
+            self.straggler = f"late reply to {what}"
+            raise CommError("timeout", field="servo[1]")
+        return fn
+
+    def answering(self, what: str):
+        def fn() -> str:
+            return self.straggler if self.straggler is not None else f"reply to {what}"
+        return fn
+
+
+def test_retry_flushes_a_straggler_after_the_last_failed_try_too():
+    from robodcn.bus.retry import retry
+    port = _FakePort(retries=2)
+    with pytest.raises(CommError):
+        retry(port, "read", 1, port.failing("read"))
+    assert port.retries_used == 2
+    assert port.flushes == 3  # after each of the 3 failed tries, the last one too
+    # the next transaction gets its own answer, not the failed read's late reply
+    assert retry(port, "ping", 1, port.answering("ping")) == "reply to ping"
+
+
+def test_retry_raises_a_lost_device_at_once():
+    from robodcn.bus.retry import retry
+    port = _FakePort(retries=3)
+    port.lost = True
+    with pytest.raises(CommError):
+        retry(port, "read", 1, port.failing("read"))
+    assert port.retries_used == 0

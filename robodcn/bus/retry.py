@@ -37,13 +37,15 @@ class Retrying(Protocol):
 def retry(bus: Retrying, what: str, servo_id: int | None, fn: Callable[[], T]) -> T:
     """``fn()``, tried up to 1 + ``bus.retries`` times while it raises CommError.
 
-    Before each retry: count it (``bus.retries_used``), wait :data:`STRAGGLER_S` and flush
-    the port. Status packets carry no sequence number, so a late reply to the failed try
-    arriving after the retry's instruction went out would pass for its answer (same id;
-    the length check catches only a different size); the wait and the flush keep most
-    out. Each failed try is logged (``robodcn.bus``, DEBUG; the last one WARNING) with the
-    servo (``servo_id``; None: the whole bus) and the instruction (``what``). A lost
-    device is not retried: its error is raised at once.
+    After each failed try (the last one too): wait :data:`STRAGGLER_S` and flush the
+    port; before each retry, count it (``bus.retries_used``). Status packets carry no
+    sequence number, so a late reply to the failed try arriving after the retry's
+    instruction went out would pass for its answer (same id; the length check catches
+    only a different size), and a late reply to the last try would pass for the next
+    transaction's; the wait and the flush keep most out. Each failed try is logged
+    (``robodcn.bus``, DEBUG; the last one WARNING) with the servo (``servo_id``; None:
+    the whole bus) and the instruction (``what``). A lost device is not retried: its
+    error is raised at once.
     """
     tries = bus.retries + 1
     for attempt in range(1, tries + 1):
@@ -54,11 +56,15 @@ def retry(bus: Retrying, what: str, servo_id: int | None, fn: Callable[[], T]) -
             level = logging.WARNING if attempt == tries else logging.DEBUG
             log.log(level, "%s: %s failed (try %d of %d): %s", who, what, attempt, tries,
                     exc.message)
-            if attempt == tries or bus.lost:
+            if bus.lost:
+                raise
+            # wait for a straggler and flush it after the last try too: else a late reply
+            # to it would pass for the next transaction's answer
+            time.sleep(STRAGGLER_S)
+            bus.flush()
+            if attempt == tries:
                 raise
         bus.retries_used += 1
-        time.sleep(STRAGGLER_S)
-        bus.flush()
     raise AssertionError("unreachable")  # the loop returns or raises
 
 
