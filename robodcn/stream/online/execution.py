@@ -78,8 +78,12 @@ def warm_up(trajectory: Trajectory, arm: Arm | None, planning_times: PlanningTim
     if path.length <= 0:
         return
     mid = float(sigma[len(sigma) // 2])
-    retime(path, mid, 0.0, limits, rate)
-    brake_checked(path, mid, 1e-3, limits.a, rate, limits.torque)
+    try:
+        retime(path, mid, 0.0, limits, rate)
+        brake_checked(path, mid, 1e-3, limits.a, rate, limits.torque)
+    except RobodcnError as exc:
+        # a warm-up only pays first calls: it never fails the move it precedes
+        log.debug("warm-up: re-timing the plan's path from s = %.3g refused: %s", mid, exc)
     q = trajectory.joints
     i = len(q) // 2
     if planning_times.warmed or limits.j is not None or i < 2:
@@ -91,8 +95,8 @@ def warm_up(trajectory: Trajectory, arm: Arm | None, planning_times: PlanningTim
         # (its time is not a guess for a switch: planning beside a running stream, which
         # shares the interpreter, takes about twice as long)
         Retargeting(arm, Timing(limits, rate), None).tail(state, [None, end], {})
-    except RobodcnError:
-        pass
+    except RobodcnError as exc:
+        log.debug("warm-up: retarget from the path's middle refused: %s", exc)
 
 
 class Execution:
