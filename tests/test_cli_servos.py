@@ -35,9 +35,12 @@ def robodcn(*args: str, timeout: float = 60.0, **kwargs) -> subprocess.Completed
 def firmware(request) -> Iterator[str]:
     """A `python -m firmware_sim` process; yields its device path."""
     ids = getattr(request, "param", "1,2,3")
-    proc = subprocess.Popen([sys.executable, "-m", "firmware_sim", "--ids", ids, "--timing",
-                             "fast"], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
-                            cwd=ROOT)
+    # the servos drive the arm the config describes (its bodies under the physics), as on
+    # a real arm: the compensation's lead is computed for that arm
+    arm = ("--arm", str(ARM3R)) if ids == "1,2,3" else ()
+    proc = subprocess.Popen([sys.executable, "-m", "firmware_sim", "--ids", ids, *arm,
+                             "--timing", "fast"], stdout=subprocess.PIPE,
+                            stderr=subprocess.PIPE, text=True, cwd=ROOT)
     try:
         device = proc.stdout.readline().strip()
         assert device.startswith("/dev/"), proc.stderr.read()
@@ -58,6 +61,10 @@ def test_sim_runs_a_move_and_plots(tmp_path):
     assert f"plot: {plot}" in out.stderr     # stdout is the report (JSON with --json)
 
 
+# Real time end to end (a subprocess streaming at 100 Hz with servo physics): in the serial
+# pass, where no other test worker competes for the two cores (a skipped sample under load
+# is a real, reported degradation: tracking and the final tick suffer).
+@pytest.mark.serial
 @pytest.mark.parametrize("extra", [(), ("--realtime",)], ids=["normal", "realtime"])
 def test_sim_json_report_sends_every_sample(extra):
     out = robodcn("sim", "--arm", ARM3R, *MOVE, "--timing", "fast", "--json", *extra)
@@ -71,6 +78,7 @@ def test_sim_json_report_sends_every_sample(extra):
     assert max(abs(e) for e in report["final_error_ticks"]) <= 1
 
 
+@pytest.mark.serial
 def test_move_and_scan_against_firmware_sim(firmware):
     scan = robodcn("scan", "--device", firmware, "--ids", "1-4", "--json")
     assert scan.returncode == 0, scan.stderr
