@@ -112,8 +112,24 @@ class Retargeting:
             return self.fitted(lambda lam: self.through_rest(state, rep, k * lam),
                                rep.duration)
         fastest = self.moving(state, rep, k)
+        if rep.duration != "auto" and not _moves(fastest):
+            return self.held(state, fastest, rep.duration)
         return self.fitted(lambda lam: fastest if lam >= 1.0 else
                            self.stretched(state, fastest, lam), rep.duration)
+
+    def held(self, state: State, segments: list[Segment],
+             duration: float | str) -> list[Segment]:
+        """A replacement whose way there does not move (the arm is already at its goal) with
+        a numeric ``duration``: it holds the goal that long (at rest), or — from a moving
+        state, which cannot stay where it is — refuses the duration (InputError)."""
+        if state.sd > AT_REST:
+            raise InputError(f"the replacement's goal is where the moving arm is: it cannot "
+                             f"take duration {duration!r} there (use \"auto\")",
+                             field="duration", value=duration)
+        q_end = segments[-1][0][-1] if segments and len(segments[-1][0]) else state.q
+        n = max(1, round(float(duration) * self.timing.rate / self.speed))
+        joints = np.tile(np.asarray(q_end, dtype=np.float64), (n, 1))
+        return [(joints, np.zeros(n), JointPath.of_samples(np.vstack([state.q, joints]))[0])]
 
     # -- the duration -----------------------------------------------------------------
 
@@ -329,6 +345,11 @@ class Retargeting:
 def _cosine(a: NDArray, b: NDArray) -> float:
     norm = float(np.linalg.norm(a) * np.linalg.norm(b))
     return float(a @ b) / norm if norm > 0.0 else 0.0
+
+
+def _moves(segments: list[Segment]) -> bool:
+    """Whether the segments' samples go anywhere (a σ step above 0)."""
+    return any(len(seg[1]) and float(np.max(seg[1])) > 0.0 for seg in segments)
 
 
 def _count(segments: list[Segment]) -> int:
