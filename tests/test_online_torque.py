@@ -195,8 +195,11 @@ def test_a_retarget_told_another_payload_is_timed_with_it(sa, told):
     extra = {"payload_kg": 0.5} if told else {}
     steps = [(n // 3, lambda ex: ex.retarget([None, _pose(Q_NEW)], **extra)),
              (n // 3 + 12, lambda ex: ex.stop("smooth"))]
-    _report, ex, joints = _run(sa, traj, steps)
-    assert len(ex.switches) == 2
+    report, ex, joints = _run(sa, traj, steps)
+    # the replacement switched; the smooth stop switched too, or took the replacement's own
+    # end where that is the fastest stop (it logs so) — every sample after the replacement's
+    # switch is checked either way
+    assert 1 <= len(ex.switches) <= 2 and report.stop_reason == "stopped"
     ratio = _torque_ratio(joints, ex.switches[0][1], 0.5, before=0)
     if told:
         assert (ratio <= 1.0 + SLACK).all(), ratio
