@@ -35,3 +35,21 @@ def sim3() -> Iterator[SimBus]:
     with SimBus((1, 2, 3), timing="fast") as bus:
         yield bus
     assert not bus.errors, bus.errors
+
+
+def settled(read, timeout: float = 2.0):
+    """The reading (an array) once it has not changed for 50 ms (AssertionError after
+    ``timeout``): where a servo came to rest."""
+    import time
+
+    import numpy as np
+
+    deadline = time.monotonic() + timeout
+    last, since = np.array(read()), time.monotonic()
+    while time.monotonic() - since < 0.05:
+        assert time.monotonic() < deadline, "the arm did not come to rest"
+        time.sleep(0.005)
+        now = np.array(read())
+        if not np.array_equal(now, last):
+            last, since = now, time.monotonic()
+    return last

@@ -11,6 +11,7 @@ from typing import Any
 
 import numpy as np
 import pytest
+from conftest import settled
 
 from robodcn import kinematics, servo_units
 from robodcn.bus import ServoBus
@@ -130,19 +131,6 @@ def test_admitting_a_move_makes_other_requests_busy(rig: Any) -> None:
     assert outcome and ctl.wait(outcome[0].id, 10).status in COMPLETED
     with ctl.admitting():  # free again once the move is over
         ctl.present_joints()
-
-
-def settled(read: Any, timeout: float = 2.0) -> np.ndarray:
-    """The reading once it has not changed for 50 ms (AssertionError after ``timeout``)."""
-    deadline = time.monotonic() + timeout
-    last, since = np.array(read()), time.monotonic()
-    while time.monotonic() - since < 0.05:
-        assert time.monotonic() < deadline, "the arm did not come to rest"
-        time.sleep(0.005)
-        now = np.array(read())
-        if not np.array_equal(now, last):
-            last, since = now, time.monotonic()
-    return last
 
 
 def test_stop_holds_the_arm(rig: Any) -> None:

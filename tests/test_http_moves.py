@@ -20,6 +20,7 @@ from typing import Any
 import http_helpers
 import numpy as np
 import pytest
+from conftest import settled
 from http_helpers import (  # arm_server: a fixture
     ARM,
     BODY,
@@ -112,19 +113,6 @@ def test_two_concurrent_moves_one_is_409(arm_server: Any) -> None:
     final = poll_move(server, accepted["id"], lambda b: b["status"] not in ("queued", "running"))
     assert final["status"] in ("done", "degraded"), final["error"]
     assert call(server, "GET", "/healthz")[2]["moving"] is False
-
-
-def settled(read: Any, timeout: float = 2.0) -> np.ndarray:
-    """The reading once it has not changed for 50 ms (AssertionError after ``timeout``)."""
-    deadline = time.monotonic() + timeout
-    last, since = np.array(read()), time.monotonic()
-    while time.monotonic() - since < 0.05:
-        assert time.monotonic() < deadline, "the arm did not come to rest"
-        time.sleep(0.005)
-        now = np.array(read())
-        if not np.array_equal(now, last):
-            last, since = now, time.monotonic()
-    return last
 
 
 def test_stop_during_a_move_holds(arm_server: Any) -> None:
