@@ -36,7 +36,7 @@ from numpy.typing import ArrayLike, NDArray
 from robodcn import _checks
 from robodcn.errors import InputError, UnreachableError
 from robodcn.kinematics import _planar
-from robodcn.kinematics._planar import ELBOWS, wrap
+from robodcn.kinematics._planar import ELBOWS, _joints, wrap
 
 #: Distance (m) from the yaw axis under which a pose counts as on it: its yaw is undefined.
 AXIS_TOLERANCE = 1e-6
@@ -104,14 +104,6 @@ def _poses(poses: ArrayLike) -> NDArray[np.float64]:
         raise InputError(f"poses must have shape (n, 4) (x, y, z, pitch), got {poses.shape}",
                          field="poses", value=poses)
     return poses
-
-
-def _joints(q: ArrayLike, k: int) -> NDArray[np.float64]:
-    q = _checks.finite("q", q)
-    if q.ndim != 2 or q.shape[1] != k:
-        raise InputError(f"joint angles must have shape (n, {k}), got {q.shape}", field="q",
-                         value=q)
-    return q
 
 
 def to_plane(poses: ArrayLike) -> NDArray[np.float64]:
