@@ -4,12 +4,15 @@ by name; the constants and helpers are imported (``from conftest import ARM3R``)
 
 from __future__ import annotations
 
+import contextlib
+import functools
 from collections.abc import Iterator
 from pathlib import Path
 
 import pytest
 
 from firmware_sim.bus import SimBus
+from firmware_sim.clock import Clock as FirmwareClock
 from robodcn.bus import ServoBus
 from robodcn.config import Arm, load_arm
 
@@ -53,3 +56,38 @@ def settled(read, timeout: float = 2.0):
         if not np.array_equal(now, last):
             last, since = now, time.monotonic()
     return last
+
+
+class StreamTime(FirmwareClock):
+    """firmware_sim's time read from a streamer's clock (``robodcn.stream.VirtualClock``):
+    the servo physics advance exactly as far as the stream's schedule does, whatever the
+    host's load (a sample's write and reads happen at its due time)."""
+
+    def __init__(self, clock) -> None:
+        self._clock = clock
+
+    def now(self) -> float:
+        return self._clock.now()
+
+
+@contextlib.contextmanager
+def lockstep_arm(arm: Arm, **kw) -> Iterator[tuple]:
+    """:func:`robodcn.simulated.simulated_arm` on virtual time: yields ``(sa, clock)``,
+    ``clock`` a ``robodcn.stream.VirtualClock`` shared by the simulator's physics
+    (:class:`StreamTime`); pass ``clock=clock`` to ``execute``. The physics then step per
+    simulated second of the schedule, not per wall second: a test of what the stream and
+    the physics do (tracking, compensation, collision currents) gets the same run on a
+    loaded machine as on an idle one. ``simulated_arm`` takes no clock, so its SimBusConfig
+    is given one here."""
+    from unittest import mock
+
+    import robodcn.simulated as simulated
+    from firmware_sim.bus_config import SimBusConfig
+    from robodcn.stream import VirtualClock
+
+    clock = VirtualClock()
+    timed = functools.partial(SimBusConfig, clock=StreamTime(clock))
+    with contextlib.ExitStack() as stack:
+        with mock.patch.object(simulated, "SimBusConfig", timed):
+            sa = stack.enter_context(simulated.simulated_arm(arm, **kw))
+        yield sa, clock

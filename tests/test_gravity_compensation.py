@@ -1,19 +1,20 @@
 """Gravity on the OpenMANIPULATOR-X (issue 18 §3) through the one inverse dynamics (issue 19):
 the tracking compensation holds a commanded pose to ≤ 2 ticks where the uncompensated servo
 droops, and the collision stop's threshold starts from the current gravity needs at each
-sample (a loaded arm does not trip it, an obstacle still does). On firmware_sim's physics."""
+sample (a loaded arm does not trip it, an obstacle still does). On firmware_sim's physics,
+on virtual time (conftest.lockstep_arm)."""
 
 from __future__ import annotations
 
 import numpy as np
 import pytest
+from conftest import lockstep_arm
 
 from robodcn import load_arm
 from robodcn.config import arm_from_dict, rigid_chain
 from robodcn.dynamics import gravity_torque
 from robodcn.kinematics import fk_yawed
 from robodcn.planner import plan
-from robodcn.simulated import simulated_arm
 from robodcn.stream import execute
 from robodcn.stream.collision import predicted_currents, threshold_profile
 from robodcn.stream.compensation import lag_pulses
@@ -35,10 +36,16 @@ def loaded(kg: float):
     return arm_from_dict(data)
 
 
-def run(arm, traj, **options):
-    with simulated_arm(arm, timing="fast", start_joints=traj.joints[0]) as sa:
-        report = execute(traj, sa.bus, tracking_limit=None, **options)
+def run(arm, traj, obstacle=None, **options):
+    """``traj`` on the simulated arm seated at its start, on virtual time (the physics step
+    with the schedule, so a loaded host changes nothing: no late sample, no sag while the
+    test is set up); ``obstacle`` (degrees) stops the shoulder there."""
+    with lockstep_arm(arm, timing="fast", start_joints=traj.joints[0]) as (sa, clock):
+        if obstacle is not None:
+            sa.sim.servo(arm.servo_ids[1]).set_obstacle(obstacle)
+        report = execute(traj, sa.bus, tracking_limit=None, clock=clock, **options)
         assert not sa.sim.errors, sa.sim.errors
+    assert report.lateness_max_s == 0.0, "virtual time: every sample on time"
     return report
 
 
@@ -106,8 +113,6 @@ def test_a_loaded_omx_moving_fast_is_no_collision_but_an_obstacle_is():
     assert report.stop_reason == "completed", report.message
     assert report.collision is None
     q0, q1 = np.degrees(traj.joints[0, 1]), np.degrees(traj.joints[-1, 1])
-    with simulated_arm(arm, timing="fast", start_joints=traj.joints[0]) as sa:
-        sa.sim.servo(OMX.servo_ids[1]).set_obstacle(float(q0 + 0.4 * (q1 - q0)))
-        hit = execute(traj, sa.bus, tracking_limit=None)
+    hit = run(arm, traj, obstacle=float(q0 + 0.4 * (q1 - q0)))
     assert hit.stop_reason == "collision", hit.message
     assert hit.collision["joint"] == "shoulder"
