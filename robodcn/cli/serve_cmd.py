@@ -6,7 +6,9 @@ The execution options ``move`` has for streaming (``--compensation``, ``--tracki
 (``GET /v1/arm`` says what is in force).
 
 Exit code 6 (:data:`robodcn.cli.exit_codes.Exit.CANNOT_SERVE`) when the TCP address cannot be
-bound (in use, not available).
+bound (in use, not available), or when a worker process of ``--processes N`` ends by itself.
+``--processes`` above 1 without ``--plan-only`` is a usage error (exit 2) before anything
+opens: only one process can own an arm's bus.
 """
 
 from __future__ import annotations
@@ -17,6 +19,7 @@ import os
 from typing import Any
 
 from robodcn.cli import motion_cmd, options
+from robodcn.errors import InputError
 
 #: The execution options of ``move`` that ``serve`` takes too (argparse dests).
 EXECUTION_OPTIONS = ("compensation", "tracking_limit", "recover")
@@ -57,6 +60,13 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     target.add_argument("--sim", action="store_true", help="serve a simulated arm")
     target.add_argument("--device", metavar="DEV",
                         help="servo serial device (default: the arm's [bus] port)")
+    target.add_argument("--plan-only", action="store_true",
+                        help="attach no arm: serve planning only (POST /v1/trajectories; "
+                             "moves, stop and state answer 503)")
+    p.add_argument("--processes", type=options.positive_int, default=1, metavar="N",
+                   help="worker processes answering on the port (default 1; --plan-only "
+                        "only): planning is CPU-bound Python, so plans/s grow with processes "
+                        "up to the cores; limits hold per process")
     p.add_argument("--baud", type=options.baud, help="baud rate (default: the arm's [bus] baud)")
     add_streaming_options(p)
     p.set_defaults(func=_cmd_serve, log_default="INFO")  # the request log
@@ -65,8 +75,18 @@ def register(subparsers: argparse._SubParsersAction) -> None:
 def _cmd_serve(args: argparse.Namespace) -> int:
     from robodcn.http import serve
 
+    if args.processes > 1 and not args.plan_only:
+        device = args.device or "the arm's [bus] port"
+        attached = "--sim" if args.sim else f"device {device}"
+        raise InputError(f"--processes {args.processes} needs --plan-only: with an arm "
+                         f"attached ({attached}) only one process can own its bus",
+                         field="--processes", value=args.processes)
+    if args.plan_only and args.baud is not None:
+        raise InputError("--baud is for a device; --plan-only opens none", field="--baud",
+                         value=args.baud)
     arm = options.load_arm(args)
     serve(arm, host=args.host, port=args.port, token=args.token, sim=args.sim,
           device=args.device, baud=args.baud, execution=execution_options(args),
+          plan_only=args.plan_only, processes=args.processes,
           ready=lambda url: print(f"robodcn: serving {arm.name!r} on {url}", flush=True))
     return 0

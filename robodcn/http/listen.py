@@ -16,6 +16,7 @@ from robodcn.errors import InputError, RobodcnError
 from robodcn.http import limits
 from robodcn.http.answer import Operation
 from robodcn.http.auth import TOKEN_ENV, check_token, is_loopback
+from robodcn.http.prefork import PreforkServer, bind_group
 from robodcn.http.routes import ROUTES, Route
 from robodcn.http.server import RobodcnHTTPServer
 
@@ -33,6 +34,16 @@ def _positive_int(name: str, value: Any) -> None:
                          value=value)
 
 
+def check_processes(processes: Any, *, arm_attached: bool) -> None:
+    """``processes`` is a positive integer, and 1 when an arm is attached (InputError naming
+    ``processes``): a second process would not own the arm's bus."""
+    _positive_int("processes", processes)
+    if processes > 1 and arm_attached:
+        raise InputError(f"processes={processes} needs a plan-only service: with an arm "
+                         "attached only one process may own its bus", field="processes",
+                         value=processes)
+
+
 def make_server(arm: Arm, controller: ArmController | None, *, host: str = "127.0.0.1",
                 port: int = 0, token: str | None = None,
                 request_timeout: float = limits.REQUEST_TIMEOUT,
@@ -40,7 +51,8 @@ def make_server(arm: Arm, controller: ArmController | None, *, host: str = "127.
                 max_per_client: int = limits.MAX_PER_CLIENT,
                 workers: int = limits.WORKERS, stream_slots: int = limits.STREAM_SLOTS,
                 routes: tuple[Route, ...] = ROUTES,
-                operations: dict[str, Operation] | None = None) -> RobodcnHTTPServer:
+                operations: dict[str, Operation] | None = None,
+                processes: int = 1) -> RobodcnHTTPServer | PreforkServer:
     """A bound, not yet serving, HTTP server for ``arm`` (call ``serve_forever()``).
 
     Parameters
@@ -58,11 +70,15 @@ def make_server(arm: Arm, controller: ArmController | None, *, host: str = "127.
     stream_slots : long-lived (``pool="stream"``) responses at once
     routes, operations : the route table and extra operations by route name (a later
         endpoint adds its Route and its function here, or in routes.ROUTES/ops.OPERATIONS)
+    processes : worker processes answering on the address (a plan-only service only:
+        ``controller`` None): above 1 a :class:`~robodcn.http.prefork.PreforkServer`, whose
+        ``serve_forever()`` forks them (every other option and limit holds per process)
 
     Raises
     ------
     InputError
-        A non-loopback host without a token, a malformed token, a bad port or timeout.
+        A non-loopback host without a token, a malformed token, a bad port or timeout;
+        ``processes`` not a positive integer, or above 1 with a controller.
     ListenError
         The address cannot be bound (in use, not local): exit code 6.
     """
@@ -82,13 +98,19 @@ def make_server(arm: Arm, controller: ArmController | None, *, host: str = "127.
         raise InputError(f"request_timeout must be a positive number of seconds, got "
                          f"{request_timeout!r}", field="request_timeout",
                          value=request_timeout)
-    try:
+    check_processes(processes, arm_attached=controller is not None)
+
+    def server(sock: Any = None) -> RobodcnHTTPServer:
         return RobodcnHTTPServer((host, port), arm, controller, token=token,
                                  request_timeout=float(request_timeout),
                                  max_connections=max_connections,
                                  max_per_client=max_per_client, workers=workers,
                                  stream_slots=stream_slots, routes=routes,
-                                 operations=operations)
+                                 operations=operations, sock=sock)
+    try:
+        if processes == 1:
+            return server()
+        return PreforkServer(arm, bind_group(host, port, processes), server)
     except OSError as exc:
         reason = "address in use" if exc.errno == errno.EADDRINUSE else \
             (exc.strerror or str(exc)).lower()

@@ -73,11 +73,27 @@ class Connection:
     closing: bool = False    # answered and half-closed: draining until EOF or deadline
 
 
+def _listen(address: tuple[str, int]) -> socket.socket:
+    host, port = address
+    family = socket.AF_INET6 if ":" in host else socket.AF_INET
+    sock = socket.socket(family, socket.SOCK_STREAM)
+    try:
+        sock.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
+        sock.bind((host, port))
+        sock.listen(128)
+    except OSError:
+        sock.close()
+        raise
+    return sock
+
+
 class RobodcnHTTPServer:
     """The HTTP service for ``arm`` (and ``controller``, or None to plan only).
 
     Use :func:`robodcn.http.listen.make_server`; then ``serve_forever()`` in one thread,
-    ``shutdown()`` from another, ``server_close()`` at the end.
+    ``shutdown()`` from another, ``server_close()`` at the end. ``sock``: a listening socket
+    to serve on instead of binding ``address`` (a worker of
+    :class:`~robodcn.http.prefork.PreforkServer`).
     """
 
     def __init__(self, address: tuple[str, int], arm: Arm, controller: ArmController | None, *,
@@ -87,7 +103,8 @@ class RobodcnHTTPServer:
                  workers: int = limits.WORKERS, control_workers: int = limits.CONTROL_WORKERS,
                  stream_slots: int = limits.STREAM_SLOTS,
                  routes: tuple[Route, ...] = ROUTES,
-                 operations: dict[str, Operation] | None = None) -> None:
+                 operations: dict[str, Operation] | None = None,
+                 sock: socket.socket | None = None) -> None:
         self.arm = arm
         self.controller = controller
         self.token = token
@@ -103,16 +120,7 @@ class RobodcnHTTPServer:
         self.openapi_bytes = dumps(openapi(arm, token=token is not None, routes=routes))
         #: The console's ``GET /v1/events`` streams: one shared sampler of the controller.
         self.events = EventHub(controller)
-        host, port = address
-        family = socket.AF_INET6 if ":" in host else socket.AF_INET
-        self.socket = socket.socket(family, socket.SOCK_STREAM)
-        try:
-            self.socket.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
-            self.socket.bind((host, port))
-            self.socket.listen(128)
-        except OSError:
-            self.socket.close()
-            raise
+        self.socket = _listen(address) if sock is None else sock
         self.socket.setblocking(False)
         self.server_address = self.socket.getsockname()
         self._pools = {"work": ThreadPoolExecutor(workers, "robodcn-http-work"),

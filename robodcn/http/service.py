@@ -1,4 +1,5 @@
-"""``robodcn serve``: the service with its arm (simulated or on a device) until a signal."""
+"""``robodcn serve``: the service with its arm (simulated or on a device), or plan-only in one
+or several processes, until a signal."""
 
 from __future__ import annotations
 
@@ -12,8 +13,9 @@ from typing import Any
 
 from robodcn.config import Arm
 from robodcn.controller import ArmController
+from robodcn.errors import InputError
 from robodcn.http.auth import TOKEN_ENV, check_token
-from robodcn.http.listen import make_server
+from robodcn.http.listen import check_processes, make_server
 from robodcn.http.server import RobodcnHTTPServer
 from robodcn.stream import ExecutionOptions
 
@@ -72,7 +74,8 @@ def open_device(arm: Arm, device: str | None = None, baud: int | None = None
 def serve(arm: Arm, *, host: str = "127.0.0.1", port: int = 8080, token: str | None = None,
           sim: bool = False, device: str | None = None, baud: int | None = None,
           ready: Callable[[str], None] | None = None,
-          execution: ExecutionOptions | dict[str, Any] | None = None) -> None:
+          execution: ExecutionOptions | dict[str, Any] | None = None,
+          plan_only: bool = False, processes: int = 1) -> None:
     """Run the service until SIGINT/SIGTERM or ``server.shutdown()``, then clean up.
 
     With ``sim=True`` the arm is :func:`robodcn.simulated.simulated_arm` in realistic
@@ -83,12 +86,35 @@ def serve(arm: Arm, *, host: str = "127.0.0.1", port: int = 8080, token: str | N
     (:class:`~robodcn.stream.ExecutionOptions`, or a dict of its fields over
     :data:`robodcn.controller.DEFAULT_EXECUTE`; ``GET /v1/arm`` shows them). Raises
     ListenError (exit 6) when the address is busy.
+
+    ``plan_only=True``: no arm attached (no bus is opened; the move, stop and state
+    endpoints answer 503), answered by ``processes`` worker processes
+    (:class:`~robodcn.http.prefork.PreforkServer` above 1; WorkerExitError, exit 6, when
+    one ends by itself). ``processes`` above 1 without ``plan_only`` is an InputError
+    naming ``processes``, raised before anything opens.
     """
     if token is None:
         token = os.environ.get(TOKEN_ENV) or None
     check_token(token)
+    if plan_only and (sim or device is not None or baud is not None):
+        raise InputError("a plan-only service opens no arm: give no sim, device or baud",
+                         field="plan_only", value=plan_only)
+    check_processes(processes, arm_attached=not plan_only)
     # Warnings of a request (e.g. a beta that the method ignores) go to the log, not stderr.
     logging.captureWarnings(True)
+    if plan_only:
+        server = make_server(arm, None, host=host, port=port, token=token,
+                             processes=processes)
+        try:
+            with contextlib.ExitStack() as stack:
+                if processes == 1:
+                    stack.enter_context(signals_stop(server))
+                if ready is not None:
+                    ready(server.url)
+                server.serve_forever(poll_interval=0.2)
+        finally:
+            server.server_close()
+        return
     with contextlib.ExitStack() as stack:
         if sim:
             from robodcn.simulated import simulated_arm
