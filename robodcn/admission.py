@@ -29,6 +29,8 @@ from __future__ import annotations
 
 import contextlib
 import dataclasses
+import logging
+import time
 from collections.abc import Callable
 from contextlib import AbstractContextManager
 from dataclasses import dataclass
@@ -44,6 +46,8 @@ from robodcn.planner import PlanRequest, Trajectory
 from robodcn.planner.path import user_pose
 from robodcn.present import plan_from_present
 from robodcn.workflow import files
+
+log = logging.getLogger("robodcn.admission")
 
 #: How a surface paces planning (the HTTP service takes turns on a lock per plan size):
 #: a context manager for the request about to be planned.
@@ -106,7 +110,9 @@ def admit(controller: ArmController, order: MoveOrder, *,
     """Start ``order`` on ``controller``: the new move's record (queued or running).
 
     Raises BusyError (409) while another move runs or is being admitted (unless ``replace``),
-    NoMoveError when a replacement finds nothing running any more, InputError for a given
+    NoMoveError when a replacement finds nothing running any more (BusyError when
+    another replacement is being planned a while longer: they take turns,
+    :attr:`ArmController.replacements`), InputError for a given
     trajectory with ``replace`` while a move runs, the planner's errors (422, nothing
     moves) and BusError when the servos cannot be read.
     """
@@ -115,9 +121,15 @@ def admit(controller: ArmController, order: MoveOrder, *,
             raise InputError("replace takes waypoints: a given trajectory cannot take over a "
                              "running move in flight (stop it first)", field="replace",
                              value=True)
-        request = _replacement(controller, order)
-        with planning(request):
-            return controller.replace_move(request)
+        asked = time.perf_counter()
+        # replacements take turns before the planning lane: a queue of them there would
+        # hold each answer for all the planning before it
+        with controller.replacements.take():
+            request = _replacement(controller, order)
+            with planning(request):
+                log.debug("replace: %.1f ms to its planning lane",
+                          (time.perf_counter() - asked) * 1000)
+                return controller.replace_move(request)
     arm = controller.arm
     with controller.admitting():
         ticks = controller.present_ticks()

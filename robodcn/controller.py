@@ -53,7 +53,7 @@ from robodcn.moves import RECORD_SAMPLES, MoveRecord, move_status
 from robodcn.planner import Trajectory
 from robodcn.results import MoveStatus, State, StopAnswer
 from robodcn.stream import STOP_MODES, ExecutionOptions, ExecutionReport, Progress
-from robodcn.stream.online import Execution, PlanningTimes, SwitchMissed, prepare
+from robodcn.stream.online import Execution, PlanningTimes, SwitchMissed, Turns, prepare
 from robodcn.workflow import admin, poses
 from robodcn.workflow.gripper import GripperResult
 
@@ -65,6 +65,12 @@ DEFAULT_EXECUTE = ExecutionOptions(approach=True, release=False)
 #: Seconds an online operation on a queued move waits for its stream to start (then 409):
 #: with the operation's own planning, the answer stays within a second.
 QUEUED_WAIT = 0.4
+#: Seconds a replacement waits for another being planned (then 409): a queue of them would
+#: hold each answer for the planning of all before it.
+REPLACE_WAIT = 0.2
+#: Seconds an online operation may plan, its attempts and waits included (Execution.
+#: budget_s; then 409, nothing changed): with the waits above, answers within a second.
+OPERATION_BUDGET_S = 0.5
 
 
 class ArmController:
@@ -108,6 +114,8 @@ class ArmController:
         self._current: MoveRecord | None = None
         #: Thread holding :meth:`admitting` (reading the pose and planning a move), or None.
         self._admitting: int | None = None
+        #: Replacements take turns, from the request to the switch (robodcn.admission).
+        self.replacements = Turns(REPLACE_WAIT, "another replacement is being planned")
         self._ids = itertools.count(1)
         self._closed = False
         #: The newest positions known without a read (feedback, goals, final reads).
@@ -326,31 +334,27 @@ class ArmController:
     def replace_move(self, request: Any) -> MoveRecord:
         """Retarget the running move to ``request`` (a PlanRequest) from its moving state:
         a new move record (running), the old one ends ``replaced``. Raises NoMoveError when
-        nothing runs, the planner's errors when the new path cannot be planned (the old
-        move goes on unchanged)."""
-        record, execution = self._live()
-        first = self._online(record, execution, lambda: execution.retarget(request))
-        trajectory = execution.remaining(first, request)
-        now = time.time()
-        with self._lock:
-            if self._current is not record or record.done.is_set() or execution.done:
-                # the stream ended meanwhile (its report is the old move's): nothing to
-                # take over, and no record that would never finish
-                raise NoMoveError(f"move {record.id} ended before the replacement could take "
-                                  "over; start the new move without replace",
-                                  field="move", value=record.id)
-            new = MoveRecord(id=str(next(self._ids)), trajectory=trajectory, status="running",
-                             started=now, execution=execution, offset=first,
-                             stop_signal=record.stop_signal)
-            new.prepared.set()
-            record.status = "replaced"
-            record.until = first
-            record.finished = now
-            record.done.set()
-            self._current = new
-            self._moves[new.id] = new
-            self._trim()
-        return new
+        nothing runs, BusyError when another replacement is being planned for longer than
+        :data:`REPLACE_WAIT` (:attr:`replacements`) or no switch landed within
+        :data:`OPERATION_BUDGET_S`, the planner's errors when the new path cannot be planned
+        (the old move goes on unchanged). Answers once the new samples are in the stream,
+        not when the arm gets to them."""
+        with self.replacements.take():
+            record, execution = self._live()
+            first = self._online(record, execution, lambda: execution.retarget(request))
+            trajectory = execution.remaining(first, request)
+            with self._lock:
+                if self._current is not record or record.done.is_set() or execution.done:
+                    # the stream ended meanwhile (its report is the old move's): nothing to
+                    # take over, and no record that would never finish
+                    raise NoMoveError(f"move {record.id} ended before the replacement could "
+                                      "take over; start the new move without replace",
+                                      field="move", value=record.id)
+                new = record.replaced_by(str(next(self._ids)), trajectory, first)
+                self._current = new
+                self._moves[new.id] = new
+                self._trim()
+            return new
 
     # -- the worker: streaming a move ---------------------------------------------------------
 
@@ -383,6 +387,7 @@ class ArmController:
                                 progress=lambda p: self._on_progress(self._live_of(record), p),
                                 arm=self.arm, planning_times=self._planning_times,
                                 present_ticks=record.present_ticks)
+            execution.budget_s = OPERATION_BUDGET_S
             with self._lock:
                 record.execution = execution
             record.prepared.set()

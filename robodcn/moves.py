@@ -130,6 +130,18 @@ class MoveRecord:
         n = int(getattr(self.trajectory, "approach_samples", 0) or 0)
         return ApproachInfo(n, n / self.trajectory.rate_hz) if n else None
 
+    def replaced_by(self, new_id: str, trajectory: Trajectory, first: int) -> MoveRecord:
+        """End this move ``replaced`` at sample ``first`` and return the running record of
+        its replacement ``new_id`` (``trajectory``: its samples from ``first``), which takes
+        over its execution and stop signal. Call with the controller's lock held."""
+        now = time.time()
+        new = MoveRecord(id=new_id, trajectory=trajectory, status="running", started=now,
+                         execution=self.execution, offset=first, stop_signal=self.stop_signal)
+        new.prepared.set()
+        self.status, self.until, self.finished = "replaced", first, now
+        self.done.set()
+        return new
+
     def failure(self) -> str:
         """The status of a move that raised: ``fault`` once a sample went out (the arm
         moved), ``failed`` before."""

@@ -5,8 +5,9 @@ One concept a module: ``samples`` (:class:`OnlineSamples`, the source chain), ``
 (:class:`PlanningTimes`, where switches are placed from), ``switch`` (placing and swapping
 a tail, :class:`SwitchMissed`), ``timing`` (the laws on the present path, :class:`NoLaw`),
 ``stop`` (smooth stop and pause), ``speed`` (speed scaling and resume), ``retarget`` (the
-retarget strategies) and ``execution`` (:class:`Execution`, :func:`prepare`,
-:func:`start`). The path maths is :mod:`robodcn.stream.online_path`.
+retarget strategies), ``turns`` (:class:`Turns`, one operation at a time, a bounded wait)
+and ``execution`` (:class:`Execution`, :func:`prepare`, :func:`start`). The path maths is
+:mod:`robodcn.stream.online_path`.
 """
 
 from __future__ import annotations
@@ -19,7 +20,8 @@ from robodcn.stream.online.state import State
 from robodcn.stream.online.stop import PAUSE_AHEAD_S, PathEnds
 from robodcn.stream.online.switch import SwitchMissed
 from robodcn.stream.online.timing import NoLaw
+from robodcn.stream.online.turns import Turns
 
 __all__ = ["PAUSE_AHEAD_S", "STOP_MODES", "Execution", "KeepPlanned", "NoLaw",
            "OnlineSamples", "PathEnds", "PlanningTimes", "Segment", "State", "SwitchMissed",
-           "prepare", "start", "warm_up"]
+           "Turns", "prepare", "start", "warm_up"]

@@ -41,7 +41,7 @@ from robodcn.path_timing import JointLimits
 from robodcn.planner import PlanRequest, Trajectory
 from robodcn.planner.path import user_pose
 from robodcn.stream.online.counts import report_from
-from robodcn.stream.online.planning_times import PlanningTimes
+from robodcn.stream.online.planning_times import RETARGET_TO_DURATION, PlanningTimes
 from robodcn.stream.online.retarget import Retargeting
 from robodcn.stream.online.samples import OnlineSamples, Segment
 from robodcn.stream.online.speed import KeepPlanned, resume_tail, speed_scale, speed_tail
@@ -112,6 +112,10 @@ class Execution:
     planning_times : the :class:`PlanningTimes` that places the switches (shared when the
         creator passed one)
     on_change : called with the operation's name after each switch (or None)
+    budget_s : seconds an operation may spend planning, its attempts and the wait for
+        another operation included: an attempt expected to end later is not started
+        (:class:`~robodcn.stream.online.switch.SwitchMissed`, nothing changed). None (the
+        default): no bound; a service sets one so every answer comes within a second.
     """
 
     def __init__(self, trajectory: Trajectory, bus: ServoBus, stop: StopSignal,
@@ -129,6 +133,7 @@ class Execution:
         self.report: ExecutionReport | None = None
         self.error: BaseException | None = None
         self.on_change: Callable[[str], None] | None = None
+        self.budget_s: float | None = None
         self.planning_times = planning_times if planning_times is not None else PlanningTimes()
         self._present_ticks = present_ticks
         self._smooth_stopped = False
@@ -267,16 +272,19 @@ class Execution:
     # -- applying an operation ------------------------------------------------------------
 
     def _apply(self, what: str, tail: Callable[[State], list[Segment]], *,
-               hold: int = 0) -> int:
-        """Plan ``tail`` at a switch ahead of the loop and swap it in (:class:`Switcher`);
-        the first changed sample. InputError when the execution is not running;
-        :class:`~robodcn.stream.online.switch.SwitchMissed` when no attempt landed."""
+               hold: int = 0, measure: str | None = None) -> int:
+        """Plan ``tail`` at a switch ahead of the loop and swap it in (:class:`Switcher`;
+        its planning measured as ``measure``, default ``what``); the first changed sample.
+        InputError when the execution is not running;
+        :class:`~robodcn.stream.online.switch.SwitchMissed` when no attempt landed (within
+        :attr:`budget_s`)."""
         requested = self._options.clock.now()
         if not self._attached.wait(ATTACH_TIMEOUT_S) or self.done or self._switcher is None:
             raise InputError(f"cannot {what}: the execution is not running",
                              field="execution", value=self.status)
         first = self._switcher.apply(what, tail, requested=requested, hold=hold,
-                                     speed=self.speed, status=self.status)
+                                     speed=self.speed, status=self.status, measure=measure,
+                                     budget=self.budget_s)
         if self.on_change is not None:
             self.on_change(what)
         return first
@@ -379,7 +387,8 @@ class Execution:
             self.paused = False
             self._told = None
             first = self._apply("retarget", lambda st: self._retarget_tail(st, target,
-                                                                           plan_options))
+                                                                           plan_options),
+                                measure=_measured_as(target, plan_options))
             if self._told is not None:
                 # the replacement was told another payload: the operations after it too
                 self._timing = self._told
@@ -402,6 +411,14 @@ class Execution:
         segments = retargeting.tail(state, target, plan_options)
         self._told = retargeting.timing if retargeting.timing is not self._timing else None
         return segments
+
+
+def _measured_as(target: Any, plan_options: dict[str, Any]) -> str:
+    """The planning times a retarget to ``target`` is placed from: those of a retarget to a
+    numeric duration (its law fitted in rounds) or of one as fast as the limits allow."""
+    duration = target.duration if isinstance(target, PlanRequest) else plan_options.get(
+        "duration", "auto")
+    return "retarget" if duration == "auto" else RETARGET_TO_DURATION
 
 
 def prepare(trajectory: Trajectory, bus: ServoBus, options: ExecutionOptions | None = None,

@@ -11,12 +11,15 @@ from __future__ import annotations
 
 import threading
 
+#: a retarget to a numeric duration, measured apart from one as fast as the limits allow
+#: (fitting its law takes a few rounds: about 2–3 × as long)
+RETARGET_TO_DURATION = "retarget to a duration"
 #: first guesses (s) before anything was measured, per operation (others: DEFAULT_S)
-FIRST_GUESS_S = {"retarget": 0.01}
+FIRST_GUESS_S = {"retarget": 0.01, RETARGET_TO_DURATION: 0.03}
 #: on a jerk-limited arm its laws take longer, and a first switch placed too close is
 #: planned twice
-JERK_FIRST_GUESS_S = {"retarget": 0.12, "stop smoothly": 0.03, "pause": 0.03, "resume": 0.1,
-                      "change speed": 0.15}
+JERK_FIRST_GUESS_S = {"retarget": 0.12, RETARGET_TO_DURATION: 0.3, "stop smoothly": 0.03,
+                      "pause": 0.03, "resume": 0.1, "change speed": 0.15}
 DEFAULT_S = 0.003
 #: measurements kept per operation and kind of arm
 KEEP = 5
@@ -64,4 +67,4 @@ class PlanningTimes:
             self._seen[(what, jerk)] = [float(t) for t in times][-KEEP:]
 
 
-__all__ = ["PlanningTimes"]
+__all__ = ["FIRST_GUESS_S", "JERK_FIRST_GUESS_S", "RETARGET_TO_DURATION", "PlanningTimes"]

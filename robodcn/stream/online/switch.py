@@ -7,6 +7,13 @@ the loop's catching up took longer), it is planned again :data:`SWITCH_MARGIN` Ã
 attempt measured further ahead, up to :data:`SWITCH_TRIES` times (the loop never reads a
 sample that changes under it). While a retarget plans, an :class:`EndKeeper` holds the
 present move's end, so a retarget later than the move has left leaves from its end.
+
+An operation given a ``budget`` (s) starts no attempt that would end after it (the last one
+measured as its cost): a miss then is :class:`SwitchMissed`, nothing changed, rather than
+an answer that waits for attempt after attempt (a service's answers come within a second).
+Each kind of operation is measured apart (``measure``: a retarget to a numeric duration
+fits its law in several rounds, so it takes a few times as long as one as fast as the
+limits allow; from the others' times its switch would be placed too close, and planned again).
 """
 
 from __future__ import annotations
@@ -46,9 +53,9 @@ class SwitchMissed(InputError):
     """No attempt of an operation landed before the loop (or the move ended first): nothing
     changed. ``what`` is the operation, ``value`` the execution's status."""
 
-    def __init__(self, what: str, status: str) -> None:
-        super().__init__(f"cannot {what}: the stream ran ahead of planning",
-                         field="execution", value=status)
+    def __init__(self, what: str, status: str,
+                 why: str = "the stream ran ahead of planning") -> None:
+        super().__init__(f"cannot {what}: {why}", field="execution", value=status)
         self.what = what
 
 
@@ -77,23 +84,36 @@ class Switcher:
         return State.of_source(self.stream.source, index)
 
     def apply(self, what: str, tail: Callable[[State], list[Segment]], *, requested: float,
-              hold: int = 0, speed: float = 1.0, status: str = "running") -> int:
+              hold: int = 0, speed: float = 1.0, status: str = "running",
+              measure: str | None = None, budget: float | None = None) -> int:
         """Plan ``tail`` from the state at a switch sample ahead of the loop and swap it in.
 
         ``tail`` returns the new samples as segments (joints, Ïƒ, path), each on one path;
         the last one is followed by ``hold`` repeats of its last goal. Returns the first
-        changed sample.
+        changed sample. ``measure``: the name its planning times are kept under
+        (:class:`PlanningTimes`; default ``what``); ``budget``: seconds from the call
+        within which an attempt must be expected to end to be started (None: no bound).
 
         Raises
         ------
         SwitchMissed
-            the stream ran ahead of planning every time; nothing changed."""
+            the stream ran ahead of planning every time (or the budget left no time for
+            another attempt); nothing changed."""
         stream, jerk = self.stream, self.timing.jerk
+        measure = measure or what
         started = time.perf_counter()
         keeper = EndKeeper(self) if what == "retarget" else None
         with self.lock, keeper or contextlib.nullcontext():
-            ahead = self.planning_times.expected(what, jerk)
+            log.debug("%s: waited %.1f ms for the execution's lock", what,
+                      (time.perf_counter() - started) * 1000)
+            ahead = self.planning_times.expected(measure, jerk)
+            took = 0.0
             for _ in range(SWITCH_TRIES):
+                if budget is not None and time.perf_counter() - started + took > budget:
+                    log.info("%s: no time left for another attempt within %.0f ms", what,
+                             budget * 1000)
+                    raise SwitchMissed(what, status, f"planning took over {budget:g} s "
+                                       "(a loaded host, or other operations before it)")
                 rate = stream.source.rate_hz
                 bound = stream.n
                 # The loop may lag its clock on a loaded host and then catch up (or skip):
@@ -129,9 +149,10 @@ class Switcher:
                     due = stream.t_start + first * stream.period
                     self.switches.append((requested, first, due,
                                           time.perf_counter() - started, ahead))
-                    self.planning_times.record(what, jerk, took)
-                    log.info("%s: switch at sample %d (planned in %.2f ms)", what, first,
-                             took * 1000)
+                    self.planning_times.record(measure, jerk, took)
+                    log.info("%s: switch at sample %d (planned in %.2f ms, %.1f ms ahead, "
+                             "%.1f ms since asked)", what, first, took * 1000, ahead * 1000,
+                             (time.perf_counter() - started) * 1000)
                     return first
                 if capped or not running:
                     break  # the move ends before any switch planning could reach
@@ -163,6 +184,7 @@ class EndKeeper:
     def __init__(self, switcher: Switcher) -> None:
         self.switcher = switcher
         self.stopped = False
+        self._wake = threading.Event()
         self._thread = threading.Thread(target=self._run, daemon=True, name="robodcn-keep")
 
     def __enter__(self) -> EndKeeper:
@@ -172,6 +194,7 @@ class EndKeeper:
     def __exit__(self, *exc: object) -> None:
         with self.switcher.swap_lock:
             self.stopped = True
+        self._wake.set()  # not a sleep's worth later: the operation's answer waits for it
         self._thread.join()
 
     def _run(self) -> None:
@@ -185,7 +208,7 @@ class EndKeeper:
                 rate = src.rate_hz
                 if len(src) - sw.sample < KEEP_AHEAD_S * rate:
                     stream.swap(src.held(src.hold + math.ceil(2 * KEEP_AHEAD_S * rate)))
-            time.sleep(KEEP_AHEAD_S / 10)
+            self._wake.wait(KEEP_AHEAD_S / 10)
 
 
 __all__ = ["KEEP_AHEAD_S", "SWITCH_MARGIN", "SWITCH_TRIES", "EndKeeper", "Switch",
