@@ -298,7 +298,8 @@ class RobodcnHTTPServer:
         conn.busy = False
         conn.deadline = time.monotonic() + self.request_timeout
         try:
-            conn.sock.setblocking(False)
+            if conn.sock.gettimeout() != 0.0:  # a worker wrote it blocking
+                conn.sock.setblocking(False)
             self._selector.register(conn.sock, selectors.EVENT_READ, conn)
         except (OSError, ValueError, KeyError):
             self._forget(conn)
@@ -415,9 +416,7 @@ class RobodcnHTTPServer:
                             head_only=request.method == "HEAD", server=_SERVER,
                             content_type=reply.content_type)
             try:
-                conn.sock.setblocking(True)
-                conn.sock.settimeout(limits.WRITE_TIMEOUT)
-                conn.sock.sendall(data)
+                self._send_all(conn.sock, data)
             except OSError:
                 keep = False
             self._log(request, status, started)
@@ -429,6 +428,22 @@ class RobodcnHTTPServer:
             self._wake()
         else:
             self._drop(conn)
+
+    @staticmethod
+    def _send_all(sock: socket.socket, data: bytes) -> None:
+        """Send ``data`` on the non-blocking ``sock``: one ``send`` takes a whole answer of a
+        few hundred KiB into the kernel's buffer; only the rest (a client that does not read)
+        is written blocking, WRITE_TIMEOUT s per write, and the socket made non-blocking
+        again. OSError when the client is gone or stalls."""
+        try:
+            sent = sock.send(data)
+        except (BlockingIOError, InterruptedError):
+            sent = 0
+        if sent == len(data):
+            return
+        sock.settimeout(limits.WRITE_TIMEOUT)
+        sock.sendall(memoryview(data)[sent:])
+        sock.setblocking(False)
 
     def _run_stream(self, conn: Connection, request: Request, route: Route,
                     params: dict[str, str], started: float) -> None:
