@@ -145,6 +145,42 @@ def test_path_near_the_straight_arm_keeps_its_branch(gap: float) -> None:
                                       naive_branch_path(up, down, elbow == "down"))
 
 
+@given(seed=st.integers(0, 2**32 - 1), near=st.sampled_from([None, 0.0, math.pi, 1e-7]),
+       scale=st.sampled_from([0.01, 0.3, 3.0]), with_reference=st.booleans())
+@settings(max_examples=80)
+def test_ik_path_is_the_nearest_branch_rule(seed: int, near: float | None, scale: float,
+                                            with_reference: bool) -> None:
+    """ik_path solves one branch unless the path nears a singularity (kinematics doc): it
+    equals the both-branch nearest-branch rule, unwrapped, on random joint lines — also
+    ones that start at, or within 1e-7 rad of, a stretched or folded elbow."""
+    rng = np.random.default_rng(seed)
+    for name, links in ARMS.items():
+        k = len(links)
+        q0 = rng.uniform(-math.pi, math.pi, k)
+        if near is not None:
+            q0[1] = near
+        q1 = q0 + rng.normal(0.0, scale, k)
+        s = np.linspace(0.0, 1.0, int(rng.integers(2, 200)))[:, None]
+        poses = K.fk(links, q0 + s * (q1 - q0))
+        reference = q0 + rng.normal(0.0, 0.1, k) if with_reference else None
+        for elbow in K.ELBOWS:
+            q = K.ik_path(links, poses, reference=reference, elbow=elbow)
+            up, down, _ = K.ik_branches(links, poses)
+            if reference is None:
+                first = elbow == "down"
+            else:
+                d_up = np.sum(K.wrap(up[0] - reference) ** 2)
+                d_dn = np.sum(K.wrap(down[0] - reference) ** 2)
+                first = bool(d_dn < d_up) if abs(d_dn - d_up) > K.SINGULAR_TOLERANCE ** 2 \
+                    else elbow == "down"
+            on_down = naive_branch_path(up, down, first)
+            chosen = np.where(on_down[:, None], down, up)
+            expected = np.unwrap(chosen, axis=0)
+            target = np.zeros(k) if reference is None else reference
+            expected += 2 * math.pi * np.round((target - expected[0]) / (2 * math.pi))
+            np.testing.assert_allclose(q, expected, atol=1e-9, err_msg=f"{name} {elbow}")
+
+
 def test_path_is_unwrapped_around_the_base() -> None:
     """Two full turns of the tool about the base: joints grow continuously past ±π."""
     links = ARMS["3r"]

@@ -16,6 +16,7 @@ Every function takes arrays of shape (n, ...) and never loops over samples in Py
 
 from __future__ import annotations
 
+import math
 from collections.abc import Sequence
 
 import numpy as np
@@ -383,33 +384,69 @@ def ik_path_unchecked(links: tuple[float, ...], poses: NDArray[np.float64],
                       ) -> tuple[NDArray[np.float64] | None, int | None]:
     """:func:`try_ik_path` without the argument checks, for callers that validated them:
     ``links`` a tuple of 2 or 3 positive floats, ``poses`` a finite (n, 3) float array,
-    ``reference`` None or a finite (k,) float array, ``elbow`` "up" or "down"."""
+    ``reference`` None or a finite (k,) float array, ``elbow`` "up" or "down".
+
+    The first sample's branch is chosen first; the path's samples are then solved on that
+    branch alone, and both branches (:func:`choose_branches`) only when the path comes near
+    enough to a stretched or folded arm that the other branch could be the nearer one
+    (:func:`_one_branch_holds`): the result is the same either way.
+    """
     k = len(links)
-    block, ok = _block(links, poses)
-    if not ok.all():
-        return None, int(np.argmin(ok))
     n = poses.shape[0]
     if n == 0:
         return np.empty((0, k)), None
     if reference is None:
         first_down = elbow == "down"
     else:
-        d_up, d_dn = _sq_sum(_wrap_in_place(block[:, :, :1] - reference[:, None]))[:, 0]
+        first, ok = _block(links, poses[:1])
+        if not ok[0]:
+            return None, 0
+        d_up, d_dn = _sq_sum(_wrap_in_place(first - reference[:, None]))[:, 0]
         # A tie (singular first pose or a reference midway) goes to the preferred branch.
         first_down = bool(d_dn < d_up) if abs(d_dn - d_up) > SINGULAR_TOLERANCE ** 2 \
             else elbow == "down"
-    on_down = _choose(block, first_down)
+    one, ok = _block(links, poses, "down" if first_down else "up")
+    if not ok.all():
+        return None, int(np.argmin(ok))
+    rows = one[0]
+    steps = _wrap_in_place(rows[:, 1:] - rows[:, :-1])
+    if not _one_branch_holds(rows[1], steps):
+        block, _ = _block(links, poses)
+        rows = np.where(_choose(block, first_down), block[1], block[0])
+        steps = _wrap_in_place(rows[:, 1:] - rows[:, :-1])
     if reference is not None:
         target = reference
     elif limits is not None:
         target = np.asarray(limits, dtype=np.float64).mean(axis=1)
     else:
         target = np.zeros(k)
-    rows = _unwrap_rows(np.where(on_down, block[1], block[0]))
-    rows += (_TWO_PI * np.round((target - rows[:, 0]) / _TWO_PI))[:, None]
+    out = np.empty_like(rows)
+    out[:, 0] = rows[:, 0]
+    np.cumsum(steps, axis=1, out=out[:, 1:])
+    out[:, 1:] += rows[:, :1]
+    out += (_TWO_PI * np.round((target - out[:, 0]) / _TWO_PI))[:, None]
     q = np.empty((n, k))
-    q.T[...] = rows
+    q.T[...] = out
     return q, None
+
+
+def _one_branch_holds(q2: NDArray[np.float64], steps: NDArray[np.float64]) -> bool:
+    """Whether the nearest-branch rule keeps the path on the branch of ``q2`` (n,) (atan2
+    outputs in [−π, π]) with wrapped joint steps ``steps`` (k, n − 1) along it.
+
+    The two branches of a pose differ by 2·wrap(q2) in the elbow alone, so they are at least
+    2m apart (torus metric) with m = min(|q2|, π − |q2|) over the path; the other branch's
+    next sample is then at least 2m − δ from the path's sample, δ the largest step, which
+    is farther than the own branch's next sample (≤ δ) whenever δ < m. Half of m is asked
+    for, so rounding never decides; SINGULAR_TOLERANCE is far below any such m.
+    """
+    if steps.shape[1] == 0:
+        return True
+    a = np.abs(q2)
+    margin = float(np.minimum(a, math.pi - a).min())
+    sq = steps * steps
+    step2 = float(sq.sum(axis=0).max())
+    return margin > 2.0 * SINGULAR_TOLERANCE and step2 <= 0.25 * margin * margin
 
 
 def jacobian(links: Sequence[float], q: ArrayLike) -> NDArray[np.float64]:
