@@ -40,7 +40,8 @@ operation sees of the server), :mod:`~robodcn.http.planbody`,
 through :func:`robodcn.admission.admit`), :mod:`~robodcn.http.answer` (the edge: typed
 results of :mod:`robodcn.results` and errors as replies), :mod:`~robodcn.http.server`
 (selector loop, caps, pools), :mod:`~robodcn.http.listen` (``make_server``),
-:mod:`~robodcn.http.service` (``serve``).
+:mod:`~robodcn.http.prefork` (a plan-only service in N worker processes,
+``make_server(..., processes=N)``), :mod:`~robodcn.http.service` (``serve``).
 """
 
 from robodcn.http.auth import TOKEN_ENV
@@ -49,11 +50,12 @@ from robodcn.http.limits import MAX_BODY, MAX_CONNECTIONS, MAX_PER_CLIENT, REQUE
 from robodcn.http.listen import ListenError, make_server
 from robodcn.http.openapi import openapi, schemas
 from robodcn.http.planbody import MOVE_FIELDS, PLAN_FIELDS, parse_plan_body
+from robodcn.http.prefork import PreforkServer, WorkerExitError
 from robodcn.http.routes import ROUTES, Route
 from robodcn.http.server import RobodcnHTTPServer
 from robodcn.http.service import serve
 
 __all__ = ["MAX_BODY", "MAX_CONNECTIONS", "MAX_PER_CLIENT", "MOVE_FIELDS", "PLAN_FIELDS",
            "REQUEST_TIMEOUT", "ROUTES", "TOKEN_ENV", "HTTPError", "ListenError",
-           "RobodcnHTTPServer", "Route", "make_server", "openapi", "parse_plan_body", "schemas",
-           "serve"]
+           "PreforkServer", "RobodcnHTTPServer", "Route", "WorkerExitError", "make_server",
+           "openapi", "parse_plan_body", "schemas", "serve"]
