@@ -1,9 +1,9 @@
 """HTTP service throughput: POST /v1/trajectories from 8 concurrent keep-alive clients.
 
-The server runs in its own process(es): ``make_server`` on an ephemeral port, plan-only, as
-``robodcn serve --plan-only --processes N`` runs it, once with 1 process and once with
-:data:`PROCESSES` (the target row: planning is CPU-bound Python, one interpreter plans on
-one core). The 8 clients are threads of this process, each sending a 2 s, 100 Hz plan for
+The server is ``robodcn serve --plan-only --processes N --port 0`` (its request log, one
+INFO line a request, to /dev/null) in processes of its own, once with 1 process and once
+with :data:`PROCESSES` (the target row: planning is CPU-bound Python, one interpreter plans
+on one core). The 8 clients are threads of this process, each sending a 2 s, 100 Hz plan for
 the 3R arm back to back for 10 s. Latency is from sending the request to having read the
 whole response.
 
@@ -38,14 +38,6 @@ TARGET_RPS = 600.0
 TARGET_P99_MS = 50.0
 BODY = {"waypoints": [[0.25, 0.10, 0.0], [0.15, 0.20, 1.0]], "duration": 2.0, "rate_hz": 100}
 
-_SERVER = """
-import sys
-from robodcn.config import load_arm
-from robodcn.http import make_server
-server = make_server(load_arm(sys.argv[1]), None, port=0, processes=int(sys.argv[2]))
-print(server.server_address[1], flush=True)
-server.serve_forever()
-"""
 
 
 def _cpu_seconds(pid: int) -> float | None:
@@ -128,11 +120,16 @@ def measure(seconds: float = SECONDS, clients: int = CLIENTS,
     """Requests/s, p50/p99/max latency (s), error count, samples per plan, and CPU ms per
     request of the server's processes and of the clients (NaN without /proc)."""
     env = {**os.environ, "PYTHONPATH": str(ROOT)}
-    proc = subprocess.Popen([sys.executable, "-c", _SERVER, str(ROOT / "configs" / "arm3r.toml"),
-                             str(processes)], stdout=subprocess.PIPE, env=env, text=True)
+    env.pop("ROBODCN_TOKEN", None)
+    # The command line itself, with its request log (INFO, one line a request) to nowhere.
+    proc = subprocess.Popen([sys.executable, "-m", "robodcn", "serve", "--plan-only",
+                             "--processes", str(processes), "--port", "0", "--arm",
+                             str(ROOT / "configs" / "arm3r.toml")],
+                            stdout=subprocess.PIPE, stderr=subprocess.DEVNULL, env=env,
+                            text=True)
     try:
         assert proc.stdout is not None
-        port = int(proc.stdout.readline())
+        port = int(proc.stdout.readline().rsplit(":", 1)[1])
         body = json.dumps(BODY).encode()
         # Warm every worker: the kernel spreads connections, so several clients at once.
         warm = [threading.Thread(target=_client, args=(port, body, time.perf_counter() + 0.5,
@@ -191,11 +188,10 @@ def run() -> str:
         "",
         f"{CLIENTS} concurrent keep-alive clients (threads of the bench process), each posting "
         f"a 2 s, 100 Hz plan for the 3R arm ({int(many['samples'])} samples, full Trajectory "
-        f"JSON back) for {SECONDS:g} s, to a plan-only service in processes of its own: as "
-        f"`robodcn serve --plan-only` runs it with 1 process and with `--processes "
-        f"{PROCESSES}` (the target column: {PROCESSES} worker processes on one port, each a "
-        "selector thread framing requests and a worker pool answering them). Both in the same "
-        "run.",
+        f"JSON back) for {SECONDS:g} s, to `robodcn serve --plan-only` (request log on) in "
+        f"processes of its own, with 1 process and with `--processes {PROCESSES}` (the target "
+        f"column: {PROCESSES} worker processes on one port, each a selector thread framing "
+        "requests and a worker pool answering them). Both in the same run.",
         "",
         f"| measure | 1 process | {PROCESSES} processes (target) | target |",
         "|---|---|---|---|",
