@@ -16,6 +16,7 @@ import signal
 import subprocess
 import sys
 import time
+from collections.abc import Iterator
 from pathlib import Path
 
 import pytest
@@ -37,17 +38,37 @@ PLAN = {"waypoints": [[0.25, 0.10, 0.0], [0.15, 0.20, 1.0]], "duration": 0.5, "r
 DEADLINE = 30.0
 
 
-def _start(processes: int) -> tuple[subprocess.Popen[str], int]:
+def _spawn(processes: int) -> subprocess.Popen[str]:
     env = {**os.environ, "PYTHONUNBUFFERED": "1"}
     env.pop("ROBODCN_TOKEN", None)
-    proc = subprocess.Popen([sys.executable, "-m", "robodcn", "serve", "--arm", ARM_FILE,
+    return subprocess.Popen([sys.executable, "-m", "robodcn", "serve", "--arm", ARM_FILE,
                              "--plan-only", "--processes", str(processes), "--port", "0",
                              "--log-level", "warning"],
                             stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=env)
+
+
+def _ready(proc: subprocess.Popen[str]) -> int:
     assert proc.stdout is not None
     line = proc.stdout.readline()
     assert " on http://" in line, (line, proc.stderr.read() if proc.poll() is not None else "")
-    return proc, int(line.rsplit(":", 1)[1])
+    return int(line.rsplit(":", 1)[1])
+
+
+#: The services the tests below use, by name: (processes); started together (their start-up,
+#: mostly imports, overlaps) by the ``services`` fixture.
+SERVICES = {"two": 2, "one": 1, "three": 3, "victim": 2}
+
+
+@pytest.fixture(scope="module")
+def services() -> Iterator[dict[str, subprocess.Popen[str]]]:
+    procs = {name: _spawn(n) for name, n in SERVICES.items()}
+    try:
+        yield procs
+    finally:
+        for proc in procs.values():
+            if proc.poll() is None:
+                proc.kill()
+            proc.communicate(timeout=DEADLINE)
 
 
 def _children(pid: int) -> set[int]:
@@ -111,8 +132,10 @@ def _expected() -> bytes:
     return plan_request(parse_plan(ARM, decode_json(raw, "application/json"))).to_json().encode()
 
 
-def test_every_worker_answers_the_planners_bytes_and_ends_with_the_service() -> None:
-    proc, port = _start(2)
+def test_every_worker_answers_the_planners_bytes_and_ends_with_the_service(
+        services: dict[str, subprocess.Popen[str]]) -> None:
+    proc = services["two"]
+    port = _ready(proc)
     try:
         workers = _workers(proc, 2)
         expected = _expected()
@@ -146,16 +169,40 @@ def test_every_worker_answers_the_planners_bytes_and_ends_with_the_service() -> 
     assert not _children(proc.pid)
 
 
-def test_ctrl_c_ends_the_service_and_its_workers() -> None:
-    proc, _ = _start(3)
+def test_plan_only_in_one_process_plans_and_has_no_arm(
+        services: dict[str, subprocess.Popen[str]]) -> None:
+    proc = services["one"]
+    port = _ready(proc)
+    try:
+        conn = http.client.HTTPConnection("127.0.0.1", port, timeout=DEADLINE)
+        conn.request("POST", "/v1/trajectories", body=json.dumps(PLAN),
+                     headers={"Content-Type": "application/json"})
+        resp = conn.getresponse()
+        assert (resp.status, resp.read()) == (200, _expected())
+        conn.request("GET", "/v1/state")
+        resp = conn.getresponse()
+        assert resp.status == 503 and json.loads(resp.read())["error"]["code"] == "no_arm"
+        conn.close()
+        assert not _children(proc.pid)  # no worker processes: the server itself answers
+    finally:
+        err = _stop(proc)
+    assert proc.returncode == 0, err
+
+
+def test_ctrl_c_ends_the_service_and_its_workers(
+        services: dict[str, subprocess.Popen[str]]) -> None:
+    proc = services["three"]
+    _ready(proc)
     workers = _workers(proc, 3)
     err = _stop(proc, signal.SIGINT)
     assert proc.returncode == 0, err
     assert not any(_alive(pid) for pid in workers), workers
 
 
-def test_a_worker_that_dies_ends_the_service_with_an_error() -> None:
-    proc, _ = _start(2)
+def test_a_worker_that_dies_ends_the_service_with_an_error(
+        services: dict[str, subprocess.Popen[str]]) -> None:
+    proc = services["victim"]
+    _ready(proc)
     workers = _workers(proc, 2)
     victim, other = sorted(workers)
     os.kill(victim, signal.SIGKILL)

@@ -31,6 +31,7 @@ from __future__ import annotations
 
 import contextlib
 import ctypes
+import gc
 import logging
 import os
 import selectors
@@ -128,6 +129,9 @@ class PreforkServer:
         worker ends by itself (then :class:`WorkerExitError`); every worker is ended and
         reaped before it returns. ``poll_interval`` is each worker's."""
         self._stopped.clear()
+        # What the parent has built stays shared with the workers: a collection in a worker
+        # no longer writes to (and so copies) the pages of every object it inherited.
+        gc.freeze()
         try:
             with self._signals():
                 for sock in self._sockets:
@@ -137,6 +141,7 @@ class PreforkServer:
                 died = self._wait()
         finally:
             self._end_workers()
+            gc.unfreeze()
             self._stopped.set()
         if died is not None:
             pid, status = died
