@@ -56,7 +56,7 @@ def _ready(proc: subprocess.Popen[str]) -> int:
 
 #: The services the tests below use, by name: (processes); started together (their start-up,
 #: mostly imports, overlaps) by the ``services`` fixture.
-SERVICES = {"two": 2, "one": 1, "three": 3, "victim": 2}
+SERVICES = {"two": 2, "one": 1, "three": 3, "victim": 2, "orphans": 2}
 
 
 @pytest.fixture(scope="module")
@@ -213,6 +213,19 @@ def test_a_worker_that_dies_ends_the_service_with_an_error(
     assert proc.returncode == 6, err
     assert f"worker process {victim}" in err and "SIGKILL" in err, err
     assert not _alive(other)
+
+
+def test_workers_end_when_the_parent_is_killed(
+        services: dict[str, subprocess.Popen[str]]) -> None:
+    proc = services["orphans"]
+    _ready(proc)
+    workers = _workers(proc, 2)
+    proc.kill()
+    proc.communicate(timeout=DEADLINE)
+    deadline = time.monotonic() + DEADLINE
+    while any(_alive(pid) for pid in workers):
+        assert time.monotonic() < deadline, workers
+        time.sleep(0.05)
 
 
 @pytest.mark.parametrize("target", [["--sim"], ["--device", "/dev/null"], []])

@@ -11,13 +11,15 @@ Only for a plan-only service (no controller): a worker is a copy of the parent, 
 would mean N owners of one servo bus. Each worker has its own limits (connections in all
 and per address, worker threads): the caps of :mod:`robodcn.http.limits` hold per process.
 
-Lifecycle: ``serve_forever()`` (main thread of a process that has started no threads of its
-own: the workers are forked) returns after ``shutdown()`` — from another thread, or SIGTERM
-or SIGINT, which it handles while it runs — once every worker has ended (SIGTERM to each;
-one that does not end within :data:`STOP_WAIT` s is killed), all reaped. A worker that ends
-by itself is not restarted: the parent logs it, ends the others and raises
-:class:`WorkerExitError` (exit code 6), so the service never serves on silently with part of
-its capacity. A worker whose parent dies gets SIGTERM (``PR_SET_PDEATHSIG``).
+Lifecycle (Linux: ``SO_REUSEPORT``, ``os.pidfd_open``): ``serve_forever()`` (main thread of a
+process that has started no threads of its own: the workers are forked) returns after
+``shutdown()`` — from another thread, or SIGTERM or SIGINT, which it handles while it runs —
+once every worker has ended (SIGTERM to each; one that does not end within
+:data:`STOP_WAIT` s is killed), all reaped. A worker that ends by itself is not restarted: the
+parent logs it, ends the others and raises :class:`WorkerExitError` (exit code 6), so the
+service never serves on silently with part of its capacity. A worker whose parent dies gets
+SIGTERM (``PR_SET_PDEATHSIG``); workers ignore SIGINT (Ctrl-C reaches the parent, which ends
+them).
 
 Why ``SO_REUSEPORT`` rather than one shared socket: with one socket every idle worker wakes
 for each connection and the first one takes whatever is queued, so one worker can end up
@@ -133,14 +135,16 @@ class PreforkServer:
         # no longer writes to (and so copies) the pages of every object it inherited.
         gc.freeze()
         try:
-            with self._signals():
-                for sock in self._sockets:
-                    self._fork(sock, poll_interval)
-                for sock in self._sockets:  # each worker holds its own now
-                    sock.close()
-                died = self._wait()
+            with self._signals():  # also while the workers end: a second Ctrl-C waits too
+                try:
+                    for sock in self._sockets:
+                        self._fork(sock, poll_interval)
+                    for sock in self._sockets:  # each worker holds its own now
+                        sock.close()
+                    died = self._wait()
+                finally:
+                    self._end_workers()
         finally:
-            self._end_workers()
             gc.unfreeze()
             self._stopped.set()
         if died is not None:
@@ -182,9 +186,10 @@ class PreforkServer:
                 signal.signal(sig, old)
 
     def _fork(self, sock: socket.socket, poll_interval: float) -> None:
+        parent = os.getpid()
         pid = os.fork()
         if pid == 0:  # the worker: never returns
-            self._worker(sock, poll_interval)
+            self._worker(sock, poll_interval, parent)
         self.workers[pid] = os.pidfd_open(pid)
         log.info("worker process %d serving", pid)
 
@@ -238,13 +243,16 @@ class PreforkServer:
 
     # -- a worker ------------------------------------------------------------------------------
 
-    def _worker(self, sock: socket.socket, poll_interval: float) -> None:
-        """Serve on ``sock`` until SIGTERM; exit status 0, or 1 when the server failed."""
+    def _worker(self, sock: socket.socket, poll_interval: float, parent: int) -> None:
+        """Serve on ``sock`` until SIGTERM; exit status 0, or 1 when the server failed (or
+        the parent is gone already)."""
         code = 1
         try:
             signal.signal(signal.SIGTERM, signal.SIG_DFL)  # not the parent's handler
             signal.signal(signal.SIGINT, signal.SIG_IGN)  # Ctrl-C reaches the parent
             _die_with_parent()
+            if os.getppid() != parent:
+                return
             for other in self._sockets:
                 if other is not sock:
                     other.close()
