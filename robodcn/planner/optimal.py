@@ -13,7 +13,7 @@ continuous IK); only the time law differs from the uniform profiles. The pipelin
   first sample at or after its end (at rest there: a via is a sample at rest); the joints
   are the C² quintic-Hermite interpolant of the dense IK samples the law was timed on (their
   q′, q″ the law's own: :class:`~robodcn.path_timing.arclength.Smooth`) and the poses their
-  FK, within interpolation error (~1e-10 m) of the path.
+  FK, within interpolation error (~1e-8 m) of the path.
 * **Blend** never takes longer than stopping at the vias: when the same waypoints timed
   with stops take fewer periods, the plan stops there (the blended curve departs from the
   segments and can be longer or more curved than they are).

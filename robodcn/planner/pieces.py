@@ -2,8 +2,9 @@
 
 The path is cut at every via where it stops (``blend=False``): ṡ = 0 there, so the
 time-optimal law of the whole path is the concatenation of the pieces' own rest-to-rest laws
-(the stops decouple them exactly); each piece is timed on ``DENSE`` IK samples of its joint
-path q(s). With ``blend=True`` the whole path is one piece that passes every via. A
+(the stops decouple them exactly); each piece is timed on ``DENSE`` IK samples a segment of
+its joint path q(s) (``DENSE_JERK`` when a joint sets a jerk limit). With ``blend=True``
+the whole path is one piece that passes every via. A
 joint-space approach from ``start_joints`` (or a moving start's brake) is a piece of its own
 (a straight joint line). With a start state the path runs from FK(q0) first
 (:func:`segments_from_start`).
@@ -20,7 +21,7 @@ from numpy.typing import NDArray
 from robodcn.config import Arm
 from robodcn.contract.request import PlanRequest
 from robodcn.interpolate import turn_angle
-from robodcn.path_timing import PathTiming
+from robodcn.path_timing import JointLimits, PathTiming
 from robodcn.planner.path import (
     Path,
     Segment,
@@ -35,8 +36,13 @@ from robodcn.planner.path import (
     within_limits,
 )
 
-#: IK samples per path segment the law is timed on (the whole path at most DENSE_MAX).
-DENSE = 400
+#: IK samples per path segment the law is timed on (the whole path at most DENSE_MAX). A
+#: jerk-free law reads q′ and q″ alone: on DENSE samples their second-order differences, and
+#: the C² interpolant the plan's joints are sampled from, keep the path within ~1e-8 m (3 nm
+#: seen on the test paths). The jerk pass also reads q‴, whose third differences need the
+#: finer DENSE_JERK (on DENSE it reads their error as curvature and slows the law).
+DENSE = 100
+DENSE_JERK = 400
 DENSE_MAX = 4000
 
 
@@ -122,7 +128,8 @@ def build_pieces(req: PlanRequest) -> tuple[list[DensePiece] | None, NDArray | N
         ref = np.asarray(req.start_joints)
     limits_ = [(jt.min_angle, jt.max_angle) for jt in arm.joints]
     # dense geometry, branch-continuous across pieces
-    per = max(16, min(DENSE, DENSE_MAX // max(1, len(segments))))
+    dense = DENSE_JERK if JointLimits.of(arm, torque=False).jerk_limited else DENSE
+    per = max(16, min(dense, DENSE_MAX // max(1, len(segments))))
     first_q = None
     for piece in pieces:
         s = _dense_s(piece.path, per)
