@@ -70,6 +70,10 @@ class StreamTime(FirmwareClock):
         return self._clock.now()
 
 
+#: Status timeout of the reads of a :func:`lockstep_arm` (ms; wall time).
+LOCKSTEP_RX_TIMEOUT_MS = 2000.0
+
+
 @contextlib.contextmanager
 def lockstep_arm(arm: Arm, **kw) -> Iterator[tuple]:
     """:func:`robodcn.simulated.simulated_arm` on virtual time: yields ``(sa, clock)``,
@@ -77,8 +81,10 @@ def lockstep_arm(arm: Arm, **kw) -> Iterator[tuple]:
     (:class:`StreamTime`); pass ``clock=clock`` to ``execute``. The physics then step per
     simulated second of the schedule, not per wall second: a test of what the stream and
     the physics do (tracking, compensation, collision currents) gets the same run on a
-    loaded machine as on an idle one. ``simulated_arm`` takes no clock, so its SimBusConfig
-    is given one here."""
+    loaded machine as on an idle one. On virtual time a reply's wall-clock lateness costs
+    nothing (the simulator thread, starved of the CPU on a loaded host, answers late, not
+    wrongly), so the reads wait for it up to :data:`LOCKSTEP_RX_TIMEOUT_MS`.
+    ``simulated_arm`` takes no clock, so its SimBusConfig is given one here."""
     from unittest import mock
 
     import robodcn.simulated as simulated
@@ -88,6 +94,7 @@ def lockstep_arm(arm: Arm, **kw) -> Iterator[tuple]:
     clock = VirtualClock()
     timed = functools.partial(SimBusConfig, clock=StreamTime(clock))
     with contextlib.ExitStack() as stack:
-        with mock.patch.object(simulated, "SimBusConfig", timed):
+        with mock.patch.object(simulated, "SimBusConfig", timed), \
+                mock.patch.object(simulated, "RX_TIMEOUT_MS", LOCKSTEP_RX_TIMEOUT_MS):
             sa = stack.enter_context(simulated.simulated_arm(arm, **kw))
         yield sa, clock
