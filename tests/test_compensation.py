@@ -8,29 +8,27 @@ import math
 
 import numpy as np
 import pytest
-from conftest import ARM3R
+from conftest import ARM3R, lockstep_arm
 
 from robodcn.planner import plan
-from robodcn.simulated import simulated_arm
 from robodcn.stream import execute
 
 DEMO = [(0.25, 0.10, 0.0), (0.12, 0.24, math.radians(60)), (-0.10, 0.22, math.radians(120))]
 SWEEP = [(0.30, 0.05, 0.0), (0.05, 0.30, math.radians(90))]
 
 
-def run(traj, compensation: bool, tries: int = 3):
-    """The report of a run that sent every sample, if one of ``tries`` did: a sample skipped
-    late (a loaded machine; the in-process simulator shares the CPU with the streamer) is a
-    goal jump the motor lags behind, which is not what compensation is measured on."""
-    for _ in range(tries):
-        with simulated_arm(ARM3R, timing="fast", start_joints=traj.joints[0]) as sa:
-            report = execute(traj, sa.bus, compensation=compensation, tracking_limit=None,
-                             settle=0.5)
-            assert not sa.sim.errors, sa.sim.errors
-        assert report.stop_reason == "completed", report.message
-        assert report.compensation is compensation
-        if report.samples_skipped == 0:
-            break
+def run(traj, compensation: bool):
+    """The report of a run on virtual time (conftest.lockstep_arm), every sample sent on
+    time: a sample skipped late (a loaded machine; the in-process simulator shares the CPU
+    with the streamer) is a goal jump the motor lags behind, which is not what compensation
+    is measured on."""
+    with lockstep_arm(ARM3R, timing="fast", start_joints=traj.joints[0]) as (sa, clock):
+        report = execute(traj, sa.bus, compensation=compensation, tracking_limit=None,
+                         settle=0.5, clock=clock)
+        assert not sa.sim.errors, sa.sim.errors
+    assert report.stop_reason == "completed", report.message
+    assert report.compensation is compensation
+    assert report.samples_skipped == 0 and report.lateness_max_s == 0.0
     return report
 
 
@@ -44,9 +42,8 @@ def test_compensation_follows_the_plan_five_times_better(waypoints, method):
     # The uncompensated servo really lags (the physics model), else the ratio means nothing.
     assert math.degrees(max(off.tracking_error_max_rad)) > 2.0
     assert (rms_on <= rms_off / 5).all(), (np.degrees(rms_on), np.degrees(rms_off))
-    if on.samples_skipped == 0:  # (three runs in a row skipping: a machine too busy to tell)
-        assert np.degrees(on.tracking_error_max_rad).max() <= 0.5, \
-            np.degrees(on.tracking_error_max_rad)
+    assert np.degrees(on.tracking_error_max_rad).max() <= 0.5, \
+        np.degrees(on.tracking_error_max_rad)
 
 
 def test_compensated_goals_lead_the_plan_and_stay_inside_the_limits():
@@ -61,7 +58,11 @@ def test_compensated_goals_lead_the_plan_and_stay_inside_the_limits():
     assert ((goals >= limits[:, 0]) & (goals <= limits[:, 1])).all()
 
 
+@pytest.mark.serial
 def test_cli_sim_switches_physics_and_compensation(capsys):
+    """Real time (the CLI streams on the wall clock against the physics sim): run alone in
+    the serial pass. Beside other tests, late-skipped samples left the compensated arm 2
+    ticks off and a 260 ms stall tripped the Bus Watchdog."""
     import json
 
     from robodcn import cli

@@ -10,7 +10,7 @@ import threading
 
 import numpy as np
 import pytest
-from conftest import ARM3R
+from conftest import ARM3R, lockstep_arm
 
 from robodcn import load_arm
 from robodcn.kinematics import fk_yawed
@@ -50,12 +50,15 @@ def wire_steps(sim, arm, since):
 def test_a_compensated_move_steps_within_the_velocity_limit_from_rest_to_rest(arm, waypoints,
                                                                                rate):
     traj = plan(arm, waypoints or omx_move(), duration="auto", rate_hz=rate)
-    with simulated_arm(arm, timing="fast", start_joints=traj.joints[0]) as sa:
+    # On virtual time (conftest.lockstep_arm): every sample on time, so a step is the lead's,
+    # not the schedule's; in real time a host stalled 260 ms tripped the Bus Watchdog.
+    with lockstep_arm(arm, timing="fast", start_joints=traj.joints[0]) as (sa, clock):
         since = {i: len(sa.sim.goal_history(i)) for i in arm.servo_ids}
-        # every sample sent (a late one skipped would be a jump of the schedule, not the lead)
-        report = execute(traj, sa.bus, tracking_limit=None, settle=0.3, skip_late=False)
+        report = execute(traj, sa.bus, tracking_limit=None, settle=0.3, skip_late=False,
+                         clock=clock)
         steps = wire_steps(sa.sim, arm, since)
     assert report.compensation and report.stop_reason == "completed", report.message
+    assert report.samples_sent == len(traj.t)
     assert (steps <= step_limits(arm, rate) + 1).all(), (steps, step_limits(arm, rate))
 
 

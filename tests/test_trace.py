@@ -7,10 +7,9 @@ import json
 import math
 
 import numpy as np
-from conftest import ARM3R
+from conftest import ARM3R, lockstep_arm
 
 from robodcn.planner import plan
-from robodcn.simulated import simulated_arm
 from robodcn.stream import ExecutionTrace, execute
 from robodcn.stream.trace import TraceRecorder
 
@@ -18,10 +17,14 @@ MOVE = [(0.25, 0.10, 0.0), (0.12, 0.24, math.radians(60)), (-0.10, 0.22, math.ra
 
 
 def _run(**kwargs):
+    """The move on the physics sim, on virtual time (conftest.lockstep_arm): the lag and
+    the currents the trace records are the physics' answer to the schedule, not to how
+    late a loaded host sent it (late samples skipped made the wrist's lag a jump)."""
     traj = plan(ARM3R, MOVE, method="kenlerp", beta=0.5, duration="auto")
-    with simulated_arm(ARM3R, timing="fast", start_joints=traj.joints[0]) as sa:
-        report = execute(traj, sa.bus, tracking_limit=None, **kwargs)
+    with lockstep_arm(ARM3R, timing="fast", start_joints=traj.joints[0]) as (sa, clock):
+        report = execute(traj, sa.bus, tracking_limit=None, clock=clock, **kwargs)
     assert report.stop_reason == "completed", report.message
+    assert report.samples_sent == len(traj.t) and report.lateness_max_s == 0.0
     return traj, report
 
 
