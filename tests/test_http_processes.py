@@ -24,7 +24,7 @@ from http_helpers import ARM, ROOT
 
 from robodcn.cli import main
 from robodcn.errors import InputError
-from robodcn.http import make_server
+from robodcn.http import ListenError, make_server
 from robodcn.http.jsonbody import decode_json
 from robodcn.http.planbody import parse_plan
 from robodcn.http.prefork import bind_group
@@ -237,6 +237,12 @@ def test_several_processes_with_an_arm_attached_are_refused(
     assert "--processes 2" in err and "--plan-only" in err, err
 
 
+def test_plan_only_takes_no_baud(capsys: pytest.CaptureFixture[str]) -> None:
+    code = main(["serve", "--arm", ARM_FILE, "--plan-only", "--baud", "57600", "--port", "0"])
+    err = capsys.readouterr().err
+    assert code == 2 and "--baud" in err and "--plan-only" in err, err
+
+
 @pytest.mark.parametrize("value", ["0", "-1", "x", "1.5"])
 def test_a_bad_number_of_processes_is_refused(value: str,
                                               capsys: pytest.CaptureFixture[str]) -> None:
@@ -268,6 +274,9 @@ def test_an_address_held_by_a_group_is_not_shared() -> None:
         with pytest.raises(OSError) as exc:
             bind_group("127.0.0.1", port, 2)
         assert exc.value.errno == errno.EADDRINUSE
+        with pytest.raises(ListenError) as refused:
+            make_server(ARM, None, port=port, processes=2)
+        assert refused.value.field == "port" and refused.value.value == port
     finally:
         for sock in group:
             sock.close()
