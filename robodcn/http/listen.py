@@ -1,7 +1,8 @@
 """Binding the service: :func:`make_server` checks its options and listens, or says why not.
 
 :class:`ListenError` (exit code 6) when the address cannot be bound; a non-loopback address
-needs a token (:mod:`robodcn.http.auth`).
+needs a token (:mod:`robodcn.http.auth`). ``processes=N`` above 1 binds N sockets on the
+address for a plan-only service in N worker processes (:mod:`robodcn.http.prefork`).
 """
 
 from __future__ import annotations
