@@ -11,11 +11,14 @@ scipy: no friction split, no efficiency, none of firmware_sim's code.
 
 from __future__ import annotations
 
+import contextlib
 import math
+from collections.abc import Iterator
+from typing import Any
 
 import numpy as np
 import pytest
-from dynamixel_sdk import COMM_RX_TIMEOUT, COMM_SUCCESS
+from dynamixel_sdk import COMM_SUCCESS
 from scipy.integrate import solve_ivp
 
 from firmware_sim import control_table as ct
@@ -71,19 +74,30 @@ def _torque_on(port) -> int:
     return s32(pos)
 
 
+#: How long every status packet is awaited (ms of wall time). These tests move a virtual
+#: clock themselves, so a reply's lateness costs nothing; the SDK's own ~34 ms deadline
+#: expired on a loaded machine while the in-process server thread waited for the CPU, and
+#: the late status then answered the next request (a write's status read as a read's: the
+#: SDK's IndexError).
+REPLY_WAIT_MS = 2000.0
+
+
+@contextlib.contextmanager
+def _port(bus: SimBus) -> Iterator[Any]:
+    """:func:`sdk_port` whose every transaction waits :data:`REPLY_WAIT_MS` for its status."""
+    with sdk_port(bus) as port:
+        port.setPacketTimeout = lambda _length: port.setPacketTimeoutMillis(REPLY_WAIT_MS)
+        yield port
+
+
 def _read(port, address: int, size: int) -> int:
-    """One register, read again after a timeout: these tests read thousands of times on a
-    virtual clock (a repeated read answers the same state), and on a loaded machine the
-    in-process server thread can miss one 34 ms SDK packet timeout."""
-    for _ in range(3):
-        if size == 4:
-            value, result, _ = PH.read4ByteTxRx(port, 1, address)
-            value = s32(value)
-        else:
-            value, result, _ = PH.read2ByteTxRx(port, 1, address)
-            value = value - 65536 if value & 0x8000 else value
-        if result != COMM_RX_TIMEOUT:
-            break
+    """One register of servo 1 (signed)."""
+    if size == 4:
+        value, result, _ = PH.read4ByteTxRx(port, 1, address)
+        value = s32(value)
+    else:
+        value, result, _ = PH.read2ByteTxRx(port, 1, address)
+        value = value - 65536 if value & 0x8000 else value
     assert result == COMM_SUCCESS
     return value
 
@@ -91,7 +105,7 @@ def _read(port, address: int, size: int) -> int:
 @pytest.mark.parametrize("model", ["xm430-w350", "xl430-w250"])
 def test_step_time_matches_datasheet_model(model):
     bus, clock = _sim(model)
-    with bus, sdk_port(bus) as port:
+    with bus, _port(bus) as port:
         start = _torque_on(port)
         PH.write4ByteTxRx(port, 1, ct.GOAL_POSITION, start + 1024)
         t, dt, reached = 0.0, 0.002, None
@@ -118,7 +132,7 @@ def test_step_time_matches_datasheet_model(model):
 def test_ramp_lag_matches_datasheet_model(model):
     speed = 1500.0                      # pulse/s ≈ 22 rpm, about half the no-load speed
     bus, clock = _sim(model)
-    with bus, sdk_port(bus) as port:
+    with bus, _port(bus) as port:
         start = _torque_on(port)
         dt = 0.001
         lags = []
@@ -136,7 +150,7 @@ def test_ramp_lag_matches_datasheet_model(model):
 
 def test_obstacle_raises_current_then_overload_trips_and_reboot_clears():
     bus, clock = _sim("xm430-w350")
-    with bus, sdk_port(bus) as port:
+    with bus, _port(bus) as port:
         start = _torque_on(port)
         bus.servo(1).set_obstacle(20.0)         # joint 0° at tick 2048: the wall at +20°
         PH.write4ByteTxRx(port, 1, ct.GOAL_POSITION, start + 1024)
@@ -163,7 +177,7 @@ def test_obstacle_raises_current_then_overload_trips_and_reboot_clears():
 
 def test_overheating_shuts_down():
     bus, clock = _sim("xm430-w350")
-    with bus, sdk_port(bus) as port:
+    with bus, _port(bus) as port:
         start = _torque_on(port)
         servo = bus.servo(1)
         servo.motion.drive.overload_s = -1e9          # keep the overload timer out of this test
@@ -182,7 +196,7 @@ def test_overheating_shuts_down():
 
 def test_backdrive_and_push_with_torque_off():
     bus, clock = _sim("xm430-w350")
-    with bus, sdk_port(bus) as port:
+    with bus, _port(bus) as port:
         servo = bus.servo(1)
         servo.backdrive(3000)
         assert _read(port, ct.PRESENT_POSITION, 4) == 3000
@@ -204,7 +218,7 @@ def test_backdrive_and_push_with_torque_off():
 
 
 def test_backdrive_works_in_the_kinematic_model_too():
-    with SimBus([1, 2]) as bus, sdk_port(bus) as port:
+    with SimBus([1, 2]) as bus, _port(bus) as port:
         bus.servo(2).backdrive(1234)
         value, result, _ = PH.read4ByteTxRx(port, 2, ct.PRESENT_POSITION)
         assert result == COMM_SUCCESS and value == 1234
@@ -212,7 +226,7 @@ def test_backdrive_works_in_the_kinematic_model_too():
 
 def test_present_items_follow_the_supply_voltage():
     bus, clock = _sim("xm430-w350", supply_voltage=11.1)
-    with bus, sdk_port(bus) as port:
+    with bus, _port(bus) as port:
         assert _read(port, ct.PRESENT_INPUT_VOLTAGE, 2) == 111
         start = _torque_on(port)
         PH.write4ByteTxRx(port, 1, ct.GOAL_POSITION, start + 2000)
@@ -229,7 +243,7 @@ def test_present_items_follow_the_supply_voltage():
                                   ct.MODE_EXTENDED_POSITION, ct.MODE_CURRENT_POSITION])
 def test_operating_modes_drive_the_motor(mode):
     bus, clock = _sim("xm430-w350")
-    with bus, sdk_port(bus) as port:
+    with bus, _port(bus) as port:
         assert PH.write1ByteTxRx(port, 1, ct.OPERATING_MODE, mode)[0] == COMM_SUCCESS
         start = _torque_on(port)
         if mode == ct.MODE_VELOCITY:
