@@ -147,7 +147,7 @@ def test_path_near_the_straight_arm_keeps_its_branch(gap: float) -> None:
 
 @given(seed=st.integers(0, 2**32 - 1), near=st.sampled_from([None, 0.0, math.pi, 1e-7]),
        scale=st.sampled_from([0.01, 0.3, 3.0]), with_reference=st.booleans())
-@settings(max_examples=80)
+@settings(max_examples=80, deadline=None)
 def test_ik_path_is_the_nearest_branch_rule(seed: int, near: float | None, scale: float,
                                             with_reference: bool) -> None:
     """ik_path solves one branch unless the path nears a singularity (kinematics doc): it
