@@ -136,8 +136,11 @@ def _fine(joints: NDArray, ticks: NDArray, lo: NDArray, hi: NDArray, tmin: NDArr
           tmax: NDArray, limits: tuple[NDArray, NDArray, NDArray] | None, rate: float,
           slack: float) -> bool:
     """Whether every check passes, from per-joint extremes on contiguous columns (the fast
-    path: per-sample arrays are built only when something fails)."""
+    path: per-sample arrays are built only when something fails); a short plan's whole
+    arrays at once (:data:`FINE_BLOCK_ROWS`), the same extremes."""
     n = joints.shape[0]
+    if n < FINE_BLOCK_ROWS:
+        return _fine_block(joints, ticks, lo, hi, tmin, tmax, limits, rate, slack)
     for j in range(joints.shape[1]):
         q = np.ascontiguousarray(joints[:, j])
         tick = np.ascontiguousarray(ticks[:, j])
@@ -159,6 +162,39 @@ def _fine(joints: NDArray, ticks: NDArray, lo: NDArray, hi: NDArray, tmin: NDArr
             d3 = differences(q[:, None], 3)
             if d3.max() * rate ** 3 > jk[j] * slack:
                 return False
+    return True
+
+
+#: Plans shorter than this are checked on their whole (n, k) arrays at once (fewer numpy
+#: calls), longer ones a contiguous joint column at a time (each stays in cache).
+FINE_BLOCK_ROWS = 512
+
+
+def _fine_block(joints: NDArray, ticks: NDArray, lo: NDArray, hi: NDArray, tmin: NDArray,
+                tmax: NDArray, limits: tuple[NDArray, NDArray, NDArray] | None, rate: float,
+                slack: float) -> bool:
+    """:func:`_fine` on the whole arrays: the same per-joint extremes and comparisons."""
+    n = joints.shape[0]
+    if not ((lo <= joints.min(axis=0)).all() and (joints.max(axis=0) <= hi).all()
+            and (tmin <= ticks.min(axis=0)).all() and (ticks.max(axis=0) <= tmax).all()):
+        return False
+    if limits is None or n < 2:
+        return True
+    v, a, jk = limits
+    d = np.diff(joints, axis=0)
+    if (np.abs(d).max(axis=0) * rate > v * slack).any():
+        return False
+    # At rest on both sides: the end velocities are accelerations from/to zero.
+    step = np.maximum(np.abs(d[0]), np.abs(d[-1]))
+    if n > 2:
+        step = np.maximum(step, np.abs(np.diff(d, axis=0)).max(axis=0))
+    if (step * rate * rate > a * slack).any():
+        return False
+    limited = np.isfinite(jk)
+    if limited.any():
+        d3 = differences(joints[:, limited], 3).max(axis=0)
+        if (d3 * rate ** 3 > jk[limited] * slack).any():
+            return False
     return True
 
 
