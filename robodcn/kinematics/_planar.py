@@ -447,7 +447,8 @@ def ik_path_unchecked(links: tuple[float, ...], poses: NDArray[np.float64],
     if reference is not None:
         target = reference
     elif limits is not None:
-        target = np.asarray(limits, dtype=np.float64).mean(axis=1)
+        middle = np.asarray(limits, dtype=np.float64)
+        target = (middle[:, 0] + middle[:, 1]) * 0.5  # the rows' mean, as (a + b)/2 is
     else:
         target = np.zeros(k)
     out = np.empty_like(rows)
