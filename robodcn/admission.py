@@ -129,7 +129,9 @@ def admit(controller: ArmController, order: MoveOrder, *,
             with planning(request):
                 log.debug("replace: %.1f ms to its planning lane",
                           (time.perf_counter() - asked) * 1000)
-                return controller.replace_move(request)
+                record = controller.replace_move(request)
+        log.debug("replace: move %s in %.1f ms", record.id, (time.perf_counter() - asked) * 1000)
+        return record
     arm = controller.arm
     with controller.admitting():
         ticks = controller.present_ticks()

@@ -9,8 +9,9 @@ one's planning — had its switch placed from the auto retargets' times, so it m
 planned again. Load is simulated here by a slowed or blocked planner (the outcome is
 checked, not the host's timing): a replace while another is planned is refused after
 :data:`~robodcn.controller.REPLACE_WAIT` instead of queueing; an operation gives up (409,
-nothing changed) when its budget leaves no time for another attempt; a retarget to a
-duration is placed from the planning times of retargets to a duration.
+nothing changed) when its budget leaves no time for another attempt, or when another
+operation holds the execution for longer; a retarget to a duration is placed from the
+planning times of retargets to a duration.
 """
 
 from __future__ import annotations
@@ -27,7 +28,7 @@ from http_helpers import ARM, LOADED_MACHINE, TARGET
 from robodcn.admission import MoveOrder, admit
 from robodcn.contract import MOVE_OMIT, parse_request
 from robodcn.controller import REPLACE_WAIT, ArmController
-from robodcn.errors import BusyError
+from robodcn.errors import BusyError, RobodcnError
 from robodcn.planner import plan
 from robodcn.simulated import SimulatedArm, simulated_arm
 from robodcn.stream.online import PlanningTimes, SwitchMissed
@@ -137,6 +138,49 @@ def test_an_operation_past_its_budget_is_refused_and_changes_nothing(
     assert len(calls) == 1, "planned again past the budget"
     assert execution.switches == [] and old.status == "running"
     assert controller.move_info(old.id).status == "running"
+
+
+def test_an_operation_behind_a_planning_replace_is_refused_within_its_budget(
+        rig: tuple[SimulatedArm, ArmController], monkeypatch: Any) -> None:
+    """A pause, a speed change or a smooth stop waits for a replace's planning on the
+    execution's lock: within the budget at most, then 409 (nothing changed) — a smooth stop
+    then holds at once — instead of for all of that planning."""
+    _, controller = rig
+    old = _running(controller, duration=6.0)
+    planned, release = threading.Event(), threading.Event()
+    real = Retargeting.tail
+
+    def blocked(self: Retargeting, *args: Any, **kwargs: Any) -> Any:
+        planned.set()
+        assert release.wait(30)
+        return real(self, *args, **kwargs)
+
+    monkeypatch.setattr(Retargeting, "tail", blocked)
+    outcome: list[Any] = []
+
+    def replace() -> None:
+        try:
+            outcome.append(controller.replace_move(_request(OTHER)))
+        except RobodcnError as exc:  # 409 either way once released: the move has stopped
+            outcome.append(exc)
+
+    thread = threading.Thread(target=replace, daemon=True)
+    thread.start()
+    try:
+        assert planned.wait(10), "the replace never planned"
+        with pytest.raises(BusyError) as paused:
+            controller.pause()
+        assert isinstance(paused.value.__cause__, SwitchMissed)
+        with pytest.raises(BusyError):
+            controller.set_speed(0.5)
+        assert thread.is_alive() and not outcome, "answered only after the replace"
+        assert not old.paused and old.speed_scale == 1.0
+        controller.stop_move("smooth")  # behind the replace: a hold at once
+        assert old.done.wait(10) and old.status == "stopped"
+    finally:
+        release.set()
+        thread.join(30)
+    assert outcome
 
 
 def test_a_retarget_to_a_duration_is_placed_from_its_own_planning_times(

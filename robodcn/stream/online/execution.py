@@ -24,11 +24,13 @@ the stop.
 
 from __future__ import annotations
 
+import contextlib
 import dataclasses
 import logging
 import sys
 import threading
-from collections.abc import Callable, Sequence
+import time
+from collections.abc import Callable, Iterator, Sequence
 from typing import Any
 
 import numpy as np
@@ -47,7 +49,7 @@ from robodcn.stream.online.samples import OnlineSamples, Segment
 from robodcn.stream.online.speed import KeepPlanned, resume_tail, speed_scale, speed_tail
 from robodcn.stream.online.state import State
 from robodcn.stream.online.stop import PathEnds, PauseKeeper, brake_to_rest, pause_hold
-from robodcn.stream.online.switch import Switch, Switcher
+from robodcn.stream.online.switch import Switch, Switcher, SwitchMissed
 from robodcn.stream.online.timing import Timing
 from robodcn.stream.online_path import JointPath, brake_checked, retime
 from robodcn.stream.options import ExecutionOptions
@@ -271,20 +273,34 @@ class Execution:
 
     # -- applying an operation ------------------------------------------------------------
 
+    @contextlib.contextmanager
+    def _turn(self, what: str) -> Iterator[float]:
+        """Hold the execution's lock for one operation ``what``, waited for :attr:`budget_s`
+        at most (then SwitchMissed: nothing changed); yields when it was asked
+        (``time.perf_counter``), which the budget counts from."""
+        asked = time.perf_counter()
+        if not self._lock.acquire(timeout=-1 if self.budget_s is None else self.budget_s):
+            raise SwitchMissed(what, self.status, "another operation was being planned")
+        try:
+            yield asked
+        finally:
+            self._lock.release()
+
     def _apply(self, what: str, tail: Callable[[State], list[Segment]], *,
-               hold: int = 0, measure: str | None = None) -> int:
+               hold: int = 0, measure: str | None = None, asked: float | None = None) -> int:
         """Plan ``tail`` at a switch ahead of the loop and swap it in (:class:`Switcher`;
-        its planning measured as ``measure``, default ``what``); the first changed sample.
+        its planning measured as ``measure``, default ``what``; ``asked``: when the
+        operation was asked, ``time.perf_counter``, default now); the first changed sample.
         InputError when the execution is not running;
         :class:`~robodcn.stream.online.switch.SwitchMissed` when no attempt landed (within
-        :attr:`budget_s`)."""
+        :attr:`budget_s` from ``asked``)."""
         requested = self._options.clock.now()
         if not self._attached.wait(ATTACH_TIMEOUT_S) or self.done or self._switcher is None:
             raise InputError(f"cannot {what}: the execution is not running",
                              field="execution", value=self.status)
         first = self._switcher.apply(what, tail, requested=requested, hold=hold,
                                      speed=self.speed, status=self.status, measure=measure,
-                                     budget=self.budget_s)
+                                     budget=self.budget_s, asked=asked)
         if self.on_change is not None:
             self.on_change(what)
         return first
@@ -323,13 +339,13 @@ class Execution:
     def pause(self) -> None:
         """Brake along the path to rest and stay there (the stream goes on)."""
         self._need_arm("pause")
-        with self._lock:
+        with self._turn("pause") as asked:
             if self.paused:
                 return
             rate = self._stream.source.rate_hz if self._stream else 1.0
             try:
                 self._apply("pause", lambda st: brake_to_rest(self._laws(), st),
-                            hold=pause_hold(rate))
+                            hold=pause_hold(rate), asked=asked)
             except PathEnds:
                 log.info("pause: the move ends before a brake could stop it")
                 return
@@ -341,13 +357,14 @@ class Execution:
     def resume(self) -> None:
         """Continue the same path from where the pause left it, timed from there."""
         self._need_arm("resume")
-        with self._lock:
+        with self._turn("resume") as asked:
             if not self.paused:
                 return
             self.paused = False
             k = self.speed
             try:
-                self._apply("resume", lambda st: resume_tail(self._laws(), st, k))
+                self._apply("resume", lambda st: resume_tail(self._laws(), st, k),
+                            asked=asked)
             except KeepPlanned as exc:
                 log.info("resume: %s; the held end of the path stands", exc.reason)
             self.status = "running"
@@ -360,12 +377,13 @@ class Execution:
         set: a resume uses it)."""
         k = speed_scale(scale)
         self._need_arm("change speed")
-        with self._lock:
+        with self._turn("change speed") as asked:
             self.speed = k
             if self.paused or self.status == "stopping" or self.done:
                 return
             try:
-                self._apply("change speed", lambda st: speed_tail(self._laws(), st, k))
+                self._apply("change speed", lambda st: speed_tail(self._laws(), st, k),
+                            asked=asked)
             except KeepPlanned as exc:
                 log.info("speed %.3g: %s; the move ends as planned", k, exc.reason)
 
@@ -383,12 +401,12 @@ class Execution:
         the first changed sample; :meth:`report_from` it gives the new move's counts.
         Raises the planner's errors (nothing changes)."""
         self._need_arm("retarget")
-        with self._lock:
+        with self._turn("retarget") as asked:
             self.paused = False
             self._told = None
             first = self._apply("retarget", lambda st: self._retarget_tail(st, target,
                                                                            plan_options),
-                                measure=_measured_as(target, plan_options))
+                                measure=_measured_as(target, plan_options), asked=asked)
             if self._told is not None:
                 # the replacement was told another payload: the operations after it too
                 self._timing = self._told

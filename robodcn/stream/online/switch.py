@@ -85,14 +85,17 @@ class Switcher:
 
     def apply(self, what: str, tail: Callable[[State], list[Segment]], *, requested: float,
               hold: int = 0, speed: float = 1.0, status: str = "running",
-              measure: str | None = None, budget: float | None = None) -> int:
+              measure: str | None = None, budget: float | None = None,
+              asked: float | None = None) -> int:
         """Plan ``tail`` from the state at a switch sample ahead of the loop and swap it in.
 
         ``tail`` returns the new samples as segments (joints, σ, path), each on one path;
         the last one is followed by ``hold`` repeats of its last goal. Returns the first
         changed sample. ``measure``: the name its planning times are kept under
-        (:class:`PlanningTimes`; default ``what``); ``budget``: seconds from the call
-        within which an attempt must be expected to end to be started (None: no bound).
+        (:class:`PlanningTimes`; default ``what``); ``budget``: seconds from ``asked``
+        (``time.perf_counter`` when the operation was asked; default now) within which the
+        execution's lock must be had and an attempt be expected to end to be started
+        (None: no bound).
 
         Raises
         ------
@@ -101,9 +104,14 @@ class Switcher:
             another attempt); nothing changed."""
         stream, jerk = self.stream, self.timing.jerk
         measure = measure or what
-        started = time.perf_counter()
+        started = time.perf_counter() if asked is None else asked
+        wait = -1.0 if budget is None else max(0.0, budget - (time.perf_counter() - started))
+        if not self.lock.acquire(timeout=wait):
+            raise SwitchMissed(what, status, "another operation was being planned")
         keeper = EndKeeper(self) if what == "retarget" else None
-        with self.lock, keeper or contextlib.nullcontext():
+        with contextlib.ExitStack() as held:
+            held.callback(self.lock.release)
+            held.enter_context(keeper or contextlib.nullcontext())
             log.debug("%s: waited %.1f ms for the execution's lock", what,
                       (time.perf_counter() - started) * 1000)
             ahead = self.planning_times.expected(measure, jerk)
