@@ -62,6 +62,7 @@ def test_a_compensated_move_steps_within_the_velocity_limit_from_rest_to_rest(ar
     assert (steps <= step_limits(arm, rate) + 1).all(), (steps, step_limits(arm, rate))
 
 
+@pytest.mark.serial    # real time: a stop from another thread at a wall-clock moment
 @pytest.mark.parametrize("arm,waypoints", [(ARM3R, MOVE_3R), (OMX, None)], ids=["3r", "omx"])
 def test_a_hold_mid_move_keeps_the_goal_it_was_heading_for(arm, waypoints):
     traj = plan(arm, waypoints or omx_move(), duration="auto")
