@@ -181,6 +181,42 @@ def test_ik_path_is_the_nearest_branch_rule(seed: int, near: float | None, scale
             np.testing.assert_allclose(q, expected, atol=1e-9, err_msg=f"{name} {elbow}")
 
 
+@given(seed=st.integers(0, 2**32 - 1), near=st.sampled_from([None, 0.0, 1e-7]),
+       with_reference=st.booleans(), unreachable=st.booleans())
+@settings(max_examples=60, deadline=None)
+def test_stacked_paths_solve_as_each_alone(seed: int, near: float | None,
+                                           with_reference: bool, unreachable: bool) -> None:
+    """ik_paths_unchecked gives every stacked path exactly (bit for bit) what
+    ik_path_unchecked gives it alone: paths of one start sampled at different counts (the
+    search's use), and unrelated paths, near singularities and out of reach too."""
+    rng = np.random.default_rng(seed)
+    for links in ARMS.values():
+        k = len(links)
+        q0 = rng.uniform(-math.pi, math.pi, k)
+        if near is not None:
+            q0[1] = near
+        q1 = q0 + rng.normal(0.0, 0.5, k)
+        counts = [int(c) for c in rng.integers(2, 60, 3)]
+        paths = [K.fk(links, q0 + np.linspace(0.0, 1.0, c)[:, None] * (q1 - q0))
+                 for c in counts]
+        if rng.random() < 0.3:  # an unrelated path among them
+            paths[1] = K.fk(links, rng.uniform(-math.pi, math.pi, (counts[1], k)))
+        if unreachable:
+            paths[2][rng.integers(0, counts[2])] += [1.0, 0.0, 0.0]
+        reference = q0 + rng.normal(0.0, 0.1, k) if with_reference else None
+        limits = [(-3.0, 3.0)] * k
+        for elbow in K.ELBOWS:
+            together = K.ik_paths_unchecked(links, np.concatenate(paths), counts, reference,
+                                            elbow, limits)
+            for path, (q, bad) in zip(paths, together, strict=True):
+                q_alone, bad_alone = K.ik_path_unchecked(links, path, reference, elbow, limits)
+                assert bad == bad_alone
+                if q_alone is None:
+                    assert q is None
+                else:
+                    np.testing.assert_array_equal(q, q_alone)
+
+
 def test_path_is_unwrapped_around_the_base() -> None:
     """Two full turns of the tool about the base: joints grow continuously past ±π."""
     links = ARMS["3r"]

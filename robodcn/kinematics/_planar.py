@@ -16,6 +16,7 @@ Every function takes arrays of shape (n, ...) and never loops over samples in Py
 
 from __future__ import annotations
 
+import itertools
 import math
 from collections.abc import Sequence
 
@@ -425,40 +426,93 @@ def ik_path_unchecked(links: tuple[float, ...], poses: NDArray[np.float64],
     n = poses.shape[0]
     if n == 0:
         return np.empty((0, k)), None
-    if reference is None:
-        first_down = elbow == "down"
-    else:
-        first, ok = _block(links, poses[:1])
-        if not ok[0]:
-            return None, 0
-        d_up, d_dn = _sq_sum(_wrap_in_place(first - reference[:, None]))[:, 0]
-        # A tie (singular first pose or a reference midway) goes to the preferred branch.
-        first_down = bool(d_dn < d_up) if abs(d_dn - d_up) > SINGULAR_TOLERANCE ** 2 \
-            else elbow == "down"
-    one, ok = _block(links, poses, "down" if first_down else "up")
+    first_down = _first_down(links, poses[:1], reference, elbow)
+    if first_down is None:
+        return None, 0
+    one, ok = _block(links, poses, "down" if first_down[0] else "up")
     if not ok.all():
         return None, int(np.argmin(ok))
     rows = one[0]
     steps = _wrap_in_place(rows[:, 1:] - rows[:, :-1])
     if not _one_branch_holds(rows[1], steps):
         block, _ = _block(links, poses)
-        rows = np.where(_choose(block, first_down), block[1], block[0])
+        rows = np.where(_choose(block, first_down[0]), block[1], block[0])
         steps = _wrap_in_place(rows[:, 1:] - rows[:, :-1])
+    return _unwrapped(rows, steps, _target(k, reference, limits)), None
+
+
+def ik_paths_unchecked(links: tuple[float, ...], poses: NDArray[np.float64],
+                       counts: Sequence[int], reference: NDArray[np.float64] | None = None,
+                       elbow: str = "up", limits: ArrayLike | None = None
+                       ) -> list[tuple[NDArray[np.float64] | None, int | None]]:
+    """:func:`ik_path_unchecked` of several paths stacked in ``poses`` (``counts`` rows each,
+    in order), each exactly as that path alone gives it; in one pass over all of them where
+    they start on one branch and stay clear of singularities (a search's candidate
+    samplings of one path), else path by path."""
+    edges = np.cumsum([0, *counts])
+    alone = [(int(a), int(b)) for a, b in itertools.pairwise(edges)]
+
+    def each() -> list[tuple[NDArray[np.float64] | None, int | None]]:
+        return [ik_path_unchecked(links, poses[a:b], reference, elbow, limits)
+                for a, b in alone]
+
+    if len(alone) < 2 or min(counts) < 2 or edges[-1] != poses.shape[0]:
+        return each()
+    first_down = _first_down(links, poses[edges[:-1]], reference, elbow)
+    if first_down is None or first_down.any() != first_down.all():
+        return each()
+    one, ok = _block(links, poses, "down" if first_down[0] else "up")
+    if not ok.all():
+        return each()
+    rows = one[0]
+    steps = _wrap_in_place(rows[:, 1:] - rows[:, :-1])
+    inner = np.ones(steps.shape[1], dtype=bool)
+    inner[edges[1:-1] - 1] = False  # the step from one path's end to the next one's start
+    if not _one_branch_holds(rows[1], steps[:, inner]):
+        return each()  # each path alone holds or not: its own result either way
+    target = _target(len(links), reference, limits)
+    return [(_unwrapped(rows[:, a:b], steps[:, a:b - 1], target), None) for a, b in alone]
+
+
+def _first_down(links: tuple[float, ...], firsts: NDArray[np.float64],
+                reference: NDArray[np.float64] | None, elbow: str) -> NDArray[np.bool_] | None:
+    """Per first pose (m, 3) whether its path starts on "down": the branch nearest
+    ``reference`` (a tie — a singular pose or a reference midway — to ``elbow``), or
+    ``elbow`` without one; None when a first pose is out of reach."""
+    if reference is None:
+        return np.full(firsts.shape[0], elbow == "down")
+    block, ok = _block(links, firsts)
+    if not ok.all():
+        return None
+    d_up, d_dn = _sq_sum(_wrap_in_place(block - reference[:, None]))
+    return np.where(np.abs(d_dn - d_up) > SINGULAR_TOLERANCE ** 2, d_dn < d_up,
+                    elbow == "down")
+
+
+def _target(k: int, reference: NDArray[np.float64] | None, limits: ArrayLike | None
+            ) -> NDArray[np.float64]:
+    """The joints the first sample is turned nearest to: the reference, else the middle of
+    the limits, else 0."""
     if reference is not None:
-        target = reference
-    elif limits is not None:
+        return reference
+    if limits is not None:
         middle = np.asarray(limits, dtype=np.float64)
-        target = (middle[:, 0] + middle[:, 1]) * 0.5  # the rows' mean, as (a + b)/2 is
-    else:
-        target = np.zeros(k)
+        return (middle[:, 0] + middle[:, 1]) * 0.5  # the rows' mean, as (a + b)/2 is
+    return np.zeros(k)
+
+
+def _unwrapped(rows: NDArray[np.float64], steps: NDArray[np.float64],
+               target: NDArray[np.float64]) -> NDArray[np.float64]:
+    """Joints (n, k) of joint rows (k, n) with wrapped steps (k, n − 1): the steps summed
+    from the first sample, each joint turned by whole turns nearest ``target``."""
     out = np.empty_like(rows)
     out[:, 0] = rows[:, 0]
     np.cumsum(steps, axis=1, out=out[:, 1:])
     out[:, 1:] += rows[:, :1]
     out += (_TWO_PI * np.round((target - out[:, 0]) / _TWO_PI))[:, None]
-    q = np.empty((n, k))
+    q = np.empty((rows.shape[1], rows.shape[0]))
     q.T[...] = out
-    return q, None
+    return q
 
 
 def _one_branch_holds(q2: NDArray[np.float64], steps: NDArray[np.float64]) -> bool:

@@ -97,6 +97,31 @@ class Piece:
         self.q_from = q_from
         self.q_to = q_to
 
+    def sample_many(self, counts: Sequence[int], arm: Arm, reference: NDArray | None
+                    ) -> list[tuple[NDArray[np.float64], NDArray[np.float64] | None,
+                                    int | None]]:
+        """:meth:`sample` at each of ``counts``, each exactly as alone; a one-segment pose
+        path of a planar arm is interpolated and solved for all of them in one pass
+        (kinematics.ik_paths_unchecked)."""
+        if self.path is None or len(self.path.segments) != 1 or arm.yawed or min(counts) < 1:
+            return [self.sample(n, arm, reference) for n in counts]
+        tau = np.concatenate([np.arange(n + 1) / n for n in counts])
+        # one segment: its poses are the interpolation at each parameter, in any order
+        poses = self.path(timing.profile_unchecked(self.profile, tau, self.accel_fraction))
+        limits = [(j.min_angle, j.max_angle) for j in arm.joints]
+        ref = None if reference is None else np.asarray(reference, dtype=np.float64)
+        rows = [n + 1 for n in counts]
+        solved = kinematics.ik_paths_unchecked(tuple(float(v) for v in arm.links), poses,
+                                               rows, ref, self.elbow, limits)
+        out = []
+        for (q, bad), a, b in zip(solved, np.cumsum([0, *rows[:-1]]), np.cumsum(rows),
+                                  strict=True):
+            p = poses[a:b]
+            if q is not None and arm.dof == 2:
+                p[:, 2] = q[:, 0] + q[:, 1]  # θ plays no part: report the arm's own (FK)
+            out.append((p, q, bad))
+        return out
+
     def sample(self, n: int, arm: Arm, reference: NDArray | None
                ) -> tuple[NDArray[np.float64], NDArray[np.float64] | None, int | None]:
         """Poses and joints (n + 1 rows) at τ_i = i/n, and None; or poses, None and the

@@ -50,22 +50,31 @@ def search(piece: Piece, arm: Arm, reference: NDArray | None, rate: float,
     Bracket, then bisect: from the estimate, grow N (to the finite-difference closed form's
     ⌈T_fd(N)·rate⌉, at least doubling) until it passes; then try the closed form's guess just
     below and bisect between the largest failing and the smallest passing N until they are
-    neighbours. The result passes and N − 1 fails (or N = 1). Typically 2–3 evaluations.
+    neighbours. The result passes and N − 1 fails (or N = 1). Typically 2–3 evaluations,
+    the estimate's N and N − 1 sampled in one pass.
     ``cache`` (a dict) keeps each evaluation's ``piece.sample(N, arm, reference)`` by N, so
     the caller need not sample the chosen N again.
     """
 
     lim = JointLimits.of(arm, torque=False)
+    if cache is None:
+        cache = {}
 
     def need(n: int) -> float | None:
-        sampled = piece.sample(n, arm, reference)
-        if cache is not None:
-            cache[n] = sampled
+        sampled = cache.get(n)
+        if sampled is None:
+            sampled = cache[n] = piece.sample(n, arm, reference)
         q = sampled[1]
         # None: out of reach; validation reports it with the real sample index
         return None if q is None else fd_need(q, arm, lim)
 
     n = intervals(max(estimate(piece, arm, reference, lim)[0], 1e-12), rate)
+    if 2 <= n < MAX_SAMPLES:
+        # the estimate is usually exact: N and N − 1 are the two evaluations the search
+        # then makes, so they are sampled together (Piece.sample_many: one pass)
+        for m, sampled in zip((n - 1, n), piece.sample_many((n - 1, n), arm, reference),
+                              strict=True):
+            cache[m] = sampled
     fail, ok = 0, None  # largest N known to fail (0: none), smallest known to pass
     stepped_down = False
     for _ in range(MAX_SEARCH_STEPS):
