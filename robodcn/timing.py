@@ -200,13 +200,18 @@ def fd_min_duration_unchecked(q: NDArray[np.float64], v: NDArray[np.float64],
     n = q.shape[0] - 1
     need = 0.0
     samples = q
+    # array methods and slices rather than np.diff / np.max: a search calls this per
+    # candidate, where numpy's Python wrappers cost as much as the arithmetic
     if n >= 1:
-        need = float(np.max(np.abs(np.diff(q, axis=0)).max(axis=0) / v)) * n
+        d = q[1:] - q[:-1]
+        np.abs(d, out=d)
+        need = float((d.max(axis=0) / v).max()) * n
         if at_rest:
             q = np.concatenate([q[:1], q, q[-1:]])
     if q.shape[0] >= 3:
-        d2 = np.abs(q[2:] - 2.0 * q[1:-1] + q[:-2]).max(axis=0)
-        need = max(need, n * math.sqrt(float(np.max(d2 / a))))
+        d2 = q[2:] - 2.0 * q[1:-1] + q[:-2]
+        np.abs(d2, out=d2)
+        need = max(need, n * math.sqrt(float((d2.max(axis=0) / a).max())))
     if j_max is not None:
         j = j_max
         limited = np.isfinite(j)

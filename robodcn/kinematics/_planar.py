@@ -507,9 +507,10 @@ def _unwrapped(rows: NDArray[np.float64], steps: NDArray[np.float64],
     from the first sample, each joint turned by whole turns nearest ``target``."""
     out = np.empty_like(rows)
     out[:, 0] = rows[:, 0]
-    np.cumsum(steps, axis=1, out=out[:, 1:])
+    # the ufunc methods themselves: np.cumsum / np.round go through numpy's Python wrappers
+    np.add.accumulate(steps, axis=1, out=out[:, 1:])
     out[:, 1:] += rows[:, :1]
-    out += (_TWO_PI * np.round((target - out[:, 0]) / _TWO_PI))[:, None]
+    out += (_TWO_PI * np.rint((target - out[:, 0]) / _TWO_PI))[:, None]
     q = np.empty((rows.shape[1], rows.shape[0]))
     q.T[...] = out
     return q
