@@ -175,7 +175,7 @@ def _block(links: tuple[float, ...], poses: NDArray[np.float64], want: str = "bo
     inner, outer = abs(l1 - l2), l1 + l2
     ok = (r2 >= max(inner - REACH_TOLERANCE, 0.0) ** 2) & (r2 <= (outer + REACH_TOLERANCE) ** 2)
     c = (r2 - (l1 * l1 + l2 * l2)) * (1.0 / (2.0 * l1 * l2))
-    np.clip(c, -1.0, 1.0, out=c)
+    np.minimum(np.maximum(c, -1.0, out=c), 1.0, out=c)  # np.clip, without its wrapper
     s = np.sqrt(1.0 - c * c)
     if not ok.all():
         s[~ok] = np.nan
