@@ -19,7 +19,10 @@ def scan(port: str, bauds: Iterable[int] = (1_000_000,), *,
 
     With ``ids`` None a broadcast PING is sent at each baud (the SDK waits its full
     ≈0.8 s window at 1 Mbps); with ``ids`` each id is pinged in turn (a silent id costs the
-    SDK's 34 ms timeout, twice: one retry). Results are sorted by baud, then id.
+    SDK's 34 ms timeout, twice: one retry). The probe bus deliberately keeps the SDK's
+    status timeout (no ``rx_timeout_ms``): a scan of many ids, most of them silent, stays
+    fast, and 34 ms is what a real servo behind a 16 ms latency timer needs. Results are
+    sorted by baud, then id.
     """
     found: list[ServoInfo] = []
     bauds = list(bauds)

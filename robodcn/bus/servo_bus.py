@@ -55,9 +55,10 @@ class ServoBus(Configuration, Verification, Writes, Modes):
     retries
         Extra attempts for a read that fails (timeout, corrupt packet, error status).
     rx_timeout_ms
-        Status-packet timeout of reads, writes and group reads (pings keep the SDK's).
-        None keeps the SDK's own (wire time + 2·16 ms + 2 ms, i.e. ≥ 34 ms); a short value
-        makes a lost reply cost little when the adapter's latency timer is 1 ms.
+        Status-packet timeout of pings, reads, writes and group reads. None keeps the
+        SDK's own (wire time + 2·16 ms + 2 ms, i.e. ≥ 34 ms); a short value makes a lost
+        reply cost little when the adapter's latency timer is 1 ms, a long one waits for a
+        slow responder (a simulator on a loaded host).
     fast_read
         Use Fast Sync Read for group reads: None decides from the firmware versions found by
         :meth:`verify` (≥ 45), True/False forces it.

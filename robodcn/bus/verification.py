@@ -3,6 +3,13 @@
 :meth:`Verification.verify` pings every expected id, compares the model numbers with the
 config's, reads each servo's own position limits and decides whether group reads may use
 Fast Sync Read (firmware ≥ 45, dynamixel-notes §1.4).
+
+A PING waits for its status packet as long as the bus's reads do: with ``rx_timeout_ms``
+given, the SDK's ``txPacket`` sends the instruction and its ``readRx`` takes the status
+with our deadline (``ping`` itself always waits the SDK's own 34 ms, dynamixel-notes §4:
+a servo answering later, as a simulator sharing a loaded host's CPU does, would count as
+missing). With ``rx_timeout_ms`` None the SDK's ``ping`` is used unchanged, as
+:func:`robodcn.bus.scan` does to keep probing silent ids fast.
 """
 
 from __future__ import annotations
@@ -10,6 +17,16 @@ from __future__ import annotations
 from collections.abc import Sequence
 
 import numpy as np
+from dynamixel_sdk import (
+    BROADCAST_ID,
+    COMM_SUCCESS,
+    INST_PING,
+    PKT_ID,
+    PKT_INSTRUCTION,
+    PKT_LENGTH_H,
+    PKT_LENGTH_L,
+    PortHandler,
+)
 
 from robodcn.bus.connection import check_ids
 from robodcn.bus.control_table import (
@@ -25,6 +42,20 @@ from robodcn.bus.transactions import Transactions
 from robodcn.config import ServoSpec
 from robodcn.errors import CommError, ServoMismatchError
 
+#: Parameters of a PING's status packet: Model Number (2 bytes), Firmware Version.
+PING_STATUS_PARAMS = 3
+
+
+def ping_packet(servo_id: int) -> list[int]:
+    """A PING instruction for ``servo_id`` as the SDK's ``ping`` builds it (10 bytes; the
+    SDK's ``txPacket`` adds header and CRC)."""
+    packet = [0] * 10
+    packet[PKT_ID] = servo_id
+    packet[PKT_LENGTH_L] = 3
+    packet[PKT_LENGTH_H] = 0
+    packet[PKT_INSTRUCTION] = INST_PING
+    return packet
+
 
 class Verification(Transactions):
     """PING and the check of the expected servos (ids, models, limits, firmware)."""
@@ -34,10 +65,31 @@ class Verification(Transactions):
     #: Fast Sync Read for group reads; None: decided by :meth:`verify`.
     fast_read: bool | None
 
+    def _ping_txrx(self, port: PortHandler, servo_id: int) -> tuple[int, int, int]:
+        """(model number, result, error) of one PING: the SDK's ``ping``, or with
+        ``rx_timeout_ms`` its ``txPacket`` + ``readRx`` with our status timeout."""
+        if self.rx_timeout_ms is None or servo_id >= BROADCAST_ID:
+            return self._packet.ping(port, servo_id)
+        result = self._packet.txPacket(port, ping_packet(servo_id))
+        if result != COMM_SUCCESS:
+            return 0, result, 0
+        port.setPacketTimeoutMillis(self.rx_timeout_ms)
+        data, result, error = self._packet.readRx(port, servo_id, PING_STATUS_PARAMS)
+        if result != COMM_SUCCESS or error:
+            return 0, result, error
+        if len(data) < 2:
+            raise CommError(f"servo {servo_id}: ping returned {len(data)} parameter "
+                            f"byte(s), expected {PING_STATUS_PARAMS}",
+                            field=f"servo[{servo_id}]", value=len(data))
+        return data[0] | data[1] << 8, result, error
+
     def ping(self, servo_id: int) -> ServoInfo | None:
-        """PING one id (with retries); its model, firmware and the bus baud, or None if silent."""
+        """PING one id (with retries); its model, firmware and the bus baud, or None if silent.
+
+        Each try waits ``rx_timeout_ms`` for the status (the SDK's 34 ms when None; module
+        docstring)."""
         def once() -> int:
-            model_number, result, error = self._packet.ping(self._port(), servo_id)
+            model_number, result, error = self._ping_txrx(self._port(), servo_id)
             self._status(servo_id, "ping", result, error)
             return model_number
 
@@ -102,4 +154,4 @@ class Verification(Transactions):
         return found
 
 
-__all__ = ["Verification"]
+__all__ = ["PING_STATUS_PARAMS", "Verification", "ping_packet"]
