@@ -7,13 +7,20 @@ the servos run firmware_sim's physics model driving the arm's rigid-body dynamic
 ``[dynamics]`` masses), so a dry run shows the tracking lag, velocities and currents the
 real arm will have; ``dynamics=False`` keeps the kinematic model. This module and the tests
 are the only places robodcn imports firmware_sim.
+
+Time: the simulated servos read the host's monotonic clock, or, with ``clock=``, the
+stream's own (:class:`robodcn.stream.VirtualClock`): their physics then advance exactly as
+far as the stream's schedule does, whatever the host's load, and a reply that comes late in
+wall time costs nothing, so the bus waits for it longer (:data:`VIRTUAL_RX_TIMEOUT_MS`).
+firmware_sim never imports robodcn: it is handed a :class:`firmware_sim.clock.Clock` that
+reads the stream clock's ``now`` (:class:`StreamTime`).
 """
 
 from __future__ import annotations
 
 import contextlib
 import math
-from collections.abc import Iterator, Sequence
+from collections.abc import Callable, Iterator, Sequence
 from dataclasses import dataclass
 from typing import Any
 
@@ -23,16 +30,22 @@ from numpy.typing import ArrayLike, NDArray
 from firmware_sim import control_table as fct
 from firmware_sim.bus import SimBus
 from firmware_sim.bus_config import SimBusConfig
+from firmware_sim.clock import Clock as FirmwareClock
 from robodcn import kinematics, servo_units
 from robodcn.bus import ServoBus, StreamProfile
 from robodcn.config import Arm
 from robodcn.errors import InputError
+from robodcn.stream.clock import Clock, RealClock
 
 TIMINGS = ("fast", "realistic")
 #: Status timeout of reads (ms). No USB adapter sits between host and pty, but the simulator
 #: shares this process's interpreter lock with the streamer, the HTTP threads and tests: a
 #: reply can be a few 5 ms GIL switch intervals late without being lost.
 RX_TIMEOUT_MS = 50.0
+#: Status timeout of reads (ms, wall time) when the servos run on a virtual stream clock:
+#: the simulator thread, starved of the CPU on a loaded host, answers late, not wrongly,
+#: and lateness in wall time does not move the schedule.
+VIRTUAL_RX_TIMEOUT_MS = 2000.0
 #: Extra attempts per read: a lost reply here means the simulator thread was starved of CPU
 #: (a loaded machine), never a wire fault, so be patient (injected faults still surface).
 RETRIES = 5
@@ -48,6 +61,25 @@ class SimulatedArm:
     sim: SimBus
     bus: ServoBus
     arm: Arm
+
+
+class StreamTime(FirmwareClock):
+    """firmware_sim's time read from a stream clock's ``now`` (module docstring): the
+    servos' motion and watchdog follow the stream's schedule, not the wall."""
+
+    def __init__(self, now: Callable[[], float]) -> None:
+        self._now = now
+
+    def now(self) -> float:
+        return self._now()
+
+
+def rx_timeout_for(clock: Clock | None) -> float:
+    """The bus's status timeout (ms) for servos on ``clock``: :data:`RX_TIMEOUT_MS` on real
+    time (None or a :class:`~robodcn.stream.RealClock`), :data:`VIRTUAL_RX_TIMEOUT_MS` on
+    any other (virtual) clock."""
+    return RX_TIMEOUT_MS if clock is None or isinstance(clock, RealClock) \
+        else VIRTUAL_RX_TIMEOUT_MS
 
 
 def start_ticks(arm: Arm, start_joints: ArrayLike | None = None) -> NDArray[np.int64]:
@@ -120,7 +152,8 @@ def sim_arm_document(arm: Arm) -> dict[str, Any]:
 
 @contextlib.contextmanager
 def simulated_arm(arm: Arm, *, timing: str = "realistic", start_joints: ArrayLike | None = None,
-                  firmware: int = 46, dynamics: bool = True) -> Iterator[SimulatedArm]:
+                  firmware: int = 46, dynamics: bool = True,
+                  clock: Clock | None = None) -> Iterator[SimulatedArm]:
     """A started firmware_sim bus with ``arm``'s servos and a ServoBus ready to stream.
 
     Parameters
@@ -134,6 +167,10 @@ def simulated_arm(arm: Arm, *, timing: str = "realistic", start_joints: ArrayLik
         dynamics from its ``[dynamics]`` table (masses default in firmware_sim), so the
         run shows real tracking lag and current; False: the kinematic model (each goal
         reached at once), for protocol tests.
+    clock : the stream's clock (a :class:`robodcn.stream.VirtualClock`) the servos read
+        their time from (module docstring); pass the same one to ``execute(clock=…)``.
+        None (default): the host's monotonic clock. The bus's status timeout follows it
+        (:func:`rx_timeout_for`).
 
     A ``[gripper]`` servo is simulated too (at its zero offset), beside the joints; an arm
     under gravity starts held (:func:`_hold_under_gravity`). The
@@ -150,6 +187,9 @@ def simulated_arm(arm: Arm, *, timing: str = "realistic", start_joints: ArrayLik
     if isinstance(firmware, bool) or not isinstance(firmware, int) or not 0 <= firmware <= 255:
         raise InputError(f"firmware must be a version number 0..255, got {firmware!r}",
                          field="firmware", value=firmware)
+    if clock is not None and not callable(getattr(clock, "now", None)):
+        raise InputError(f"clock must be a stream clock with now(), got {clock!r}",
+                         field="clock", value=clock)
     ticks = start_ticks(arm, start_joints)
     servos = arm.servos if arm.gripper is None else (*arm.servos, arm.gripper.servo)
     models = {s.id: s.model for s in servos}
@@ -158,13 +198,14 @@ def simulated_arm(arm: Arm, *, timing: str = "realistic", start_joints: ArrayLik
         sim = SimBus(config=SimBusConfig(
             ids=tuple(s.id for s in servos), model=models, baud=arm.bus.baud, timing=timing,
             firmware=firmware, log=False, dynamics=dynamics,
-            arm=sim_arm_document(arm) if dynamics else None, positions=positions))
+            arm=sim_arm_document(arm) if dynamics else None, positions=positions,
+            clock=None if clock is None else StreamTime(clock.now)))
         _check_placed(sim, arm.servo_ids, ticks)
         _hold_under_gravity(sim, arm.servo_ids)
         sim.start()
         stack.callback(sim.close)
         bus = ServoBus(sim.port_path, arm.bus.baud, servos=arm.servos, retries=RETRIES,
-                       rx_timeout_ms=RX_TIMEOUT_MS)
+                       rx_timeout_ms=rx_timeout_for(clock))
         bus.open()
         stack.callback(bus.close)
         bus.verify()

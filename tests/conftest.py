@@ -5,7 +5,6 @@ by name; the constants and helpers are imported (``from conftest import ARM3R``)
 from __future__ import annotations
 
 import contextlib
-import functools
 from collections.abc import Iterator
 from pathlib import Path
 
@@ -13,7 +12,6 @@ import pytest
 from hypothesis import settings
 
 from firmware_sim.bus import SimBus
-from firmware_sim.clock import Clock as FirmwareClock
 from robodcn.bus import ServoBus
 from robodcn.config import Arm, load_arm
 
@@ -67,43 +65,18 @@ def settled(read, timeout: float = 2.0):
     return last
 
 
-class StreamTime(FirmwareClock):
-    """firmware_sim's time read from a streamer's clock (``robodcn.stream.VirtualClock``):
-    the servo physics advance exactly as far as the stream's schedule does, whatever the
-    host's load (a sample's write and reads happen at its due time)."""
-
-    def __init__(self, clock) -> None:
-        self._clock = clock
-
-    def now(self) -> float:
-        return self._clock.now()
-
-
-#: Status timeout of the reads of a :func:`lockstep_arm` (ms; wall time).
-LOCKSTEP_RX_TIMEOUT_MS = 2000.0
-
-
 @contextlib.contextmanager
 def lockstep_arm(arm: Arm, **kw) -> Iterator[tuple]:
     """:func:`robodcn.simulated.simulated_arm` on virtual time: yields ``(sa, clock)``,
-    ``clock`` a ``robodcn.stream.VirtualClock`` shared by the simulator's physics
-    (:class:`StreamTime`); pass ``clock=clock`` to ``execute``. The physics then step per
-    simulated second of the schedule, not per wall second: a test of what the stream and
-    the physics do (tracking, compensation, collision currents) gets the same run on a
-    loaded machine as on an idle one. On virtual time a reply's wall-clock lateness costs
-    nothing (the simulator thread, starved of the CPU on a loaded host, answers late, not
-    wrongly), so the reads wait for it up to :data:`LOCKSTEP_RX_TIMEOUT_MS`.
-    ``simulated_arm`` takes no clock, so its SimBusConfig is given one here."""
-    from unittest import mock
-
-    import robodcn.simulated as simulated
-    from firmware_sim.bus_config import SimBusConfig
+    ``clock`` a ``robodcn.stream.VirtualClock`` the simulator's physics read
+    (``simulated_arm(clock=…)``); pass ``clock=clock`` to ``execute``. The physics then
+    step per simulated second of the schedule, not per wall second: a test of what the
+    stream and the physics do (tracking, compensation, collision currents) gets the same
+    run on a loaded machine as on an idle one; the bus waits for a late reply up to
+    ``robodcn.simulated.VIRTUAL_RX_TIMEOUT_MS``."""
+    from robodcn.simulated import simulated_arm
     from robodcn.stream import VirtualClock
 
     clock = VirtualClock()
-    timed = functools.partial(SimBusConfig, clock=StreamTime(clock))
-    with contextlib.ExitStack() as stack:
-        with mock.patch.object(simulated, "SimBusConfig", timed), \
-                mock.patch.object(simulated, "RX_TIMEOUT_MS", LOCKSTEP_RX_TIMEOUT_MS):
-            sa = stack.enter_context(simulated.simulated_arm(arm, **kw))
+    with simulated_arm(arm, clock=clock, **kw) as sa:
         yield sa, clock
