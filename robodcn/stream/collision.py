@@ -20,6 +20,14 @@ joint heads for its stall current, 2.3 A on an XM430, well above; below the curr
 where the firmware's overload would otherwise act first). ``collision_current_a`` per joint in
 the arm file, or ``ExecutionOptions.collision_current``, overrides it.
 
+A Current Limit that is not a positive number caps nothing (:func:`current_caps`): the
+item only bounds Goal Current in the current-based modes, so a position-mode servo holding
+0 there draws its currents all the same, and a misread one — a late status packet of the
+Position D Gain read just before it, 0 on an XM430, taken for its answer (status packets
+carry no sequence number) — read 0 A. Either would make the threshold 0.9·0 = 0 A and stop
+a normal move as a "collision" at its first feedback read; such a joint is capped at
+0.9·:data:`FALLBACK_LIMIT_A` instead.
+
 A servo with a Position D Gain (the XL430-W250's factory 4000) answers every streamed goal
 step with a derivative kick, PWM = KPD·Δg for one control millisecond, which the read right
 after the write catches: its current readings jump to the limit while it follows the plan
@@ -38,6 +46,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from robodcn.bus.control_table import STALL_CURRENT_A
 from robodcn.config import Arm, ServoSpec
 from robodcn.stream.compensation import plan_torques
 from robodcn.stream.servo_model import derivatives, motor_of
@@ -47,6 +56,9 @@ MARGIN_FACTOR = 2.0
 MARGIN_A = 0.5
 #: The default threshold stays below this share of the servo's current limit.
 LIMIT_SHARE = 0.9
+#: The limit (A) a joint whose Current Limit is not a positive number is capped under:
+#: the XM430-W350's stall current, what a bus without Current Limit readings assumes.
+FALLBACK_LIMIT_A = STALL_CURRENT_A["xm430-w350"]
 #: Half-width of the window a sample's threshold takes its current from, s.
 WINDOW_S = 0.05
 
@@ -60,6 +72,15 @@ def predicted_currents(joints: NDArray[np.float64], period: float,
     torque = plan_torques(arm, servos, joints, qd, qdd, payload_kg)
     return np.column_stack([motor_of(s.model).current_for(qd[:, j], torque[:, j])
                             for j, s in enumerate(servos)])
+
+
+def current_caps(limits: Sequence[float]) -> NDArray[np.float64]:
+    """Per joint the cap of the default threshold, A: :data:`LIMIT_SHARE` of its Current
+    Limit, of :data:`FALLBACK_LIMIT_A` where that is not a positive finite number (module
+    notes: a 0 there caps nothing; it once made a 0.00 A threshold)."""
+    limits = np.asarray(limits, dtype=np.float64)
+    usable = np.isfinite(limits) & (limits > 0)
+    return LIMIT_SHARE * np.where(usable, limits, FALLBACK_LIMIT_A)
 
 
 def _window_max(values: NDArray[np.float64], half: int) -> NDArray[np.float64]:
@@ -97,7 +118,7 @@ def thresholds(predicted: NDArray[np.float64], limits: Sequence[float],
     """Per-joint thresholds, A: the arm file's ``collision_current_a`` where given, else
     the module's default from the predicted peak (``inf``: off, for a servo with a D gain)."""
     peak = np.abs(predicted).max(axis=0) if len(predicted) else np.zeros(len(limits))
-    default = np.minimum(MARGIN_FACTOR * peak + MARGIN_A, LIMIT_SHARE * np.asarray(limits))
+    default = np.minimum(MARGIN_FACTOR * peak + MARGIN_A, current_caps(limits))
     fixed = _overrides(len(default), arm, d_gains)
     return np.where(np.isnan(fixed), default, fixed)
 
@@ -110,8 +131,7 @@ def threshold_profile(predicted: NDArray[np.float64], period: float,
     :func:`thresholds`, whose value is the largest of these."""
     half = max(1, round(WINDOW_S / period))
     peak = _window_max(np.abs(predicted), half)
-    out = np.minimum(MARGIN_FACTOR * peak + MARGIN_A,
-                     LIMIT_SHARE * np.asarray(limits, dtype=np.float64))
+    out = np.minimum(MARGIN_FACTOR * peak + MARGIN_A, current_caps(limits))
     fixed = _overrides(predicted.shape[1], arm, d_gains)
     return np.where(np.isnan(fixed), out, fixed)
 
@@ -174,5 +194,6 @@ class ChainThresholds:
         return out
 
 
-__all__ = ["LIMIT_SHARE", "MARGIN_A", "MARGIN_FACTOR", "WINDOW_S", "ChainThresholds",
-           "predicted_currents", "threshold_profile", "thresholds"]
+__all__ = ["FALLBACK_LIMIT_A", "LIMIT_SHARE", "MARGIN_A", "MARGIN_FACTOR", "WINDOW_S",
+           "ChainThresholds", "current_caps", "predicted_currents", "threshold_profile",
+           "thresholds"]
