@@ -81,3 +81,14 @@ def test_scan_keeps_the_sdk_deadline(sim):
     # (late enough that the first try's reply misses the retry's window too)
     sim.faults.delay(0.25, servo_id=2, instructions=[Instruction.PING], times=None)
     assert [s.id for s in scan(sim.port_path, ids=[1, 2])] == [1]
+
+
+def test_a_ping_with_an_alert_bit_still_names_the_servo_s_model(sim):
+    """The status's alert bit is the servo's state (reported as a hardware alert), not a
+    failed ping: the model number is read as the SDK's own ping reads it."""
+    sim.faults.trip(3, bits=0x20)  # overload on servo 3: its status packets carry 0x80
+    with ServoBus(sim.port_path, servos=specs(1, 2, 3), retries=0,
+                  rx_timeout_ms=RX_TIMEOUT_MS) as bus:
+        info = bus.ping(3)
+        assert info is not None and info.model_number == 1020
+        assert sorted(bus.verify()) == [1, 2, 3]  # no ServoMismatchError for servo 3

@@ -75,7 +75,9 @@ class Verification(Transactions):
             return 0, result, 0
         port.setPacketTimeoutMillis(self.rx_timeout_ms)
         data, result, error = self._packet.readRx(port, servo_id, PING_STATUS_PARAMS)
-        if result != COMM_SUCCESS or error:
+        # as the SDK's ping: the model is read whatever the error byte says (an alert bit
+        # is the servo's state, reported by _status, not a failed ping)
+        if result != COMM_SUCCESS:
             return 0, result, error
         if len(data) < 2:
             raise CommError(f"servo {servo_id}: ping returned {len(data)} parameter "
