@@ -37,7 +37,8 @@ EXIT_CODES: dict[int, str] = {
     Exit.INFEASIBLE: "plan infeasible (nothing moved)",
     Exit.FAULT: "servo or bus fault, or a collision stop (including: scan found no servo)",
     Exit.DEGRADED: "completed with samples skipped",
-    Exit.CANNOT_SERVE: "cannot serve (TCP address in use or not available)",
+    Exit.CANNOT_SERVE: "cannot serve (TCP address in use or not available, or a "
+                       "--processes worker died)",
     Exit.STOPPED: "stopped by the user (Ctrl-C)",
 }
 

@@ -34,7 +34,9 @@ def body_schemas(move_body: dict[str, Any]) -> dict[str, dict[str, Any]]:
     move.setdefault("properties", {})["replace"] = {
         "type": "boolean", "default": False,
         "description": "Replace the running move in flight (202, the old one ends "
-                       "'replaced'); without it a running move answers 409."}
+                       "'replaced'); without it a running move answers 409. A replace "
+                       "while another is being planned, or one that would miss its "
+                       "switch, answers 409 busy with nothing changed: try again."}
     return {
         "MoveBody": move,
         "StopBody": {"type": "object", "additionalProperties": False, "properties": {
