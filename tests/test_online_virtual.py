@@ -264,6 +264,7 @@ def test_with_compensation_a_retarget_tail_is_led_like_the_plan(sa):
     before the switch (its first goal within one step v_max·T of it), not its bare ticks:
     without the lead the goals would jump back by the lag."""
     from robodcn.stream.compensation import compensated_ticks, max_steps
+    from robodcn.stream.online.samples import LEAD_HISTORY
     from robodcn.stream.source import servo_state
 
     traj = _move(sa, duration=2.0)
@@ -279,8 +280,10 @@ def test_with_compensation_a_retarget_tail_is_led_like_the_plan(sa):
     kw = dict(arm=ARM3R, p_gains=sa.bus.position_p_gains)
     plan = compensated_ticks(traj.joints, 1.0 / RATE, sa.bus.servos, sa.bus.limits,
                              start_goal=held, **kw)
-    led = compensated_ticks(joints[first:], 1.0 / RATE, sa.bus.servos, sa.bus.limits,
-                            start_goal=wire[first - 1], **kw)
+    # (led across the switch: the samples before it give the differences there)
+    k = LEAD_HISTORY
+    led = compensated_ticks(joints[first - k:], 1.0 / RATE, sa.bus.servos, sa.bus.limits,
+                            start_goal=wire[first - 1], first=k, **kw)[k:]
     bare = servo_units.radians_to_ticks(joints, ARM3R.servos)
     tail = slice(first, len(joints))
     # the lead is large while moving fast: the bare ticks are far from the wire there
@@ -300,10 +303,13 @@ def test_with_compensation_a_retarget_tail_is_led_like_the_plan(sa):
 
 def test_a_led_tail_starts_within_a_step_of_the_goal_before_it_and_ends_on_its_own(sa):
     """A compensated tail is led from the goal sent before its switch (its first goal
-    within v_max·T of it); one too short to ramp from there to its own last goal is led
-    without that start, so it still ends on its last goal (the step guard slews)."""
+    within v_max·T of it), across the switch (the samples before it give the differences);
+    one too short to ramp from there to its own last goal is led without that start, so it
+    still ends on its last goal (the step guard slews) — unless it is an operation's last
+    segment (``settle``, at rest: tests/test_online_lead_ramp.py lengthens it instead)."""
     from robodcn.stream.compensation import max_steps
     from robodcn.stream.online import OnlineSamples
+    from robodcn.stream.online.samples import LEAD_HISTORY
     from robodcn.stream.source import PlannedSamples
 
     traj = _move(sa, duration=1.0)
@@ -316,11 +322,18 @@ def test_a_led_tail_starts_within_a_step_of_the_goal_before_it_and_ends_on_its_o
     path, sigma = JointPath.of_samples(back)
     node = OnlineSamples(root, switch, back, sigma, path, sa.bus, RATE, traj.joint_names)
     assert (np.abs(node.sent_goal(switch) - before) <= np.ceil(step)).all()
-    assert np.array_equal(node.sent_goal(len(node) - 1), planned.commanded_for(back)[-1])
-    short = np.repeat(traj.joints[:1], 1, axis=0)   # one sample, far from the goal before
+    k = LEAD_HISTORY
+    history = traj.joints[switch - k:switch]
+    own = planned.commanded_for(np.vstack([history, back]), first=k)
+    assert np.array_equal(node.sent_goal(len(node) - 1), own[-1])
+    # three samples at rest where the arm is, at speed: their rest goal lacks the lead of
+    # the motion the goal before carries, further than three steps from it
+    short = np.repeat(traj.joints[switch:switch + 1], 3, axis=0)
     path, sigma = JointPath.of_samples(np.vstack([short, short]))
-    node = OnlineSamples(root, switch, short, sigma[:1], path, sa.bus, RATE, traj.joint_names)
-    assert np.array_equal(node.sent_goal(switch), planned.commanded_for(short)[-1])
+    node = OnlineSamples(root, switch, short, sigma[:3], path, sa.bus, RATE, traj.joint_names)
+    own = planned.commanded_for(np.vstack([history, short]), first=k)
+    assert np.array_equal(node.sent_goal(len(node) - 1), own[-1])
+    assert (np.abs(own[-1] - before) > 3 * step).any()
     assert (np.abs(node.sent_goal(switch) - before) > 2 * step).any()
 
 

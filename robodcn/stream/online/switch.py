@@ -177,9 +177,13 @@ class Switcher:
                hold: int) -> OnlineSamples:
         node = src
         for n, (joints, sigma, path) in enumerate(segments):
+            last = n == len(segments) - 1
+            # the last segment ends at rest (a brake, a re-timed path's end, a retarget's
+            # goal): a lead too short to ramp there within the step limit is given samples
+            # at rest (OnlineSamples, settle)
             node = OnlineSamples(node, first if n == 0 else node.end, joints, sigma, path,
                                  self.bus, src.rate_hz, src.joint_names,
-                                 hold=hold if n == len(segments) - 1 else 0)
+                                 hold=hold if last else 0, settle=last)
         return node
 
 
