@@ -173,9 +173,20 @@ def test_present_joints_reads_the_servos_and_is_busy_while_moving(rig: Any) -> N
     with pytest.raises(BusyError):
         controller.present_joints()
     controller.wait(record.id, timeout=10)
+    # Once the arm is at rest (under load a move can end with the arm still closing its
+    # last ticks): where the plan ends, up to the position loop's one tick of dead band —
+    # ticks against the plan's ticks (against its joints, a rounding's half tick more).
+    # Compared before at one time and read again at another, a settling arm failed 1 run
+    # in 3 under load (1.5 ticks off).
     wait_until(lambda: np.abs(np.array(present(sa)) - record.trajectory.ticks[-1]).max() <= 1)
-    np.testing.assert_allclose(controller.present_joints(), record.trajectory.joints[-1],
-                               atol=2 * np.pi / 4096)
+    rest = settled(lambda: present(sa))
+    assert np.abs(rest - record.trajectory.ticks[-1]).max() <= 1, rest
+    # present_joints is one reading of the servos, converted: the one at rest (or, should
+    # the arm still move by a tick meanwhile, the one after)
+    joints = controller.present_joints()
+    after = np.array(present(sa))
+    readings = [servo_units.ticks_to_radians(np.array([t]), ARM.servos)[0] for t in (rest, after)]
+    assert any(np.array_equal(joints, r) for r in readings), (joints, readings)
 
 
 def test_only_the_worker_thread_touches_the_port(rig: Any, monkeypatch: Any) -> None:
