@@ -14,6 +14,7 @@ from typing import Any
 
 import numpy as np
 import pytest
+from conftest import settled
 from http_helpers import ARM, ROOT, call, error_of, finished, poll_move, serving_arm
 
 from robodcn import servo_units
@@ -34,7 +35,9 @@ def omx_server() -> Iterator[tuple[Any, Any]]:
 
 
 def _joints_of(sa: Any) -> np.ndarray:
-    ticks = [sa.sim.servo(i).present_position for i in OMX.servo_ids]
+    """The joints where the arm came to rest: a move is done when its last goal is sent,
+    and the simulated servos (real time, gravity) reach it some cycles later."""
+    ticks = settled(lambda: [sa.sim.servo(i).present_position for i in OMX.servo_ids])
     return servo_units.ticks_to_radians(np.array([ticks]), OMX.servos)[0]
 
 
