@@ -7,12 +7,14 @@ j, where δ_j = v_max,j·T is the joint's largest step in one stream period T
 keep it by construction (|round(a) − round(b)| ≤ |a − b| + 1). A source whose goals step
 further is slewed: the goal written is the last one moved toward the source's by the
 allowed step, and the next writes close the rest (the servo could not have followed the
-step anyway; a P loop takes it at full PWM). Such steps come from an online tail whose
-compensation lead starts from another lead than the goals before the switch, a brake one
-sample long into a rest goal without the running lead, and from samples the loop skipped
-after a stall: the write after a skip is one write after the last on the wire (often a
-millisecond later, the stall having delayed that one), so it keeps the one-period bound
-too, and the motion catches up with the plan where the plan runs below the limit. The
+step anyway; a P loop takes it at full PWM, which a collision check may take for a
+collision). Such steps come from samples the loop skipped after a stall: the write after
+a skip is one write after the last on the wire (often a millisecond later, the stall having
+delayed that one), so it keeps the one-period bound too, and the motion catches up with the
+plan where the plan runs below the limit. (Online tails keep the bound themselves: a tail's
+lead ramps from the goal sent before its switch, and an operation's last segment too short
+for that ramp is lengthened at rest, :mod:`robodcn.stream.online.samples`; only a middle
+segment too short for it is led without that start and slewed here.) The
 first write is limited from the goal the servos held before the stream, where the source
 read it (:attr:`~robodcn.stream.source.PlannedSamples.start_goal`).
 

@@ -4,6 +4,12 @@ Each node holds the samples from its switch on (joints on a joint path at arc le
 their ticks and encoded rows); the samples before the switch are the previous node's. The
 loop reads the chain afresh at every sample (:meth:`robodcn.stream.loop.Stream.swap`), so a
 new node swapped in before the loop reaches its switch changes no sample the loop read.
+
+With tracking compensation a node's goals are led like the plan's, across its switch (the
+commanded samples before it give the differences) and from the goal sent before it, so
+every goal steps at most v_max·T from the one before; an operation's last segment, which
+ends at rest, is lengthened by samples at rest where it is too short for that ramp
+(:meth:`OnlineSamples._commanded`).
 """
 
 from __future__ import annotations
