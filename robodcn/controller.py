@@ -34,6 +34,7 @@ from __future__ import annotations
 
 import collections
 import contextlib
+import dataclasses
 import itertools
 import logging
 import threading
@@ -313,11 +314,12 @@ class ArmController:
         Raises NoMoveError (409) when nothing runs, or when the move reaches its own end
         before a brake could stop it (it ends at rest, not paused)."""
         record, execution = self._live()
-        self._online(record, execution, execution.pause)
-        if not execution.paused:
+        if not self._online(record, execution, execution.pause):
             raise NoMoveError(f"move {record.id} ends before a pause could stop it: it comes "
                               "to rest at its own end", field="move", value=record.id)
-        return self._snapshot(record)
+        # the state this pause made (a resume another client asks at once comes after it)
+        snap = self._snapshot(record)
+        return dataclasses.replace(snap, paused=True) if snap.status == "running" else snap
 
     def resume(self) -> MoveStatus:
         """Resume a paused move along the same path, timed from rest."""

@@ -336,23 +336,26 @@ class Execution:
         except RobodcnError:
             self.stop_signal.request(reason)
 
-    def pause(self) -> None:
-        """Brake along the path to rest and stay there (the stream goes on)."""
+    def pause(self) -> bool:
+        """Brake along the path to rest and stay there (the stream goes on). Whether the
+        move is paused as this turn ends (False: it reaches its own end first) — read in
+        the turn, so a resume another thread asks right after cannot change the answer."""
         self._need_arm("pause")
         with self._turn("pause") as asked:
             if self.paused:
-                return
+                return True
             rate = self._stream.source.rate_hz if self._stream else 1.0
             try:
                 self._apply("pause", lambda st: brake_to_rest(self._laws(), st),
                             hold=pause_hold(rate), asked=asked)
             except PathEnds:
                 log.info("pause: the move ends before a brake could stop it")
-                return
+                return False
             self.paused = True
             self.status = "paused"
         assert self._switcher is not None
         PauseKeeper(self._switcher, lambda: self.paused, self._done)
+        return True
 
     def resume(self) -> None:
         """Continue the same path from where the pause left it, timed from there."""
