@@ -46,6 +46,7 @@ from typing import Any
 
 from robodcn.config import Arm
 from robodcn.errors import RobodcnError
+from robodcn.http.server import url_of
 
 log = logging.getLogger("robodcn.http")
 
@@ -119,10 +120,7 @@ class PreforkServer:
 
     @property
     def url(self) -> str:
-        host, port = self.server_address[:2]
-        if ":" in host:
-            host = f"[{host}]"
-        return f"http://{host}:{port}"
+        return url_of(self.server_address)
 
     # -- the parent ----------------------------------------------------------------------------
 

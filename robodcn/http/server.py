@@ -87,6 +87,14 @@ def _listen(address: tuple[str, int]) -> socket.socket:
     return sock
 
 
+def url_of(address: tuple) -> str:
+    """The http:// URL of a bound (host, port[, …]) address (an IPv6 host in brackets)."""
+    host, port = address[:2]
+    if ":" in host:
+        host = f"[{host}]"
+    return f"http://{host}:{port}"
+
+
 class RobodcnHTTPServer:
     """The HTTP service for ``arm`` (and ``controller``, or None to plan only).
 
@@ -150,10 +158,7 @@ class RobodcnHTTPServer:
 
     @property
     def url(self) -> str:
-        host, port = self.server_address[:2]
-        if ":" in host:
-            host = f"[{host}]"
-        return f"http://{host}:{port}"
+        return url_of(self.server_address)
 
     # -- the selector loop ---------------------------------------------------------------------
 
