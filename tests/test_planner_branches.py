@@ -9,6 +9,8 @@ from typing import Any
 
 import numpy as np
 import pytest
+from hypothesis import given
+from hypothesis import strategies as st
 from planner_helpers import (
     ARM2R,
     ARM3R,
@@ -165,3 +167,32 @@ def test_issue_command_ends_elbow_up() -> None:
                          check=True, timeout=60)
     joints = np.array(json.loads(out.stdout)["joints"])
     assert (joints[1:, 1] < 0).all()
+
+
+def _branches_sample_by_sample(q: np.ndarray) -> tuple[str | None, tuple[int, ...]]:
+    """elbow_branches' rule written out per sample: the reference for its fast path."""
+    from robodcn import kinematics
+
+    tol = kinematics.SINGULAR_TOLERANCE
+    sides = []
+    for a in kinematics.wrap(q[:, 1]).tolist():
+        singular = abs(a) < tol or math.pi - abs(a) < tol
+        sides.append(0 if singular else (-1 if a < 0.0 else 1))
+    switches, last = [], 0
+    for i, side in enumerate(sides):
+        if side != 0:
+            if last != 0 and side != last:
+                switches.append(i)
+            last = side
+    return {-1: "up", 1: "down", 0: None}[sides[0]], tuple(switches)
+
+
+@given(st.lists(st.one_of(st.floats(-7.0, 7.0),
+                          st.sampled_from([0.0, 1e-6, -1e-6, 2e-6, -math.pi, math.pi,
+                                           math.pi - 1e-6, -math.pi + 2e-6, 1e-7])),
+                min_size=1, max_size=30))
+def test_elbow_branches_fast_path_is_the_per_sample_rule(q2: list[float]) -> None:
+    from robodcn.planner import validate
+
+    q = np.column_stack([np.zeros(len(q2)), q2, np.zeros(len(q2))])
+    assert validate.elbow_branches(q) == _branches_sample_by_sample(q)

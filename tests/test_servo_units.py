@@ -84,3 +84,25 @@ def test_bad_inputs_name_the_field() -> None:
     with pytest.raises(InputError) as info:
         ticks_to_radians([[2048.5, 2048]], spec)
     assert info.value.field == "ticks"
+
+
+@given(servos(), st.integers(1, 40), st.data())
+def test_whole_array_ticks_are_the_column_path_s(specs: list[ServoSpec], n: int,
+                                                 data: st.DataObject) -> None:
+    """A short array is converted whole (servo_units.WHOLE_ROWS): the same ticks, bit for
+    bit, as one column at a time, halves between ticks included."""
+    import robodcn.servo_units as units
+
+    angle = st.floats(-7.0, 7.0, allow_nan=False)
+    q = np.array([[data.draw(angle) for _ in specs] for _ in range(n)])
+    halves = np.array([2.0 * math.pi / s.ticks_per_turn for s in specs]) * (
+        np.floor(q * [s.ticks_per_turn / (2.0 * math.pi) for s in specs]) + 0.5)
+    for x in (q, halves):
+        whole = units.ticks_unchecked(x, specs)
+        keep, units.WHOLE_ROWS = units.WHOLE_ROWS, 0  # every array by columns
+        try:
+            columns = units.ticks_unchecked(x, specs)
+        finally:
+            units.WHOLE_ROWS = keep
+        assert whole.dtype == columns.dtype == np.int64
+        np.testing.assert_array_equal(whole, columns)

@@ -175,19 +175,20 @@ def _fine_block(joints: NDArray, ticks: NDArray, lo: NDArray, hi: NDArray, tmin:
                 slack: float) -> bool:
     """:func:`_fine` on the whole arrays: the same per-joint extremes and comparisons."""
     n = joints.shape[0]
-    if not ((lo <= joints.min(axis=0)).all() and (joints.max(axis=0) <= hi).all()
-            and (tmin <= ticks.min(axis=0)).all() and (ticks.max(axis=0) <= tmax).all()):
+    inside = (lo <= joints.min(axis=0)) & (joints.max(axis=0) <= hi)
+    inside &= (tmin <= ticks.min(axis=0)) & (ticks.max(axis=0) <= tmax)
+    if not inside.all():
         return False
     if limits is None or n < 2:
         return True
     v, a, jk = limits
-    d = np.diff(joints, axis=0)
+    d = joints[1:] - joints[:-1]
     if (np.abs(d).max(axis=0) * rate > v * slack).any():
         return False
     # At rest on both sides: the end velocities are accelerations from/to zero.
     step = np.maximum(np.abs(d[0]), np.abs(d[-1]))
     if n > 2:
-        step = np.maximum(step, np.abs(np.diff(d, axis=0)).max(axis=0))
+        step = np.maximum(step, np.abs(d[1:] - d[:-1]).max(axis=0))
     if (step * rate * rate > a * slack).any():
         return False
     limited = np.isfinite(jk)
@@ -306,6 +307,14 @@ def elbow_branches(joints: NDArray) -> tuple[str | None, tuple[int, ...]]:
     """
     q2 = kinematics.wrap(joints[:, 1])
     tol = kinematics.SINGULAR_TOLERANCE
+    # the common case, one branch throughout clear of both singularities: the per-sample
+    # tests below on the two extremes (|q2| and π − |q2| are monotone there, so these are
+    # the very comparisons of the samples nearest 0 and ±π): no sample singular, no change
+    low, high = float(q2.min()), float(q2.max())
+    if high < 0.0 and not abs(high) < tol and not math.pi - abs(low) < tol:
+        return "up", ()
+    if low > 0.0 and not abs(low) < tol and not math.pi - abs(high) < tol:
+        return "down", ()
     singular = (np.abs(q2) < tol) | (math.pi - np.abs(q2) < tol)
     side = np.where(singular, 0, np.where(q2 < 0.0, -1, 1))
     known = np.where(side != 0, np.arange(side.shape[0]), -1)
