@@ -50,11 +50,16 @@ def arc_length(q: NDArray[np.float64], u: NDArray[np.float64]) -> NDArray[np.flo
     length (1 when no joint moves). Where |q′(u)| ≫ ε L (a singular end) that is the
     joints' arc length; where the joints turn back (|q′(u)| → 0, a cusp of the joint path,
     which in pure arc length would be a corner) it is ∝ u, smooth."""
-    step = np.linalg.norm(np.diff(q, axis=0), axis=1)
+    d = q[1:] - q[:-1]  # np.diff, and the row norms as numpy.linalg.norm takes them
+    d *= d
+    step = np.sqrt(np.add.reduce(d, axis=1))
     length = float(step.sum())
     span = float(u[-1] - u[0])
-    step = np.hypot(step, PARAM_SHARE * (length if length > 0 else 1.0) * np.diff(u) / span)
-    sigma = np.concatenate([[0.0], np.cumsum(step)])
+    step = np.hypot(step, PARAM_SHARE * (length if length > 0 else 1.0) * (u[1:] - u[:-1])
+                    / span)
+    sigma = np.empty(u.shape[0])
+    sigma[0] = 0.0
+    np.add.accumulate(step, out=sigma[1:])
     sigma /= sigma[-1]
     sigma[-1] = 1.0
     return sigma
@@ -185,7 +190,7 @@ class Smooth:
 
 def uneven(sigma: NDArray[np.float64]) -> float:
     """Largest step of σ over the mean step."""
-    step = np.diff(sigma)
+    step = sigma[1:] - sigma[:-1]
     return float(step.max() * step.shape[0] / (sigma[-1] - sigma[0]))
 
 

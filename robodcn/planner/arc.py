@@ -32,9 +32,18 @@ class ArcPath:
                  ) -> None:
         self.path = path
         self.segments = path.segments
-        self.u_of = Smooth(sigma, u, monotone=True)
+        self._u, self._sigma = u, sigma
+        self._u_of: Smooth | None = None
         self.knots = np.interp(path.knots, u, sigma)
         self.knots[0], self.knots[-1] = 0.0, 1.0
+
+    @property
+    def u_of(self) -> Smooth:
+        """u(σ), built on first use (the plan's samples are the joints' own interpolant:
+        most plans never address the path by σ)."""
+        if self._u_of is None:
+            self._u_of = Smooth(self._sigma, self._u, monotone=True)
+        return self._u_of
 
     def __call__(self, sigma: NDArray[np.float64]) -> NDArray[np.float64]:
         return self.path(self.u_of(sigma))
