@@ -91,13 +91,16 @@ def check_number(path: str, value: Any, schema: Mapping[str, Any],
 
     Refuses bools, non-numbers, integers too large for a float and non-finite values.
     """
-    if not is_real(value):
-        raise fail(path, f"must be a number, got {_show(value)}", value)
-    try:
-        x = float(value)
-    except OverflowError:
-        raise fail(path, f"must be {_range_text(schema, unit)}, got {_show(value)}",
-                   value) from None
+    if type(value) is float:  # the common case (JSON, Python): no type checks needed
+        x = value
+    else:
+        if not is_real(value):
+            raise fail(path, f"must be a number, got {_show(value)}", value)
+        try:
+            x = float(value)
+        except OverflowError:
+            raise fail(path, f"must be {_range_text(schema, unit)}, got {_show(value)}",
+                       value) from None
     if not math.isfinite(x):
         raise fail(path, f"must be a finite number, got {_show(value)}", value)
     lo = schema.get("minimum", -math.inf)
