@@ -50,7 +50,6 @@ from robodcn.contract import MAX_SAMPLES, intervals
 from robodcn.contract.request import PlanRequest, StartState
 from robodcn.errors import InputError, TooLargeError, Violation
 from robodcn.path_timing import JointLimits, moving_start
-from robodcn.path_timing.arclength import Smooth
 from robodcn.path_timing.moving_start import JointState, StartSegment
 from robodcn.planner import path, reach, search, validate
 from robodcn.planner.arc import by_arc_length
@@ -87,7 +86,7 @@ def _sample(piece: DensePiece, arm, rate: float, ref: NDArray | None, elbow: str
     # the law's own parameter (its q′, q″ at every dense sample), the poses their FK — within
     # interpolation error (~h⁴ q⁗) of the path and its IK, without the IK's √ sensitivity
     # at a stretched end or a second IK pass
-    q = Smooth(piece.s, piece.q)(law_s)
+    q = piece.interpolant()(law_s)
     return path.pose_of(arm, q), q, None, law_s
 
 
@@ -280,24 +279,38 @@ class OptimalTiming:
                 assert bad is not None
                 return reach.reach_violation(req, offset + bad, p[bad])
             if piece.path is None:
-                seg = np.full(s.shape[0], -1, dtype=np.int64)
+                seg = np.empty(s.shape[0], dtype=np.int64)
+                seg.fill(-1)
             else:
-                inner = np.searchsorted(piece.path.knots[1:-1], s, side="right")
-                seg = piece.segment0 + np.minimum(inner, len(piece.path.segments) - 1)
+                m = len(piece.path.segments)
+                if m == 1:  # no inner knot: every sample on the piece's one segment
+                    seg = np.empty(s.shape[0], dtype=np.int64)
+                    seg.fill(piece.segment0)
+                else:
+                    inner = np.searchsorted(piece.path.knots[1:-1], s, side="right")
+                    seg = piece.segment0 + np.minimum(inner, m - 1)
                 marks[offset] = piece.segment0
-                marks[offset + piece.count] = piece.segment0 + len(piece.path.segments)
-            lo = 0 if offset == 0 else 1
+                marks[offset + piece.count] = piece.segment0 + m
             starts.append(offset)
-            poses_l.append(p[lo:])
-            joints_l.append(q[lo:])
-            seg_l.append(seg[lo:])
+            if offset == 0:
+                poses_l.append(p)
+                joints_l.append(q)
+                seg_l.append(seg)
+            else:  # the piece's first sample is the last one's end
+                poses_l.append(p[1:])
+                joints_l.append(q[1:])
+                seg_l.append(seg[1:])
             offset += piece.count
             ref = q[-1]
             if offset + 1 > MAX_SAMPLES:
                 raise TooLargeError(f"the plan needs more than {MAX_SAMPLES} samples at "
                                     f"{rate:g} Hz: lower rate_hz or shorten the motion",
                                     field="duration", value=req.duration)
-        poses, joints = np.concatenate(poses_l), np.concatenate(joints_l)
+        if len(poses_l) == 1:  # one piece: its own arrays
+            poses, joints, segment_of = poses_l[0], joints_l[0], seg_l[0]
+        else:
+            poses, joints = np.concatenate(poses_l), np.concatenate(joints_l)
+            segment_of = np.concatenate(seg_l)
         blend = None if self.start is None else self.start.blend
         if blend is not None:
             # the blend-out ends within the first piece (at rest at its end when it stops)
@@ -309,8 +322,8 @@ class OptimalTiming:
         if self.state is not None:
             joints[0] = self.state.q
         approach = self.pieces[0].count if self.pieces[0].path is None else 0
-        return Sampled(poses, joints, np.concatenate(seg_l), marks,
-                       np.asarray(starts, dtype=np.int64), approach, self.history)
+        return Sampled(poses, joints, segment_of, marks, np.asarray(starts, dtype=np.int64),
+                       approach, self.history)
 
     def slow(self, violation: Violation, sampled: Sampled | None) -> bool:
         """Slow what failed: a moving first piece brakes (no jerk limit) or blends out over

@@ -13,7 +13,7 @@ joint-space approach from ``start_joints`` (or a moving start's brake) is a piec
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 from numpy.typing import NDArray
@@ -22,6 +22,7 @@ from robodcn.config import Arm
 from robodcn.contract.request import PlanRequest
 from robodcn.interpolate import turn_angle
 from robodcn.path_timing import JointLimits, PathTiming
+from robodcn.path_timing.arclength import Smooth
 from robodcn.planner.path import (
     Path,
     Segment,
@@ -59,6 +60,8 @@ class DensePiece:
     q: NDArray | None = None
     law: PathTiming | None = None
     count: int = 0
+    _smooth: tuple[NDArray, NDArray, Smooth] | None = field(default=None, repr=False,
+                                                              compare=False)
 
     def poses(self, s: NDArray, arm: Arm) -> NDArray:
         if self.path is None:
@@ -67,6 +70,15 @@ class DensePiece:
 
     def joints_line(self, s: NDArray) -> NDArray:
         return self.q_from + np.outer(np.clip(s, 0.0, 1.0), self.q_to - self.q_from)
+
+    def interpolant(self) -> Smooth:
+        """The C² interpolant q(s) of the dense samples (:class:`~robodcn.path_timing.
+        arclength.Smooth`), built once per (s, q): a slowed law is sampled again on it."""
+        cached = self._smooth
+        if cached is None or cached[0] is not self.s or cached[1] is not self.q:
+            assert self.s is not None and self.q is not None
+            cached = self._smooth = (self.s, self.q, Smooth(self.s, self.q))
+        return cached[2]
 
 
 def _dense_s(path: Path, count: int) -> NDArray:
