@@ -205,8 +205,10 @@ class Smooth:
         pair[:, 1:] *= h
         pair[:, 2] *= h
         if self._ends is None:
-            y, d1, d2 = self.y, self.d1, self.d2
-            self._ends = np.stack([y[:-1], d1[:-1], d2[:-1], y[1:], d1[1:], d2[1:]])
+            ends = self._ends = np.empty((6, *self.y[1:].shape))  # np.stack, unwrapped
+            for m, data in enumerate((self.y, self.d1, self.d2)):
+                ends[m] = data[:-1]
+                ends[m + 3] = data[1:]
         data = np.take(self._ends, i, axis=1)
         data *= b[:, :, None] if self.y.ndim == 2 else b
         # the sum over the six rows in order (a reduction over the outer axis adds row by

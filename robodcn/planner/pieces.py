@@ -81,11 +81,28 @@ class DensePiece:
         return cached[2]
 
 
+#: The uniform grids of :func:`_dense_s`'s one-segment paths by sample count (read-only)
+_UNIFORM: dict[int, NDArray] = {}
+
+
 def _dense_s(path: Path, count: int) -> NDArray:
-    """Path parameters for the dense samples: uniform per segment, every knot included."""
+    """Path parameters for the dense samples: uniform per segment, every knot included (one
+    segment: numpy.linspace(0, 1, count + 1), the same values, kept read-only per count)."""
     knots = path.knots
+    if knots.shape[0] == 2 and knots[0] == 0.0 and knots[1] == 1.0:
+        grid = _UNIFORM.get(count)
+        if grid is None:
+            grid = _UNIFORM[count] = np.linspace(0.0, 1.0, count + 1)
+            grid.setflags(write=False)
+        return grid
     parts = [np.linspace(knots[i], knots[i + 1], count + 1)[:-1] for i in range(len(knots) - 1)]
     return np.concatenate([*parts, [1.0]])
+
+
+def _moves(q: NDArray) -> bool:
+    """Whether a joint moves along the samples q (n, k): its range above 1e-12 rad (numpy.ptp
+    as max − min, without its wrapper)."""
+    return float((np.maximum.reduce(q, axis=0) - np.minimum.reduce(q, axis=0)).max()) > 1e-12
 
 
 def _pieces(req: PlanRequest, segments: list[Segment]) -> list[DensePiece]:
@@ -138,7 +155,6 @@ def build_pieces(req: PlanRequest) -> tuple[list[DensePiece] | None, NDArray | N
     ref = None if state is None else state.arrays()[0]
     if req.start_joints is not None:
         ref = np.asarray(req.start_joints)
-    limits_ = [(jt.min_angle, jt.max_angle) for jt in arm.joints]
     # dense geometry, branch-continuous across pieces
     dense = DENSE_JERK if JointLimits.of(arm, torque=False).jerk_limited else DENSE
     per = max(16, min(dense, DENSE_MAX // max(1, len(segments))))
@@ -154,11 +170,11 @@ def build_pieces(req: PlanRequest) -> tuple[list[DensePiece] | None, NDArray | N
         piece.s, piece.q = s, q
         ref = q[-1]
     # a piece along which no joint moves (coincident waypoints) takes no time: drop it
-    moving_pieces = [p for p in pieces if float(np.ptp(p.q, axis=0).max()) > 1e-12]
+    moving_pieces = [p for p in pieces if _moves(p.q)]
     pieces = moving_pieces or pieces[:1]
     if req.start_joints is not None:
         start = np.asarray(req.start_joints)
-        target = within_limits(first_q, limits_)
+        target = within_limits(first_q, [(jt.min_angle, jt.max_angle) for jt in arm.joints])
         tolerance = min(math.pi / jt.servo.ticks_per_turn for jt in arm.joints)
         if np.max(np.abs(target - start)) > tolerance:
             if np.max(np.abs(target - first_q)) > 0:  # the path's turn follows the approach
