@@ -96,10 +96,13 @@ class Monotone:
         return min(d, 3.0 * m0)
 
     def __call__(self, xq: ArrayLike) -> NDArray[np.float64]:
-        xq = np.clip(np.asarray(xq, dtype=np.float64), self.x[0], self.x[-1])
-        i = np.clip(np.searchsorted(self.x, xq, side="right") - 1, 0, self.h.shape[0] - 1)
+        x = self.x  # np.clip without its wrapper (the same values), as in Smooth
+        xq = np.minimum(np.maximum(np.asarray(xq, dtype=np.float64), x[0]), x[-1])
+        i = np.searchsorted(x, xq, side="right")
+        i -= 1
+        np.minimum(np.maximum(i, 0, out=i), self.h.shape[0] - 1, out=i)
         h = self.h[i]
-        t = (xq - self.x[i]) / h
+        t = (xq - x[i]) / h
         t2, t3 = t * t, t * t * t
         return ((2 * t3 - 3 * t2 + 1) * self.y[i] + (t3 - 2 * t2 + t) * h * self.d[i]
                 + (-2 * t3 + 3 * t2) * self.y[i + 1] + (t3 - t2) * h * self.d[i + 1])
@@ -139,7 +142,7 @@ class Smooth:
         if monotone:
             self.d1 = np.maximum(self.d1, 0.0)
         self.d2 = grad(self.d1)
-        self.h = np.diff(self.x)
+        self.h = self.x[1:] - self.x[:-1]  # np.diff
         self._table: NDArray[np.float64] | None = None
         self._ends: NDArray[np.float64] | None = None
 
