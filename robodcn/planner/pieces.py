@@ -21,7 +21,7 @@ from numpy.typing import NDArray
 from robodcn.config import Arm
 from robodcn.contract.request import PlanRequest
 from robodcn.interpolate import turn_angle
-from robodcn.path_timing import JointLimits, PathTiming
+from robodcn.path_timing import PathTiming
 from robodcn.path_timing.arclength import Smooth
 from robodcn.planner.path import (
     Path,
@@ -156,7 +156,9 @@ def build_pieces(req: PlanRequest) -> tuple[list[DensePiece] | None, NDArray | N
     if req.start_joints is not None:
         ref = np.asarray(req.start_joints)
     # dense geometry, branch-continuous across pieces
-    dense = DENSE_JERK if JointLimits.of(arm, torque=False).jerk_limited else DENSE
+    # JointLimits.jerk_limited, read off the joints without building the limit arrays
+    jerk_limited = any(jt.max_jerk is not None for jt in arm.joints)
+    dense = DENSE_JERK if jerk_limited else DENSE
     per = max(16, min(dense, DENSE_MAX // max(1, len(segments))))
     first_q = None
     for piece in pieces:
