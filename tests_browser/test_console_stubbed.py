@@ -171,7 +171,10 @@ def test_a_yawed_arm_has_four_pose_numbers_a_side_and_a_top_view(driver: Any, un
     body = fake.posted("/v1/trajectories")[-1]
     assert body["waypoints"][0] == pose
     assert body["waypoints"][1] == [0.15, 0.05, 0.12, math.radians(-20.0)]
-    assert "refused by the stub" in el(driver, "error").text
+    # the stub has the request once it is posted; the console shows its 422 when the reply
+    # has come back and been drawn (a moment later on a loaded machine)
+    until(lambda d: "refused by the stub" in el(d, "error").text, 10,
+          "the console never showed the stub's 422")
     # no script error (the stub's 422 is logged as a network failure, as it should)
     assert [e for e in severe_logs(driver) if e.get("source") != "network"] == []
 
