@@ -65,6 +65,20 @@ def arc_length(q: NDArray[np.float64], u: NDArray[np.float64]) -> NDArray[np.flo
     return sigma
 
 
+def _locate(x: NDArray[np.float64], h: NDArray[np.float64], xq: ArrayLike
+            ) -> tuple[NDArray[np.float64], NDArray[np.int64], NDArray[np.float64],
+                       NDArray[np.float64]]:
+    """Queries clipped to [x_0, x_n], each one's interval i, its width h_i and the local
+    t = (x_q − x_i) / h_i ∈ [0, 1] (np.clip spelled out without its wrapper: the same
+    values)."""
+    xq = np.minimum(np.maximum(np.asarray(xq, dtype=np.float64), x[0]), x[-1])
+    i = np.searchsorted(x, xq, side="right")
+    i -= 1
+    np.minimum(np.maximum(i, 0, out=i), h.shape[0] - 1, out=i)
+    hi = h[i]
+    return xq, i, hi, (xq - x[i]) / hi
+
+
 class Monotone:
     """y(x) through (x_i, y_i), x and y strictly increasing: Fritsch–Carlson PCHIP (module
     doc). ``__call__`` takes any array of x (clipped to the data's range)."""
@@ -96,13 +110,7 @@ class Monotone:
         return min(d, 3.0 * m0)
 
     def __call__(self, xq: ArrayLike) -> NDArray[np.float64]:
-        x = self.x  # np.clip without its wrapper (the same values), as in Smooth
-        xq = np.minimum(np.maximum(np.asarray(xq, dtype=np.float64), x[0]), x[-1])
-        i = np.searchsorted(x, xq, side="right")
-        i -= 1
-        np.minimum(np.maximum(i, 0, out=i), self.h.shape[0] - 1, out=i)
-        h = self.h[i]
-        t = (xq - x[i]) / h
+        xq, i, h, t = _locate(self.x, self.h, xq)
         t2, t3 = t * t, t * t * t
         return ((2 * t3 - 3 * t2 + 1) * self.y[i] + (t3 - 2 * t2 + t) * h * self.d[i]
                 + (-2 * t3 + 3 * t2) * self.y[i + 1] + (t3 - t2) * h * self.d[i + 1])
@@ -118,9 +126,7 @@ _POWERS = np.array([[1.0, 0.0, 0.0, -10.0, 15.0, -6.0],
 
 
 #: The Hermite basis' coefficients of t³, t⁴, t⁵ per basis function (:meth:`Smooth._hermite`)
-_T3 = np.array([-10.0, -6.0, -3.0, 10.0, -4.0, 1.0])[:, None]
-_T4 = np.array([15.0, 8.0, 3.0, -15.0, 7.0, -2.0])[:, None]
-_T5 = np.array([-6.0, -3.0, -1.0, 6.0, -3.0, 1.0])[:, None]
+_T3, _T4, _T5 = (_POWERS[:, p, None] for p in (3, 4, 5))
 
 
 class Smooth:
@@ -147,14 +153,7 @@ class Smooth:
         self._ends: NDArray[np.float64] | None = None
 
     def __call__(self, xq: ArrayLike) -> NDArray[np.float64]:
-        x = self.x
-        # np.clip without its wrapper (the same values)
-        xq = np.minimum(np.maximum(np.asarray(xq, dtype=np.float64), x[0]), x[-1])
-        i = np.searchsorted(x, xq, side="right")
-        i -= 1
-        np.minimum(np.maximum(i, 0, out=i), self.h.shape[0] - 1, out=i)
-        h = self.h[i]
-        t = (xq - x[i]) / h
+        xq, i, h, t = _locate(self.x, self.h, xq)
         if xq.ndim == 1 and xq.shape[0] > 2 * self.h.shape[0]:
             out = self._horner(i, t)  # many queries per interval: per-interval polynomials
         elif xq.ndim == 1:

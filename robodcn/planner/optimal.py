@@ -291,15 +291,11 @@ class OptimalTiming:
                     seg = piece.segment0 + np.minimum(inner, m - 1)
                 marks[offset] = piece.segment0
                 marks[offset + piece.count] = piece.segment0 + m
+            lo = 0 if offset == 0 else 1  # a later piece's first sample is the last one's end
             starts.append(offset)
-            if offset == 0:
-                poses_l.append(p)
-                joints_l.append(q)
-                seg_l.append(seg)
-            else:  # the piece's first sample is the last one's end
-                poses_l.append(p[1:])
-                joints_l.append(q[1:])
-                seg_l.append(seg[1:])
+            poses_l.append(p[lo:])
+            joints_l.append(q[lo:])
+            seg_l.append(seg[lo:])
             offset += piece.count
             ref = q[-1]
             if offset + 1 > MAX_SAMPLES:
