@@ -182,3 +182,36 @@ def test_uniform_blend_is_never_slower_than_stopping_on_random_dlb_paths(profile
     assert planned >= 10
     if profile == "linear":  # its velocity steps at stops cost more than a blend's detour
         assert blended >= 1
+
+
+@pytest.mark.parametrize("arm, waypoints, method, beta, blend", [
+    (ARM3R, [[0.25, 0.10, 0.0], [0.05, 0.28, math.radians(90)]], "kenlerp", 2.0, False),
+    (ARM2R, [[0.18, 0.08], [0.12, 0.14], [0.02, 0.2], [-0.1, 0.15]], "sclerp", 1.0, True),
+], ids=["3r-kenlerp", "2r-blend"])
+def test_optimal_duration_does_not_grow_with_the_rate(arm: Arm, waypoints: Any, method: str,
+                                                      beta: float, blend: bool) -> None:
+    """At 1 kHz the samples resolve the dense interpolant's q″ between the grid's stages: the
+    law is timed again on finer dense samples rather than slowed (it was 2.5 % longer than at
+    100 Hz), so the faster rate never plans a longer motion than 100 Hz (+ its rounding)."""
+    free = with_jerk(arm, None)
+    slow = plan(free, waypoints, method=method, beta=beta, blend=blend, rate_hz=100)
+    fast = plan(free, waypoints, method=method, beta=beta, blend=blend, rate_hz=1000)
+    assert fast.duration <= slow.duration + 2e-3
+    check_trajectory(fast, free, waypoints)
+
+
+def test_refine_only_above_the_dense_rate() -> None:
+    from robodcn.planner.optimal import OptimalTiming, build_pieces
+
+    free = with_jerk(ARM3R, None)
+    for rate, refines in ((100, False), (250, False), (1000, True)):
+        req = PlanRequest(arm=free, waypoints=WAYPOINTS_3R, rate_hz=rate)
+        pieces, _ = build_pieces(req)
+        law = OptimalTiming(req, pieces)
+        coarse = sum(p.q.shape[0] for p in law.pieces)
+        assert law.refine() is refines
+        assert law.refine() is False  # once
+        assert (sum(p.q.shape[0] for p in law.pieces) > coarse) is refines
+    jerk = with_jerk(ARM3R, 20.0)  # already timed on DENSE_JERK
+    req = PlanRequest(arm=jerk, waypoints=WAYPOINTS_3R, rate_hz=1000)
+    assert OptimalTiming(req, build_pieces(req)[0]).refine() is False

@@ -76,7 +76,11 @@ def run(req: PlanRequest, law: Timing) -> Trajectory:
                                               history=sampled.history)
             if violation is None:
                 return assemble(req, sampled, ticks, law.start_state)
-        if violation.quantity not in validate.ORDER or req.duration != "auto":
+        if violation.quantity not in validate.ORDER:
+            break
+        if law.refine():  # a finer geometry first: it may pass without slowing
+            continue
+        if req.duration != "auto":
             break  # a fixed duration is the caller's: never lengthened to pass
         if not law.slow(violation, sampled):
             break

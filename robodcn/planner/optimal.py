@@ -55,7 +55,7 @@ from robodcn.planner import path, reach, search, validate
 from robodcn.planner.arc import by_arc_length
 from robodcn.planner.path import joints_of
 from robodcn.planner.pieces import DENSE as DENSE  # re-export
-from robodcn.planner.pieces import DensePiece, build_pieces
+from robodcn.planner.pieces import DensePiece, build_pieces, dense_per_segment
 from robodcn.planner.samples import Sampled
 
 log = logging.getLogger(__name__)
@@ -153,8 +153,8 @@ def _slow(piece: DensePiece, factor: float) -> None:
               "stages)", factor)
 
 
-def _brake_then_go(req: PlanRequest, brake: moving_start.Brake, limits: JointLimits
-                   ) -> list[DensePiece] | None:
+def _brake_then_go(req: PlanRequest, brake: moving_start.Brake, limits: JointLimits,
+                   fine: bool) -> list[DensePiece] | None:
     """The brake as a piece, then the request's path planned from rest where it ends (the
     path was to start at the state's pose: it starts where the brake ends instead); None
     when that path leaves the workspace."""
@@ -167,7 +167,7 @@ def _brake_then_go(req: PlanRequest, brake: moving_start.Brake, limits: JointLim
     still = (0.0,) * brake.q0.shape[0]
     rest = dataclasses.replace(req, waypoints=waypoints,
                                start_state=StartState(tuple(brake.q_stop), still, still))
-    pieces, _ = build_pieces(rest)
+    pieces, _ = build_pieces(rest, fine=fine)
     if pieces is None:
         return None
     for piece in by_arc_length(req, pieces):  # from rest
@@ -184,15 +184,13 @@ class OptimalTiming:
 
     def __init__(self, req: PlanRequest, pieces: list[DensePiece]) -> None:
         self.req = req
-        self.pieces = by_arc_length(req, pieces)
         self.limits = JointLimits.of(req.arm, getattr(req, "payload_kg", None))
         state = req.start_state
         self.start_state = state
         self.state = None if state is None else JointState(*state.arrays())
         self.moving = state is not None and state.moving
-        self.path = pieces[0]  # the first piece of the path itself (not a brake)
-        self.start: StartSegment | None = None
-        self.rounds = RETRIES + len(moving_start.BLEND_TRIES)
+        # one round more for refine()
+        self.rounds = RETRIES + len(moving_start.BLEND_TRIES) + 1
         self.history = None if self.state is None else validate.start_history(
             self.state.q, self.state.qd, self.state.qdd, req.rate_hz)
         if self.moving and req.duration != "auto":
@@ -200,6 +198,16 @@ class OptimalTiming:
                              "start_state (stretching the optimal law would change the start "
                              "velocity): use duration=\"auto\"", field="duration",
                              value=req.duration)
+        self.fine = False
+        self._time(pieces)
+
+    def _time(self, pieces: list[DensePiece]) -> None:
+        """Each piece's optimal law (joined to a moving start; a blend that a stop beats
+        dropped; stretched to a fixed duration)."""
+        req = self.req
+        self.pieces = by_arc_length(req, pieces)
+        self.path = self.pieces[0]  # the first piece of the path itself (not a brake)
+        self.start: StartSegment | None = None
         if self.moving:
             self._join(allow_brake=True)
         else:
@@ -209,6 +217,25 @@ class OptimalTiming:
                 self._stop_if_faster()
         if req.duration != "auto":
             fit_duration(req, self.pieces)
+
+    def refine(self) -> bool:
+        """Time the path again on the rate's finer dense samples (pieces.DENSE_RATE_HZ)
+        instead of slowing it, once; False when they are no finer or leave the workspace."""
+        req = self.req
+        if self.fine:
+            return False
+        self.fine = True
+        jerk_limited = any(jt.max_jerk is not None for jt in req.arm.joints)
+        segments = req.segments
+        if dense_per_segment(req.rate_hz, jerk_limited, segments, fine=True) <= \
+                dense_per_segment(req.rate_hz, jerk_limited, segments):
+            return False
+        pieces, _ = build_pieces(req, fine=True)
+        if pieces is None:
+            return False
+        log.debug("optimal: timed again on finer dense samples")
+        self._time(pieces)
+        return True
 
     def _periods(self, pieces: list[DensePiece]) -> int:
         rate = self.req.rate_hz
@@ -224,7 +251,7 @@ class OptimalTiming:
         blended = self._periods(self.pieces)
         if req.duration != "auto" and blended <= intervals(req.duration, req.rate_hz):
             return
-        stops, _ = build_pieces(dataclasses.replace(req, blend=False))
+        stops, _ = build_pieces(dataclasses.replace(req, blend=False), fine=self.fine)
         if stops is None:
             return
         for piece in by_arc_length(req, stops):
@@ -247,7 +274,7 @@ class OptimalTiming:
                                 allow_brake=allow_brake)
         if seg.kind == "brake":
             assert seg.brake is not None
-            braked = _brake_then_go(self.req, seg.brake, self.limits)
+            braked = _brake_then_go(self.req, seg.brake, self.limits, self.fine)
             if braked is None:  # no path from where the brake ends: join without it
                 self._join(allow_brake=False)
                 return
@@ -349,7 +376,7 @@ class OptimalTiming:
         if self.limits.j is None:
             # the blend-out failed between samples: brake and go instead
             brake = moving_start.brake_line(self.state, self.limits, self.req.rate_hz)
-            braked = _brake_then_go(self.req, brake, self.limits)
+            braked = _brake_then_go(self.req, brake, self.limits, self.fine)
             if braked is not None:
                 self.pieces = braked
                 self.start = StartSegment("brake", brake=brake, scale=self.start.scale)

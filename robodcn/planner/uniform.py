@@ -216,6 +216,10 @@ class UniformTiming:
         self.counts = scaled
         return True
 
+    def refine(self) -> bool:
+        """The uniform laws sample the path itself: no finer geometry to time on."""
+        return False
+
     def annotate(self, violation: Violation) -> Violation:
         """A position or tick violation says whether the other elbow branch would pass."""
         if violation.quantity not in ("position", "ticks"):
