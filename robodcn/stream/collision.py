@@ -35,7 +35,8 @@ well. No default threshold separates that from a collision, so the default stop 
 such a joint (``inf``; the streamer warns "collision_stop_off"); a configured
 ``collision_current_a`` still applies. The stream stops when
 a joint's |current| stays above its threshold for ``collision_cycles`` consecutive feedback
-reads.
+reads, not counting reads within :data:`SLEW_QUIET_S` of a goal the loop slewed (the current
+of the servo chasing it is the loop's doing, not an obstacle's).
 """
 
 from __future__ import annotations
@@ -61,6 +62,12 @@ LIMIT_SHARE = 0.9
 FALLBACK_LIMIT_A = STALL_CURRENT_A["xm430-w350"]
 #: Half-width of the window a sample's threshold takes its current from, s.
 WINDOW_S = 0.05
+#: How long after a goal the loop slewed the collision count stays at zero, s: while the
+#: loop slews (:mod:`robodcn.stream.step_guard`, after a host stall) the goal runs ahead of
+#: the plan at the velocity limit, the servo lags it and pushes at full PWM, a current the
+#: plan does not predict; then the arm closes that lag at speed (≈ 100 ticks at 2000
+#: ticks/s: 50 ms) and its current decays over the window. The tracking check stays on.
+SLEW_QUIET_S = 0.15
 
 
 def predicted_currents(joints: NDArray[np.float64], period: float,
@@ -194,6 +201,7 @@ class ChainThresholds:
         return out
 
 
-__all__ = ["FALLBACK_LIMIT_A", "LIMIT_SHARE", "MARGIN_A", "MARGIN_FACTOR", "WINDOW_S",
+__all__ = ["FALLBACK_LIMIT_A", "LIMIT_SHARE", "MARGIN_A", "MARGIN_FACTOR", "SLEW_QUIET_S",
+           "WINDOW_S",
            "ChainThresholds", "current_caps", "predicted_currents", "threshold_profile",
            "thresholds"]

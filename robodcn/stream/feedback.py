@@ -36,7 +36,12 @@ from robodcn.planner import Trajectory
 from robodcn.planner.path import user_pose
 from robodcn.servo_units import radians_per_tick
 from robodcn.stream.clock import Clock
-from robodcn.stream.collision import ChainThresholds, predicted_currents, threshold_profile
+from robodcn.stream.collision import (
+    SLEW_QUIET_S,
+    ChainThresholds,
+    predicted_currents,
+    threshold_profile,
+)
 from robodcn.stream.compensation import holding_goals
 from robodcn.stream.options import ExecutionOptions
 from robodcn.stream.report import StreamStop, tracking_error
@@ -141,6 +146,9 @@ class Feedback:
         self.threshold: NDArray[np.float64] | None = None
         self.predicted: NDArray[np.float64] | None = None
         self.over = np.zeros(len(bus.ids), dtype=np.int64)
+        #: the collision count stays 0 up to this sample (a goal the loop slewed: SLEW_QUIET_S)
+        self.quiet_until = -1
+        self.quiet_samples = 0
         self.collision: dict[str, Any] | None = None
         #: every feedback read (:mod:`robodcn.stream.trace`), for ``ExecutionReport.trace``
         self.trace = TraceRecorder(samples, [s.direction for s in bus.servos],
@@ -152,6 +160,7 @@ class Feedback:
         the warnings they give (a joint whose stop is off)."""
         self.predicted = predicted_currents(trajectory.joints, period, self.bus.servos,
                                             self.arm, self.payload_kg)
+        self.quiet_samples = math.ceil(SLEW_QUIET_S / period)
         limits = self.bus.current_limits or tuple(2.3 for _ in self.bus.ids)
         if opts.collision_current is not None:     # its length was checked before
             self.threshold = np.asarray(opts.collision_current, dtype=np.float64)
@@ -172,6 +181,11 @@ class Feedback:
         return [{"code": "collision_stop_off", "message": message}]
 
     # -- reads ----------------------------------------------------------------------------
+
+    def slewed(self, sample: int) -> None:
+        """The goal written for ``sample`` was slewed by the loop: no collision counted
+        for :data:`~robodcn.stream.collision.SLEW_QUIET_S` from it."""
+        self.quiet_until = sample + self.quiet_samples
 
     def read(self, timeline: Timeline, sample: int, goal: NDArray[np.int64],
              previous_goal: NDArray[np.int64] | None) -> None:
@@ -288,6 +302,8 @@ class Feedback:
             else:  # the plan's own samples: the threshold of this sample
                 threshold = self.threshold_at[min(sample, len(self.threshold_at) - 1)]
         above = current > threshold
+        if sample <= self.quiet_until:  # the servo chases a goal the loop slewed
+            above = np.zeros_like(above)
         self.over = np.where(above, self.over + 1, 0)
         hit = self.over >= self.collision_cycles
         if not hit.any():

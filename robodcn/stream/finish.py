@@ -37,6 +37,11 @@ OVERLOAD_BIT = 0x20
 REST_S = 0.05
 #: Time between two final reads while settling (s).
 SETTLE_POLL_S = 0.005
+#: The least settle (s) of a stream whose last goals were slewed after a host stall
+#: (:mod:`robodcn.stream.step_guard`): the arm is then still behind its last goal at speed
+#: (≈ 100 ticks at the velocity limit), and a next move, planned from that goal at rest,
+#: would start while it overshoots (a current its collision stop took for an obstacle).
+CATCH_UP_SETTLE_S = 0.3
 
 
 @dataclass
@@ -149,4 +154,4 @@ def _final(bus: ServoBus, clock: Clock, settle: float,
         clock.sleep(SETTLE_POLL_S)
 
 
-__all__ = ["OVERLOAD_BIT", "REST_S", "Finished", "finish", "held_goals"]
+__all__ = ["CATCH_UP_SETTLE_S", "OVERLOAD_BIT", "REST_S", "Finished", "finish", "held_goals"]

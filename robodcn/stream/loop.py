@@ -95,6 +95,8 @@ class Stream:
         self.failures = failures
         self.records = SentRecords(self.n)
         self.skipped_late = 0
+        #: the source ended with its last goal not yet written (slewed writes followed it)
+        self.caught_up = False
         self.failed_writes = 0
         self.overruns = 0
         self.retries_start = bus.retries_used
@@ -184,6 +186,8 @@ class Stream:
                     i += 1
                     continue
                 last_write = start
+                if guard.behind():
+                    self.feedback.slewed(i)
                 slot = records.count
                 records.index[slot] = i
                 records.at[slot] = start
@@ -207,6 +211,7 @@ class Stream:
                     self._report_progress(i, start)
                 i += 1
             if guard.behind():
+                self.caught_up = True
                 self._catch_up(t0, i)
         except StreamStop as stop:
             self.ending = stop.ending

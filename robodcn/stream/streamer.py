@@ -61,7 +61,7 @@ from numpy.typing import ArrayLike
 from robodcn.bus import ServoBus
 from robodcn.planner import Trajectory
 from robodcn.stream.feedback import CommFailures, Feedback
-from robodcn.stream.finish import finish
+from robodcn.stream.finish import CATCH_UP_SETTLE_S, finish
 from robodcn.stream.loop import PROGRESS_INTERVAL_S, Stream
 from robodcn.stream.options import ExecutionOptions
 from robodcn.stream.preflight import arm_watchdog, check_arguments, preflight
@@ -125,7 +125,8 @@ def execute(trajectory: Trajectory, bus: ServoBus, options: ExecutionOptions | N
         except BaseException:
             end(hold=True, settle=0.0)
             raise
-        done = end(hold=stream.ending.reason != "completed", settle=opts.settle)
+        settle = max(opts.settle, CATCH_UP_SETTLE_S) if stream.caught_up else opts.settle
+        done = end(hold=stream.ending.reason != "completed", settle=settle)
         report = build_report(stream, feedback, done, prepared.approach, issued)
         log.info("%s", report.headline)
         return report
