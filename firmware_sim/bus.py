@@ -107,7 +107,9 @@ class SimBus:
         self.lock = threading.RLock()
         self._thread: threading.Thread | None = None
         self._stop = threading.Event()
-        #: Packets received (also those with a bad CRC).
+        #: Packets received and handled (also those with a bad CRC): counted once dispatched,
+        #: so a test that waits for the count and then moves a virtual clock on moves it
+        #: after the packet's effects (a watchdog fed), not between its receipt and them.
         self.rx_packets = 0
         self._keeps_up = not isinstance(self._servos[0].clock, VirtualClock)
 
@@ -256,13 +258,15 @@ class SimBus:
                 s.update()
 
     def _handle(self, pkt: Packet) -> None:
-        self.rx_packets += 1
         self._log.add(LogEntry(pkt.time, "rx", pkt.id, pkt.name, pkt.params, None, pkt.raw,
                                "" if pkt.crc_ok else "crc error"))
         rate = self._port.rate()
         byte_s = 10.0 / rate if rate else 0.0
         with self.lock:
-            replies = self._dispatcher.dispatch(pkt, rate)
+            try:
+                replies = self._dispatcher.dispatch(pkt, rate)
+            finally:
+                self.rx_packets += 1
         if replies:
             end = pkt.time + len(pkt.raw) * byte_s if self._sender.realistic else pkt.time
             self._sender.send(replies, end, byte_s)

@@ -306,13 +306,11 @@ class OptimalTiming:
                 assert bad is not None
                 return reach.reach_violation(req, offset + bad, p[bad])
             if piece.path is None:
-                seg = np.empty(s.shape[0], dtype=np.int64)
-                seg.fill(-1)
+                seg = np.full(s.shape[0], -1, dtype=np.int64)
             else:
                 m = len(piece.path.segments)
                 if m == 1:  # no inner knot: every sample on the piece's one segment
-                    seg = np.empty(s.shape[0], dtype=np.int64)
-                    seg.fill(piece.segment0)
+                    seg = np.full(s.shape[0], piece.segment0, dtype=np.int64)
                 else:
                     inner = np.searchsorted(piece.path.knots[1:-1], s, side="right")
                     seg = piece.segment0 + np.minimum(inner, m - 1)

@@ -166,8 +166,9 @@ def _fine(joints: NDArray, ticks: NDArray, lo: NDArray, hi: NDArray, tmin: NDArr
 
 
 #: Plans shorter than this are checked on their whole (n, k) arrays at once (fewer numpy
-#: calls), longer ones a contiguous joint column at a time (each stays in cache).
-FINE_BLOCK_ROWS = 512
+#: calls), longer ones a contiguous joint column at a time (each stays in cache): the same
+#: crossover as the tick conversion's, on the same arrays.
+FINE_BLOCK_ROWS = servo_units.WHOLE_ROWS
 
 
 def _fine_block(joints: NDArray, ticks: NDArray, lo: NDArray, hi: NDArray, tmin: NDArray,
