@@ -42,21 +42,41 @@ def running(server: Any) -> Iterator[Any]:
 
 
 @contextlib.contextmanager
-def serving_arm(arm: Any = ARM, request_timeout: float = 2.0) -> Iterator[tuple[Any, Any]]:
+def serving_arm(arm: Any = ARM, request_timeout: float = 2.0, *, check_sim: bool = True,
+                **limits: Any) -> Iterator[tuple[Any, Any]]:
     """A service on a simulated ``arm`` (fast timing) with its controller: (server, the
-    simulated arm). The simulator must end without protocol errors."""
+    simulated arm); ``limits`` go to ``make_server`` (``max_per_client``, …). Unless
+    ``check_sim`` is false, the simulator must end without protocol errors."""
     from robodcn.controller import ArmController
     from robodcn.simulated import simulated_arm
 
     with simulated_arm(arm, timing="fast") as sa:
         controller = ArmController(arm, sa.bus, execute_options=LOADED_MACHINE)
         try:
-            with running(make_server(arm, controller,
-                                     request_timeout=request_timeout)) as server:
+            with running(make_server(arm, controller, request_timeout=request_timeout,
+                                     **limits)) as server:
                 yield server, sa
         finally:
             controller.close()
-    assert not sa.sim.errors, sa.sim.errors
+    if check_sim:
+        assert not sa.sim.errors, sa.sim.errors
+
+
+@contextlib.contextmanager
+def serving_abused() -> Iterator[tuple[Any, Any]]:
+    """:func:`serving_arm` as the abuse tests (test_http_abuse, test_http_races) want it:
+    3 s request timeout, 8 connections an address, 16 in all; the simulator's protocol
+    errors are not checked (some of those tests lose devices on purpose)."""
+    with serving_arm(request_timeout=3.0, check_sim=False, max_per_client=8,
+                     max_connections=16) as pair:
+        yield pair
+
+
+@contextlib.contextmanager
+def serving_planner(request_timeout: float = 2.0) -> Iterator[Any]:
+    """A planner-only service (no arm) in a thread."""
+    with running(make_server(ARM, None, request_timeout=request_timeout)) as server:
+        yield server
 
 
 #: :func:`serving_arm` on the example arm as a fixture. Test modules import it to use it.

@@ -29,6 +29,8 @@ from http_helpers import (
     poll_move,
     read_all,
     running,
+    serving_abused,
+    serving_planner,
 )
 
 from robodcn.errors import InputError
@@ -37,23 +39,14 @@ from robodcn.http import ROUTES, ListenError, make_server
 
 @pytest.fixture(scope="module")
 def planner_server() -> Iterator[Any]:
-    with running(make_server(ARM, None, request_timeout=2.0)) as server:
+    with serving_planner() as server:
         yield server
 
 
 @pytest.fixture
 def arm_server() -> Iterator[tuple[Any, Any]]:
-    from robodcn.controller import ArmController
-    from robodcn.simulated import simulated_arm
-
-    with simulated_arm(ARM, timing="fast") as sa:
-        controller = ArmController(ARM, sa.bus, execute_options=LOADED_MACHINE)
-        try:
-            with running(make_server(ARM, controller, request_timeout=3.0,
-                                     max_per_client=8, max_connections=16)) as server:
-                yield server, sa
-        finally:
-            controller.close()
+    with serving_abused() as pair:
+        yield pair
 
 
 # -- slow clients -----------------------------------------------------------------------------
