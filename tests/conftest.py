@@ -80,3 +80,22 @@ def lockstep_arm(arm: Arm, **kw) -> Iterator[tuple]:
     clock = VirtualClock()
     with simulated_arm(arm, clock=clock, **kw) as sa:
         yield sa, clock
+
+
+@contextlib.contextmanager
+def controlled_arm(arm: Arm, execute_options: dict, *,
+                   check_sim: bool = True) -> Iterator[tuple]:
+    """A simulated ``arm`` (fast timing) with an ``ArmController`` on its bus: yields
+    ``(sa, controller)``; the controller is closed after, and unless ``check_sim`` is false
+    the simulator must end without protocol errors."""
+    from robodcn.controller import ArmController
+    from robodcn.simulated import simulated_arm
+
+    with simulated_arm(arm, timing="fast") as sa:
+        controller = ArmController(arm, sa.bus, execute_options=execute_options)
+        try:
+            yield sa, controller
+        finally:
+            controller.close()
+    if check_sim:
+        assert not sa.sim.errors, sa.sim.errors

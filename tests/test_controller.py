@@ -11,7 +11,7 @@ from typing import Any
 
 import numpy as np
 import pytest
-from conftest import settled
+from conftest import controlled_arm, settled
 
 from robodcn import kinematics, servo_units
 from robodcn.bus import ServoBus
@@ -41,13 +41,8 @@ def short_move(end: tuple[float, float, float] = TARGET, duration: float = 0.6) 
 
 @pytest.fixture
 def rig() -> Iterator[tuple[SimulatedArm, ArmController]]:
-    with simulated_arm(ARM, timing="fast") as sa:
-        controller = ArmController(ARM, sa.bus, execute_options=LOADED_MACHINE)
-        try:
-            yield sa, controller
-        finally:
-            controller.close()
-    assert not sa.sim.errors, sa.sim.errors
+    with controlled_arm(ARM, LOADED_MACHINE) as pair:
+        yield pair
 
 
 def present(sa: SimulatedArm) -> list[int]:

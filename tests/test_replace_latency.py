@@ -23,6 +23,7 @@ from collections.abc import Iterator
 from typing import Any
 
 import pytest
+from conftest import controlled_arm
 from http_helpers import ARM, LOADED_MACHINE, TARGET
 
 from robodcn.admission import MoveOrder, admit
@@ -30,7 +31,7 @@ from robodcn.contract import MOVE_OMIT, parse_request
 from robodcn.controller import REPLACE_WAIT, ArmController
 from robodcn.errors import BusyError, RobodcnError
 from robodcn.planner import plan
-from robodcn.simulated import SimulatedArm, simulated_arm
+from robodcn.simulated import SimulatedArm
 from robodcn.stream.online import PlanningTimes, SwitchMissed
 from robodcn.stream.online.planning_times import RETARGET_TO_DURATION
 from robodcn.stream.online.retarget import Retargeting
@@ -40,12 +41,8 @@ OTHER = [0.2, 0.05, 0.3]
 
 @pytest.fixture
 def rig() -> Iterator[tuple[SimulatedArm, ArmController]]:
-    with simulated_arm(ARM, timing="fast") as sa:
-        controller = ArmController(ARM, sa.bus, execute_options=LOADED_MACHINE)
-        try:
-            yield sa, controller
-        finally:
-            controller.close()
+    with controlled_arm(ARM, LOADED_MACHINE, check_sim=False) as pair:
+        yield pair
 
 
 def _running(controller: ArmController, duration: float = 4.0) -> Any:
