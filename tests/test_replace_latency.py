@@ -56,6 +56,21 @@ def _running(controller: ArmController, duration: float = 4.0) -> Any:
     return record
 
 
+def _block_tail(monkeypatch: Any) -> tuple[threading.Event, threading.Event]:
+    """Make a replace's planning (``Retargeting.tail``) block: (set when it is planning,
+    set this to let it go on)."""
+    planned, release = threading.Event(), threading.Event()
+    real = Retargeting.tail
+
+    def blocked(self: Retargeting, *args: Any, **kwargs: Any) -> Any:
+        planned.set()
+        assert release.wait(30)
+        return real(self, *args, **kwargs)
+
+    monkeypatch.setattr(Retargeting, "tail", blocked)
+    return planned, release
+
+
 def _request(goal: list[float], **fields: Any) -> Any:
     return parse_request({"waypoints": [list(ARM.home), goal], "rate_hz": 100, **fields},
                          ARM, omit=MOVE_OMIT)
@@ -67,15 +82,7 @@ def test_a_replace_while_another_is_planned_is_refused_not_queued(
     the first is still planning — it does not wait on the planning lane for all of it."""
     _, controller = rig
     old = _running(controller)
-    planned, release = threading.Event(), threading.Event()
-    real = Retargeting.tail
-
-    def blocked(self: Retargeting, *args: Any, **kwargs: Any) -> Any:
-        planned.set()
-        assert release.wait(30)
-        return real(self, *args, **kwargs)
-
-    monkeypatch.setattr(Retargeting, "tail", blocked)
+    planned, release = _block_tail(monkeypatch)
     lane = threading.Lock()  # as the HTTP service's planning lane: one plan at a time
 
     @contextlib.contextmanager
@@ -144,15 +151,7 @@ def test_an_operation_behind_a_planning_replace_is_refused_within_its_budget(
     then holds at once — instead of for all of that planning."""
     _, controller = rig
     old = _running(controller, duration=6.0)
-    planned, release = threading.Event(), threading.Event()
-    real = Retargeting.tail
-
-    def blocked(self: Retargeting, *args: Any, **kwargs: Any) -> Any:
-        planned.set()
-        assert release.wait(30)
-        return real(self, *args, **kwargs)
-
-    monkeypatch.setattr(Retargeting, "tail", blocked)
+    planned, release = _block_tail(monkeypatch)
     outcome: list[Any] = []
 
     def replace() -> None:
