@@ -27,6 +27,7 @@ from http_helpers import (  # arm_server: a fixture
     TARGET,
     address,
     error_of,
+    read_all,
     running,
 )
 from hypothesis import HealthCheck, event, given, settings
@@ -159,7 +160,7 @@ def test_oversized_body_is_413_before_it_is_read(planner_server: Any) -> None:
         sock.sendall(b"POST /v1/trajectories HTTP/1.1\r\nHost: x\r\n"
                      b"Content-Type: application/json\r\n"
                      + f"Content-Length: {MAX_BODY + 1}\r\n\r\n".encode())
-        reply = _read_all(sock)
+        reply = read_all(sock)
     head, _, payload = reply.partition(b"\r\n\r\n")
     assert head.startswith(b"HTTP/1.1 413")
     assert b"connection: close" in head.lower()
@@ -169,7 +170,7 @@ def test_oversized_body_is_413_before_it_is_read(planner_server: Any) -> None:
         sock.sendall(b"POST /v1/trajectories HTTP/1.1\r\nHost: x\r\n"
                      b"Content-Type: application/json\r\nExpect: 100-continue\r\n"
                      + f"Content-Length: {MAX_BODY + 1}\r\n\r\n".encode())
-        assert _read_all(sock).startswith(b"HTTP/1.1 413")
+        assert read_all(sock).startswith(b"HTTP/1.1 413")
     # Exactly at the limit is read (and then judged on its content).
     raw = b'{"waypoints": [[0.25, 0.1, 0], [0.18, 0.12, 0.6]]}'
     raw = raw[:-1] + b" " * (MAX_BODY - len(raw)) + b"}"
@@ -186,25 +187,12 @@ def test_plan_over_a_million_samples_is_413(planner_server: Any) -> None:
     assert status == 413 and error_of(data)["field"] == "duration"
 
 
-def _read_all(sock: socket.socket) -> bytes:
-    chunks = []
-    while True:
-        try:
-            chunk = sock.recv(65536)
-        except (ConnectionResetError, TimeoutError):
-            break
-        if not chunk:
-            break
-        chunks.append(chunk)
-    return b"".join(chunks)
-
-
 def test_missing_length_is_411(planner_server: Any) -> None:
     host, port = address(planner_server)
     with socket.create_connection((host, port), timeout=5) as sock:
         sock.sendall(b"POST /v1/trajectories HTTP/1.1\r\nHost: x\r\n"
                      b"Content-Type: application/json\r\nConnection: close\r\n\r\n")
-        head, _, payload = _read_all(sock).partition(b"\r\n\r\n")
+        head, _, payload = read_all(sock).partition(b"\r\n\r\n")
     assert head.startswith(b"HTTP/1.1 411")
     assert json.loads(payload)["error"]["field"] == "Content-Length"
 
@@ -256,7 +244,7 @@ def test_slow_client_does_not_block_others_and_times_out(planner_server: Any) ->
         for sock, want in ((slow, b"HTTP/1.1 408"), (silent, b"")):
             sock.settimeout(4)
             t1 = time.monotonic()
-            assert _read_all(sock)[:len(want)] == want
+            assert read_all(sock)[:len(want)] == want
             assert time.monotonic() - t1 < 3
 
 
@@ -268,7 +256,7 @@ def test_connections_beyond_the_cap_close_the_oldest_waiting_one() -> None:
             # A newcomer is served; the oldest connection still waiting is closed with 503.
             status, _, _ = call(server, "GET", "/healthz")
             assert status == 200
-            head, _, payload = _read_all(idle[0]).partition(b"\r\n\r\n")
+            head, _, payload = read_all(idle[0]).partition(b"\r\n\r\n")
             assert head.startswith(b"HTTP/1.1 503")
             assert json.loads(payload)["error"]["code"] == "too_many_connections"
         finally:
