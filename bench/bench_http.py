@@ -29,6 +29,8 @@ from pathlib import Path
 
 import numpy as np
 
+from bench.proc_children import children
+
 ROOT = Path(__file__).resolve().parent.parent
 CLIENTS = 8
 #: Worker processes of the target row (``serve --plan-only --processes 2``).
@@ -54,13 +56,8 @@ def _tree_cpu_seconds(pid: int) -> float | None:
     own = _cpu_seconds(pid)
     if own is None:
         return None
-    for stat in Path("/proc").glob("[0-9]*/stat"):
-        try:
-            fields = stat.read_text().rsplit(")", 1)[1].split()
-        except OSError:
-            continue
-        if int(fields[1]) == pid:
-            own += _cpu_seconds(int(stat.parent.name)) or 0.0
+    for child in children(pid):
+        own += _cpu_seconds(child) or 0.0
     return own
 
 

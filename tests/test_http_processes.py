@@ -22,6 +22,7 @@ from pathlib import Path
 import pytest
 from http_helpers import ARM, ROOT
 
+from bench.proc_children import children
 from robodcn.cli import main
 from robodcn.errors import InputError
 from robodcn.http import ListenError, make_server
@@ -71,21 +72,9 @@ def services() -> Iterator[dict[str, subprocess.Popen[str]]]:
             proc.communicate(timeout=DEADLINE)
 
 
-def _children(pid: int) -> set[int]:
-    found = set()
-    for stat in Path("/proc").glob("[0-9]*/stat"):
-        try:
-            fields = stat.read_text().rsplit(")", 1)[1].split()
-        except OSError:
-            continue
-        if int(fields[1]) == pid:
-            found.add(int(stat.parent.name))
-    return found
-
-
 def _workers(proc: subprocess.Popen[str], count: int) -> set[int]:
     deadline = time.monotonic() + DEADLINE
-    while len(found := _children(proc.pid)) < count:
+    while len(found := children(proc.pid)) < count:
         assert proc.poll() is None and time.monotonic() < deadline, (found, proc.poll())
         time.sleep(0.05)
     return found
@@ -166,7 +155,7 @@ def test_every_worker_answers_the_planners_bytes_and_ends_with_the_service(
         err = _stop(proc)
     assert proc.returncode == 0, err
     assert not any(_alive(pid) for pid in workers), workers
-    assert not _children(proc.pid)
+    assert not children(proc.pid)
 
 
 def test_plan_only_in_one_process_plans_and_has_no_arm(
@@ -183,7 +172,7 @@ def test_plan_only_in_one_process_plans_and_has_no_arm(
         resp = conn.getresponse()
         assert resp.status == 503 and json.loads(resp.read())["error"]["code"] == "no_arm"
         conn.close()
-        assert not _children(proc.pid)  # no worker processes: the server itself answers
+        assert not children(proc.pid)  # no worker processes: the server itself answers
     finally:
         err = _stop(proc)
     assert proc.returncode == 0, err
