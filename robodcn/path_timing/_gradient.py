@@ -17,47 +17,75 @@ class Gradient:
     """numpy.gradient(f, x, axis=0, edge_order=2 (1 for two samples)) with its coefficients
     computed once for every f on the same x (the same formulas and operation order as
     numpy's, so the same bits: second-order central differences inside, one-sided at the
-    ends; the uniform-spacing case as numpy takes it)."""
+    ends; the uniform-spacing case as numpy takes it).
+
+    The scalar end coefficients are Python floats (the same IEEE double operations as
+    numpy's float64 scalars, without their per-operation overhead), and the interior
+    coefficients are kept as columns too, for f of shape (n, k)."""
 
     def __init__(self, x: NDArray[np.float64]) -> None:
-        dx = np.diff(x)
+        dx = x[1:] - x[:-1]  # np.diff
         self.n = x.shape[0]
-        self.uniform = bool((dx == dx[0]).all())
+        steps = dx.tolist()
+        h = steps[0]
+        self.uniform = steps.count(h) == len(steps)
         if self.uniform:
-            h = dx[0]
             self.h = h
             self.left = (-1.5 / h, 2.0 / h, -0.5 / h)
             self.right = (0.5 / h, -2.0 / h, 1.5 / h)
             return
         self.dx = dx
+        self.first, self.last = h, steps[-1]
         if self.n > 2:
             dx1, dx2 = dx[:-1], dx[1:]
             self.a = -dx2 / (dx1 * (dx1 + dx2))
             self.b = (dx2 - dx1) / (dx1 * dx2)
             self.c = dx1 / (dx2 * (dx1 + dx2))
-            d1, d2 = dx[0], dx[1]
+            self.columns = (self.a[:, None], self.b[:, None], self.c[:, None])
+            d1, d2 = steps[0], steps[1]
             self.left = (-(2.0 * d1 + d2) / (d1 * (d1 + d2)), (d1 + d2) / (d1 * d2),
                          -d1 / (d2 * (d1 + d2)))
-            d1, d2 = dx[-2], dx[-1]
+            d1, d2 = steps[-2], steps[-1]
             self.right = (d2 / (d1 * (d1 + d2)), -(d2 + d1) / (d1 * d2),
                           (2.0 * d2 + d1) / (d2 * (d1 + d2)))
 
     def __call__(self, f: NDArray[np.float64]) -> NDArray[np.float64]:
         out = np.empty_like(f)
         if self.n == 2:  # numpy's edge_order=1
-            h0 = self.h if self.uniform else self.dx[0]
-            h1 = self.h if self.uniform else self.dx[-1]
+            h0 = self.h if self.uniform else self.first
+            h1 = self.h if self.uniform else self.last
             out[0] = (f[1] - f[0]) / h0
             out[-1] = (f[-1] - f[-2]) / h1
             return out
         if self.uniform:
             out[1:-1] = (f[2:] - f[:-2]) / (2.0 * self.h)
         else:
-            a, b, c = ((m if f.ndim == 1 else m.reshape((-1,) + (1,) * (f.ndim - 1)))
-                       for m in (self.a, self.b, self.c))
+            if f.ndim == 1:
+                a, b, c = self.a, self.b, self.c
+            elif f.ndim == 2:
+                a, b, c = self.columns
+            else:
+                a, b, c = (m.reshape((-1,) + (1,) * (f.ndim - 1))
+                           for m in (self.a, self.b, self.c))
             out[1:-1] = a * f[:-2] + b * f[1:-1] + c * f[2:]
+        if f.ndim > 2:
+            a, b, c = self.left
+            out[0] = a * f[0] + b * f[1] + c * f[2]
+            a, b, c = self.right
+            out[-1] = a * f[-3] + b * f[-2] + c * f[-1]
+            return out
+        # the two end rows in Python floats (a few entries: numpy's per-call cost would be
+        # most of the whole gradient); the same products and sums in the same order
         a, b, c = self.left
-        out[0] = a * f[0] + b * f[1] + c * f[2]
+        f0, f1, f2 = f[:3].tolist()
+        if f.ndim == 1:
+            out[0] = a * f0 + b * f1 + c * f2
+        else:
+            out[0] = [a * x0 + b * x1 + c * x2 for x0, x1, x2 in zip(f0, f1, f2, strict=True)]
         a, b, c = self.right
-        out[-1] = a * f[-3] + b * f[-2] + c * f[-1]
+        f0, f1, f2 = f[-3:].tolist()
+        if f.ndim == 1:
+            out[-1] = a * f0 + b * f1 + c * f2
+        else:
+            out[-1] = [a * x0 + b * x1 + c * x2 for x0, x1, x2 in zip(f0, f1, f2, strict=True)]
         return out

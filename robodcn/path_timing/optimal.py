@@ -50,12 +50,13 @@ from robodcn.path_timing.topp import (
     MAX_STAGES,
     check_limits,
     check_number,
+    derivatives,
     grid_of,
     interpolated,
     interpolated_rows,
     path_derivatives,
     solve,
-    stage_times,
+    timed_stages,
 )
 from robodcn.path_timing.torque import TorqueLimits, TorqueRows
 
@@ -117,17 +118,18 @@ def time_optimal(q: ArrayLike, s: ArrayLike, v_max: ArrayLike, a_max: ArrayLike,
         raise InputError(f"q must be finite joint samples of shape (n ≥ 2, k), got shape "
                          f"{q.shape}", field="q", value=q.shape)
     n, k = q.shape
-    if s.shape != (n,) or not np.isfinite(s).all() or (np.diff(s) <= 0).any():
+    if s.shape != (n,) or not np.isfinite(s).all() or (s[1:] <= s[:-1]).any():
         raise InputError(f"s must be {n} strictly increasing finite path parameters, got shape "
                          f"{s.shape}", field="s", value=s.shape)
     scale = check_number("scale", scale, 0.0, 1.0, lo_open=True)
     v = check_limits("v_max", v_max, k, n) * scale
     a = check_limits("a_max", a_max, k, n) * scale ** 2
-    jerk = j_max is not None and np.isfinite(check_limits("j_max", j_max, k)).any()
+    # checked once (None: unlimited, no jerk pass)
+    j = check_limits("j_max", j_max, k) if j_max is not None else np.full(k, np.inf)
+    jerk = j_max is not None and bool(np.isfinite(j).any())
     if jerk and (v.ndim == 2 or a.ndim == 2):
         raise InputError("per-sample v_max/a_max are not supported with a jerk limit",
                          field="v_max", value=v.shape)
-    j = check_limits("j_max", j_max, k) * scale ** 3
     sd_start = check_number("sd_start", sd_start, 0.0, math.inf)
     sdd_start = check_number("sdd_start", sdd_start, -math.inf, math.inf)
     sd_end = check_number("sd_end", sd_end, 0.0, math.inf)
@@ -139,12 +141,14 @@ def time_optimal(q: ArrayLike, s: ArrayLike, v_max: ArrayLike, a_max: ArrayLike,
                         or (stop_s <= s[0]).any() or (stop_s >= s[-1]).any()):
         raise InputError(f"stops must lie strictly inside s = {s[0]:g}..{s[-1]:g}, got "
                          f"{stop_s.tolist()}", field="stops", value=stop_s.tolist())
-    stop_idx = np.unique(np.abs(s[None, :] - stop_s[:, None]).argmin(axis=1)
-                         if stop_s.size else np.empty(0, np.int64))
-    derivs = path_derivatives(q, s, stop_idx.tolist(), 3 if jerk else 2)
+    stop_idx = (np.unique(np.abs(s[None, :] - stop_s[:, None]).argmin(axis=1))
+                if stop_s.size else np.empty(0, np.int64))
+    # s is checked strictly increasing: no dwells for the derivatives' own checks to find
+    derivs = derivatives(q, s, stop_idx.tolist(), 3 if jerk else 2, repeated=False)
     grid = grid_of(n, stop_idx, max(1, int(max_stages)))
-    sg = s[grid]
-    dq, ddq = derivs[0][grid], derivs[1][grid]
+    every = grid.shape[0] == n  # the grid is every sample: s[grid] would only copy
+    sg = s.copy() if every else s[grid]
+    dq, ddq = (derivs[0], derivs[1]) if every else (derivs[0][grid], derivs[1][grid])
     cap = np.full(grid.shape[0], np.inf)
     if sd_cap is not None:
         sd_cap = np.asarray(sd_cap, dtype=np.float64)
@@ -152,16 +156,21 @@ def time_optimal(q: ArrayLike, s: ArrayLike, v_max: ArrayLike, a_max: ArrayLike,
             raise InputError(f"sd_cap must be {n} speeds ≥ 0, got shape {sd_cap.shape}",
                              field="sd_cap", value=sd_cap.shape)
         cap = np.minimum(cap, sd_cap[grid] ** 2)
-    cap[np.searchsorted(grid, stop_idx)] = 0.0
-    rows = torque_rows(torque, q[grid], dq, ddq, scale)
+    if stop_idx.size:
+        cap[np.searchsorted(grid, stop_idx)] = 0.0
+    rows = torque_rows(torque, q if every else q[grid], dq, ddq, scale)
     if not jerk:
-        v, a = (lim[grid] if lim.ndim == 2 else lim for lim in (v, a))
+        if not every:
+            v, a = (lim[grid] if lim.ndim == 2 else lim for lim in (v, a))
         x, u = solve(sg, dq, ddq, v, a, cap, sd_start ** 2, sd_end ** 2, rows)
-        dt = stage_times(sg, x)
-        tb = np.concatenate([[0.0], np.cumsum(dt)])
         # x = ṡ² ≥ 0; the stage solutions can land a rounding error below 0 at a stop
-        # (seen as -1e-17): no NaN speeds into the law
-        return PathTiming(tb, sg, np.sqrt(np.maximum(x, 0.0)), u)
+        # (seen as -1e-17): no NaN speeds into the law (the same √max(x, 0) as the times')
+        dt, sd = timed_stages(sg, x)
+        tb = np.empty(dt.shape[0] + 1)
+        tb[0] = 0.0
+        np.cumsum(dt, out=tb[1:])  # np.concatenate([[0.0], np.cumsum(dt)])
+        return PathTiming(tb, sg, sd, u)
+    j = j * scale ** 3
     return jerk_limited(s, derivs, grid, cap, v, a, j, sd_start=sd_start, sdd_start=sdd_start,
                         stop_idx=stop_idx, rate_hz=rate_hz or CHECK_RATE_HZ,
                         accel_share=accel_share, smooth=smooth, rows=rows)

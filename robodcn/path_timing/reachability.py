@@ -28,11 +28,14 @@ import functools
 import numpy as np
 from numpy.typing import NDArray
 
-from robodcn.path_timing import _scan
+from robodcn.path_timing import _scan, _stageloop
 
 # |q'| below this (rad per unit s) counts as "this joint does not move along the path here":
 # its acceleration bound then limits x only, through |q''| x ≤ a.
 _FLAT = 1e-9
+#: stages up to which the passes run the plain stage loop (:mod:`robodcn.path_timing.
+#: _stageloop`); above it the vectorised policy iteration (:mod:`robodcn.path_timing._scan`)
+LOOP_STAGES = 1000
 
 
 def stage_constraints(dq: NDArray[np.float64], ddq: NDArray[np.float64],
@@ -113,40 +116,71 @@ def controllable(delta: NDArray[np.float64], p_lo: NDArray, r: NDArray, x_cap: N
     K_N = [0, x_end] (x_end = ṡ_end²); x_max,i is the largest x ≤ x_cap,i from which the
     strongest deceleration of stage i lands in K_{i+1}. Each root of
     x (1 + 2Δ r_j) + 2Δ p_lo,j = c is c·W_j + Z_j; slopes ≤ 0 give no upper bound. So
-    x_max,i = max(0, min(x_cap,i, min_j (W_ij x_max,i+1 + Z_ij))), solved over all stages
-    at once (:func:`robodcn.path_timing._scan.min_affine`; the stage loop as fallback).
+    x_max,i = max(0, min(x_cap,i, min_j (W_ij x_max,i+1 + Z_ij))): on up to
+    :data:`LOOP_STAGES` stages the plain stage loop (:mod:`robodcn.path_timing._stageloop`),
+    above it solved over all stages at once (:func:`controllable_scan`).
     """
     n_stages = delta.shape[0]
-    slope = 1.0 + 2.0 * delta[:, None] * r[:n_stages]
-    good = (slope > 0) & np.isfinite(p_lo[:n_stages])
+    if n_stages > LOOP_STAGES:
+        return controllable_scan(delta, p_lo, r, x_cap, x_end)
+    w, z = backward_pieces(delta, p_lo[:n_stages].T, r[:n_stages].T)
+    c = min(float(x_end), float(x_cap[n_stages]))
+    return np.array(backward_loop(c, w, z, x_cap[:n_stages]))
+
+
+def backward_pieces(delta: NDArray[np.float64], p_lo: NDArray, r: NDArray
+                    ) -> tuple[NDArray, NDArray]:
+    """(W, Z) (m, N) of :func:`controllable` from p_lo, r (m, N), one row per constraint:
+    W = 1 / (1 + 2Δ r), Z = −2Δ p_lo W where the slope is positive and p_lo finite, else
+    (0, inf) (no bound)."""
+    slope = 1.0 + 2.0 * delta * r
+    good = (slope > 0) & np.isfinite(p_lo)
+    if good.all():  # the common case: what the np.where below pick
+        w = 1.0 / slope
+        return w, -2.0 * delta * p_lo * w
     w = np.where(good, 1.0 / np.where(good, slope, 1.0), 0.0)
-    z = np.where(good, -2.0 * delta[:, None] * np.where(good, p_lo[:n_stages], 0.0) * w,
-                 np.inf)
+    return w, np.where(good, -2.0 * delta * np.where(good, p_lo, 0.0) * w, np.inf)
+
+
+def backward_loop(c: float, w: NDArray, z: NDArray, cap: NDArray) -> list[float]:
+    """x_max,0 … x_max,N of :func:`controllable` by the stage loop from x_max,N = c, the
+    pieces (W, Z) (m, N) and the caps (N,)."""
+    columns = [*w[:, ::-1].tolist(), *z[:, ::-1].tolist(), cap[::-1].tolist()]
+    out = _stageloop.recurrence(c, columns, w.shape[0])
+    out.reverse()
+    return out
+
+
+def controllable_scan(delta: NDArray[np.float64], p_lo: NDArray, r: NDArray,
+                      x_cap: NDArray, x_end: float) -> NDArray[np.float64]:
+    """:func:`controllable` over all stages at once (:func:`robodcn.path_timing._scan.
+    min_affine`, the stage loop as its fallback): equal to the stage loop to rounding
+    (relative 1e-12 a stage), faster on large grids that its policy iteration solves in a
+    few rounds."""
+    n_stages = delta.shape[0]
+    w, z = backward_pieces(delta[:, None], p_lo[:n_stages], r[:n_stages])
     c = min(float(x_end), float(x_cap[n_stages]))
     # stages in reverse order, the cap as one more piece (slope 0)
     pieces_w = np.concatenate([w, np.zeros((n_stages, 1))], axis=1)[::-1]
     pieces_z = np.concatenate([z, x_cap[:n_stages, None]], axis=1)[::-1]
 
     def sequential(c0: float, first: int) -> NDArray[np.float64]:
-        return _backward(c0, pieces_w[first:], pieces_z[first:])
+        return _sequential(c0, pieces_w[first:], pieces_z[first:])
 
     return _scan.min_affine(c, pieces_w, pieces_z, sequential)[::-1].copy()
 
 
-def _backward(c: float, w: NDArray, z: NDArray) -> NDArray[np.float64]:
-    """The plain loop of :func:`controllable` (stages in reverse order, the cap the last
-    piece): c and every later value."""
-    out = [c]
-    append = out.append
-    for ws, zs in zip(w.tolist(), z.tolist(), strict=True):
-        m = np.inf
-        for wj, zj in zip(ws, zs, strict=True):
-            root = c * wj + zj
-            if root < m:
-                m = root
-        c = m if m > 0.0 else 0.0
-        append(c)
-    return np.asarray(out)
+def _sequential(x: float, w: NDArray, z: NDArray) -> NDArray[np.float64]:
+    """The stage loop on pieces (N, m + 1) whose last is the cap (slope 0): x and every
+    later value (the scans' fallback)."""
+    m = w.shape[1] - 1
+    columns = [*w[:, :m].T.tolist(), *z.T.tolist()]
+    return np.array(_stageloop.recurrence(x, columns, m))
+
+
+# the plain loops of the backward and the forward pass (stages in pass order, the cap the
+# last piece): one loop, kept under both names
+_backward = _forward = _sequential
 
 
 def greedy_forward(delta: NDArray[np.float64], p_hi: NDArray, r: NDArray,
@@ -156,10 +190,37 @@ def greedy_forward(delta: NDArray[np.float64], p_hi: NDArray, r: NDArray,
 
     x_{i+1} = x_i + 2Δ_i u_i with u_i = min(min_j U_ij(x_i), (x_max,i+1 − x_i) / 2Δ_i), at
     rest (0) where rounding would land below: x_{i+1} = max(0, min(x_max,i+1,
-    min_j ((1 + 2Δ_i r_ij) x_i + 2Δ_i p_hi,ij))), solved over all stages at once
-    (:func:`robodcn.path_timing._scan.min_affine`; the stage loop as fallback).
-    Returns x (N + 1,) and u (N,).
+    min_j ((1 + 2Δ_i r_ij) x_i + 2Δ_i p_hi,ij))): on up to :data:`LOOP_STAGES` stages the
+    plain stage loop (:mod:`robodcn.path_timing._stageloop`), above it solved over all
+    stages at once (:func:`greedy_scan`). Returns x (N + 1,) and u (N,).
     """
+    n_stages = delta.shape[0]
+    if n_stages > LOOP_STAGES:
+        return greedy_scan(delta, p_hi, r, x_max, x_start)
+    return forward_loop(delta, p_hi[:n_stages].T, r[:n_stages].T, x_max[1:].tolist(),
+                        x_start)
+
+
+def forward_loop(delta: NDArray[np.float64], p_hi: NDArray, r: NDArray,
+                 caps: list[float], x_start: float
+                 ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """x, u of :func:`greedy_forward` by the stage loop from p_hi, r (m, N), one row per
+    constraint, and the caps x_max,1 … x_max,N."""
+    two_d = 2.0 * delta
+    with np.errstate(invalid="ignore"):
+        w = 1.0 + two_d * r
+        z = two_d * p_hi
+    x = np.array(_stageloop.recurrence(x_start, [*w.tolist(), *z.tolist(), caps], w.shape[0]))
+    return x, (x[1:] - x[:-1]) / two_d  # np.diff(x) / (2.0 * delta)
+
+
+def greedy_scan(delta: NDArray[np.float64], p_hi: NDArray, r: NDArray,
+                x_max: NDArray[np.float64], x_start: float
+                ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """:func:`greedy_forward` over all stages at once (:func:`robodcn.path_timing._scan.
+    min_affine`, the stage loop as its fallback): equal to the stage loop to rounding
+    (relative 1e-12 a stage), faster on large grids that its policy iteration solves in a
+    few rounds."""
     n_stages = delta.shape[0]
     two_d = 2.0 * delta[:, None]
     with np.errstate(invalid="ignore"):
@@ -168,22 +229,7 @@ def greedy_forward(delta: NDArray[np.float64], p_hi: NDArray, r: NDArray,
         pieces_z = np.concatenate([two_d * p_hi[:n_stages], x_max[1:, None]], axis=1)
 
     def sequential(x0: float, first: int) -> NDArray[np.float64]:
-        return _forward(x0, pieces_w[first:], pieces_z[first:])
+        return _sequential(x0, pieces_w[first:], pieces_z[first:])
 
     x = _scan.min_affine(float(x_start), pieces_w, pieces_z, sequential)
     return x, np.diff(x) / (2.0 * delta)
-
-
-def _forward(x: float, w: NDArray, z: NDArray) -> NDArray[np.float64]:
-    """The plain loop of :func:`greedy_forward` (the cap x_max,i+1 the last piece)."""
-    out = [x]
-    append = out.append
-    for ws, zs in zip(w.tolist(), z.tolist(), strict=True):
-        m = np.inf
-        for wj, zj in zip(ws, zs, strict=True):
-            v = x * wj + zj
-            if v < m:
-                m = v
-        x = m if m > 0.0 else 0.0
-        append(x)
-    return np.asarray(out)

@@ -18,7 +18,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from robodcn.errors import InputError
-from robodcn.path_timing import reachability
+from robodcn.path_timing import _columns, _stageloop, reachability
 from robodcn.path_timing._gradient import Gradient
 from robodcn.path_timing.torque import TorqueRows
 
@@ -33,6 +33,13 @@ def check_limits(name: str, value: ArrayLike | None, k: int, n: int | None = Non
     """(k,) per-joint limits, inf where None; with ``n``, (n, k) per-sample limits too."""
     if value is None:
         return np.full(k, np.inf)
+    if type(value) is np.ndarray and value.dtype == np.float64 and value.shape == (k,):
+        # the callers' usual form (JointLimits' arrays): no None entries to map; a copy, as
+        # the conversion below makes; NaN fails "> 0" like a limit ≤ 0
+        if not (value > 0).all():
+            raise InputError(f"{name} must be positive (None = unlimited), got "
+                             f"{value.tolist()}", field=name, value=value)
+        return value.copy()
     if n is not None and np.ndim(value) == 2:
         raw = np.asarray(value, dtype=np.float64)
         if raw.shape != (n, k):
@@ -76,14 +83,31 @@ def path_derivatives(q: NDArray[np.float64], s: NDArray[np.float64], cuts: Seque
     """
     s = np.asarray(s, dtype=np.float64)
     q = np.asarray(q, dtype=np.float64)
-    step = np.diff(s)
+    step = s[1:] - s[:-1]  # np.diff
     if not np.isfinite(s).all() or (step < 0).any():
         raise InputError(f"s must be finite and non-decreasing, got {s.shape[0]} values with "
                          f"{int((step < 0).sum())} decreasing steps", field="s",
                          value=s.shape)
-    edges = [0, *sorted(set(int(c) for c in cuts if 0 < c < q.shape[0] - 1)), q.shape[0] - 1]
+    return derivatives(q, s, cuts, order, repeated=not (step > 0).all())
+
+
+def derivatives(q: NDArray[np.float64], s: NDArray[np.float64], cuts: Sequence[int],
+                order: int, *, repeated: bool) -> list[NDArray[np.float64]]:
+    """:func:`path_derivatives` for float arrays with s already checked finite and
+    non-decreasing; ``repeated``: whether s repeats a value (the dwell rule)."""
+    cut = sorted(set(int(c) for c in cuts if 0 < c < q.shape[0] - 1)) if len(cuts) else []
+    if not cut and not repeated and q.shape[0] >= 2:
+        # one piece without dwells (the planner's dense paths): the derivatives are the
+        # gradients themselves, no per-piece copies
+        grad = Gradient(s)
+        out = []
+        f = q
+        for _ in range(order):
+            f = grad(f)
+            out.append(f)
+        return out
+    edges = [0, *cut, q.shape[0] - 1]
     out = [np.empty_like(q) for _ in range(order)]
-    repeated = not (step > 0).all()
     for a, b in itertools.pairwise(edges):
         f, x = q[a:b + 1], s[a:b + 1]
         index = None
@@ -145,24 +169,60 @@ def solve(sg: NDArray, dq: NDArray, ddq: NDArray, v: NDArray, a: NDArray, extra_
            x_start: float, x_end: float, rows: TorqueRows | None = None
            ) -> tuple[NDArray, NDArray]:
     """x (N + 1,), u (N,) of TOPP-RA on grid sg; raises when the start is not controllable.
-    ``rows``: further linear constraints (torque: :mod:`robodcn.path_timing.torque`)."""
-    if INTERPOLATED:
-        dq, ddq, v, a = interpolated(sg, dq, ddq, v, a)
-        if rows is not None:
-            rows = interpolated_rows(sg, rows)
-    p_lo, p_hi, r, x_cap = reachability.stage_constraints(dq, ddq, v, a, rows)
-    x_cap = np.minimum(x_cap, extra_cap)
-    delta = np.diff(sg)
-    x_max = reachability.controllable(delta, p_lo, r, x_cap, x_end)
-    if x_start > x_max[0] * (1 + 1e-9) + 1e-15:
+    ``rows``: further linear constraints (torque: :mod:`robodcn.path_timing.torque`).
+
+    On up to :data:`~robodcn.path_timing.reachability.LOOP_STAGES` stages without rows and
+    with per-joint limits the constraints are built one row per constraint
+    (:func:`robodcn.path_timing._columns.constraints`, the same values) and both passes run
+    as plain stage loops."""
+    delta = sg[1:] - sg[:-1]  # np.diff
+    n_stages = delta.shape[0]
+    fast = (INTERPOLATED and rows is None and v.ndim == 1 and a.ndim == 1
+            and n_stages <= reachability.LOOP_STAGES)
+    columns = _columns.constraints(delta, dq, ddq, v, a) if fast else None
+    if columns is not None:
+        half, r, x_cap = columns
+        x_cap = np.minimum(x_cap, extra_cap)
+        pieces = _columns.pieces(delta, half, r)
+        x_max = reachability.backward_loop(min(float(x_end), float(x_cap[n_stages])),
+                                           pieces.w, pieces.z, x_cap[:n_stages])
+        x_max_0 = x_max[0]
+    else:
+        if INTERPOLATED:
+            dq, ddq, v, a = interpolated(sg, dq, ddq, v, a)
+            if rows is not None:
+                rows = interpolated_rows(sg, rows)
+        p_lo, p_hi, r_rows, x_cap = reachability.stage_constraints(dq, ddq, v, a, rows)
+        x_cap = np.minimum(x_cap, extra_cap)
+        x_max_arr = reachability.controllable(delta, p_lo, r_rows, x_cap, x_end)
+        x_max_0 = float(x_max_arr[0])
+    if x_start > x_max_0 * (1 + 1e-9) + 1e-15:
         raise InputError(f"sd_start {math.sqrt(x_start):.6g} /s is faster than the path allows"
-                         f" there: at most {math.sqrt(x_max[0]):.6g} /s can still keep every "
+                         f" there: at most {math.sqrt(x_max_0):.6g} /s can still keep every "
                          "joint within its limits and come to rest by the end",
                          field="sd_start", value=math.sqrt(x_start))
-    return reachability.greedy_forward(delta, p_hi, r, x_max, min(x_start, x_max[0]))
+    x0 = min(x_start, x_max_0)
+    if columns is not None:
+        x = np.array(_stageloop.recurrence(
+            x0, [*pieces.slope.tolist(), *pieces.offset.tolist(), x_max[1:]],
+            pieces.slope.shape[0]))
+        return x, (x[1:] - x[:-1]) / (2.0 * delta)  # np.diff(x) / (2.0 * delta)
+    return reachability.greedy_forward(delta, p_hi, r_rows, x_max_arr, x0)
 
 
 def stage_times(sg: NDArray, x: NDArray) -> NDArray[np.float64]:
+    """Stage durations 2Δ_i / (ṡ_i + ṡ_{i+1}) (constant s̈ on each stage) of x = ṡ² on sg."""
+    return timed_stages(sg, x)[0]
+
+
+def timed_stages(sg: NDArray, x: NDArray) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """(:func:`stage_times`, ṡ = √max(x, 0)): the durations and the speeds they are read off.
+
+    Raises
+    ------
+    InputError
+        A stage at rest at both ends (field "stops").
+    """
     sd = np.sqrt(np.maximum(x, 0.0))
     speed = sd[:-1] + sd[1:]
     if (speed <= 0).any():
@@ -170,4 +230,4 @@ def stage_times(sg: NDArray, x: NDArray) -> NDArray[np.float64]:
         raise InputError(f"the path cannot move from s = {sg[i]:.6g}: every joint limit forbids"
                          " it (a stop next to a stop, or a zero limit)", field="stops",
                          value=float(sg[i]))
-    return 2.0 * np.diff(sg) / speed
+    return 2.0 * (sg[1:] - sg[:-1]) / speed, sd  # np.diff's operation

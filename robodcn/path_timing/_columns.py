@@ -1,0 +1,116 @@
+"""The stage constraints of TOPP-RA's interpolated discretisation, one row per constraint.
+
+:func:`robodcn.path_timing.topp.solve` on the planner's grids (~100 stages, 2–6 joints, every
+joint moving, no torque rows) spends its time in numpy's per-call overhead, and most in
+reductions over the short constraint axis of (N, m) arrays (a min over 6 entries a stage
+takes ~5 µs on 100 stages, a min over 100 entries a constraint ~1 µs). Here the arrays are
+(m, N): a row per constraint (the k joints, then the k virtual joints of the
+"interpolation" scheme, Pham & Pham 2018 §V-B: :func:`robodcn.path_timing.topp.interpolated`),
+a column per grid point, so every reduction runs along the grid, and the two passes read
+the rows straight into the stage loop (:mod:`robodcn.path_timing._stageloop`).
+
+Every value is the general path's bits (:func:`robodcn.path_timing.topp.interpolated`, then
+:func:`robodcn.path_timing.reachability.stage_constraints`): the same elementwise operations
+in the same order where all of that path's masks are true, and minima (exact) over the same
+values; :func:`constraints` returns None where a mask would not be (a still joint, an
+overflowing q''/q'), and the caller takes the general path.
+"""
+
+from __future__ import annotations
+
+from typing import NamedTuple
+
+import numpy as np
+from numpy.typing import NDArray
+
+from robodcn.path_timing import reachability
+from robodcn.path_timing.reachability import _FLAT
+
+
+def constraints(delta: NDArray[np.float64], dq: NDArray[np.float64],
+                ddq: NDArray[np.float64], v_max: NDArray[np.float64],
+                a_max: NDArray[np.float64]
+                ) -> tuple[NDArray, NDArray, NDArray] | None:
+    """(half, r, x_cap) of the interpolated stage constraints, or None (module doc).
+
+    Parameters
+    ----------
+    delta : (N,) stage lengths Δ_i = s_{i+1} − s_i
+    dq, ddq : (N + 1, k) q'(s_i), q''(s_i)
+    v_max, a_max : (k,) limits, inf where unlimited
+
+    Returns
+    -------
+    half, r : (2k, N + 1): the u-bounds L = −half + r x ≤ u ≤ half + r x of every joint and
+        virtual joint (p_lo = −half, p_hi = half of ``stage_constraints``), r = −q''/q'
+    x_cap : (N + 1,) the largest feasible x at each point: min_j (v_j / q'_j)² and the
+        crossings (half_l + half_j) / (r_j − r_l) of every ordered pair with r_j > r_l (the
+        general formula's gap / |d| of its unordered pair, as |r_l − r_j| = r_j − r_l
+        exactly)
+    """
+    k = dq.shape[1]
+    n = dq.shape[0]
+    dq_t, ddq_t = dq.T, ddq.T
+    # the virtual joint of point i: q' = q'_{i+1} + 2Δ_i q''_{i+1}, q'' = q''_{i+1} (the last
+    # point's own, with Δ = 0): ``interpolated``'s nxt_dq + 2.0 * step * nxt_ddq
+    d1 = np.empty((2 * k, n))
+    d1[:k] = dq_t
+    d1[k:, :-1] = dq_t[:, 1:] + 2.0 * delta * ddq_t[:, 1:]
+    d1[k:, -1] = dq_t[:, -1] + 2.0 * 0.0 * ddq_t[:, -1]
+    d2 = np.empty((2 * k, n))
+    d2[:k] = ddq_t
+    d2[k:, :-1] = ddq_t[:, 1:]
+    d2[k:, -1] = ddq_t[:, -1]
+    abs_d1 = np.abs(d1)
+    if not (abs_d1 > _FLAT).all():
+        return None
+    r = -d2 / d1
+    if not np.isfinite(r).all():
+        return None
+    a_col = a_max[:, None]
+    half = np.empty((2 * k, n))
+    np.divide(a_col, abs_d1[:k], out=half[:k])
+    np.divide(a_col, abs_d1[k:], out=half[k:])
+    # the virtual joints have no velocity limit ((inf / q')² = inf never binds the min);
+    # d1[:k] is q' as a C-ordered copy: the min runs along memory
+    x_cap = ((v_max[:, None] / d1[:k]) ** 2).min(axis=0)
+    rise = r[None, :, :] - r[:, None, :]  # [l, j] = r_j − r_l
+    gap = half[:, None, :] + half[None, :, :]  # p_hi,l − p_lo,j
+    cross = np.divide(gap, rise, out=np.full(rise.shape, np.inf), where=rise > 0)
+    return half, r, np.minimum(x_cap, cross.min(axis=(0, 1)))
+
+
+class Pieces(NamedTuple):
+    """The affine pieces of both passes on N stages, one row per constraint (m, N).
+
+    ``slope`` = 1 + 2Δ r and ``offset`` = 2Δ·half are the forward pass's pieces
+    ((1 + 2Δ r) x + 2Δ p_hi, :func:`~robodcn.path_timing.reachability.greedy_forward`);
+    ``w``, ``z`` the backward pass's (:func:`~robodcn.path_timing.reachability.
+    backward_pieces`: W = 1 / slope, Z = −2Δ p_lo W, and −2Δ·(−half) = 2Δ·half exactly)."""
+
+    slope: NDArray[np.float64]
+    offset: NDArray[np.float64]
+    w: NDArray[np.float64]
+    z: NDArray[np.float64]
+
+
+def pieces(delta: NDArray[np.float64], half: NDArray[np.float64], r: NDArray[np.float64]
+           ) -> Pieces:
+    """:class:`Pieces` of the first N = len(delta) points of :func:`constraints`."""
+    n_stages = delta.shape[0]
+    two_d = 2.0 * delta
+    half, r = half[:, :n_stages], r[:, :n_stages]
+    slope = 1.0 + two_d * r
+    offset = two_d * half
+    if not np.isfinite(half).all():  # an unlimited acceleration: backward_pieces' rules
+        w, z = reachability.backward_pieces(delta, -half, r)
+        return Pieces(slope, offset, w, z)
+    good = slope > 0
+    if good.all():
+        w = 1.0 / slope
+        return Pieces(slope, offset, w, offset * w)
+    # a stage whose deceleration bound gives no upper bound on x (slope ≤ 0; near a path's
+    # start, where q'' is large against q'): (W, Z) = (0, inf) there, as backward_pieces
+    w = np.divide(1.0, slope, out=np.zeros(slope.shape), where=good)
+    return Pieces(slope, offset, w, np.multiply(offset, w, out=np.full(slope.shape, np.inf),
+                                                 where=good))

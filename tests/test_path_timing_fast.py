@@ -1,0 +1,128 @@
+"""The fast paths of path_timing against their general (reference) forms, bit for bit."""
+
+from __future__ import annotations
+
+import numpy as np
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from robodcn.path_timing import _columns, _stageloop, reachability, topp
+
+
+def _plain(x: float, w: np.ndarray, z: np.ndarray) -> np.ndarray:
+    """The specification: x_{i+1} = max(0, min_j(w_ij x_i + z_ij)), a running minimum from
+    +inf taking strictly smaller pieces (the cap the last piece, slope 0)."""
+    out = [x]
+    for ws, zs in zip(w.tolist(), z.tolist(), strict=True):
+        m = np.inf
+        for wj, zj in zip(ws, zs, strict=True):
+            t = x * wj + zj
+            if t < m:
+                m = t
+        x = m if m > 0.0 else 0.0
+        out.append(x)
+    return np.asarray(out)
+
+
+_values = st.sampled_from([0.0, -0.0, 1.0, -1.0, 0.5, 3.0, -2.5, 1e-300, 1e300, np.inf,
+                           -np.inf, np.nan])
+
+
+@settings(max_examples=200, deadline=None)
+@given(st.integers(0, 4), st.integers(0, 12), st.integers(0, 2 ** 32 - 1),
+       st.lists(_values, min_size=0, max_size=6), st.floats(0.0, 10.0))
+def test_stage_loop_is_the_plain_loop(m, n, seed, specials, x0):
+    """Random pieces with zero-width (0 caps), infeasible (negative) and non-finite entries."""
+    rng = np.random.default_rng(seed)
+    w = rng.normal(size=(n, m + 1)) * rng.choice([0.0, 1.0, 10.0], size=(n, m + 1))
+    z = rng.normal(size=(n, m + 1)) * rng.choice([0.0, 1.0, 1e3], size=(n, m + 1))
+    w[:, m] = 0.0  # the cap
+    flat = np.concatenate([w[:, :m].ravel(), z.ravel()])
+    if flat.size:
+        for i, v in enumerate(specials):
+            flat[rng.integers(flat.size)] = v if i % 2 else abs(v)
+        w[:, :m] = flat[:n * m].reshape(n, m)
+        z[:] = flat[n * m:].reshape(n, m + 1)
+    want = _plain(x0, w, z)
+    got = np.asarray(_stageloop.recurrence(x0, [*w[:, :m].T.tolist(), *z.T.tolist()], m))
+    assert got.tobytes() == want.tobytes()
+    assert reachability._sequential(x0, w, z).tobytes() == want.tobytes()
+
+
+def _path(seed: int, n: int, k: int):
+    rng = np.random.default_rng(seed)
+    s = np.cumsum(rng.uniform(0.5, 1.5, n))
+    s = (s - s[0]) / (s[-1] - s[0])
+    c = rng.normal(size=(4, k))
+    q = c[0] * s[:, None] + c[1] * np.sin(3 * s[:, None] + c[2]) * 0.5 + c[3] * s[:, None] ** 2
+    return q, s, rng.uniform(0.5, 3.0, k), rng.uniform(1.0, 20.0, k)
+
+
+@settings(max_examples=60, deadline=None)
+@given(st.integers(0, 2 ** 32 - 1), st.integers(3, 150), st.integers(1, 5))
+def test_column_constraints_are_the_general_ones(seed, n, k):
+    q, s, v, a = _path(seed, n, k)
+    dq, ddq = topp.path_derivatives(q, s, [], 2)
+    delta = s[1:] - s[:-1]
+    got = _columns.constraints(delta, dq, ddq, v, a)
+    dq2, ddq2, v2, a2 = topp.interpolated(s, dq, ddq, v, a)
+    p_lo, p_hi, r, x_cap = reachability.stage_constraints(dq2, ddq2, v2, a2)
+    if got is None:  # a still joint: the general path only
+        assert not (np.abs(dq2) > reachability._FLAT).all() or not np.isfinite(r).all()
+        return
+    half, r_c, cap_c = got
+    assert half.T.tobytes() == p_hi.tobytes()
+    assert (-half).T.tobytes() == p_lo.tobytes()
+    assert np.ascontiguousarray(r_c.T).tobytes() == r.tobytes()
+    assert cap_c.tobytes() == x_cap.tobytes()
+    n_stages = delta.shape[0]
+    pieces = _columns.pieces(delta, half, r_c)
+    w, z = reachability.backward_pieces(delta[:, None], p_lo[:n_stages], r[:n_stages])
+    assert np.ascontiguousarray(pieces.w.T).tobytes() == w.tobytes()
+    assert np.ascontiguousarray(pieces.z.T).tobytes() == z.tobytes()
+
+
+@settings(max_examples=60, deadline=None)
+@given(st.integers(0, 2 ** 32 - 1), st.integers(3, 150), st.integers(1, 5),
+       st.sampled_from([0.0, 0.3, 5.0]), st.booleans())
+def test_solve_fast_path_is_the_general_path(seed, n, k, sd_start, stop):
+    """topp.solve's column path against the general constraints and the stage loops of
+    controllable / greedy_forward (infeasible starts raise alike)."""
+    q, s, v, a = _path(seed, n, k)
+    dq, ddq = topp.path_derivatives(q, s, [], 2)
+    cap = np.full(n, np.inf)
+    if stop:
+        cap[n // 2] = 0.0  # a zero-width set
+    try:
+        x, u = topp.solve(s, dq, ddq, v, a, cap, sd_start ** 2, 0.0)
+    except topp.InputError as exc:
+        fast_error = exc.value
+    else:
+        fast_error = None
+    dq2, ddq2, v2, a2 = topp.interpolated(s, dq, ddq, v, a)
+    p_lo, p_hi, r, x_cap = reachability.stage_constraints(dq2, ddq2, v2, a2)
+    x_cap = np.minimum(x_cap, cap)
+    delta = np.diff(s)
+    x_max = reachability.controllable(delta, p_lo, r, x_cap, 0.0)
+    if sd_start ** 2 > x_max[0] * (1 + 1e-9) + 1e-15:
+        assert fast_error == sd_start
+        return
+    assert fast_error is None
+    x_ref, u_ref = reachability.greedy_forward(delta, p_hi, r, x_max, min(sd_start ** 2,
+                                                                          x_max[0]))
+    assert x.tobytes() == x_ref.tobytes() and u.tobytes() == u_ref.tobytes()
+    # the vectorised scans (large grids) agree to rounding
+    np.testing.assert_allclose(reachability.controllable_scan(delta, p_lo, r, x_cap, 0.0),
+                               x_max, rtol=1e-11, atol=1e-13)
+    x_scan, _ = reachability.greedy_scan(delta, p_hi, r, x_max, min(sd_start ** 2, x_max[0]))
+    np.testing.assert_allclose(x_scan, x_ref, rtol=1e-11, atol=1e-13)
+
+
+@settings(max_examples=40, deadline=None)
+@given(st.integers(0, 2 ** 32 - 1), st.integers(2, 60), st.integers(1, 4))
+def test_derivatives_one_piece_is_the_piecewise_form(seed, n, k):
+    q, s, _, _ = _path(seed, n, k)
+    fast = topp.derivatives(q, s, [], 3, repeated=False)
+    general = topp.derivatives(q, s, [0, n - 1], 3, repeated=True)  # the per-piece loop
+    for f, g in zip(fast, general, strict=True):
+        assert f.tobytes() == g.tobytes()
