@@ -57,14 +57,16 @@ def constraints(delta: NDArray[np.float64], dq: NDArray[np.float64],
     d1[:k] = dq_t
     d1[k:, :-1] = dq_t[:, 1:] + 2.0 * delta * ddq_t[:, 1:]
     d1[k:, -1] = dq_t[:, -1] + 2.0 * 0.0 * ddq_t[:, -1]
-    d2 = np.empty((2 * k, n))
-    d2[:k] = ddq_t
-    d2[k:, :-1] = ddq_t[:, 1:]
-    d2[k:, -1] = ddq_t[:, -1]
     abs_d1 = np.abs(d1)
     if not (abs_d1 > _FLAT).all():
         return None
-    r = -d2 / d1
+    # r = −q''/q' of each row, the virtual rows' q'' being the next point's (−q'')/q' as the
+    # general −ddq / safe
+    minus = -ddq_t
+    r = np.empty((2 * k, n))
+    np.divide(minus, d1[:k], out=r[:k])
+    np.divide(minus[:, 1:], d1[k:, :-1], out=r[k:, :-1])
+    np.divide(minus[:, -1], d1[k:, -1], out=r[k:, -1])
     if not np.isfinite(r).all():
         return None
     a_col = a_max[:, None]
