@@ -108,11 +108,16 @@ def plan_request(req: PlanRequest) -> Trajectory:
     reach.check_waypoints(req)
     if req.profile != "optimal":
         return run(req, UniformTiming(req))
-    pieces, bad_pose = build_pieces(req)
+    # an auto law from rest at a high rate nearly always needs the finer geometry
+    # (pieces.DENSE_RATE_HZ): timed on it at once; a fixed duration's slower law seldom does,
+    # and a moving start's (an online operation's, whose planning time counts) may not:
+    # those are refined on a failure
+    fine = req.duration == "auto" and req.start_state is None
+    pieces, bad_pose = build_pieces(req, fine=fine)
     if pieces is None:
         assert bad_pose is not None
         _unreachable_path(req, bad_pose)
-    return run(req, OptimalTiming(req, pieces))
+    return run(req, OptimalTiming(req, pieces, fine=fine))
 
 
 def plan(arm: Arm, waypoints: ArrayLike, *, method: str | Sequence[str] = DEFAULTS.method,

@@ -182,7 +182,8 @@ def _brake_then_go(req: PlanRequest, brake: moving_start.Brake, limits: JointLim
 class OptimalTiming:
     """The optimal law of a request's pieces (module doc), for the pipeline's loop."""
 
-    def __init__(self, req: PlanRequest, pieces: list[DensePiece]) -> None:
+    def __init__(self, req: PlanRequest, pieces: list[DensePiece], fine: bool = False
+                 ) -> None:
         self.req = req
         self.limits = JointLimits.of(req.arm, getattr(req, "payload_kg", None))
         state = req.start_state
@@ -198,7 +199,7 @@ class OptimalTiming:
                              "start_state (stretching the optimal law would change the start "
                              "velocity): use duration=\"auto\"", field="duration",
                              value=req.duration)
-        self.fine = False
+        self.fine = fine  # the pieces are on build_pieces(fine=True)'s density
         self._time(pieces)
 
     def _time(self, pieces: list[DensePiece]) -> None:
