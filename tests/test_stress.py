@@ -52,6 +52,8 @@ EXECUTION = {"compensation": True, "tracking_limit": np.radians(15.0), "recover"
 #: ``fault`` and ``failed`` are documented too, but nothing in this test causes them (no
 #: obstacle, no injected fault): a move ending so fails the test.
 ENDED = ("done", "degraded", "stopped", "replaced")
+#: stop reasons that are findings whatever the move's status
+FAULT_STOPS = ("collision", "tracking_error")
 TARGETS = ([0.18, 0.12, 0.6], [0.2, 0.05, 0.3], [0.12, 0.24, 1.0], [0.25, 0.0, -0.3],
            [0.22, 0.15, 0.2], HOME)
 
@@ -260,7 +262,11 @@ def _check_endings(server: Any, moves: set[str], checked: set[str]) -> None:
             continue
         checked.add(move_id)
         assert not move["paused"], move
-        if move["status"] not in ENDED:
+        report = move.get("report") or {}
+        # a collision or tracking stop is a finding under any status (free space, a sim
+        # that follows): a status that hides it (a replace racing the stop) must not
+        if move["status"] not in ENDED or report.get("stop_reason") in FAULT_STOPS \
+                or report.get("collision"):
             FINDINGS.append(_ending(move))
 
 
