@@ -11,6 +11,7 @@ from typing import Any
 
 import numpy as np
 import pytest
+from conftest import settled
 from http_helpers import (
     ARM,
     HOME,
@@ -117,9 +118,11 @@ def test_a_saved_trajectory_plays_and_is_recorded(arm_server: Any) -> None:
     assert status == 200 and rec["move"] == move["id"]
     assert rec["joint_names"] == list(ARM.joint_names) and len(rec["t"]) >= 2
     assert len(rec["t"]) == len(rec["ticks"]) == len(rec["joints"]) == len(rec["poses"])
-    # The last measurement is where the servos are now, within a tick of the last goal.
-    final = [sa.sim.servo(i).present_position for i in ARM.servo_ids]
-    assert rec["ticks"][-1] == final
+    # The last row is the move's final read, and the servos come to rest within a tick or
+    # two of the last goal. (Not "where they are now": on a loaded host the last samples
+    # go out late and the final read catches the arm a few ticks short, still closing in.)
+    assert rec["ticks"][-1] == list(done["report"]["final_positions"])
+    final = settled(lambda: [sa.sim.servo(i).present_position for i in ARM.servo_ids])
     assert np.abs(np.subtract(final, planned["ticks"][-1])).max() <= 2
     # CSV on request, with the same rows.
     conn_status, headers, text = csv_get(server, f"/v1/moves/{move['id']}/record")
@@ -130,7 +133,7 @@ def test_a_saved_trajectory_plays_and_is_recorded(arm_server: Any) -> None:
                        *(f"tick_{i}" for i in ARM.servo_ids), "x_m", "y_m", "theta_rad"]
     assert len(rows) - 1 == len(rec["t"])
     assert [float(r[0]) for r in rows[1:]] == rec["t"]
-    assert [int(v) for v in rows[-1][1 + ARM.dof:1 + 2 * ARM.dof]] == final
+    assert [int(v) for v in rows[-1][1 + ARM.dof:1 + 2 * ARM.dof]] == rec["ticks"][-1]
 
 
 def csv_get(server: Any, path: str) -> tuple[int, dict[str, str], str]:
