@@ -332,7 +332,7 @@ def test_min_affine_scan_matches_the_stage_loop(seed, rounds, monkeypatch):
 
 
 def test_reachability_passes_match_their_stage_loops():
-    """controllable and greedy_forward (scan) against their own plain loops on a real
+    """controllable and greedy_forward's scans against the plain stage loop on a real
     TOPP-RA problem (3 joints, interpolated rows)."""
     from robodcn.path_timing import reachability, topp
 
@@ -343,18 +343,18 @@ def test_reachability_passes_match_their_stage_loops():
     p_lo, p_hi, r, cap = reachability.stage_constraints(dq2, ddq2, v, a)
     delta = np.diff(s)
     n = delta.shape[0]
-    x_max = reachability.controllable(delta, p_lo, r, cap, 0.0)
+    x_max = reachability.controllable_scan(delta, p_lo, r, cap, 0.0)
     slope = 1.0 + 2.0 * delta[:, None] * r[:n]
     good = (slope > 0) & np.isfinite(p_lo[:n])
     w = np.where(good, 1.0 / np.where(good, slope, 1.0), 0.0)
     z = np.where(good, -2.0 * delta[:, None] * np.where(good, p_lo[:n], 0.0) * w, np.inf)
-    plain = reachability._backward(min(0.0, cap[n]), np.hstack([w, np.zeros((n, 1))])[::-1],
-                                   np.hstack([z, cap[:n, None]])[::-1])[::-1]
+    plain = reachability._sequential(min(0.0, cap[n]), np.hstack([w, np.zeros((n, 1))])[::-1],
+                                     np.hstack([z, cap[:n, None]])[::-1])[::-1]
     np.testing.assert_allclose(x_max, plain, rtol=1e-11, atol=1e-13)
-    x, u = reachability.greedy_forward(delta, p_hi, r, x_max, 0.0)
+    x, u = reachability.greedy_scan(delta, p_hi, r, x_max, 0.0)
     fw = np.hstack([1.0 + 2.0 * delta[:, None] * r[:n], np.zeros((n, 1))])
     fz = np.hstack([2.0 * delta[:, None] * p_hi[:n], x_max[1:, None]])
-    np.testing.assert_allclose(x, reachability._forward(0.0, fw, fz), rtol=1e-11, atol=1e-13)
+    np.testing.assert_allclose(x, reachability._sequential(0.0, fw, fz), rtol=1e-11, atol=1e-13)
     np.testing.assert_allclose(x[1:], x[:-1] + 2.0 * delta * u, rtol=1e-12, atol=1e-14)
     assert x.max() > 0.1  # the law moves
 

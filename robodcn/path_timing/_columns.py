@@ -104,15 +104,7 @@ def pieces(delta: NDArray[np.float64], half: NDArray[np.float64], r: NDArray[np.
     half, r = half[:, :n_stages], r[:, :n_stages]
     slope = 1.0 + two_d * r
     offset = two_d * half
-    if not np.isfinite(half).all():  # an unlimited acceleration: backward_pieces' rules
-        w, z = reachability.backward_pieces(delta, -half, r)
-        return Pieces(slope, offset, w, z)
-    good = slope > 0
-    if good.all():
-        w = 1.0 / slope
-        return Pieces(slope, offset, w, offset * w)
-    # a stage whose deceleration bound gives no upper bound on x (slope ≤ 0; near a path's
-    # start, where q'' is large against q'): (W, Z) = (0, inf) there, as backward_pieces
-    w = np.divide(1.0, slope, out=np.zeros(slope.shape), where=good)
-    return Pieces(slope, offset, w, np.multiply(offset, w, out=np.full(slope.shape, np.inf),
-                                                 where=good))
+    # −2Δ·(−half) = 2Δ·half exactly: the backward pieces' own rules (no bound where the
+    # slope is ≤ 0 or the acceleration unlimited)
+    w, z = reachability.backward_pieces(delta, -half, r)
+    return Pieces(slope, offset, w, z)

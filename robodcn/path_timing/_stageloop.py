@@ -8,7 +8,7 @@ per-call overhead (~1 µs) dominates every vectorised formulation (the policy it
 plain Python floats, unrolled over the pieces: one generated function per piece count, whose
 body is ``t = x * w_j + z_j; if t < m: m = t`` for every piece (no inner loop, no numpy
 scalar). Its operations and their order are those of the sequential reference loops
-(``reachability._backward`` / ``_forward``), so the values are the same bits: the running
+(``reachability._sequential``), so the values are the same bits: the running
 minimum starts at +inf and takes a piece only when strictly less (a NaN piece never binds),
 the cap is the piece 0·x + cap, and m ≤ 0 (or NaN) gives 0.
 """

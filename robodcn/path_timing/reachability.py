@@ -178,10 +178,6 @@ def _sequential(x: float, w: NDArray, z: NDArray) -> NDArray[np.float64]:
     return np.array(_stageloop.recurrence(x, columns, m))
 
 
-# the plain loops of the backward and the forward pass (stages in pass order, the cap the
-# last piece): one loop, kept under both names
-_backward = _forward = _sequential
-
 
 def greedy_forward(delta: NDArray[np.float64], p_hi: NDArray, r: NDArray,
                    x_max: NDArray[np.float64], x_start: float
@@ -210,8 +206,17 @@ def forward_loop(delta: NDArray[np.float64], p_hi: NDArray, r: NDArray,
     with np.errstate(invalid="ignore"):
         w = 1.0 + two_d * r
         z = two_d * p_hi
-    x = np.array(_stageloop.recurrence(x_start, [*w.tolist(), *z.tolist(), caps], w.shape[0]))
-    return x, (x[1:] - x[:-1]) / two_d  # np.diff(x) / (2.0 * delta)
+    return forward_recurrence(delta, w, z, caps, x_start)
+
+
+def forward_recurrence(delta: NDArray[np.float64], slope: NDArray, offset: NDArray,
+                       caps: list[float], x_start: float
+                       ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """x, u of :func:`greedy_forward` by the stage loop from its pieces (m, N), slope
+    1 + 2Δ r and offset 2Δ p_hi, one row per constraint, and the caps x_max,1 … x_max,N."""
+    x = np.array(_stageloop.recurrence(x_start, [*slope.tolist(), *offset.tolist(), caps],
+                                       slope.shape[0]))
+    return x, (x[1:] - x[:-1]) / (2.0 * delta)  # np.diff(x) / (2.0 * delta)
 
 
 def greedy_scan(delta: NDArray[np.float64], p_hi: NDArray, r: NDArray,

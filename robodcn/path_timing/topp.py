@@ -18,7 +18,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from robodcn.errors import InputError
-from robodcn.path_timing import _columns, _stageloop, reachability
+from robodcn.path_timing import _columns, reachability
 from robodcn.path_timing._gradient import Gradient
 from robodcn.path_timing.torque import TorqueRows
 
@@ -203,10 +203,8 @@ def solve(sg: NDArray, dq: NDArray, ddq: NDArray, v: NDArray, a: NDArray, extra_
                          field="sd_start", value=math.sqrt(x_start))
     x0 = min(x_start, x_max_0)
     if columns is not None:
-        x = np.array(_stageloop.recurrence(
-            x0, [*pieces.slope.tolist(), *pieces.offset.tolist(), x_max[1:]],
-            pieces.slope.shape[0]))
-        return x, (x[1:] - x[:-1]) / (2.0 * delta)  # np.diff(x) / (2.0 * delta)
+        return reachability.forward_recurrence(delta, pieces.slope, pieces.offset, x_max[1:],
+                                               x0)
     return reachability.greedy_forward(delta, p_hi, r_rows, x_max_arr, x0)
 
 
