@@ -55,7 +55,12 @@ from robodcn.planner import path, reach, search, validate
 from robodcn.planner.arc import by_arc_length
 from robodcn.planner.path import joints_of
 from robodcn.planner.pieces import DENSE as DENSE  # re-export
-from robodcn.planner.pieces import DensePiece, build_pieces, dense_per_segment
+from robodcn.planner.pieces import (
+    DensePiece,
+    build_pieces,
+    dense_per_segment,
+    segments_from_start,
+)
 from robodcn.planner.samples import Sampled
 
 log = logging.getLogger(__name__)
@@ -226,10 +231,8 @@ class OptimalTiming:
         if self.fine:
             return False
         self.fine = True
-        jerk_limited = any(jt.max_jerk is not None for jt in req.arm.joints)
-        segments = req.segments
-        if dense_per_segment(req.rate_hz, jerk_limited, segments, fine=True) <= \
-                dense_per_segment(req.rate_hz, jerk_limited, segments):
+        segments = len(segments_from_start(req))  # as build_pieces counts them
+        if dense_per_segment(req, segments, fine=True) <= dense_per_segment(req, segments):
             return False
         pieces, _ = build_pieces(req, fine=True)
         if pieces is None:

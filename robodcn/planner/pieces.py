@@ -46,21 +46,23 @@ from robodcn.planner.path import (
 DENSE = 100
 DENSE_JERK = 400
 DENSE_MAX = 4000
-#: Above this rate a jerk-free law whose samples fail validation is first timed again on
-#: proportionally more dense samples (up to DENSE_JERK: ``build_pieces(fine=True)``) before
-#: it is slowed: the plan's samples then resolve the interpolant's q″ between the dense
-#: samples, which the grid's stages did not see, and a slow stretches the whole piece (at
-#: 1 kHz on DENSE up to 2.5 % longer than on DENSE_JERK; at 100–250 Hz within a period).
+#: Above this rate a jerk-free law is timed on proportionally more dense samples (up to
+#: DENSE_JERK: ``build_pieces(fine=True)``) — an auto law from rest at once, any other when
+#: its samples fail validation, before it is slowed: the plan's samples then resolve the
+#: interpolant's q″ between the dense samples, which the grid's stages did not see, and a
+#: slow stretches the whole piece (at 1 kHz on DENSE up to 2.5 % longer than on
+#: DENSE_JERK; at 100–250 Hz within a period).
 DENSE_RATE_HZ = 250.0
 
 
-def dense_per_segment(rate_hz: float, jerk_limited: bool, segments: int,
-                      fine: bool = False) -> int:
-    """IK samples per segment the optimal law is timed on (the constants above)."""
-    if jerk_limited:
+def dense_per_segment(req: PlanRequest, segments: int, fine: bool = False) -> int:
+    """IK samples per segment the optimal law of ``req`` is timed on, on a path of
+    ``segments`` segments (the constants above)."""
+    # JointLimits.jerk_limited, read off the joints without building the limit arrays
+    if any(jt.max_jerk is not None for jt in req.arm.joints):
         dense = DENSE_JERK
     elif fine:
-        dense = min(DENSE_JERK, math.ceil(DENSE * max(1.0, rate_hz / DENSE_RATE_HZ)))
+        dense = min(DENSE_JERK, math.ceil(DENSE * max(1.0, req.rate_hz / DENSE_RATE_HZ)))
     else:
         dense = DENSE
     return max(16, min(dense, DENSE_MAX // max(1, segments)))
@@ -176,9 +178,7 @@ def build_pieces(req: PlanRequest, fine: bool = False
     if req.start_joints is not None:
         ref = np.asarray(req.start_joints)
     # dense geometry, branch-continuous across pieces
-    # JointLimits.jerk_limited, read off the joints without building the limit arrays
-    jerk_limited = any(jt.max_jerk is not None for jt in arm.joints)
-    per = dense_per_segment(req.rate_hz, jerk_limited, len(segments), fine)
+    per = dense_per_segment(req, len(segments), fine)
     first_q = None
     for piece in pieces:
         s = _dense_s(piece.path, per)
