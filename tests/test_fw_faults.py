@@ -52,7 +52,16 @@ def test_drop_with_probability_counts_match(bus, port):
     assert set(results) <= {COMM_SUCCESS, COMM_RX_TIMEOUT}
 
 
-def test_delay_short_is_accepted_long_times_out(bus, port):
+@pytest.fixture
+def sdk_timeout_port(bus):
+    """A port on the SDK's own ≈ 34 ms packet timeout (the tests below time against it)."""
+    with sdk_port(bus, margin_ms=0.0) as p:
+        yield p
+
+
+@pytest.mark.serial  # times a 10 ms and a 60 ms delay against the 34 ms timeout
+def test_delay_short_is_accepted_long_times_out(bus, sdk_timeout_port):
+    port = sdk_timeout_port
     bus.faults.delay(0.010, 1)
     t0 = time.perf_counter()
     assert PH.ping(port, 1)[1] == COMM_SUCCESS
@@ -144,7 +153,9 @@ def test_fault_validation_and_clear(bus, port):
     assert PH.ping(port, 1)[1] == COMM_SUCCESS
 
 
-def test_split_with_gap_beyond_timeout_is_a_partial_packet(bus, port):
+@pytest.mark.serial  # a 60 ms gap against the 34 ms timeout
+def test_split_with_gap_beyond_timeout_is_a_partial_packet(bus, sdk_timeout_port):
+    port = sdk_timeout_port
     bus.faults.split(pieces=2, gap_s=0.060, servo_id=3)
     assert PH.ping(port, 3)[1] == COMM_RX_CORRUPT           # half a packet, then timeout
     time.sleep(0.07)
