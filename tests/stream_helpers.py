@@ -1,5 +1,6 @@
-"""Shared pieces of the streamer tests (test_stream, test_preflight): the example moves,
-a ServoBus on the simulator, placing the arm, reading what the servos accepted."""
+"""Shared pieces of the streamer tests (test_stream, test_preflight, test_step_guard,
+test_collision_slew): the example moves, a ServoBus on the simulator, placing the arm,
+reading what the servos accepted, a source whose goals jump (:class:`Jumping`)."""
 
 from __future__ import annotations
 
@@ -89,3 +90,26 @@ def inject_at(sample: int, action):
             action()
 
     return callback
+
+
+class Jumping:
+    """The planned samples with joint 0's goals stepped by ``jump`` ticks from sample ``at``
+    on (a source whose goals step beyond the limit mid-move and at its last sample)."""
+
+    def __init__(self, planned, bus, at, jump):
+        self.planned = planned
+        self.period, self.rate_hz = planned.period, planned.rate_hz
+        self.compensated = planned.compensated
+        sent = np.array(planned.commanded, dtype=np.int64)
+        sent[at:, 0] += jump
+        self.sent = sent
+        self._encoded = bus.encode_goals(sent)
+
+    def __len__(self):
+        return len(self.planned)
+
+    def goal(self, i):
+        return self.planned.goal(i)
+
+    def encoded(self, i):
+        return self._encoded[i]

@@ -8,7 +8,7 @@ import math
 
 import numpy as np
 from conftest import ARM3R, lockstep_arm
-from test_step_guard import Jumping
+from stream_helpers import Jumping
 
 from robodcn.planner import plan
 from robodcn.stream import execute

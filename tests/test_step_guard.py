@@ -8,6 +8,7 @@ import math
 
 import numpy as np
 from conftest import ARM3R, lockstep_arm
+from stream_helpers import Jumping
 
 from robodcn.bus.groups import encode_rows
 from robodcn.planner import plan
@@ -28,29 +29,6 @@ def test_a_step_within_the_bound_is_written_as_it_is_and_a_larger_one_is_slewed(
     written = [decode_row(guard.catch_up(2 + k)) for k in range(3)]
     assert written == [[133, 89, -5000], [144, 89, -5000], [150, 89, -5000]]
     assert not guard.behind() and guard.lag() is None and guard.slewed == 3
-
-
-class Jumping:
-    """The planned samples with joint 0's goals stepped by ``jump`` ticks from sample ``at``
-    on (a source whose goals step beyond the limit mid-move and at its last sample)."""
-
-    def __init__(self, planned, bus, at, jump):
-        self.planned = planned
-        self.period, self.rate_hz = planned.period, planned.rate_hz
-        self.compensated = planned.compensated
-        sent = np.array(planned.commanded, dtype=np.int64)
-        sent[at:, 0] += jump
-        self.sent = sent
-        self._encoded = bus.encode_goals(sent)
-
-    def __len__(self):
-        return len(self.planned)
-
-    def goal(self, i):
-        return self.planned.goal(i)
-
-    def encoded(self, i):
-        return self._encoded[i]
 
 
 def test_the_loop_slews_a_source_step_and_ends_on_the_source_s_last_goal():
