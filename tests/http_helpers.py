@@ -1,5 +1,6 @@
 """Shared helpers for the HTTP service tests: a server in a thread, one-shot requests and
-raw-socket exchanges; fixtures (``arm_server``) for ``pytest_plugins = ["http_helpers"]``."""
+raw-socket exchanges; fixtures (``arm_server``, ``abused_server``, ``planner_server``) for
+``pytest_plugins = ["http_helpers"]``."""
 
 from __future__ import annotations
 
@@ -84,6 +85,20 @@ def serving_planner(request_timeout: float = 2.0) -> Iterator[Any]:
 def arm_server() -> Iterator[tuple[Any, Any]]:
     with serving_arm() as pair:
         yield pair
+
+
+#: :func:`serving_abused` as a fixture (test_http_abuse, test_http_races).
+@pytest.fixture
+def abused_server() -> Iterator[tuple[Any, Any]]:
+    with serving_abused() as pair:
+        yield pair
+
+
+#: :func:`serving_planner` as a fixture, one server a module.
+@pytest.fixture(scope="module")
+def planner_server() -> Iterator[Any]:
+    with serving_planner() as server:
+        yield server
 
 
 def address(server: Any) -> tuple[str, int]:

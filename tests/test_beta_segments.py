@@ -12,17 +12,16 @@ from typing import Any
 import numpy as np
 import pytest
 from conftest import ARM3R
-from http_helpers import ARM, call, error_of, finished, poll_move, running
+from http_helpers import ARM, call, error_of, finished, poll_move
 from workflow_helpers import ARM3R as ARM3R_PATH
 from workflow_helpers import NO_DEVICE, run_cli
 
 from robodcn import contract
 from robodcn.errors import BetaIgnoredWarning, InputError
-from robodcn.http import make_server
 from robodcn.interpolate import interpolate
 from robodcn.planner import PlanRequest, StartState, Trajectory, plan
 
-pytest_plugins = ["http_helpers"]     # fixtures: arm_server
+pytest_plugins = ["http_helpers"]     # fixtures: arm_server, planner_server
 
 #: Three poses whose segments both turn θ (so s is recoverable from θ along each).
 WAYPOINTS = [(0.25, 0.10, 0.0), (0.20, 0.20, math.radians(45)),
@@ -143,12 +142,6 @@ def test_schema_takes_a_number_or_one_per_segment() -> None:
     req = contract.parse_request({"waypoints": [list(w) for w in WAYPOINTS],
                                   "method": "kenlerp", "beta": [0.2, 1.5]}, ARM)
     assert req.beta == BETAS
-
-
-@pytest.fixture(scope="module")
-def planner_server():
-    with running(make_server(ARM, None, request_timeout=2.0)) as server:
-        yield server
 
 
 def test_http_plans_a_beta_per_segment(planner_server) -> None:

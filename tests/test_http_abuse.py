@@ -10,7 +10,6 @@ import socket
 import subprocess
 import sys
 import time
-from collections.abc import Iterator
 from typing import Any
 
 import pytest
@@ -29,31 +28,20 @@ from http_helpers import (
     poll_move,
     read_all,
     running,
-    serving_abused,
-    serving_planner,
 )
 
+from robodcn.contract import MAX_WAYPOINTS
 from robodcn.errors import InputError
 from robodcn.http import ROUTES, ListenError, make_server
 
-
-@pytest.fixture(scope="module")
-def planner_server() -> Iterator[Any]:
-    with serving_planner() as server:
-        yield server
-
-
-@pytest.fixture
-def arm_server() -> Iterator[tuple[Any, Any]]:
-    with serving_abused() as pair:
-        yield pair
+pytest_plugins = ["http_helpers"]     # fixtures: abused_server, planner_server
 
 
 # -- slow clients -----------------------------------------------------------------------------
 
-def test_slowloris_past_the_cap_cannot_delay_a_stop(arm_server: Any) -> None:
+def test_slowloris_past_the_cap_cannot_delay_a_stop(abused_server: Any) -> None:
     """64 slow clients used to take every thread: 13 of 13 stops got 503, a move ran on."""
-    server, _ = arm_server
+    server, _ = abused_server
     status, _, move = call(server, "POST", "/v1/moves", {**BODY, "duration": 4.0})
     assert status == 202, move
     poll_move(server, move["id"], lambda b: b["progress"] > 0.02)
@@ -85,11 +73,11 @@ def test_slowloris_past_the_cap_cannot_delay_a_stop(arm_server: Any) -> None:
             sock.close()
 
 
-def test_stop_does_not_wait_behind_slow_state_reads(arm_server: Any) -> None:
+def test_stop_does_not_wait_behind_slow_state_reads(abused_server: Any) -> None:
     """State reads on a silent bus take seconds each; a stop must not queue behind them."""
     import threading
 
-    server, sa = arm_server
+    server, sa = abused_server
     sa.sim.faults.drop(times=None)
     readers = [threading.Thread(target=call, args=(server, "GET", "/v1/state"),
                                 kwargs={"timeout": 30}) for _ in range(4)]
@@ -146,9 +134,9 @@ def test_malformed_requests_get_a_status_line(planner_server: Any, data: bytes,
     assert error_of(body)["code"]
 
 
-def test_http09_never_starts_a_move(arm_server: Any) -> None:
+def test_http09_never_starts_a_move(abused_server: Any) -> None:
     """``POST /v1/moves`` as HTTP/0.9 with a body used to start a move."""
-    server, _ = arm_server
+    server, _ = abused_server
     raw = json.dumps(BODY).encode()
     line, _ = exchange(server, b"POST /v1/moves\r\n" + raw + b"\r\n\r\n")
     assert line.startswith(b"HTTP/1.1 400")
@@ -253,10 +241,10 @@ def test_waypoints_over_max_items_are_422_and_over_the_byte_limit_413(
     assert status == 413 and error_of(data)["code"] == "too_large", data
 
 
-def test_a_move_over_max_items_is_422(arm_server: Any) -> None:
+def test_a_move_over_max_items_is_422(abused_server: Any) -> None:
     from robodcn.contract import MAX_WAYPOINTS
 
-    server, _ = arm_server
+    server, _ = abused_server
     for extra in ({}, {"replace": True}):
         status, _, data = call(server, "POST", "/v1/moves", {
             "waypoints": [[0.2, 0.1, 0]] * (MAX_WAYPOINTS + 1), **extra})
@@ -276,8 +264,10 @@ def test_small_plans_stay_fast_while_a_large_one_plans(planner_server: Any) -> N
     """A large plan held the one planning lock: every other plan waited for it."""
     import threading
 
-    # 400 waypoints, "auto": about 2 s of planning on an idle machine.
-    big = {"waypoints": [HOME if i % 2 == 0 else TARGET for i in range(400)], "rate_hz": 100}
+    # MAX_WAYPOINTS (1000) waypoints, "auto": about 0.7 s of planning on an idle machine (400
+    # took 0.27 s once the planner got faster, and the small plan at 0.2 s came after it).
+    big = {"waypoints": [HOME if i % 2 == 0 else TARGET for i in range(MAX_WAYPOINTS)],
+           "rate_hz": 100}
     done = threading.Event()
     result: list[int] = []
 

@@ -4,10 +4,8 @@ the bug it keeps fixed; the rest of the abuse tests are in test_http_abuse.py.""
 from __future__ import annotations
 
 import time
-from collections.abc import Iterator
 from typing import Any
 
-import pytest
 from http_helpers import (
     HOME,
     TARGET,
@@ -15,23 +13,11 @@ from http_helpers import (
     error_of,
     finished,
     poll_move,
-    serving_abused,
-    serving_planner,
 )
 
 from robodcn.errors import InputError
 
-
-@pytest.fixture(scope="module")
-def planner_server() -> Iterator[Any]:
-    with serving_planner() as server:
-        yield server
-
-
-@pytest.fixture
-def arm_server() -> Iterator[tuple[Any, Any]]:
-    with serving_abused() as pair:
-        yield pair
+pytest_plugins = ["http_helpers"]     # fixtures: abused_server, planner_server
 
 
 # -- online operations under races (issue 17 §7) ---------------------------------------------
@@ -46,9 +32,9 @@ def _running(server: Any) -> dict[str, Any]:
     return poll_move(server, body["id"], lambda b: b["progress"] > 0.05)
 
 
-def test_a_huge_integer_speed_scale_is_422_not_500(arm_server: Any) -> None:
+def test_a_huge_integer_speed_scale_is_422_not_500(abused_server: Any) -> None:
     """PUT /v1/speed {"scale": 1000…0} (401 digits) raised OverflowError (500)."""
-    server, _ = arm_server
+    server, _ = abused_server
     raw = b'{"scale": 1' + b"0" * 400 + b"}"
     status, _, body = call(server, "PUT", "/v1/speed", raw=raw)
     assert status == 422 and error_of(body)["field"] == "scale", body
@@ -56,8 +42,8 @@ def test_a_huge_integer_speed_scale_is_422_not_500(arm_server: Any) -> None:
     assert status == 422 and error_of(body)["field"] == "scale", body
 
 
-def test_a_pause_answered_200_is_paused_in_the_reply_and_the_state(arm_server: Any) -> None:
-    server, _ = arm_server
+def test_a_pause_answered_200_is_paused_in_the_reply_and_the_state(abused_server: Any) -> None:
+    server, _ = abused_server
     move = _running(server)
     status, _, paused = call(server, "POST", "/v1/pause")
     assert status == 200 and paused["paused"] is True and paused["id"] == move["id"], paused
@@ -67,11 +53,11 @@ def test_a_pause_answered_200_is_paused_in_the_reply_and_the_state(arm_server: A
     assert call(server, "POST", "/v1/stop", {"mode": "hold"})[0] == 200
 
 
-def test_a_pause_the_move_end_overtakes_is_409(arm_server: Any, monkeypatch: Any) -> None:
+def test_a_pause_the_move_end_overtakes_is_409(abused_server: Any, monkeypatch: Any) -> None:
     """The move reaches its end before a brake could stop it: not '200, paused: false'."""
     from robodcn.stream.online import Execution
 
-    server, _ = arm_server
+    server, _ = abused_server
     move = _running(server)
     monkeypatch.setattr(Execution, "pause", lambda self: None)  # the end came first
     status, _, body = call(server, "POST", "/v1/pause")
@@ -81,12 +67,12 @@ def test_a_pause_the_move_end_overtakes_is_409(arm_server: Any, monkeypatch: Any
     poll_move(server, move["id"], finished)
 
 
-def test_race_outcomes_are_409_not_422(arm_server: Any, monkeypatch: Any) -> None:
+def test_race_outcomes_are_409_not_422(abused_server: Any, monkeypatch: Any) -> None:
     """'the stream ran ahead of planning' (nothing changed) and 'the execution is not
     running' (it ended meanwhile) are conflicts, not bad input (README: 409)."""
     from robodcn.stream.online import Execution, SwitchMissed
 
-    server, _ = arm_server
+    server, _ = abused_server
     move = _running(server)
 
     def missed(self: Any, scale: float) -> None:
@@ -109,12 +95,12 @@ def test_race_outcomes_are_409_not_422(arm_server: Any, monkeypatch: Any) -> Non
 
 
 def test_a_replace_as_the_move_ends_is_409_and_the_service_stays_usable(
-        arm_server: Any, monkeypatch: Any) -> None:
+        abused_server: Any, monkeypatch: Any) -> None:
     """A replace answered 202 just after the stream had stopped left a move 'running' for
     good (every later move 409 busy, stop answering status 'running')."""
     from robodcn.stream.online import Execution
 
-    server, _ = arm_server
+    server, _ = abused_server
     move = _running(server)
     real = Execution.retarget
 
@@ -140,11 +126,11 @@ def test_a_replace_as_the_move_ends_is_409_and_the_service_stays_usable(
 
 
 def test_a_smooth_stop_answers_without_waiting_for_the_move_to_end(
-        arm_server: Any, monkeypatch: Any) -> None:
+        abused_server: Any, monkeypatch: Any) -> None:
     """Stop waited a fixed 1 s for the move to end; it answers once the brake is in."""
     from robodcn.stream.online import Execution
 
-    server, _ = arm_server
+    server, _ = abused_server
     move = _running(server)
     monkeypatch.setattr(Execution, "stop", lambda self, mode="smooth", reason="": None)
     started = time.monotonic()
