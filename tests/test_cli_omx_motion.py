@@ -10,37 +10,16 @@ import math
 
 import numpy as np
 import pytest
-from conftest import CONFIGS
-from workflow_helpers import ARM3R, run_cli
+from omx_helpers import OMX, joints_of, pose_of
+from workflow_helpers import ARM3R, COMPLETED, run_cli
 
 from robodcn import kinematics, servo_units
-from robodcn.config import load_arm
-from robodcn.simulated import simulated_arm
 
-OMX = load_arm(CONFIGS / "omx.toml")
+pytest_plugins = ["omx_helpers"]     # fixtures: held_omx
+
 #: A reachable goal in front of the arm, turned 20° to the left: x, y, z (m), pitch (deg).
 GOAL = (0.18, 0.065, 0.15, -20.0)
 GOAL_ARG = ",".join(f"{v:g}" for v in GOAL)
-COMPLETED = (0, 5)
-
-
-@pytest.fixture
-def held_omx():
-    """firmware_sim's physics omx (ids 11-15), held at its home pose as a previous session
-    left it; yields the SimBus, whose pty the command under test opens."""
-    with simulated_arm(OMX, timing="fast") as s:
-        s.bus.close()                     # the command opens the pty itself
-        yield s.sim
-    assert not s.sim.errors, s.sim.errors
-
-
-def joints_of(sim) -> np.ndarray:
-    ticks = [sim.servo(i).present_position for i in OMX.servo_ids]
-    return servo_units.ticks_to_radians(np.array(ticks), OMX.servos)
-
-
-def pose_of(sim) -> np.ndarray:
-    return kinematics.fk_yawed(OMX.chain, joints_of(sim)[None])[0]
 
 
 def near_goal(pose, goal=GOAL, tol_m=0.004, tol_deg=1.5) -> bool:

@@ -13,37 +13,16 @@ import tomllib
 
 import numpy as np
 import pytest
-from conftest import CONFIGS
-from workflow_helpers import run_cli
+from omx_helpers import OMX, pose_of
+from workflow_helpers import COMPLETED, run_cli
 
-from robodcn import kinematics, servo_units
-from robodcn.config import load_arm
-from robodcn.simulated import simulated_arm
 from robodcn.workflow import files
 from robodcn.workflow.run import PlanOverrides, legs, waypoints_fields
 
-OMX = load_arm(CONFIGS / "omx.toml")
-COMPLETED = (0, 5)
+pytest_plugins = ["omx_helpers"]     # fixtures: held_omx
+
 #: Overload, in Hardware Error Status (bit 5).
 OVERLOAD = 0x20
-
-
-@pytest.fixture
-def held_omx():
-    """firmware_sim's physics omx (ids 11-15) held at its home pose; yields the SimBus."""
-    with simulated_arm(OMX, timing="fast") as s:
-        s.bus.close()                     # the command opens the pty itself
-        yield s.sim
-    assert not s.sim.errors, s.sim.errors
-
-
-def joints_of(sim) -> np.ndarray:
-    ticks = [sim.servo(i).present_position for i in OMX.servo_ids]
-    return servo_units.ticks_to_radians(np.array(ticks), OMX.servos)
-
-
-def pose_of(sim) -> np.ndarray:
-    return kinematics.fk_yawed(OMX.chain, joints_of(sim)[None])[0]
 
 
 def hand(sim, servo_id: int, torque_nm: float, seconds: float = 0.3):

@@ -17,13 +17,10 @@ from collections.abc import Iterator
 from pathlib import Path
 
 import pytest
+from workflow_helpers import ARM3R, COMPLETED
 
 ROOT = Path(__file__).resolve().parent.parent
-ARM3R = str(ROOT / "configs" / "arm3r.toml")
 MOVE = ("--to", "0.12,0.24,60")
-#: A run's exit code: 0, or 5 when the loaded test machine made the stream skip samples (the
-#: report then says so); tests of other things accept both.
-COMPLETED = (0, 5)
 
 
 def robodcn(*args: str, timeout: float = 60.0, **kwargs) -> subprocess.CompletedProcess:
