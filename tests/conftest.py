@@ -15,6 +15,12 @@ from firmware_sim.bus import SimBus
 from robodcn.bus import ServoBus
 from robodcn.config import Arm, load_arm
 
+#: The helper modules the tests import (and load as ``pytest_plugins``): their asserts get
+#: pytest's messages, as in a test module. Registered before any of them is imported.
+pytest.register_assert_rewrite("fw_helpers", "http_helpers", "omx_helpers", "online_helpers",
+                               "planner_helpers", "stream_helpers", "workflow_fixtures",
+                               "workflow_helpers")
+
 ROOT = Path(__file__).resolve().parent.parent
 CONFIGS = ROOT / "configs"
 ARM3R: Arm = load_arm(CONFIGS / "arm3r.toml")
