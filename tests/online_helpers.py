@@ -57,6 +57,14 @@ def _run(sa, trajectory, ops, timeout=30.0, compensation=False):
     return report, ex, wire
 
 
+def hold_before(clock: VirtualClock, ex: Execution, at: int) -> None:
+    """Hold the virtual-time loop of ``ex`` halfway to sample ``at`` (the stream's rate), once
+    it has sent samples 0 … ``at`` − 1: an operation run then is placed at sample ``at``."""
+    clock.hold(ex.stream.t_start + (at - 0.5) / ex.stream.rate_hz)
+    assert clock.wait_parked()
+    assert ex.sample == at - 1
+
+
 def _run_at(sa, trajectory, at: int, ops, timeout=60.0, compensation=False, **options):
     """On virtual time: start, let the loop send samples 0 … ``at`` − 1 and hold it there,
     run ``ops(execution)``, release it, wait; the report, the execution and the wire goals.
@@ -70,9 +78,7 @@ def _run_at(sa, trajectory, at: int, ops, timeout=60.0, compensation=False, **op
                watchdog_ms=0, **options)
     try:
         assert clock.wait_parked(), ex.error
-        clock.hold(ex.stream.t_start + (at - 0.5) / RATE)
-        assert clock.wait_parked()
-        assert ex.sample == at - 1
+        hold_before(clock, ex, at)
         ops(ex)
     finally:
         clock.release()

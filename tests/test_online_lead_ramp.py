@@ -19,6 +19,7 @@ import math
 import numpy as np
 import pytest
 from conftest import ARM3R, lockstep_arm
+from online_helpers import hold_before
 
 from robodcn import plan, servo_units
 from robodcn.stream import start
@@ -48,9 +49,7 @@ def _run(target, at: int, ops):
         try:
             assert clock.wait_parked(), ex.error
             if at > 0:
-                clock.hold(ex.stream.t_start + (at - 0.5) / RATE)
-                assert clock.wait_parked()
-                assert ex.sample == at - 1
+                hold_before(clock, ex, at)
             ops(ex)
         finally:
             clock.release()

@@ -20,7 +20,7 @@ import dataclasses
 import numpy as np
 import pytest
 from conftest import ARM3R, CONFIGS
-from online_helpers import GOAL, JERK_ARM, START
+from online_helpers import GOAL, JERK_ARM, START, hold_before
 
 import robodcn.stream.online.execution as execution_module
 from robodcn import kinematics, plan, servo_units
@@ -72,7 +72,6 @@ def _run(sa, traj, steps, timeout=60.0):
     """On virtual time: for each (sample, op) let the loop send samples up to ``sample`` − 1,
     hold it there and run ``op(execution)``; release, wait. The execution and the commanded
     joints of every sample sent (the wire carries exactly their ticks)."""
-    rate = traj.rate_hz
     clock = VirtualClock()
     clock.hold(0.0)
     sa.sim.clear_log()
@@ -82,9 +81,7 @@ def _run(sa, traj, steps, timeout=60.0):
     try:
         assert clock.wait_parked(), ex.error
         for at, op in steps:
-            clock.hold(ex.stream.t_start + (at - 0.5) / rate)
-            assert clock.wait_parked()
-            assert ex.sample == at - 1
+            hold_before(clock, ex, at)
             op(ex)
     finally:
         clock.release()
