@@ -1,4 +1,5 @@
-"""Shared helpers for the firmware_sim tests that drive SimBus through the real dynamixel-sdk."""
+"""Shared helpers for the firmware_sim tests that drive SimBus through the real dynamixel-sdk;
+fixtures (``bus``, ``port``) for ``pytest_plugins = ["fw_helpers"]``."""
 
 from __future__ import annotations
 
@@ -6,6 +7,7 @@ import time
 from collections.abc import Iterator
 from contextlib import contextmanager
 
+import pytest
 from dynamixel_sdk import COMM_SUCCESS, PacketHandler, PortHandler
 
 from firmware_sim import control_table as ct
@@ -84,6 +86,22 @@ def sdk_port(bus: SimBus, baud: int = 1_000_000,
         yield port
     finally:
         port.closePort()
+
+
+@pytest.fixture
+def bus() -> Iterator[SimBus]:
+    """A started SimBus with servos 1, 2, 3 that must end without protocol errors; a module
+    overrides it for other servos or options (``fault_seed``, …), and ``port`` follows."""
+    with SimBus(ids=[1, 2, 3]) as b:
+        yield b
+        assert b.errors == []
+
+
+@pytest.fixture
+def port(bus: SimBus) -> Iterator[PortHandler]:
+    """:func:`sdk_port` on the ``bus`` fixture."""
+    with sdk_port(bus) as p:
+        yield p
 
 
 def raw_txrx(port: PortHandler, packet: bytes, reply_len: int = 11) -> tuple[list[int], int]:

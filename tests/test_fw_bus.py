@@ -46,18 +46,7 @@ TORQUE, SRL, REGISTERED, HW_ERROR, BUS_WATCHDOG = 64, 68, 69, 70, 98
 PROFILE_ACC, PROFILE_VEL, GOAL, MOVING, PRESENT_POS = 108, 112, 116, 122, 132
 IND_ADDR_1, IND_DATA_1 = 168, 224
 
-
-@pytest.fixture
-def bus():
-    with SimBus(ids=[1, 2, 3]) as b:
-        yield b
-        assert b.errors == []
-
-
-@pytest.fixture
-def port(bus):
-    with sdk_port(bus) as p:
-        yield p
+pytest_plugins = ["fw_helpers"]     # fixtures: bus (servos 1, 2, 3), port
 
 
 def u32(value: int) -> list[int]:
@@ -229,25 +218,25 @@ def _set_distinct(port, address=PROFILE_VEL, values=None):
     return values
 
 
-def test_sync_read_in_request_order(bus, port):
+def _sync_read_distinct(bus, port, order, fast):
+    """Distinct Profile Velocities (:func:`_set_distinct`) sync-read in ``order`` (a Fast Sync
+    Read if ``fast``) after clearing the log: each servo's own value comes back."""
     values = _set_distinct(port)
     group = GroupSyncRead(port, PH, PROFILE_VEL, 4)
-    for sid in (3, 1, 2):
+    for sid in order:
         group.addParam(sid)
     bus.clear_log()
-    assert group.txRxPacket() == COMM_SUCCESS
+    assert (group.fastSyncRead() if fast else group.txRxPacket()) == COMM_SUCCESS
     assert {sid: group.getData(sid, PROFILE_VEL, 4) for sid in (1, 2, 3)} == values
+
+
+def test_sync_read_in_request_order(bus, port):
+    _sync_read_distinct(bus, port, (3, 1, 2), fast=False)
     assert [e.id for e in bus.packets("tx")] == [3, 1, 2]
 
 
 def test_fast_sync_read_three_ids(bus, port):
-    values = _set_distinct(port)
-    group = GroupSyncRead(port, PH, PROFILE_VEL, 4)
-    for sid in (2, 3, 1):
-        group.addParam(sid)
-    bus.clear_log()
-    assert group.fastSyncRead() == COMM_SUCCESS
-    assert {sid: group.getData(sid, PROFILE_VEL, 4) for sid in (1, 2, 3)} == values
+    _sync_read_distinct(bus, port, (2, 3, 1), fast=True)
     (reply,) = bus.packets("tx")
     assert len(reply.raw) == 8 + 8 * 3
     blocks = parse_fast_status(reply.raw, [4, 4, 4])

@@ -14,18 +14,15 @@ from firmware_sim.protocol import Instruction
 
 PRESENT_POS, HW_ERROR, TORQUE = 132, 70, 64
 
+pytest_plugins = ["fw_helpers"]     # fixtures: port (on this module's bus)
+
 
 @pytest.fixture
 def bus():
+    """fw_helpers' ``bus`` with seeded faults."""
     with SimBus(ids=[1, 2, 3], fault_seed=7) as b:
         yield b
         assert b.errors == []
-
-
-@pytest.fixture
-def port(bus):
-    with sdk_port(bus) as p:
-        yield p
 
 
 def test_drop_once_then_recovers(bus, port):
