@@ -156,14 +156,27 @@ def exchange(server: Any, data: bytes, timeout: float = 5.0) -> tuple[bytes, Any
 
 
 def poll_move(server: Any, move_id: str, until: Any, timeout: float = 10.0) -> dict[str, Any]:
+    """``GET /v1/moves/{move_id}`` until ``until(body)``: that body. A move that failed before
+    (its status stays "failed", its progress where it was) fails the test at once, with its
+    error, rather than at ``timeout``."""
     deadline = time.monotonic() + timeout
     while True:
         status, _, body = call(server, "GET", f"/v1/moves/{move_id}")
         assert status == 200, body
         if until(body):
             return body
+        assert body["status"] != "failed", body["error"]
         assert time.monotonic() < deadline, body
         time.sleep(0.01)
+
+
+def start_move(server: Any, body: dict[str, Any], progress: float,
+               timeout: float = 10.0) -> dict[str, Any]:
+    """``POST /v1/moves`` ``body`` (202), then :func:`poll_move` until its progress is past
+    ``progress``: the move's body then, a move under way to act on."""
+    status, _, reply = call(server, "POST", "/v1/moves", body)
+    assert status == 202, reply
+    return poll_move(server, reply["id"], lambda b: b["progress"] > progress, timeout)
 
 
 def finished(body: dict[str, Any]) -> bool:

@@ -28,6 +28,7 @@ from http_helpers import (
     poll_move,
     read_all,
     running,
+    start_move,
 )
 
 from robodcn.contract import MAX_WAYPOINTS
@@ -42,9 +43,7 @@ pytest_plugins = ["http_helpers"]     # fixtures: abused_server, planner_server
 def test_slowloris_past_the_cap_cannot_delay_a_stop(abused_server: Any) -> None:
     """64 slow clients used to take every thread: 13 of 13 stops got 503, a move ran on."""
     server, _ = abused_server
-    status, _, move = call(server, "POST", "/v1/moves", {**BODY, "duration": 4.0})
-    assert status == 202, move
-    poll_move(server, move["id"], lambda b: b["progress"] > 0.02)
+    move = start_move(server, {**BODY, "duration": 4.0}, 0.02)
     slow = []
     try:
         for _ in range(3 * server.max_per_client):  # past the per-address and total caps
@@ -362,9 +361,7 @@ def test_losing_the_device_mid_move_is_a_fault_then_recovers(tmp_path: Any) -> N
     controller = ArmController(ARM, bus, execute_options=LOADED_MACHINE)
     try:
         with running(make_server(ARM, controller, request_timeout=3.0)) as server:
-            status, _, move = call(server, "POST", "/v1/moves", {**BODY, "duration": 3.0})
-            assert status == 202, move
-            poll_move(server, move["id"], lambda b: b["progress"] > 0.05)
+            move = start_move(server, {**BODY, "duration": 3.0}, 0.05)
             sim.close()  # the device is gone
             final = poll_move(server, move["id"], finished, timeout=20)
             assert final["status"] == "fault", final
@@ -407,9 +404,7 @@ def test_sigterm_mid_move_holds_before_the_server_shuts_down() -> None:
             class _Server:
                 server_address = (url.split(":")[1][2:], int(url.rsplit(":", 1)[1]))
 
-            status, _, move = call(_Server, "POST", "/v1/moves", {**BODY, "duration": 5.0})
-            assert status == 202, move
-            poll_move(_Server, move["id"], lambda b: b["progress"] > 0.05)
+            start_move(_Server, {**BODY, "duration": 5.0}, 0.05)
             sent_at_signal = len(sim.goal_history(ARM.servo_ids[0]))
             proc.send_signal(signal.SIGTERM)
             assert proc.wait(15) == 0, proc.stderr.read()

@@ -28,6 +28,8 @@ from http_helpers import (  # arm_server: a fixture
     ROOT,
     TARGET,
     error_of,
+    poll_move,
+    start_move,
 )
 
 from robodcn import kinematics, servo_units
@@ -41,18 +43,6 @@ call = functools.partial(http_helpers.call, require_body=True)
 
 def present(sa: Any) -> list[int]:
     return [sa.sim.servo(i).present_position for i in ARM.servo_ids]
-
-
-def poll_move(server: Any, move_id: str, until: Any, timeout: float = 10.0) -> dict[str, Any]:
-    deadline = time.monotonic() + timeout
-    while True:
-        status, _, body = call(server, "GET", f"/v1/moves/{move_id}")
-        assert status == 200, body
-        if until(body):
-            return body
-        assert body["status"] != "failed", body["error"]
-        assert time.monotonic() < deadline, body
-        time.sleep(0.01)
 
 
 def test_move_executes_and_reports(arm_server: Any) -> None:
@@ -117,10 +107,8 @@ def test_two_concurrent_moves_one_is_409(arm_server: Any) -> None:
 
 def test_stop_during_a_move_holds(arm_server: Any) -> None:
     server, sa = arm_server
-    status, _, body = call(server, "POST", "/v1/moves", {**BODY, "duration": 2.0})
-    assert status == 202
-    running_move = poll_move(server, body["id"], lambda b: b["progress"] > 0.1)
-    assert running_move["status"] == "running"
+    body = start_move(server, {**BODY, "duration": 2.0}, 0.1)
+    assert body["status"] == "running"
     status, _, state = call(server, "GET", "/v1/state")
     assert status == 200 and state["moving"] and state["source"] == "stream"
     assert state["move"] == body["id"]

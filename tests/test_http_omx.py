@@ -15,7 +15,16 @@ from typing import Any
 import numpy as np
 import pytest
 from conftest import settled
-from http_helpers import ARM, ROOT, call, error_of, finished, poll_move, serving_arm
+from http_helpers import (
+    ARM,
+    ROOT,
+    call,
+    error_of,
+    finished,
+    poll_move,
+    serving_arm,
+    start_move,
+)
 
 from robodcn import servo_units
 from robodcn.config import load_arm
@@ -184,10 +193,8 @@ def test_a_one_waypoint_move_on_the_omx(omx_server: Any) -> None:
 
 def test_a_one_waypoint_replace_with_a_payload_on_the_omx(omx_server: Any) -> None:
     server, sa = omx_server
-    status, _, old = call(server, "POST", "/v1/moves",
-                          {"waypoints": [GOAL], "duration": 3.0, "payload_kg": 0.0})
-    assert status == 202, old
-    poll_move(server, old["id"], lambda b: b["progress"] > 0.1, timeout=20)
+    old = start_move(server, {"waypoints": [GOAL], "duration": 3.0, "payload_kg": 0.0}, 0.1,
+                     timeout=20)
     status, _, new = call(server, "POST", "/v1/moves",
                           {"waypoints": [NEAR], "replace": True, "payload_kg": 0.0})
     if status != 202:

@@ -11,7 +11,7 @@ from typing import Any
 import numpy as np
 import pytest
 from conftest import settled
-from http_helpers import ARM, HOME, call, error_of, poll_move, serving_arm
+from http_helpers import ARM, HOME, call, error_of, poll_move, serving_arm, start_move
 
 from robodcn import kinematics, servo_units
 
@@ -56,15 +56,9 @@ def _planned_end(server: Any, move_id: str) -> np.ndarray:
     return np.array(trajectory["poses"][-1], dtype=np.float64)
 
 
-def _start(server: Any) -> dict[str, Any]:
-    status, _, body = call(server, "POST", "/v1/moves", LONG)
-    assert status == 202, body
-    return poll_move(server, body["id"], lambda b: b["progress"] > 0.1)
-
-
 def test_replace_answers_202_and_the_old_move_ends_replaced(arm_server: Any) -> None:
     server, sa = arm_server
-    old = _start(server)
+    old = start_move(server, LONG, 0.1)
     # without replace: still 409
     status, _, body = call(server, "POST", "/v1/moves", LONG)
     assert status == 409 and error_of(body)["code"] == "busy"
@@ -105,7 +99,7 @@ def test_replace_with_nothing_running_starts_a_move(arm_server: Any) -> None:
 
 def test_smooth_stop_is_the_default_and_decelerates(arm_server: Any) -> None:
     server, _ = arm_server
-    move = _start(server)
+    move = start_move(server, LONG, 0.1)
     status, _, stopped = call(server, "POST", "/v1/stop")
     assert status == 200 and stopped["move"] == move["id"]
     final = poll_move(server, move["id"], lambda b: b["status"] != "running")
@@ -119,7 +113,7 @@ def test_smooth_stop_is_the_default_and_decelerates(arm_server: Any) -> None:
 
 def test_pause_resume_and_speed_over_http(arm_server: Any) -> None:
     server, sa = arm_server
-    move = _start(server)
+    move = start_move(server, LONG, 0.1)
     status, _, paused = call(server, "POST", "/v1/pause")
     assert status == 200 and paused["paused"] is True
     status, _, state = call(server, "GET", "/v1/state")
@@ -172,7 +166,7 @@ def test_a_jerk_limited_arm_moves_online_over_http() -> None:
     jerk_arm = dataclasses.replace(ARM, joints=tuple(
         dataclasses.replace(j, max_jerk=20.0 * j.max_acceleration) for j in ARM.joints))
     with serving_arm(jerk_arm, request_timeout=5.0) as (server, sa):
-        old = _start(server)
+        old = start_move(server, LONG, 0.1)
         status, _, paused = call(server, "POST", "/v1/pause")
         assert status == 200 and paused["paused"] is True, paused
         status, _, body = call(server, "PUT", "/v1/speed", {"scale": 0.5})

@@ -11,7 +11,7 @@ from typing import Any
 
 import numpy as np
 import pytest
-from http_helpers import ARM, HOME, call, error_of, finished, poll_move, serving_arm
+from http_helpers import ARM, HOME, call, error_of, finished, poll_move, serving_arm, start_move
 
 from robodcn import kinematics, servo_units
 
@@ -57,9 +57,7 @@ def test_a_one_waypoint_move_runs_from_the_present_joints(arm_server: Any) -> No
 def test_a_one_waypoint_replace_goes_from_the_moving_state_to_its_goal(arm_server: Any
                                                                        ) -> None:
     server, sa = arm_server
-    status, _, old = call(server, "POST", "/v1/moves", LONG)
-    assert status == 202, old
-    poll_move(server, old["id"], lambda b: b["progress"] > 0.1)
+    old = start_move(server, LONG, 0.1)
     status, _, new = call(server, "POST", "/v1/moves",
                           {"waypoints": [OTHER], "rate_hz": 200, "replace": True})
     assert status == 202, new

@@ -13,6 +13,7 @@ from http_helpers import (
     error_of,
     finished,
     poll_move,
+    start_move,
 )
 
 from robodcn.errors import InputError
@@ -24,12 +25,6 @@ pytest_plugins = ["http_helpers"]     # fixtures: abused_server, planner_server
 
 #: A move long enough to act on mid-way.
 SLOW = {"waypoints": [HOME, TARGET], "duration": 2.0, "rate_hz": 100}
-
-
-def _running(server: Any) -> dict[str, Any]:
-    status, _, body = call(server, "POST", "/v1/moves", SLOW)
-    assert status == 202, body
-    return poll_move(server, body["id"], lambda b: b["progress"] > 0.05)
 
 
 def test_a_huge_integer_speed_scale_is_422_not_500(abused_server: Any) -> None:
@@ -44,7 +39,7 @@ def test_a_huge_integer_speed_scale_is_422_not_500(abused_server: Any) -> None:
 
 def test_a_pause_answered_200_is_paused_in_the_reply_and_the_state(abused_server: Any) -> None:
     server, _ = abused_server
-    move = _running(server)
+    move = start_move(server, SLOW, 0.05)
     status, _, paused = call(server, "POST", "/v1/pause")
     assert status == 200 and paused["paused"] is True and paused["id"] == move["id"], paused
     status, _, state = call(server, "GET", "/v1/state")
@@ -58,7 +53,7 @@ def test_a_pause_the_move_end_overtakes_is_409(abused_server: Any, monkeypatch: 
     from robodcn.stream.online import Execution
 
     server, _ = abused_server
-    move = _running(server)
+    move = start_move(server, SLOW, 0.05)
     monkeypatch.setattr(Execution, "pause", lambda self: None)  # the end came first
     status, _, body = call(server, "POST", "/v1/pause")
     assert status == 409 and error_of(body)["code"] == "no_move", body
@@ -73,7 +68,7 @@ def test_race_outcomes_are_409_not_422(abused_server: Any, monkeypatch: Any) -> 
     from robodcn.stream.online import Execution, SwitchMissed
 
     server, _ = abused_server
-    move = _running(server)
+    move = start_move(server, SLOW, 0.05)
 
     def missed(self: Any, scale: float) -> None:
         raise SwitchMissed("change speed", self.status)
@@ -101,7 +96,7 @@ def test_a_replace_as_the_move_ends_is_409_and_the_service_stays_usable(
     from robodcn.stream.online import Execution
 
     server, _ = abused_server
-    move = _running(server)
+    move = start_move(server, SLOW, 0.05)
     real = Execution.retarget
 
     def late(self: Any, target: Any, **options: Any) -> int:
@@ -131,7 +126,7 @@ def test_a_smooth_stop_answers_without_waiting_for_the_move_to_end(
     from robodcn.stream.online import Execution
 
     server, _ = abused_server
-    move = _running(server)
+    move = start_move(server, SLOW, 0.05)
     monkeypatch.setattr(Execution, "stop", lambda self, mode="smooth", reason="": None)
     started = time.monotonic()
     status, _, stop = call(server, "POST", "/v1/stop")  # a brake that takes its time
