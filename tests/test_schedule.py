@@ -7,27 +7,14 @@ the loop waits, so every sample is exactly on time unless a test makes it late
 
 from __future__ import annotations
 
-import functools
 import threading
 
-import conftest
 import numpy as np
 import pytest
-from conftest import ARM3R
+from stream_helpers import ARM, RATE, TRAJ, execute, history, inject_at, open_bus
 
-import robodcn
-from firmware_sim.bus import SimBus
 from robodcn.bus import ServoBus
-from robodcn.stream import Progress, StopSignal, VirtualClock
-from robodcn.stream import execute as _execute
-
-# the kinematic model: goals sent = goals planned
-execute = functools.partial(_execute, compensation=False)
-
-ARM = ARM3R
-IDS = ARM.servo_ids
-RATE = 100.0
-TRAJ = robodcn.plan(ARM, [ARM.home, (0.22, 0.18, 0.6)], rate_hz=RATE)
+from robodcn.stream import StopSignal, VirtualClock
 
 
 @pytest.fixture
@@ -35,32 +22,13 @@ def sim(sim3):
     return sim3
 
 
-def open_bus(sim: SimBus) -> ServoBus:
-    return conftest.open_bus(sim, ARM.servos)
-
-
 def place(bus: ServoBus, ticks) -> None:
-    """The simulated (kinematic) arm at ``ticks``."""
+    """The simulated (kinematic) arm at ``ticks``: there at once (stream_helpers' ``place``
+    waits for an arm that moves)."""
     bus.verify()
     bus.configure()
     bus.write_goals(np.asarray(ticks))
     assert np.abs(bus.read_positions() - ticks).max() <= 1
-
-
-def history(sim: SimBus) -> np.ndarray:
-    return np.array([sim.goal_history(i) for i in IDS]).T
-
-
-def inject_at(sample: int, action):
-    """A progress callback that runs ``action`` once, at the first report past ``sample``."""
-    done = []
-
-    def callback(p: Progress) -> None:
-        if p.sample >= sample and not done:
-            done.append(p.sample)
-            action()
-
-    return callback
 
 
 def test_every_sample_goes_out_at_its_due_time(sim):
