@@ -179,5 +179,16 @@ def start_move(server: Any, body: dict[str, Any], progress: float,
     return poll_move(server, reply["id"], lambda b: b["progress"] > progress, timeout)
 
 
+def run_move(server: Any, body: dict[str, Any], timeout: float = 10.0) -> dict[str, Any]:
+    """``POST /v1/moves`` ``body`` (202), then :func:`poll_move` until it has
+    :func:`finished`, done or degraded (what a loaded machine may make of a move): the
+    move's final body."""
+    status, _, reply = call(server, "POST", "/v1/moves", body)
+    assert status == 202, reply
+    done = poll_move(server, reply["id"], finished, timeout)
+    assert done["status"] in ("done", "degraded"), done
+    return done
+
+
 def finished(body: dict[str, Any]) -> bool:
     return body["status"] not in ("queued", "running")

@@ -12,7 +12,7 @@ from typing import Any
 import numpy as np
 import pytest
 from conftest import ARM3R
-from http_helpers import ARM, call, error_of, finished, poll_move
+from http_helpers import ARM, call, error_of, run_move
 from workflow_helpers import ARM3R as ARM3R_PATH
 from workflow_helpers import NO_DEVICE, run_cli
 
@@ -172,11 +172,8 @@ def test_http_move_takes_a_beta_per_segment(arm_server) -> None:
             "method": "kenlerp", "beta": [0.2, 1.5], "duration": 0.8, "rate_hz": 100}
     status, _, bad = call(server, "POST", "/v1/moves", {**body, "beta": [0.2]})
     assert status == 422 and error_of(bad)["field"] == "beta"
-    status, _, data = call(server, "POST", "/v1/moves", body)
-    assert status == 202, data
-    done = poll_move(server, data["id"], finished)
-    assert done["status"] in ("done", "degraded"), done
-    status, _, planned = call(server, "GET", f"/v1/moves/{data['id']}/trajectory")
+    done = run_move(server, body)
+    status, _, planned = call(server, "GET", f"/v1/moves/{done['id']}/trajectory")
     assert status == 200 and planned["request"]["beta"] == [0.2, 1.5]
 
 

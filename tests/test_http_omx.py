@@ -22,6 +22,7 @@ from http_helpers import (
     error_of,
     finished,
     poll_move,
+    run_move,
     serving_arm,
     start_move,
 )
@@ -161,33 +162,22 @@ def test_a_move_of_four_number_waypoints_with_a_payload_runs(omx_server: Any) ->
     status, _, state = call(server, "GET", "/v1/state")
     here = state["pose"]
     # the simulated arm carries nothing: a move planned for no payload reaches its goal
-    status, _, body = call(server, "POST", "/v1/moves",
-                           {"waypoints": [here, GOAL], "payload_kg": 0.0})
-    assert status == 202, body
-    done = poll_move(server, body["id"], finished, timeout=20)
-    assert done["status"] in ("done", "degraded"), done
+    done = run_move(server, {"waypoints": [here, GOAL], "payload_kg": 0.0}, timeout=20)
     _at(sa, GOAL)
-    status, _, traj = call(server, "GET", f"/v1/moves/{body['id']}/trajectory")
+    status, _, traj = call(server, "GET", f"/v1/moves/{done['id']}/trajectory")
     assert traj["request"]["payload_kg"] == 0.0 and len(traj["poses"][0]) == 4
     # a payload is planned with (and compensated for: the unloaded arm is pushed up)
-    status, _, body = call(server, "POST", "/v1/moves", {"waypoints": [GOAL, NEAR],
-                                                          "payload_kg": 0.2})
-    assert status == 202, body
-    done = poll_move(server, body["id"], finished, timeout=20)
-    assert done["status"] in ("done", "degraded"), done
-    status, _, traj = call(server, "GET", f"/v1/moves/{body['id']}/trajectory")
-    assert traj["request"]["payload_kg"] == 0.2
+    done = run_move(server, {"waypoints": [GOAL, NEAR], "payload_kg": 0.2}, timeout=20)
+    status, _, traj = call(server, "GET", f"/v1/moves/{done['id']}/trajectory")
+    assert status == 200 and traj["request"]["payload_kg"] == 0.2
 
 
 def test_a_one_waypoint_move_on_the_omx(omx_server: Any) -> None:
     server, sa = omx_server
-    status, _, body = call(server, "POST", "/v1/moves", {"waypoints": [HOME],
-                                                          "payload_kg": 0.0})
-    assert status == 202, body
-    done = poll_move(server, body["id"], finished, timeout=20)
-    assert done["status"] in ("done", "degraded"), done
+    done = run_move(server, {"waypoints": [HOME], "payload_kg": 0.0}, timeout=20)
     _at(sa, HOME)
-    status, _, traj = call(server, "GET", f"/v1/moves/{body['id']}/trajectory")
+    status, _, traj = call(server, "GET", f"/v1/moves/{done['id']}/trajectory")
+    assert status == 200
     assert traj["request"]["waypoints"] == [HOME] and traj["approach_samples"] == 0
 
 

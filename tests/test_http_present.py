@@ -11,7 +11,17 @@ from typing import Any
 
 import numpy as np
 import pytest
-from http_helpers import ARM, HOME, call, error_of, finished, poll_move, serving_arm, start_move
+from http_helpers import (
+    ARM,
+    HOME,
+    call,
+    error_of,
+    finished,
+    poll_move,
+    run_move,
+    serving_arm,
+    start_move,
+)
 
 from robodcn import kinematics, servo_units
 
@@ -39,13 +49,10 @@ def _at(sa: Any, pose: list[float], tol: float = 2e-3) -> None:
 def test_a_one_waypoint_move_runs_from_the_present_joints(arm_server: Any) -> None:
     server, sa = arm_server
     present = _joints_of(sa)
-    status, _, body = call(server, "POST", "/v1/moves", {"waypoints": [OTHER], "rate_hz": 100})
-    assert status == 202, body
-    done = poll_move(server, body["id"], finished)
-    assert done["status"] in ("done", "degraded"), done
+    done = run_move(server, {"waypoints": [OTHER], "rate_hz": 100})
     _at(sa, OTHER)
     # planned from the present joints: its first sample is where the arm was, no approach
-    status, _, traj = call(server, "GET", f"/v1/moves/{body['id']}/trajectory")
+    status, _, traj = call(server, "GET", f"/v1/moves/{done['id']}/trajectory")
     assert status == 200
     assert np.allclose(traj["joints"][0], present, atol=2e-3), (traj["joints"][0], present)
     assert traj["approach_samples"] == 0
@@ -72,11 +79,7 @@ def test_a_one_waypoint_replace_goes_from_the_moving_state_to_its_goal(arm_serve
 def test_a_one_waypoint_replace_with_nothing_running_starts_from_the_present(
         arm_server: Any) -> None:
     server, sa = arm_server
-    status, _, body = call(server, "POST", "/v1/moves",
-                           {"waypoints": [OTHER], "rate_hz": 100, "replace": True})
-    assert status == 202, body
-    done = poll_move(server, body["id"], finished)
-    assert done["status"] in ("done", "degraded"), done
+    run_move(server, {"waypoints": [OTHER], "rate_hz": 100, "replace": True})
     _at(sa, OTHER)
 
 

@@ -18,8 +18,7 @@ from http_helpers import (
     TARGET,
     call,
     error_of,
-    finished,
-    poll_move,
+    run_move,
 )
 
 from robodcn import servo_units
@@ -105,17 +104,14 @@ def test_a_saved_trajectory_plays_and_is_recorded(arm_server: Any) -> None:
     status, _, planned = call(server, "POST", "/v1/trajectories", {
         "waypoints": [HOME, TARGET], "duration": 0.6, "rate_hz": 100, "start_joints": start})
     assert status == 200, planned
-    status, _, move = call(server, "POST", "/v1/moves", {"trajectory": planned})
-    assert status == 202, move
-    done = poll_move(server, move["id"], finished)
-    assert done["status"] in ("done", "degraded"), done
-    status, _, played = call(server, "GET", f"/v1/moves/{move['id']}/trajectory")
+    done = run_move(server, {"trajectory": planned})
+    status, _, played = call(server, "GET", f"/v1/moves/{done['id']}/trajectory")
     assert status == 200
     # Played as saved: its samples at the end of what ran (an approach may come first).
     n = len(planned["t"])
     assert played["ticks"][-n:] == planned["ticks"]
-    status, _, rec = call(server, "GET", f"/v1/moves/{move['id']}/record")
-    assert status == 200 and rec["move"] == move["id"]
+    status, _, rec = call(server, "GET", f"/v1/moves/{done['id']}/record")
+    assert status == 200 and rec["move"] == done["id"]
     assert rec["joint_names"] == list(ARM.joint_names) and len(rec["t"]) >= 2
     assert len(rec["t"]) == len(rec["ticks"]) == len(rec["joints"]) == len(rec["poses"])
     # The last row is the move's final read, and the servos come to rest within a tick or
@@ -125,7 +121,7 @@ def test_a_saved_trajectory_plays_and_is_recorded(arm_server: Any) -> None:
     final = settled(lambda: [sa.sim.servo(i).present_position for i in ARM.servo_ids])
     assert np.abs(np.subtract(final, planned["ticks"][-1])).max() <= 2
     # CSV on request, with the same rows.
-    conn_status, headers, text = csv_get(server, f"/v1/moves/{move['id']}/record")
+    conn_status, headers, text = csv_get(server, f"/v1/moves/{done['id']}/record")
     assert conn_status == 200 and headers["Content-Type"].startswith("text/csv")
     rows = list(csv.reader(io.StringIO(text)))
     # every header names its unit, as plan --format csv's do
@@ -161,11 +157,8 @@ def test_a_joint_trajectory_plays_after_an_approach(arm_server: Any) -> None:
     goal = (here + np.array([0.3, -0.2, 0.1])).tolist()
     middle = (here + np.array([0.15, -0.1, 0.05])).tolist()
     body = {"trajectory": joint_trajectory([middle, goal], [0.0, 1.0]), "rate_hz": 100}
-    status, _, move = call(server, "POST", "/v1/moves", body)
-    assert status == 202, move
-    done = poll_move(server, move["id"], finished)
-    assert done["status"] in ("done", "degraded"), done
-    _, _, played = call(server, "GET", f"/v1/moves/{move['id']}/trajectory")
+    done = run_move(server, body)
+    _, _, played = call(server, "GET", f"/v1/moves/{done['id']}/trajectory")
     assert played["rate_hz"] == 100
     assert np.allclose(played["joints"][0], here, atol=1e-9)  # approach from the present
     assert np.allclose(played["joints"][-1], goal, atol=1e-9)
