@@ -33,8 +33,14 @@ def open_console(driver: Any, until: Any, service: Any) -> None:
     until(lambda d: d.execute_script("return window.robodcnConsole.stats.state") > 0)
 
 
-def type_target(driver: Any, pose: tuple[float, float, float], duration: str = "auto") -> None:
-    for testid, value in zip(("target-x", "target-y", "target-theta"), pose, strict=True):
+#: The target inputs of a planar arm (arm3r): x, y (m), θ (deg).
+AXES = ("target-x", "target-y", "target-theta")
+
+
+def type_target(driver: Any, pose: tuple[float, ...], duration: str = "auto",
+                axes: tuple[str, ...] = AXES) -> None:
+    """Type ``pose`` into the target inputs ``axes`` (one number each) and ``duration``."""
+    for testid, value in zip(axes, pose, strict=True):
         box = el(driver, testid)
         box.clear()
         box.send_keys(str(value))
@@ -84,6 +90,18 @@ def click_move_and_wait_running(driver: Any, until: Any, service: Any) -> str:
     move_id = str(before + 1)
     until(lambda d: el(d, "move-status").get_attribute("data-move-id") == move_id)
     return move_id
+
+
+def shown_plan(driver: Any, until: Any, service: Any, move_id: str) -> tuple[Any, Any]:
+    """The plan the page draws once it tracks move ``move_id``, and that move's own plan
+    (GET /v1/moves/{id}/trajectory, 200): (shown, own)."""
+    shown = until(lambda d: d.execute_script(
+        "const S = window.robodcnConsole.S;"
+        "return S.trackedMove === arguments[0] && S.movePlan", move_id), 10,
+        f"the page shows no plan of move {move_id}")
+    status, own = service.call("GET", f"/v1/moves/{move_id}/trajectory")
+    assert status == 200, own
+    return shown, own
 
 
 def start_slow_move(driver: Any, until: Any, service: Any, target: Any = None) -> str:

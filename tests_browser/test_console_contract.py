@@ -15,6 +15,7 @@ from test_console import (
     el,
     far_target,
     open_console,
+    shown_plan,
     start_slow_move,
     type_target,
 )
@@ -119,12 +120,7 @@ def test_a_replacement_draws_its_own_plan(driver: Any, until: Any, service: Any)
     type_target(driver, (0.2, 0.15, 30.0), duration="3")
     second = click_move_and_wait_running(driver, until, service)
     until(lambda d: service.call("GET", f"/v1/moves/{first}")[1]["status"] == "replaced", 10)
-    shown = until(lambda d: d.execute_script(
-        "const S = window.robodcnConsole.S;"
-        "return S.trackedMove === arguments[0] && S.movePlan", second), 10,
-        "the page shows no plan of the replacement")
-    status, own = service.call("GET", f"/v1/moves/{second}/trajectory")
-    assert status == 200, own
+    shown, own = shown_plan(driver, until, service, second)
     assert shown["t"] == own["t"]
     assert shown["poses"] == own["poses"] and shown["joints"] == own["joints"]
     # It starts where the arm was when the switch came, not at the first move's start.

@@ -19,7 +19,14 @@ from typing import Any
 
 import numpy as np
 import pytest
-from test_console import FINISHED, click_move_and_wait_running, el, severe_logs
+from test_console import (
+    FINISHED,
+    click_move_and_wait_running,
+    el,
+    severe_logs,
+    shown_plan,
+    type_target,
+)
 from test_console_stubbed import ARM_RGB, pixel_near
 
 from robodcn.kinematics import Chain, fk_yawed, plane_fk
@@ -89,13 +96,8 @@ def arm_drawn_at(driver: Any, chain: Chain, q: list[float]) -> list[str]:
 
 
 def type_pose(driver: Any, pose: tuple[float, ...], duration: str = "auto") -> None:
-    for testid, value in zip(AXES, pose, strict=True):
-        box = el(driver, testid)
-        box.clear()
-        box.send_keys(str(value))
-    box = el(driver, "duration")
-    box.clear()
-    box.send_keys(duration)
+    """:func:`test_console.type_target` on the four omx axes."""
+    type_target(driver, pose, duration, AXES)
 
 
 def state(service: Any) -> dict[str, Any]:
@@ -251,12 +253,7 @@ def test_a_replacement_mid_move_draws_its_own_plan(driver: Any, until: Any,
     except TimeoutException:   # say why: the service's answer as the page shows it
         raise AssertionError((el(driver, "error").text,
                               omx_service.call("GET", f"/v1/moves/{first}")[1])) from None
-    shown = until(lambda d: d.execute_script(
-        "const S = window.robodcnConsole.S;"
-        "return S.trackedMove === arguments[0] && S.movePlan", second), 10,
-        "the page shows no plan of the replacement")
-    status, own = omx_service.call("GET", f"/v1/moves/{second}/trajectory")
-    assert status == 200, own
+    shown, own = shown_plan(driver, until, omx_service, second)
     assert shown["t"] == own["t"] and shown["poses"] == own["poses"]
     _, old = omx_service.call("GET", f"/v1/moves/{first}/trajectory")
     assert math.dist(own["poses"][0][:3], old["poses"][0][:3]) > 0.005   # a moving start
