@@ -41,6 +41,25 @@ def set_key(data: dict[str, Any], key: str, value: Any) -> dict[str, Any]:
     return data
 
 
+def case_ids(cases: list[tuple[Any, ...]]) -> list[str]:
+    """pytest ids of (key, value, …) cases: ``key=value`` (``<missing>`` for MISSING)."""
+    return [f"{c[0]}=" + ("<missing>" if c[1] is MISSING else repr(c[1])) for c in cases]
+
+
+def named_error(data: dict[str, Any], key: str, value: Any, source: str,
+                named: str) -> ConfigError:
+    """The ConfigError of ``data`` with ``key`` set to ``value`` (:func:`set_key`), read as
+    from ``source``: it names the file and the key ``named`` (``file``, ``key``, ``field``
+    and its text)."""
+    with pytest.raises(ConfigError) as info:
+        arm_from_dict(set_key(data, key, value), source=source)
+    err = info.value
+    assert err.file == source and err.key == named and err.field == named
+    text = str(err)
+    assert source in text and repr(named) in text
+    return err
+
+
 def test_shipped_arm3r() -> None:
     arm = load_arm(ARM3R)
     assert isinstance(arm, Arm)
@@ -120,18 +139,11 @@ CASES = [
 ]
 
 
-@pytest.mark.parametrize(("key", "value", "named", "carried"), CASES,
-                         ids=[f"{c[0]}=" + ("<missing>" if c[1] is MISSING else repr(c[1]))
-                              for c in CASES])
+@pytest.mark.parametrize(("key", "value", "named", "carried"), CASES, ids=case_ids(CASES))
 def test_config_errors_name_file_key_value(key: str, value: Any, named: str, carried: Any) -> None:
-    source = "/some/dir/bad-arm.toml"
-    with pytest.raises(ConfigError) as info:
-        arm_from_dict(set_key(raw(), key, value), source=source)
-    err = info.value
-    assert err.file == source and err.key == named and err.field == named
+    err = named_error(raw(), key, value, "/some/dir/bad-arm.toml", named)
     assert err.value == carried
     text = str(err)
-    assert source in text and repr(named) in text
     if carried is not None:
         assert repr(carried) in text
 
@@ -332,16 +344,10 @@ OMX_CASES = [
 
 
 @pytest.mark.parametrize(("key", "value", "named", "words"), OMX_CASES,
-                         ids=[f"{c[0]}=" + ("<missing>" if c[1] is MISSING else repr(c[1]))
-                              for c in OMX_CASES])
+                         ids=case_ids(OMX_CASES))
 def test_omx_errors_name_the_key(key: str, value: Any, named: str, words: str) -> None:
-    source = "/arms/omx-bad.toml"
-    with pytest.raises(ConfigError) as info:
-        arm_from_dict(set_key(raw(OMX), key, value), source=source)
-    err = info.value
-    text = str(err)
-    assert err.file == source and err.key == named and err.field == named
-    assert source in text and repr(named) in text and words in text
+    text = str(named_error(raw(OMX), key, value, "/arms/omx-bad.toml", named))
+    assert words in text
     assert len(text) < 300  # an unknown key lists the allowed ones
 
 
