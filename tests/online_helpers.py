@@ -65,6 +65,23 @@ def hold_before(clock: VirtualClock, ex: Execution, at: int) -> None:
     assert ex.sample == at - 1
 
 
+def drive_held(clock: VirtualClock, ex: Execution, steps, timeout: float = 60.0):
+    """Drive ``ex``, started on ``clock`` held at 0 (parked before sample 0): for each
+    (sample, op) of ``steps`` hold the loop before that sample (:func:`hold_before`; sample 0
+    is where it is parked) and run ``op(execution)``; release, wait. The report."""
+    try:
+        assert clock.wait_parked(), ex.error
+        for at, op in steps:
+            if at > 0:
+                hold_before(clock, ex, at)
+            op(ex)
+    finally:
+        clock.release()
+    report = ex.wait(timeout)
+    assert report is not None and ex.done
+    return report
+
+
 def _run_at(sa, trajectory, at: int, ops, timeout=60.0, compensation=False, **options):
     """On virtual time: start, let the loop send samples 0 … ``at`` − 1 and hold it there,
     run ``ops(execution)``, release it, wait; the report, the execution and the wire goals.
@@ -76,14 +93,7 @@ def _run_at(sa, trajectory, at: int, ops, timeout=60.0, compensation=False, **op
     before = len(sa.sim.goal_history(ARM3R.servo_ids[0]))
     ex = start(trajectory, sa.bus, skip_late=False, compensation=compensation, clock=clock,
                watchdog_ms=0, **options)
-    try:
-        assert clock.wait_parked(), ex.error
-        hold_before(clock, ex, at)
-        ops(ex)
-    finally:
-        clock.release()
-    report = ex.wait(timeout)
-    assert report is not None and ex.done
+    report = drive_held(clock, ex, [(at, ops)], timeout)
     assert report.lateness_max_s == 0.0, "virtual time: every sample on time"
     wire = np.array([sa.sim.goal_history(i)[before:] for i in ARM3R.servo_ids]).T
     return report, ex, wire

@@ -19,7 +19,7 @@ import math
 import numpy as np
 import pytest
 from conftest import ARM3R, lockstep_arm
-from online_helpers import hold_before
+from online_helpers import drive_held
 
 from robodcn import plan, servo_units
 from robodcn.stream import start
@@ -46,15 +46,7 @@ def _run(target, at: int, ops):
         before = len(sa.sim.goal_history(ARM3R.servo_ids[0]))
         clock.hold(0.0)
         ex = start(traj, sa.bus, clock=clock, arm=ARM3R, **OPTIONS)
-        try:
-            assert clock.wait_parked(), ex.error
-            if at > 0:
-                hold_before(clock, ex, at)
-            ops(ex)
-        finally:
-            clock.release()
-        report = ex.wait(60)
-        assert report is not None
+        report = drive_held(clock, ex, [(at, ops)], 60)
         wire = np.array([sa.sim.goal_history(i)[max(0, before - 1):]
                          for i in ARM3R.servo_ids]).T
         return report, ex, wire

@@ -20,7 +20,7 @@ import dataclasses
 import numpy as np
 import pytest
 from conftest import ARM3R, CONFIGS
-from online_helpers import GOAL, JERK_ARM, START, hold_before
+from online_helpers import GOAL, JERK_ARM, START, drive_held
 
 import robodcn.stream.online.execution as execution_module
 from robodcn import kinematics, plan, servo_units
@@ -78,15 +78,7 @@ def _run(sa, traj, steps, timeout=60.0):
     ids = FAST.servo_ids
     before = len(sa.sim.goal_history(ids[0]))
     ex = start(traj, sa.bus, skip_late=False, compensation=False, clock=clock, watchdog_ms=0)
-    try:
-        assert clock.wait_parked(), ex.error
-        for at, op in steps:
-            hold_before(clock, ex, at)
-            op(ex)
-    finally:
-        clock.release()
-    report = ex.wait(timeout)
-    assert report is not None and ex.done
+    report = drive_held(clock, ex, steps, timeout)
     index, _, joints = ex.sent()
     assert (np.diff(index) == 1).all()
     wire = np.array([sa.sim.goal_history(i)[before:] for i in ids]).T
