@@ -104,6 +104,22 @@ def shown_plan(driver: Any, until: Any, service: Any, move_id: str) -> tuple[Any
     return shown, own
 
 
+def move_with_screenshot(driver: Any, until: Any, service: Any, shot: Path, after_s: float,
+                         timeout: float) -> str:
+    """Click Move; once it runs, ``after_s`` later, save a screenshot to ``shot`` (a PNG);
+    wait up to ``timeout`` for the move to finish, on the page and in the service (done or
+    degraded). The move's id."""
+    move_id = click_move_and_wait_running(driver, until, service)
+    until(lambda d: el(d, "move-status").text == "running", 10)
+    time.sleep(after_s)
+    driver.save_screenshot(str(shot))
+    assert shot.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    until(lambda d: el(d, "move-status").text in FINISHED, timeout)
+    status, info = service.call("GET", f"/v1/moves/{move_id}")
+    assert status == 200 and info["status"] in FINISHED, info
+    return move_id
+
+
 def start_slow_move(driver: Any, until: Any, service: Any, target: Any = None) -> str:
     """Type a far target (or ``target``) with a 6 s duration, so that what the test does
     next lands mid-move, click Move and wait until it runs; its move id."""
@@ -169,15 +185,7 @@ def test_move_runs_to_done(driver: Any, until: Any, service: Any, tmp_path: Path
             for name in ("ScLERP", "KenLERP", "SEP-LERP", "DLB"))
 
     until(every_method_feasible, 10, "not every method's row says feasible in 2.50 s")
-    move_id = click_move_and_wait_running(driver, until, service)
-    until(lambda d: el(d, "move-status").text == "running", 10)
-    time.sleep(1.0)
-    shot = tmp_path / "console.png"
-    driver.save_screenshot(str(shot))
-    assert shot.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
-    until(lambda d: el(d, "move-status").text in FINISHED, 20)
-    status, info = service.call("GET", f"/v1/moves/{move_id}")
-    assert status == 200 and info["status"] in FINISHED
+    move_with_screenshot(driver, until, service, tmp_path / "console.png", 1.0, 20)
     # The arm moved, and the page shows where it is now.
     end = present_degrees(service)
     assert max(abs(a - b) for a, b in zip(start, end, strict=True)) > 5

@@ -23,6 +23,7 @@ from test_console import (
     FINISHED,
     click_move_and_wait_running,
     el,
+    move_with_screenshot,
     severe_logs,
     shown_plan,
     type_target,
@@ -188,17 +189,10 @@ def test_a_typed_pose_moves_the_omx_there(driver: Any, until: Any, omx_service: 
     # The request carries the 4-number target, SI.
     body = driver.execute_script("return window.robodcnConsole.S.plans.sclerp.body")
     assert np.allclose(body["waypoints"][-1], [*TARGET[:3], math.radians(TARGET[3])])
-    move_id = click_move_and_wait_running(driver, until, omx_service)
-    until(lambda d: el(d, "move-status").text == "running", 10)
-    time.sleep(1.2)
     shot = tmp_path / "console.png"
-    driver.save_screenshot(str(shot))
-    assert shot.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    move_with_screenshot(driver, until, omx_service, shot, 1.2, 30)
     if os.environ.get("ROBODCN_SCREENSHOT"):  # docs/console.png is made this way
         shutil.copy(shot, os.environ["ROBODCN_SCREENSHOT"])
-    until(lambda d: el(d, "move-status").text in FINISHED, 30)
-    status, info = omx_service.call("GET", f"/v1/moves/{move_id}")
-    assert status == 200 and info["status"] in FINISHED, info
     end = state(omx_service)
     dist, dpitch = pose_error(end["pose"], TARGET)
     assert dist < 0.002 and dpitch < 1.0, (end["pose"], TARGET)
