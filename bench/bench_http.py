@@ -4,8 +4,8 @@ The server is ``robodcn serve --plan-only --processes N --port 0`` (its request 
 INFO line a request, to /dev/null) in processes of its own, once with 1 process and once
 with :data:`PROCESSES` (the target row: planning is CPU-bound Python, one interpreter plans
 on one core). The 8 clients are threads of this process, each sending a 2 s, 100 Hz plan for
-the 3R arm back to back for 10 s. Latency is from sending the request to having read the
-whole response.
+the 3R arm back to back for 10 s (16 nearby requests in turn, :func:`bodies`). Latency is
+from sending the request to having read the whole response.
 
 Beside the rate, figures that a shared machine disturbs less: the server's CPU time per plan
 (``/proc/<pid>/stat`` of the server and of every worker process, over the measured window),
@@ -19,6 +19,7 @@ client CPU ms) bounds the rate.
 from __future__ import annotations
 
 import http.client
+import itertools
 import json
 import os
 import subprocess
@@ -39,6 +40,15 @@ SECONDS = float(os.environ.get("ROBODCN_BENCH_HTTP_SECONDS", "10"))
 TARGET_RPS = 600.0
 TARGET_P99_MS = 50.0
 BODY = {"waypoints": [[0.25, 0.10, 0.0], [0.15, 0.20, 1.0]], "duration": 2.0, "rate_hz": 100}
+
+
+def bodies() -> list[bytes]:
+    """BODY with its waypoints moved as bench_planner.variants moves them: every client
+    cycles through these distinct requests, as a service sees them, not one request again."""
+    from bench.bench_planner import variants
+
+    return [json.dumps({**BODY, "waypoints": w}).encode()
+            for w in variants(BODY["waypoints"])]
 
 
 
@@ -70,12 +80,17 @@ def yardstick(batches: int = 5, per_batch: int = 40) -> dict[str, float]:
     from robodcn.planner import plan_request
 
     arm = load_arm(ROOT / "configs" / "arm3r.toml")
-    raw = json.dumps(BODY).encode()
-    req = parse_plan(arm, decode_json(raw, "application/json"))
-    trajectory = plan_request(req)
+    raws = bodies()
+    requests = [parse_plan(arm, decode_json(raw, "application/json")) for raw in raws]
+    trajectory = plan_request(requests[0])
+    turn = itertools.count()
 
     def whole() -> None:
+        raw = raws[next(turn) % len(raws)]
         plan_request(parse_plan(arm, decode_json(raw, "application/json"))).to_json().encode()
+
+    def plan_one() -> None:
+        plan_request(requests[next(turn) % len(requests)])
 
     def best(fn) -> float:
         fn()
@@ -87,17 +102,19 @@ def yardstick(batches: int = 5, per_batch: int = 40) -> dict[str, float]:
             times.append((time.process_time() - start) / per_batch)
         return 1e3 * min(times)
 
-    return {"whole": best(whole), "plan": best(lambda: plan_request(req)),
+    return {"whole": best(whole), "plan": best(plan_one),
             "json": best(lambda: trajectory.to_json().encode())}
 
 
-def _client(port: int, body: bytes, stop_at: float, latencies: list[float],
-            errors: list[str], samples: list[int]) -> None:
+def _client(port: int, bodies: list[bytes], stop_at: float, latencies: list[float],
+            errors: list[str], samples: list[int], first: int = 0) -> None:
     conn = http.client.HTTPConnection("127.0.0.1", port, timeout=10)
     headers = {"Content-Type": "application/json"}
+    turn = itertools.count(first)
     try:
         while time.perf_counter() < stop_at:
             start = time.perf_counter()
+            body = bodies[next(turn) % len(bodies)]
             conn.request("POST", "/v1/trajectories", body=body, headers=headers)
             resp = conn.getresponse()
             data = resp.read()
@@ -127,9 +144,9 @@ def measure(seconds: float = SECONDS, clients: int = CLIENTS,
     try:
         assert proc.stdout is not None
         port = int(proc.stdout.readline().rsplit(":", 1)[1])
-        body = json.dumps(BODY).encode()
+        sent = bodies()
         # Warm every worker: the kernel spreads connections, so several clients at once.
-        warm = [threading.Thread(target=_client, args=(port, body, time.perf_counter() + 0.5,
+        warm = [threading.Thread(target=_client, args=(port, sent, time.perf_counter() + 0.5,
                                                        [], [], [])) for _ in range(clients)]
         for t in warm:
             t.start()
@@ -142,8 +159,8 @@ def measure(seconds: float = SECONDS, clients: int = CLIENTS,
         client_before = time.process_time()
         start = time.perf_counter()
         threads = [threading.Thread(target=_client,
-                                    args=(port, body, start + seconds, latencies[i], errors,
-                                          samples)) for i in range(clients)]
+                                    args=(port, sent, start + seconds, latencies[i], errors,
+                                          samples, i)) for i in range(clients)]
         for t in threads:
             t.start()
         for t in threads:
