@@ -20,7 +20,8 @@ planner's validation names the sample and joint (TorqueLimitError).
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, replace
+import threading
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 from numpy.typing import NDArray
@@ -29,6 +30,10 @@ from robodcn.config import Arm, rigid_chain
 from robodcn.dynamics import RigidChain, inverse_dynamics, path_torque_coefficients
 
 __all__ = ["TorqueLimits", "TorqueRows"]
+
+#: paths whose coefficients (a, b, c) a TorqueLimits and its shrunk copies keep (a re-timing
+#: tries several shares of the limits on one path, a duration fit several speeds)
+KEEP_PATHS = 4
 
 #: (A, B, lo, hi), each (N, k): lo ≤ A·s̈ + B·ṡ² ≤ hi per stage and joint
 TorqueRows = tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64],
@@ -43,6 +48,10 @@ class TorqueLimits:
     chain: RigidChain
     tau: NDArray[np.float64]
     payload_kg: float = 0.0
+    #: (a, b, c) of the last few paths, shared with the :meth:`shrunk` copies (the
+    #: coefficients do not depend on τ_max); lives as long as these limits do
+    _kept: dict = field(default_factory=dict, repr=False, compare=False)
+    _lock: threading.Lock = field(default_factory=threading.Lock, repr=False, compare=False)
 
     @classmethod
     def of(cls, arm: Arm, payload_kg: float | None = None) -> TorqueLimits | None:
@@ -62,7 +71,7 @@ class TorqueLimits:
     def rows(self, q: NDArray, dq: NDArray, ddq: NDArray, scale: float = 1.0) -> TorqueRows:
         """The rows (A, B, lo, hi) at the path samples q with q′, q″ (module doc); a joint
         without a limit, or one gravity alone overloads there, gets lo = −inf, hi = inf."""
-        a, b, c = path_torque_coefficients(self.chain, q, dq, ddq, self.payload_kg)
+        a, b, c = self.coefficients(q, dq, ddq)
         k2 = scale * scale
         tau = self.tau[None, :]
         lo, hi = k2 * (-tau - c), k2 * (tau - c)
@@ -72,6 +81,24 @@ class TorqueLimits:
             a, b = np.where(off, 0.0, a), np.where(off, 0.0, b)
             lo, hi = np.where(off, -np.inf, lo), np.where(off, np.inf, hi)
         return a, b, lo, hi
+
+    def coefficients(self, q: NDArray, dq: NDArray, ddq: NDArray
+                     ) -> tuple[NDArray, NDArray, NDArray]:
+        """(a, b, c) (N, k) of :func:`robodcn.dynamics.path_torque_coefficients` at the path
+        samples, kept for the last :data:`KEEP_PATHS` paths (keyed by their bytes: the same
+        bits give the same coefficients; read-only arrays)."""
+        key = (q.shape, q.tobytes(), dq.tobytes(), ddq.tobytes())
+        with self._lock:
+            got = self._kept.get(key)
+        if got is None:
+            got = path_torque_coefficients(self.chain, q, dq, ddq, self.payload_kg)
+            for arr in got:
+                arr.setflags(write=False)
+            with self._lock:
+                if len(self._kept) >= KEEP_PATHS:
+                    del self._kept[next(iter(self._kept))]  # the oldest
+                self._kept[key] = got
+        return got
 
     def torques(self, q: NDArray, qd: NDArray, qdd: NDArray) -> NDArray[np.float64]:
         """τ (n, k) of the motion (q, q̇, q̈) (robodcn.dynamics.inverse_dynamics)."""

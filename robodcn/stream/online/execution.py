@@ -63,6 +63,9 @@ log = logging.getLogger("robodcn.stream")
 STOP_MODES = ("smooth", "hold")
 #: GIL switch interval while an online execution streams (s)
 SWITCH_INTERVAL_S = 0.0002
+#: planning beside a running stream (which shares the interpreter) takes about this many
+#: times as long as the warm-up's, before it: the first switches are placed from that
+STREAM_SHARE = 2.0
 #: how long an operation waits for the stream to start (s)
 ATTACH_TIMEOUT_S = 10.0
 
@@ -70,8 +73,12 @@ ATTACH_TIMEOUT_S = 10.0
 def warm_up(trajectory: Trajectory, arm: Arm | None, planning_times: PlanningTimes) -> None:
     """Pay the first calls of the online laws before a stream starts: a re-timing and a
     brake on the plan's path, and (once per ``planning_times``) a retarget from the path's
-    middle to its end, through the same code an operation runs (numpy's and the planner's
-    first calls cost several times a later one's)."""
+    middle to its end, as fast as the limits allow and to a numeric duration, through the
+    same code an operation runs (numpy's and the planner's first calls cost several times a
+    later one's). Their times, × :data:`STREAM_SHARE`, are what the first retargets are
+    placed from until one is measured (:meth:`PlanningTimes.seed`): a fixed first guess
+    missed on a slow arm's path (the omx's 60 ms against 30), and every miss is planned
+    again, on a loaded host past an operation's budget."""
     if arm is None:
         return
     limits = JointLimits.of(arm)
@@ -94,9 +101,17 @@ def warm_up(trajectory: Trajectory, arm: Arm | None, planning_times: PlanningTim
     state = State.of_history(i, q[i - 2:i + 1], path, float(sigma[i]), rate)
     end = tuple(float(v) for v in user_pose(arm, q[-1:])[0])
     try:
-        # (its time is not a guess for a switch: planning beside a running stream, which
-        # shares the interpreter, takes about twice as long)
-        Retargeting(arm, Timing(limits, rate), None).tail(state, [None, end], {})
+        took = time.perf_counter()
+        tail = Retargeting(arm, Timing(limits, rate), None).tail(state, [None, end], {})
+        took = time.perf_counter() - took
+        planning_times.seed("retarget", False, STREAM_SHARE * took)
+        # and one to a numeric duration (fitted in rounds: its own placement)
+        duration = round(1.5 * sum(len(seg[0]) for seg in tail) / rate + 0.1, 2)
+        took = time.perf_counter()
+        Retargeting(arm, Timing(limits, rate), None).tail(state, [None, end],
+                                                          {"duration": duration})
+        took = time.perf_counter() - took
+        planning_times.seed(RETARGET_TO_DURATION, False, STREAM_SHARE * took)
     except RobodcnError as exc:
         log.debug("warm-up: retarget from the path's middle refused: %s", exc)
 

@@ -61,6 +61,14 @@ class PlanningTimes:
             kept = self._seen.get((what, jerk)) or ([guesses[what]] if what in guesses else [])
             self._seen[(what, jerk)] = [*kept[-(KEEP - 1):], float(seconds)]
 
+    def seed(self, what: str, jerk: bool, seconds: float) -> None:
+        """Before anything of ``what`` is measured: expect ``seconds`` (a warm-up's
+        measurement, scaled to planning beside a stream), not less than the first guess."""
+        with self._lock:
+            if (what, jerk) not in self._seen:
+                guess = (JERK_FIRST_GUESS_S if jerk else FIRST_GUESS_S).get(what, DEFAULT_S)
+                self._seen[(what, jerk)] = [max(guess, float(seconds))]
+
     def set(self, what: str, jerk: bool, times: list[float]) -> None:
         """Replace what is kept for ``what`` (tests, a caller that knows better)."""
         with self._lock:

@@ -31,13 +31,18 @@ import dataclasses
 import itertools
 import math
 from collections.abc import Callable
-from typing import Any
+from typing import Any, NoReturn
 
 import numpy as np
 from numpy.typing import NDArray
 
 from robodcn.config import Arm
-from robodcn.errors import AccelerationLimitError, InputError, VelocityLimitError
+from robodcn.errors import (
+    AccelerationLimitError,
+    InputError,
+    RobodcnError,
+    VelocityLimitError,
+)
 from robodcn.path_timing import JointLimits, moving_start
 from robodcn.path_timing.moving_start import JointState, StartSegment
 from robodcn.path_timing.torque import TorqueLimits
@@ -46,7 +51,13 @@ from robodcn.stream.online.replacement import Replacement, Target
 from robodcn.stream.online.samples import Segment
 from robodcn.stream.online.state import State
 from robodcn.stream.online.timing import Timing
-from robodcn.stream.online_path import JointPath, evenly_spaced, excess, retime
+from robodcn.stream.online_path import (
+    JointPath,
+    LawExceedsLimits,
+    evenly_spaced,
+    excess,
+    retime,
+)
 
 #: geometry of a retarget: sampled at this rate over this many seconds (quintic, slow)
 GEOMETRY_RATE_HZ = 200.0
@@ -55,6 +66,9 @@ GEOMETRY_DURATION_S = 5.0
 GEOMETRY_SAMPLES = 400
 #: rounds of fitting k to a numeric duration, and how close (samples, share) is met
 FIT_ROUNDS = 8
+#: rounds of fitting the moving start's stretch (met within 3 on the omx's paths; where it
+#: is not met by then it seldom is: through rest is fitted instead)
+MOVING_FIT_ROUNDS = 4
 FIT_SAMPLES, FIT_SHARE = 2, 0.005
 #: the commanded samples may pass a limit by rounding only
 LIMIT_SLACK = 1e-9
@@ -109,13 +123,66 @@ class Retargeting:
         k = self.speed
         if self.timing.jerk:
             # from rest: the law under the limits × k λ lasts 1/λ × as long
-            return self.fitted(lambda lam: self.through_rest(state, rep, k * lam),
-                               rep.duration)
+            return self.met(self.fitted(self.rest_law(state, rep, k), rep.duration),
+                            rep.duration)
         fastest = self.moving(state, rep, k)
-        if rep.duration != "auto" and not _moves(fastest):
+        if rep.duration == "auto":
+            return fastest
+        if not _moves(fastest):
             return self.held(state, fastest, rep.duration)
-        return self.fitted(lambda lam: fastest if lam >= 1.0 else
-                           self.stretched(state, fastest, lam), rep.duration)
+        try:
+            segments = self.fitted(lambda lam: fastest if lam >= 1.0 else
+                                   self.stretched(state, fastest, lam), rep.duration,
+                                   MOVING_FIT_ROUNDS)
+        except LawExceedsLimits:
+            segments = None  # a stretch the limits refuse: through rest below
+        if segments is not None and self._within(segments, rep.duration) \
+                and self._keeps_limits(state, segments):
+            return segments
+        # The moving start's law stretched along its own path has no λ that lasts the
+        # duration (its brake to the slower law's speed jumps in length: 222 → 400 samples
+        # for λ 0.5821 → 0.5803 on the omx), or the limits refuse the stretch, or its
+        # samples pass them across the switch (up to 1.27 × on the omx, where it slows
+        # from the moving state): the way through rest, whose law from rest scales
+        # smoothly, is fitted instead.
+        try:
+            rest = self.fitted(self.rest_law(state, rep, k), rep.duration)
+        except RobodcnError:
+            # no way through rest either (the present path ends before a brake could stop,
+            # no source to follow; or it takes longer than the duration): refused below
+            rest = None
+        if rest is not None and self._within(rest, rep.duration):
+            return rest
+        self.refuse(rep.duration, fastest)
+
+    def _keeps_limits(self, state: State, segments: list[Segment]) -> bool:
+        """Whether the samples keep every limit with the commanded ones before the switch
+        (:func:`~robodcn.stream.online_path.excess` on the wire's finite differences)."""
+        history = state.history if state.history is not None else state.q[None]
+        joints = np.vstack([history, *(seg[0] for seg in segments)])
+        return excess(joints, self.timing.limits, self.timing.rate) <= 1.0 + LIMIT_SLACK
+
+    def _within(self, segments: list[Segment], duration: float | str) -> bool:
+        """Whether ``segments`` last ``duration`` / speed scale within the fit's tolerance."""
+        want = float(duration) * self.timing.rate / self.speed
+        return abs(_count(segments) - want) <= max(FIT_SAMPLES, FIT_SHARE * want)
+
+    def met(self, segments: list[Segment], duration: float | str) -> list[Segment]:
+        """``segments``, when they last ``duration`` (within the fit's tolerance); else
+        :meth:`refuse`: a replacement never runs for another time than the one asked."""
+        if duration == "auto" or self._within(segments, duration):
+            return segments
+        self.refuse(duration)
+
+    def refuse(self, duration: float | str, fastest: list[Segment] | None = None) -> NoReturn:
+        """InputError naming ``duration``: no law found lasts it within every limit
+        (``fastest``: the moving start's own law, whose length the message says)."""
+        rate = self.timing.rate / self.speed
+        low = "" if fastest is None else \
+            f" (as fast as the limits allow: {_count(fastest) / rate:.3f} s)"
+        raise InputError(f"the replacement cannot be timed to duration {duration!r} from the "
+                         f"moving state within every limit{low}; ask for another duration "
+                         f"or \"auto\"", field="duration", value=duration)
 
     def held(self, state: State, segments: list[Segment],
              duration: float | str) -> list[Segment]:
@@ -134,10 +201,11 @@ class Retargeting:
     # -- the duration -----------------------------------------------------------------
 
     def fitted(self, build: Callable[[float], list[Segment]],
-               duration: float | str) -> list[Segment]:
+               duration: float | str, rounds: int = FIT_ROUNDS) -> list[Segment]:
         """``build(1)``, or (a numeric ``duration``) ``build(λ)`` at the λ ≤ 1 whose samples
         last ``duration`` / speed scale (log-linear secant steps within a bracket: the
-        samples grow about as 1/λ).
+        samples grow about as 1/λ), in at most ``rounds``; the closest found (the caller
+        checks it: :meth:`met`).
 
         Raises
         ------
@@ -157,7 +225,7 @@ class Retargeting:
         best = (abs(n - want), segments)
         short, long_ = (1.0, max(n, 1)), None
         lam = max(n, 1) / want
-        for _ in range(FIT_ROUNDS):
+        for _ in range(rounds):
             if best[0] <= tol:
                 break
             segments = build(lam)
@@ -307,6 +375,12 @@ class Retargeting:
     def through_rest(self, state: State, rep: Replacement, k: float) -> list[Segment]:
         """Brake to rest along the present path (or follow it to its end when that comes
         first), then the new path from rest, timed under the limits × ``k``."""
+        return self.rest_law(state, rep, k)(1.0)
+
+    def rest_law(self, state: State, rep: Replacement, k: float
+                 ) -> Callable[[float], list[Segment]]:
+        """λ ↦ :meth:`through_rest` under the limits × k λ: the brake and the new path are
+        found once (neither depends on λ), the law from rest for each λ."""
         timing = self.timing
         sigma = timing.brake(state)
         if sigma is None:
@@ -320,8 +394,12 @@ class Retargeting:
         path = self.geometry(rest.q, rep)
         start = dataclasses.replace(rest, qd=np.zeros_like(rest.q), sd=0.0, sdd=0.0,
                                     qdd=np.zeros_like(rest.q), path=path, sigma=0.0)
-        tail = timing.timed(start, timing.limits.scaled(k), speed=k)
-        return [*segments, (path.at(tail), tail, path)]
+
+        def law(lam: float) -> list[Segment]:
+            tail = timing.timed(start, timing.limits.scaled(k * lam), speed=k * lam)
+            return [*segments, (path.at(tail), tail, path)]
+
+        return law
 
     def _rest_of_source(self, state: State) -> list[Segment]:
         """The samples after ``state`` as they are (one segment per path): the present
@@ -362,6 +440,7 @@ __all__ = [
     "GEOMETRY_DURATION_S",
     "GEOMETRY_RATE_HZ",
     "GEOMETRY_SAMPLES",
+    "MOVING_FIT_ROUNDS",
     "Retargeting",
     "segment_of",
 ]
