@@ -13,6 +13,7 @@ import shutil
 import signal
 import subprocess
 import sys
+import tempfile
 import time
 import urllib.error
 import urllib.request
@@ -33,6 +34,18 @@ class Service:
     url: str
     token: str | None
     proc: subprocess.Popen[str]
+    #: the service's stderr (its log, one INFO line a request), as a file: a pipe nobody
+    #: reads fills after some 64 KiB and then blocks the service in its next log write
+    log: Path | None = None
+
+    def log_tail(self, lines: int = 40) -> str:
+        """The last ``lines`` of the service's log but its GET request lines (the page's and
+        the tests' polling), for a failing test to say why."""
+        if self.log is None or not self.log.exists():
+            return ""
+        kept = [line for line in self.log.read_text(errors="replace").splitlines()
+                if " GET /" not in line]
+        return "\n".join(kept[-lines:])
 
     def call(self, method: str, path: str, body: Any = None) -> tuple[int, Any]:
         headers = {"Content-Type": "application/json"} if body is not None else {}
@@ -68,14 +81,17 @@ def _serve(token: str | None, target: tuple[str, ...] = ("--sim",),
             "--arm", arm]
     if token:
         args += ["--token", token]
-    proc = subprocess.Popen(args, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
-                            cwd=ROOT)
-    try:
-        found = re.search(r"http://[\d.]+:\d+", proc.stdout.readline())
-        assert found, proc.stderr.read()
-        yield Service(found.group(0), token, proc)
-    finally:
-        _terminate(proc)
+    with tempfile.TemporaryDirectory(prefix="robodcn-serve-") as tmp:
+        log = Path(tmp) / "serve.log"
+        with log.open("w") as err:
+            proc = subprocess.Popen(args, stdout=subprocess.PIPE, stderr=err, text=True,
+                                    cwd=ROOT)
+        try:
+            found = re.search(r"http://[\d.]+:\d+", proc.stdout.readline())
+            assert found, log.read_text(errors="replace")
+            yield Service(found.group(0), token, proc, log)
+        finally:
+            _terminate(proc)
 
 
 def _terminate(proc: subprocess.Popen) -> None:

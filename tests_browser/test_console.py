@@ -86,7 +86,14 @@ def far_target(service: Any) -> tuple[float, float, float]:
 def click_move_and_wait_running(driver: Any, until: Any, service: Any) -> str:
     before = service.move_count()
     el(driver, "move").click()
-    until(lambda d: service.move_count() == before + 1, message="no move was started")
+    from selenium.common.exceptions import TimeoutException
+    try:
+        until(lambda d: service.move_count() == before + 1)
+    except TimeoutException:  # say why: what the page shows and what the service logged
+        raise AssertionError(f"no move was started; the page's error: "
+                             f"{el(driver, 'error').text!r}, move status: "
+                             f"{el(driver, 'move-status').text!r}; the service's log:\n"
+                             f"{service.log_tail()}") from None
     move_id = str(before + 1)
     until(lambda d: el(d, "move-status").get_attribute("data-move-id") == move_id)
     return move_id
