@@ -73,18 +73,30 @@ def radians_to_ticks(angles: ArrayLike, servos: Sequence[ServoSpec]) -> NDArray[
 WHOLE_ROWS = 512
 
 
-def ticks_unchecked(angles: NDArray[np.float64], servos: Sequence[ServoSpec]
+def ticks_unchecked(angles: NDArray[np.float64], servos: Sequence[ServoSpec],
+                    columns: tuple[NDArray[np.float64], NDArray[np.int64]] | None = None
                     ) -> NDArray[np.int64]:
     """:func:`radians_to_ticks` for a finite (n, k) array, without the argument checks.
 
     Works one contiguous column at a time (each stays in cache), a short plan's whole array
     at once (fewer numpy calls; the same products and rounding, so the same ticks): the
-    planner's hot path.
+    planner's hot path. ``columns``: the servos' (direction·ticks_per_turn/2π, zero_offset)
+    arrays when the caller keeps them (planner.arm_arrays), else built here.
     """
     if angles.shape[0] < WHOLE_ROWS:
-        scale = np.array([s.direction * s.ticks_per_turn / (2.0 * np.pi) for s in servos])
-        whole = round_half_away(angles * scale).astype(np.int64)
-        whole += np.array([s.zero_offset for s in servos], dtype=np.int64)
+        if columns is None:
+            scale = np.array([s.direction * s.ticks_per_turn / (2.0 * np.pi) for s in servos])
+            offset = np.array([s.zero_offset for s in servos], dtype=np.int64)
+        else:
+            scale, offset = columns
+        # round_half_away in place (the same floor(|x| + 0.5) with x's sign)
+        x = angles * scale
+        r = np.abs(x)
+        r += 0.5
+        np.floor(r, out=r)
+        np.copysign(r, x, out=r)
+        whole = r.astype(np.int64)
+        whole += offset
         return whole
     out = np.empty(angles.shape, dtype=np.int64)
     for j, servo in enumerate(servos):

@@ -30,14 +30,14 @@ from robodcn.config import Arm
 from robodcn.contract.request import PlanRequest
 from robodcn.errors import QUANTITY_UNITS, VIOLATION_ERRORS, UnreachableError, Violation
 from robodcn.messages import describe_violation
-from robodcn.path_timing.limits import JointLimits
 from robodcn.path_timing.torque import TorqueLimits
+from robodcn.planner import arm_arrays
 
 #: Relative slack on velocity/acceleration/jerk limits, for float rounding only (auto timing
 #: itself uses the exact limits, so auto plans never rely on it).
 LIMIT_SLACK = 1e-9
 #: Slack on joint position limits (rad), float rounding only.
-ANGLE_SLACK = 1e-9
+ANGLE_SLACK = arm_arrays.ANGLE_SLACK
 #: The finite-difference order of each dynamic quantity (what a uniform stretch λ divides by
 #: λ^order).
 ORDER = {"velocity": 1, "acceleration": 2, "jerk": 3, "torque": 2}
@@ -47,9 +47,37 @@ def fmt_pose(pose: Sequence[float]) -> str:
     return f"x={pose[0]:.4f} m, y={pose[1]:.4f} m, θ={math.degrees(pose[2]):.1f}°"
 
 
+#: Waypoints whose wrist radius lies this far (m) inside the annulus pass on the plain-float
+#: test of :func:`check_waypoints`; closer to an edge the arrays decide (libm's cos, sin and
+#: hypot may differ from numpy's by an ulp, ~1e-16 m here).
+_CLEAR = 1e-12
+
+
+def _clear_of_edges(links: Sequence[float], waypoints: Sequence[Sequence[float]]) -> bool:
+    """Whether every waypoint's wrist radius |p − l3·(cos θ, sin θ)| (|p| for 2 links) lies
+    :data:`_CLEAR` inside the annulus [|l1 − l2|, l1 + l2] ± REACH_TOLERANCE, in plain
+    floats: a few poses take a few µs of numpy calls each otherwise."""
+    if len(links) not in (2, 3) or len(waypoints) > 16:
+        return False
+    l1, l2 = links[0], links[1]
+    lo = abs(l1 - l2) - kinematics.REACH_TOLERANCE + _CLEAR
+    hi = l1 + l2 + kinematics.REACH_TOLERANCE - _CLEAR
+    l3 = links[2] if len(links) == 3 else 0.0
+    for pose in waypoints:
+        x, y = pose[0], pose[1]
+        if l3:
+            x -= l3 * math.cos(pose[2])
+            y -= l3 * math.sin(pose[2])
+        if not lo < math.hypot(x, y) < hi:
+            return False
+    return True
+
+
 def check_waypoints(req: PlanRequest) -> None:
     """Every waypoint within the workspace annulus, else UnreachableError naming it."""
     arm = req.arm
+    if _clear_of_edges(arm.links, req.waypoints):
+        return
     wp = req.waypoints_array
     ok = kinematics.reachable(arm.links, wp)
     if ok.all():
@@ -64,9 +92,10 @@ def check_waypoints(req: PlanRequest) -> None:
 
 
 def dynamic_limits(arm: Arm) -> tuple[NDArray, NDArray, NDArray]:
-    """Per-joint velocity, acceleration and jerk limits (inf where no jerk limit is set)."""
-    lim = JointLimits.of(arm, torque=False)
-    return lim.v, lim.a, lim.jerk
+    """Per-joint velocity, acceleration and jerk limits (inf where no jerk limit is set;
+    read-only, built once per arm: planner.arm_arrays)."""
+    consts = arm_arrays.arrays_of(arm)
+    return consts.v, consts.a, consts.jerk
 
 
 def reach_violation(req: PlanRequest, sample: int, pose: Sequence[float],
@@ -171,31 +200,45 @@ def _fine(joints: NDArray, ticks: NDArray, lo: NDArray, hi: NDArray, tmin: NDArr
 FINE_BLOCK_ROWS = servo_units.WHOLE_ROWS
 
 
-def _fine_block(joints: NDArray, ticks: NDArray, lo: NDArray, hi: NDArray, tmin: NDArray,
-                tmax: NDArray, limits: tuple[NDArray, NDArray, NDArray] | None, rate: float,
-                slack: float) -> bool:
-    """:func:`_fine` on the whole arrays: the same per-joint extremes and comparisons."""
+def _listed(x: NDArray | list) -> list:
+    return x.tolist() if isinstance(x, np.ndarray) else x
+
+
+def _fine_block(joints: NDArray, ticks: NDArray, lo: NDArray | list, hi: NDArray | list,
+                tmin: NDArray | list, tmax: NDArray | list,
+                limits: tuple[NDArray | list, NDArray | list, NDArray | list] | None,
+                rate: float, slack: float) -> bool:
+    """:func:`_fine` on the whole arrays: the same per-joint extremes and comparisons, the
+    k comparisons of each in plain floats (the limits may come as lists: check's, built
+    once per arm). The differences run on the samples padded with their first and last
+    (at rest on both sides): the end velocities' steps from and to zero are then rows of
+    the second difference, the same numbers as |q₁ − q₀| and |q_n − q_{n−1}|."""
     n = joints.shape[0]
-    inside = (lo <= joints.min(axis=0)) & (joints.max(axis=0) <= hi)
-    inside &= (tmin <= ticks.min(axis=0)) & (ticks.max(axis=0) <= tmax)
-    if not inside.all():
-        return False
+    k = joints.shape[1]
+    q_lo, q_hi = joints.min(axis=0).tolist(), joints.max(axis=0).tolist()
+    t_lo, t_hi = ticks.min(axis=0).tolist(), ticks.max(axis=0).tolist()
+    lo, hi, tmin, tmax = _listed(lo), _listed(hi), _listed(tmin), _listed(tmax)
+    for j in range(k):
+        if not (lo[j] <= q_lo[j] and q_hi[j] <= hi[j] and tmin[j] <= t_lo[j]
+                and t_hi[j] <= tmax[j]):
+            return False
     if limits is None or n < 2:
         return True
-    v, a, jk = limits
-    d = joints[1:] - joints[:-1]
-    if (np.abs(d).max(axis=0) * rate > v * slack).any():
-        return False
-    # At rest on both sides: the end velocities are accelerations from/to zero.
-    step = np.maximum(np.abs(d[0]), np.abs(d[-1]))
-    if n > 2:
-        step = np.maximum(step, np.abs(d[1:] - d[:-1]).max(axis=0))
-    if (step * rate * rate > a * slack).any():
-        return False
-    limited = np.isfinite(jk)
-    if limited.any():
+    v, a, jk = (_listed(x) for x in limits)
+    padded = np.concatenate((joints[:1], joints, joints[-1:]))
+    d = padded[1:] - padded[:-1]
+    vel = np.abs(d).max(axis=0).tolist()
+    for j in range(k):
+        if vel[j] * rate > v[j] * slack:
+            return False
+    step = np.abs(d[1:] - d[:-1]).max(axis=0).tolist()
+    for j in range(k):
+        if step[j] * rate * rate > a[j] * slack:
+            return False
+    limited = [math.isfinite(x) for x in jk]
+    if any(limited):
         d3 = differences(joints[:, limited], 3).max(axis=0)
-        if (d3 * rate ** 3 > jk[limited] * slack).any():
+        if (d3 * rate ** 3 > np.asarray(jk)[limited] * slack).any():
             return False
     return True
 
@@ -224,20 +267,23 @@ def check(req: PlanRequest, poses: NDArray, joints: NDArray, *, dynamics: bool =
     arm = req.arm
     rate = req.rate_hz
     n = joints.shape[0]
-    lo = np.array([j.min_angle for j in arm.joints]) - ANGLE_SLACK
-    hi = np.array([j.max_angle for j in arm.joints]) + ANGLE_SLACK
-    v, a, jk = dynamic_limits(arm)
+    # the arm's constant arrays, built once per arm (planner.arm_arrays)
+    consts = arm_arrays.arrays_of(arm)
+    lo, hi, v, a, jk = consts.lo, consts.hi, consts.v, consts.a, consts.jerk
     if ticks is None:
-        ticks = servo_units.ticks_unchecked(joints, arm.servos)
-    tmin = np.array([j.servo.min_tick for j in arm.joints])
-    tmax = np.array([j.servo.max_tick for j in arm.joints])
+        ticks = servo_units.ticks_unchecked(joints, arm.servos,
+                                            (consts.tick_scale, consts.tick_offset))
+    tmin, tmax = consts.tmin, consts.tmax
     slack = 1.0 + LIMIT_SLACK
     torque = torque_limits(req) if dynamics and n > 1 else None
     tau = grav = None
     if torque is not None:
         tau, grav = sample_torques(torque, joints, rate, history)
+    # the fast path compares per-joint extremes in plain floats: the limits as lists
+    b_lo, b_hi, b_tmin, b_tmax, b_v, b_a, b_jk = consts.bounds
     if (history is None or not dynamics) and _fine(
-            joints, ticks, lo, hi, tmin, tmax, (v, a, jk) if dynamics else None, rate, slack) \
+            joints, ticks, b_lo, b_hi, b_tmin, b_tmax, (b_v, b_a, b_jk) if dynamics else None,
+            rate, slack) \
             and (tau is None or (np.abs(tau) <= torque.tau * slack).all()):
         return ticks, None
     rates = []
