@@ -181,6 +181,7 @@ def check_waypoints(value: Any, arm: Arm, *, start: bool = False
     check_waypoint_count(value, start)
     items = f.schema["items"]["prefixItems"]
     width = max(sizes)
+    bounds = _item_bounds(items)
     out = []
     for i, pose in enumerate(value):
         if isinstance(pose, np.ndarray):
@@ -188,11 +189,31 @@ def check_waypoints(value: Any, arm: Arm, *, start: bool = False
         if not isinstance(pose, list | tuple) or len(pose) not in sizes:
             raise fail(f"waypoints[{i}]", f"must be {shape} (metres, radians), got "
                        f"{_show(pose)}", pose)
-        xs = [check_number(f"waypoints[{i}][{k}]", v, items[k],
+        # a float within its item's range is check_number's own answer (inf and NaN fail
+        # the comparisons); anything else is checked there, which names what is wrong
+        xs = [v if type(v) is float and bounds[k][0] <= v <= bounds[k][1] else
+              check_number(f"waypoints[{i}][{k}]", v, items[k],
                            "rad" if k == width - 1 else "m")
               for k, v in enumerate(pose)]
         out.append((*xs, *(0.0,) * (width - len(xs))))
     return tuple(out)
+
+
+#: id(prefixItems list) → per item (minimum, maximum) (the contract's schemas live as long
+#: as the module, so their ids are stable)
+_BOUNDS: dict[int, tuple[tuple[float, float], ...]] = {}
+
+
+def _item_bounds(items: list[Mapping[str, Any]]) -> tuple[tuple[float, float], ...]:
+    """Each pose item's closed range, read once per schema (an item with an exclusive
+    bound gets an empty range: check_number decides it)."""
+    found = _BOUNDS.get(id(items))
+    if found is None:
+        found = _BOUNDS[id(items)] = tuple(
+            (math.inf, -math.inf) if "exclusiveMinimum" in it else
+            (float(it.get("minimum", -math.inf)), float(it.get("maximum", math.inf)))
+            for it in items)
+    return found
 
 
 def check_waypoint_count(value: list | tuple, start: bool) -> None:
