@@ -39,7 +39,9 @@ def turn_angle(theta_start: float, theta_end: float, turn: str = "shortest") -> 
     "cw" → (−2π, 0]. Angles within 1e-12 rad of a whole turn count as no rotation.
     """
     _checks.one_of("turn", turn, dcn.TURNS)
-    delta = float(np.remainder(theta_end - theta_start, _TWO_PI))  # [0, 2π)
+    # [0, 2π): Python's float % is numpy.remainder's rule (fmod, moved into the divisor's
+    # sign), the same bits without a ufunc call on a scalar
+    delta = float(theta_end - theta_start) % _TWO_PI
     if delta < _HALF_TURN_TOLERANCE or delta > _TWO_PI - _HALF_TURN_TOLERANCE:
         delta = 0.0  # no rotation, also for "ccw"/"cw": never a spurious full turn
     if turn == "ccw":

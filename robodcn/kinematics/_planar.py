@@ -32,6 +32,9 @@ REACH_TOLERANCE = 1e-9
 
 ELBOWS = ("up", "down")
 _TWO_PI = 2.0 * np.pi
+#: ndarray.all without its Python wrapper (numpy's _methods._all): the IK asks it of every
+#: path, ~0.4 µs a call on a small one
+_all = np.logical_and.reduce
 
 
 def _links(links: Sequence[float]) -> tuple[float, ...]:
@@ -101,7 +104,13 @@ FK_TAN_ROWS = 256
 def fk(links: Sequence[float], q: ArrayLike) -> NDArray[np.float64]:
     """Forward kinematics: poses (n, 3) = (Σ l_i cos φ_i, Σ l_i sin φ_i, φ_k) for q (n, k)."""
     links = _links(links)
-    q = _joints(q, len(links))
+    return fk_unchecked(links, _joints(q, len(links)))
+
+
+def fk_unchecked(links: tuple[float, ...], q: NDArray[np.float64]) -> NDArray[np.float64]:
+    """:func:`fk` without the argument checks, for callers that validated them (the
+    planner): ``links`` a tuple of 2 or 3 positive floats, ``q`` a finite float64 (n, k)
+    array with k = len(links)."""
     n, k = q.shape
     if n < FK_TAN_ROWS:  # few rows: fewer numpy calls win
         phi = np.cumsum(q, axis=1)
@@ -177,7 +186,7 @@ def _block(links: tuple[float, ...], poses: NDArray[np.float64], want: str = "bo
     c = (r2 - (l1 * l1 + l2 * l2)) * (1.0 / (2.0 * l1 * l2))
     np.minimum(np.maximum(c, -1.0, out=c), 1.0, out=c)  # np.clip, without its wrapper
     s = np.sqrt(1.0 - c * c)
-    if not ok.all():
+    if not _all(ok):
         s[~ok] = np.nan
     q2 = np.arctan2(s, c)
     a = l1 + l2 * c
@@ -249,7 +258,7 @@ def ik(links: Sequence[float], poses: ArrayLike, elbow: str = "up") -> NDArray[n
 
 
 def _raise_unreachable(links: Sequence[float], poses: ArrayLike, ok: NDArray[np.bool_]) -> None:
-    if ok.all():
+    if _all(ok):
         return
     i = int(np.argmin(ok))
     poses = np.asarray(poses, dtype=np.float64)
@@ -430,7 +439,7 @@ def ik_path_unchecked(links: tuple[float, ...], poses: NDArray[np.float64],
     if first_down is None:
         return None, 0
     one, ok = _block(links, poses, "down" if first_down[0] else "up")
-    if not ok.all():
+    if not _all(ok):
         return None, int(np.argmin(ok))
     rows = one[0]
     steps = _wrap_in_place(rows[:, 1:] - rows[:, :-1])
@@ -462,7 +471,7 @@ def ik_paths_unchecked(links: tuple[float, ...], poses: NDArray[np.float64],
     if first_down is None or first_down.any() != first_down.all():
         return each()
     one, ok = _block(links, poses, "down" if first_down[0] else "up")
-    if not ok.all():
+    if not _all(ok):
         return each()
     rows = one[0]
     steps = _wrap_in_place(rows[:, 1:] - rows[:, :-1])
@@ -482,7 +491,7 @@ def _first_down(links: tuple[float, ...], firsts: NDArray[np.float64],
     if reference is None:
         return np.full(firsts.shape[0], elbow == "down")
     block, ok = _block(links, firsts)
-    if not ok.all():
+    if not _all(ok):
         return None
     d_up, d_dn = _sq_sum(_wrap_in_place(block - reference[:, None]))
     return np.where(np.abs(d_dn - d_up) > SINGULAR_TOLERANCE ** 2, d_dn < d_up,

@@ -20,7 +20,7 @@ from robodcn.config import Arm
 from robodcn.contract.request import PlanRequest
 from robodcn.interpolate import interpolate_unchecked, turn_angle
 from robodcn.path_timing.limits import JointLimits
-from robodcn.planner import yawed
+from robodcn.planner import arm_arrays, yawed
 
 #: Samples of the coarse uniform grid used for estimates and path shaping.
 COARSE = 128
@@ -152,7 +152,9 @@ def pose_of(arm: Arm, q: NDArray[np.float64]) -> NDArray[np.float64]:
     """Path poses (n, 3|4) of joints q (n, k): planar FK, or a yawed arm's plane poses."""
     if arm.yawed:
         return yawed.plane_pose_of(arm, q)
-    return kinematics.fk(arm.links, q)
+    # the planner's joints are its own (finite, (n, k)): fk's argument checks skipped
+    return kinematics.fk_unchecked(arm_arrays.arrays_of(arm).links,
+                                   np.asarray(q, dtype=np.float64))
 
 
 def to_user(arm: Arm, poses: NDArray[np.float64]) -> NDArray[np.float64]:
@@ -181,7 +183,7 @@ def _ik(arm: Arm, poses: NDArray[np.float64], reference: NDArray | None, elbow: 
         return yawed.plane_joints(arm, poses, reference, elbow, limits)
     # the request is validated: the links, the path's poses and the reference are checked
     ref = None if reference is None else np.asarray(reference, dtype=np.float64)
-    return kinematics.ik_path_unchecked(tuple(float(v) for v in arm.links), poses, ref, elbow,
+    return kinematics.ik_path_unchecked(arm_arrays.arrays_of(arm).links, poses, ref, elbow,
                                         limits)
 
 
@@ -191,8 +193,7 @@ def joints_of(arm: Arm, poses: NDArray[np.float64], reference: NDArray | None, e
     :func:`robodcn.planner.yawed.plane_joints`): the first sample on ``elbow`` (or nearest
     ``reference``), each later one on the branch nearest the previous sample; or (None,
     first pose out of reach)."""
-    limits = [(j.min_angle, j.max_angle) for j in arm.joints]
-    return _ik(arm, poses, reference, elbow, limits)
+    return _ik(arm, poses, reference, elbow, arm_arrays.arrays_of(arm).angle_limits)
 
 
 def first_joints(arm: Arm, pose: NDArray[np.float64], reference: NDArray | None, elbow: str
