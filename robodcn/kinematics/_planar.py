@@ -458,15 +458,18 @@ def ik_paths_unchecked(links: tuple[float, ...], poses: NDArray[np.float64],
     in order), each exactly as that path alone gives it; in one pass over all of them where
     they start on one branch and stay clear of singularities (a search's candidate
     samplings of one path), else path by path."""
-    edges = np.cumsum([0, *counts])
-    alone = [(int(a), int(b)) for a, b in itertools.pairwise(edges)]
+    # plain ints (numpy's cumsum of a list goes through its slow wrapper), an array where
+    # they index
+    bounds = [0, *itertools.accumulate(counts)]
+    alone = list(itertools.pairwise(bounds))
 
     def each() -> list[tuple[NDArray[np.float64] | None, int | None]]:
         return [ik_path_unchecked(links, poses[a:b], reference, elbow, limits)
                 for a, b in alone]
 
-    if len(alone) < 2 or min(counts) < 2 or edges[-1] != poses.shape[0]:
+    if len(alone) < 2 or min(counts) < 2 or bounds[-1] != poses.shape[0]:
         return each()
+    edges = np.array(bounds)
     first_down = _first_down(links, poses[edges[:-1]], reference, elbow)
     if first_down is None or first_down.any() != first_down.all():
         return each()

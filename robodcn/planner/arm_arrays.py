@@ -46,6 +46,7 @@ class ArmArrays:
     jerk_limited : whether any joint sets a jerk limit
     tick_scale, tick_offset : tick = tick_offset + round(angle · tick_scale), tick_scale =
         direction · ticks_per_turn / 2π (:func:`robodcn.servo_units.ticks_unchecked`)
+    torque_limited : whether any joint sets ``max_torque_nm``
     """
 
     links: tuple[float, ...]
@@ -60,6 +61,7 @@ class ArmArrays:
     jerk_limited: bool
     tick_scale: NDArray[np.float64]
     tick_offset: NDArray[np.int64]
+    torque_limited: bool = False
     #: (lo, hi, tmin, tmax, v, a, jerk) as lists of Python numbers (comparisons of k
     #: numbers: plain floats beat numpy calls)
     bounds: tuple[list, ...] = ()
@@ -85,7 +87,8 @@ def _build(arm: Arm) -> ArmArrays:
         jerk_limited=kinematic.j is not None,
         tick_scale=_frozen([s.direction * s.ticks_per_turn / (2.0 * math.pi) for s in servos],
                            np.float64),
-        tick_offset=_frozen([s.zero_offset for s in servos], np.int64))
+        tick_offset=_frozen([s.zero_offset for s in servos], np.int64),
+        torque_limited=any(t is not None for t in arm.max_torques))
     bounds = tuple(x.tolist() for x in (arrays.lo, arrays.hi, arrays.tmin, arrays.tmax,
                                          arrays.v, arrays.a, arrays.jerk))
     return dataclasses.replace(arrays, bounds=bounds)

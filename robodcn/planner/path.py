@@ -8,6 +8,7 @@ which kind of arm they time.
 
 from __future__ import annotations
 
+import itertools
 import math
 from collections.abc import Sequence
 from typing import NamedTuple
@@ -108,14 +109,14 @@ class Piece:
         tau = np.concatenate([np.arange(n + 1) / n for n in counts])
         # one segment: its poses are the interpolation at each parameter, in any order
         poses = self.path(timing.profile_unchecked(self.profile, tau, self.accel_fraction))
-        limits = [(j.min_angle, j.max_angle) for j in arm.joints]
+        consts = arm_arrays.arrays_of(arm)
         ref = None if reference is None else np.asarray(reference, dtype=np.float64)
         rows = [n + 1 for n in counts]
-        solved = kinematics.ik_paths_unchecked(tuple(float(v) for v in arm.links), poses,
-                                               rows, ref, self.elbow, limits)
+        solved = kinematics.ik_paths_unchecked(consts.links, poses, rows, ref, self.elbow,
+                                               consts.angle_limits)
         out = []
-        for (q, bad), a, b in zip(solved, np.cumsum([0, *rows[:-1]]), np.cumsum(rows),
-                                  strict=True):
+        ends = list(itertools.accumulate(rows))  # plain ints: numpy's cumsum of a list is slow
+        for (q, bad), a, b in zip(solved, [0, *ends[:-1]], ends, strict=True):
             p = poses[a:b]
             if q is not None and arm.dof == 2:
                 p[:, 2] = q[:, 0] + q[:, 1]  # θ plays no part: report the arm's own (FK)

@@ -146,11 +146,14 @@ class UniformTiming:
             if piece.path is not None:
                 last = segment + len(piece.path.segments)
                 marks[offset], marks[offset + n] = segment, last
-                u = timing.profile_unchecked(piece.profile, np.arange(n + 1) / n,
-                                             piece.accel_fraction)
-                inner = np.searchsorted(piece.path.knots[1:-1], u, side="right")
-                segment_of[offset:offset + n + 1] = segment + np.minimum(
-                    inner, len(piece.path.segments) - 1)
+                if last == segment + 1:  # one segment, no inner knot: every sample on it
+                    segment_of[offset:offset + n + 1] = segment
+                else:
+                    u = timing.profile_unchecked(piece.profile, np.arange(n + 1) / n,
+                                                 piece.accel_fraction)
+                    inner = np.searchsorted(piece.path.knots[1:-1], u, side="right")
+                    segment_of[offset:offset + n + 1] = segment + np.minimum(
+                        inner, len(piece.path.segments) - 1)
                 segment = last
             p, q, bad = self._sampled(len(starts), piece, n, ref)
             if q is None:

@@ -137,6 +137,8 @@ def differences(joints: NDArray, order: int, history: NDArray | None = None) -> 
 def torque_limits(req: PlanRequest) -> TorqueLimits | None:
     """The request's torque limits: the arm's ``max_torque_nm`` with the request's payload
     (``payload_kg``, default the arm's), None when no joint sets one."""
+    if not arm_arrays.arrays_of(req.arm).torque_limited:
+        return None
     return TorqueLimits.of(req.arm, getattr(req, "payload_kg", None))
 
 
@@ -352,12 +354,19 @@ def elbow_branches(joints: NDArray) -> tuple[str | None, tuple[int, ...]]:
     and carry the branch before them, so a switch is counted where the branch after a
     singular stretch differs from the one before it.
     """
-    q2 = kinematics.wrap(joints[:, 1])
+    column = joints[:, 1]
     tol = kinematics.SINGULAR_TOLERANCE
     # the common case, one branch throughout clear of both singularities: the per-sample
     # tests below on the two extremes (|q2| and π − |q2| are monotone there, so these are
-    # the very comparisons of the samples nearest 0 and ±π): no sample singular, no change
-    low, high = float(q2.min()), float(q2.max())
+    # the very comparisons of the samples nearest 0 and ±π): no sample singular, no change.
+    # Within ±3 rad wrap is the identity (rint(q/2π) = 0, q − 0 = q): the raw column's
+    # extremes are the wrapped ones, the column wrapped only when it leaves that
+    low, high = float(np.minimum.reduce(column)), float(np.maximum.reduce(column))
+    if -3.0 <= low and high <= 3.0:
+        q2 = column
+    else:
+        q2 = kinematics.wrap(column)
+        low, high = float(q2.min()), float(q2.max())
     if high < 0.0 and not abs(high) < tol and not math.pi - abs(low) < tol:
         return "up", ()
     if low > 0.0 and not abs(low) < tol and not math.pi - abs(high) < tol:
