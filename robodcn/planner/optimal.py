@@ -190,7 +190,8 @@ class OptimalTiming:
     def __init__(self, req: PlanRequest, pieces: list[DensePiece], fine: bool = False
                  ) -> None:
         self.req = req
-        self.limits = JointLimits.of(req.arm, getattr(req, "payload_kg", None))
+        # built once per arm and payload (planner.arm_arrays)
+        self.limits = arm_arrays.limits_of(req.arm, getattr(req, "payload_kg", None))
         state = req.start_state
         self.start_state = state
         self.state = None if state is None else JointState(*state.arrays())
