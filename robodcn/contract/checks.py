@@ -125,6 +125,9 @@ def check_per_segment(name: str, value: Any, segments: int) -> Any:
     error names it (``beta[1]``), a list of the wrong length names the field.
     """
     f = field(name)
+    # the common case, one valid choice for every segment: what check_choice returns
+    if type(value) is str and value in f.choices:
+        return value
     one = f.schema["oneOf"][0]
 
     def check(path: str, v: Any) -> Any:

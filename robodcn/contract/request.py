@@ -172,6 +172,8 @@ class PlanRequest:
     def _warn_ignored_beta(self) -> None:
         """BetaIgnoredWarning: one β ≠ 1 that no segment reads, or per-segment β ≠ 1 on
         segments whose method does not read it (``segments`` on the warning)."""
+        if type(self.beta) is float and self.beta == 1.0:
+            return  # the default: no segment has a β ≠ 1 to ignore
         ignored = [j for j in range(self.segments) if self.segment_beta(j) != 1.0
                    and self.segment_method(j) not in BETA_METHODS]
         if isinstance(self.beta, float):
