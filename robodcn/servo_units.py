@@ -73,6 +73,13 @@ def radians_to_ticks(angles: ArrayLike, servos: Sequence[ServoSpec]) -> NDArray[
 WHOLE_ROWS = 512
 
 
+def tick_columns(servos: Sequence[ServoSpec]) -> tuple[NDArray[np.float64], NDArray[np.int64]]:
+    """The servos' (direction·ticks_per_turn/2π, zero_offset) arrays (k,) that
+    :func:`ticks_unchecked` converts with."""
+    return (np.array([s.direction * s.ticks_per_turn / (2.0 * np.pi) for s in servos]),
+            np.array([s.zero_offset for s in servos], dtype=np.int64))
+
+
 def ticks_unchecked(angles: NDArray[np.float64], servos: Sequence[ServoSpec],
                     columns: tuple[NDArray[np.float64], NDArray[np.int64]] | None = None
                     ) -> NDArray[np.int64]:
@@ -80,15 +87,11 @@ def ticks_unchecked(angles: NDArray[np.float64], servos: Sequence[ServoSpec],
 
     Works one contiguous column at a time (each stays in cache), a short plan's whole array
     at once (fewer numpy calls; the same products and rounding, so the same ticks): the
-    planner's hot path. ``columns``: the servos' (direction·ticks_per_turn/2π, zero_offset)
-    arrays when the caller keeps them (planner.arm_arrays), else built here.
+    planner's hot path. ``columns``: the servos' :func:`tick_columns` when the caller keeps
+    them (planner.arm_arrays; ``servos`` is then not read), else built here.
     """
+    scale, offset = tick_columns(servos) if columns is None else columns
     if angles.shape[0] < WHOLE_ROWS:
-        if columns is None:
-            scale = np.array([s.direction * s.ticks_per_turn / (2.0 * np.pi) for s in servos])
-            offset = np.array([s.zero_offset for s in servos], dtype=np.int64)
-        else:
-            scale, offset = columns
         # round_half_away in place (the same floor(|x| + 0.5) with x's sign)
         x = angles * scale
         r = np.abs(x)
@@ -99,10 +102,10 @@ def ticks_unchecked(angles: NDArray[np.float64], servos: Sequence[ServoSpec],
         whole += offset
         return whole
     out = np.empty(angles.shape, dtype=np.int64)
-    for j, servo in enumerate(servos):
-        x = angles[:, j] * (servo.direction * servo.ticks_per_turn / (2.0 * np.pi))
+    for j in range(angles.shape[1]):
+        x = angles[:, j] * scale[j]
         out[:, j] = round_half_away(x)
-        out[:, j] += servo.zero_offset
+        out[:, j] += offset[j]
     return out
 
 

@@ -113,7 +113,7 @@ def fk_unchecked(links: tuple[float, ...], q: NDArray[np.float64]) -> NDArray[np
     array with k = len(links)."""
     n, k = q.shape
     if n < FK_TAN_ROWS:  # few rows: fewer numpy calls win
-        phi = np.cumsum(q, axis=1)
+        phi = np.add.accumulate(q, axis=1)  # np.cumsum's own ufunc, without its wrappers
         out = np.empty((n, 3))
         lengths = np.asarray(links)
         out[:, 0] = np.cos(phi) @ lengths

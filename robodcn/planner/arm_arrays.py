@@ -12,13 +12,13 @@ can change what the next plan reads.
 from __future__ import annotations
 
 import dataclasses
-import math
 import weakref
 from dataclasses import dataclass, field
 
 import numpy as np
 from numpy.typing import NDArray
 
+from robodcn import servo_units
 from robodcn.config import Arm
 from robodcn.path_timing.limits import JointLimits
 
@@ -47,6 +47,7 @@ class ArmArrays:
     tick_scale, tick_offset : tick = tick_offset + round(angle · tick_scale), tick_scale =
         direction · ticks_per_turn / 2π (:func:`robodcn.servo_units.ticks_unchecked`)
     torque_limited : whether any joint sets ``max_torque_nm``
+    joint_names, servo_ids : the arm's (its properties build them on every read)
     """
 
     links: tuple[float, ...]
@@ -62,6 +63,8 @@ class ArmArrays:
     tick_scale: NDArray[np.float64]
     tick_offset: NDArray[np.int64]
     torque_limited: bool = False
+    joint_names: tuple[str, ...] = ()
+    servo_ids: tuple[int, ...] = ()
     #: (lo, hi, tmin, tmax, v, a, jerk) as lists of Python numbers (comparisons of k
     #: numbers: plain floats beat numpy calls)
     bounds: tuple[list, ...] = ()
@@ -74,6 +77,7 @@ def _build(arm: Arm) -> ArmArrays:
     joints = arm.joints
     servos = [j.servo for j in joints]
     kinematic = JointLimits.of(arm, torque=False)
+    scale, offset = servo_units.tick_columns(servos)
     arrays = ArmArrays(
         links=tuple(float(v) for v in arm.links),
         angle_limits=tuple((j.min_angle, j.max_angle) for j in joints),
@@ -85,9 +89,9 @@ def _build(arm: Arm) -> ArmArrays:
         a=_frozen(kinematic.a.tolist(), np.float64),
         jerk=_frozen(kinematic.jerk.tolist(), np.float64),
         jerk_limited=kinematic.j is not None,
-        tick_scale=_frozen([s.direction * s.ticks_per_turn / (2.0 * math.pi) for s in servos],
-                           np.float64),
-        tick_offset=_frozen([s.zero_offset for s in servos], np.int64),
+        tick_scale=_frozen(scale.tolist(), np.float64),
+        tick_offset=_frozen(offset.tolist(), np.int64),
+        joint_names=arm.joint_names, servo_ids=arm.servo_ids,
         torque_limited=any(t is not None for t in arm.max_torques))
     bounds = tuple(x.tolist() for x in (arrays.lo, arrays.hi, arrays.tmin, arrays.tmax,
                                          arrays.v, arrays.a, arrays.jerk))

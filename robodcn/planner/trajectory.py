@@ -16,6 +16,7 @@ from robodcn import _checks
 from robodcn.config import PLANAR_POSE, RATE_RANGE, YAWED_POSE, Arm
 from robodcn.contract.request import PlanRequest, StartState
 from robodcn.errors import InputError
+from robodcn.planner import arm_arrays
 
 
 @dataclass(eq=False)
@@ -257,9 +258,10 @@ def planned(t: NDArray[np.float64], poses: NDArray[np.float64], joints: NDArray[
                           request.rate_hz, method, request, elbow, branch_switches,
                           approach_samples, start_state)
     arm = request.arm
+    consts = arm_arrays.arrays_of(arm)  # the names and ids, built once per arm
     traj = object.__new__(Trajectory)
     values = {"t": t, "poses": poses, "joints": joints, "ticks": ticks,
-              "joint_names": arm.joint_names, "servo_ids": arm.servo_ids,
+              "joint_names": consts.joint_names, "servo_ids": consts.servo_ids,
               "rate_hz": request.rate_hz, "method": method, "request": request,
               "elbow": elbow, "branch_switches": branch_switches,
               "approach_samples": approach_samples, "start_state": start_state,

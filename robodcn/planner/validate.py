@@ -273,8 +273,7 @@ def check(req: PlanRequest, poses: NDArray, joints: NDArray, *, dynamics: bool =
     consts = arm_arrays.arrays_of(arm)
     lo, hi, v, a, jk = consts.lo, consts.hi, consts.v, consts.a, consts.jerk
     if ticks is None:
-        ticks = servo_units.ticks_unchecked(joints, arm.servos,
-                                            (consts.tick_scale, consts.tick_offset))
+        ticks = servo_units.ticks_unchecked(joints, (), (consts.tick_scale, consts.tick_offset))
     tmin, tmax = consts.tmin, consts.tmax
     slack = 1.0 + LIMIT_SLACK
     torque = torque_limits(req) if dynamics and n > 1 else None
