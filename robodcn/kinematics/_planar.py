@@ -541,9 +541,10 @@ def _one_branch_holds(q2: NDArray[np.float64], steps: NDArray[np.float64]) -> bo
     if steps.shape[1] == 0:
         return True
     a = np.abs(q2)
-    margin = float(np.minimum(a, math.pi - a).min())
+    # the ufuncs' reduce: ndarray.min/sum/max without numpy's wrappers, the same numbers
+    margin = float(np.minimum.reduce(np.minimum(a, math.pi - a)))
     sq = steps * steps
-    step2 = float(sq.sum(axis=0).max())
+    step2 = float(np.maximum.reduce(np.add.reduce(sq, axis=0)))
     return margin > 2.0 * SINGULAR_TOLERANCE and step2 <= 0.25 * margin * margin
 
 

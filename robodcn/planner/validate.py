@@ -202,6 +202,9 @@ def _fine(joints: NDArray, ticks: NDArray, lo: NDArray, hi: NDArray, tmin: NDArr
 FINE_BLOCK_ROWS = servo_units.WHOLE_ROWS
 
 
+_min, _max = np.minimum.reduce, np.maximum.reduce
+
+
 def _listed(x: NDArray | list) -> list:
     return x.tolist() if isinstance(x, np.ndarray) else x
 
@@ -217,8 +220,9 @@ def _fine_block(joints: NDArray, ticks: NDArray, lo: NDArray | list, hi: NDArray
     the second difference, the same numbers as |q₁ − q₀| and |q_n − q_{n−1}|."""
     n = joints.shape[0]
     k = joints.shape[1]
-    q_lo, q_hi = joints.min(axis=0).tolist(), joints.max(axis=0).tolist()
-    t_lo, t_hi = ticks.min(axis=0).tolist(), ticks.max(axis=0).tolist()
+    # ndarray.min/max as the ufuncs' reduce: the same extremes without numpy's wrappers
+    q_lo, q_hi = _min(joints, axis=0).tolist(), _max(joints, axis=0).tolist()
+    t_lo, t_hi = _min(ticks, axis=0).tolist(), _max(ticks, axis=0).tolist()
     lo, hi, tmin, tmax = _listed(lo), _listed(hi), _listed(tmin), _listed(tmax)
     for j in range(k):
         if not (lo[j] <= q_lo[j] and q_hi[j] <= hi[j] and tmin[j] <= t_lo[j]
@@ -229,11 +233,11 @@ def _fine_block(joints: NDArray, ticks: NDArray, lo: NDArray | list, hi: NDArray
     v, a, jk = (_listed(x) for x in limits)
     padded = np.concatenate((joints[:1], joints, joints[-1:]))
     d = padded[1:] - padded[:-1]
-    vel = np.abs(d).max(axis=0).tolist()
+    vel = _max(np.abs(d), axis=0).tolist()
     for j in range(k):
         if vel[j] * rate > v[j] * slack:
             return False
-    step = np.abs(d[1:] - d[:-1]).max(axis=0).tolist()
+    step = _max(np.abs(d[1:] - d[:-1]), axis=0).tolist()
     for j in range(k):
         if step[j] * rate * rate > a[j] * slack:
             return False
