@@ -3,7 +3,8 @@
 Two arm kinds, one module each:
 
 - :mod:`robodcn.kinematics._planar` — a planar 2R/3R arm in the (x, y) plane, CCW joint
-  angles, poses (x, y, θ): :func:`fk`, :func:`ik`, :func:`ik_path`, :func:`jacobian` …
+  angles, poses (x, y, θ): :func:`fk`, :func:`ik`, :func:`ik_path` …; its Jacobian and
+  singularity measures in :mod:`robodcn.kinematics._jacobian` (:func:`jacobian` …)
 - :mod:`robodcn.kinematics._yawed` — a base yaw turning a planar chain of offset links in a
   vertical plane (the OpenMANIPULATOR-X), servo angles with ROBOTIS's conventions, poses
   (x, y, z, pitch): :class:`Chain`, :func:`fk_yawed`, :func:`ik_yawed`, :func:`to_plane` …
@@ -11,6 +12,7 @@ Two arm kinds, one module each:
 Every function takes arrays of shape (n, ...) and never loops over samples in Python.
 """
 
+from robodcn.kinematics._jacobian import jacobian, manipulability, near_singular
 from robodcn.kinematics._planar import (
     ELBOWS,
     REACH_TOLERANCE,
@@ -23,9 +25,6 @@ from robodcn.kinematics._planar import (
     ik_path,
     ik_path_unchecked,
     ik_paths_unchecked,
-    jacobian,
-    manipulability,
-    near_singular,
     reachable,
     try_ik_path,
     workspace,

@@ -1,4 +1,5 @@
-"""Planar serial-arm kinematics: vectorised FK, analytic IK (2R, 3R), Jacobian, workspace.
+"""Planar serial-arm kinematics: vectorised FK, analytic IK (2R, 3R), workspace (the
+Jacobian: :mod:`._jacobian`).
 
 Conventions (shared/design.md §4): joint i turns about the z axis; φ_i = q_1 + … + q_i is the
 absolute angle of link i; the tool point is Σ l_i·(cos φ_i, sin φ_i) and, for a 3-joint arm,
@@ -16,6 +17,7 @@ Every function takes arrays of shape (n, ...) and never loops over samples in Py
 
 from __future__ import annotations
 
+import functools
 import itertools
 import math
 from collections.abc import Sequence
@@ -159,9 +161,18 @@ def _columns(links: tuple[float, ...], poses: NDArray[np.float64], want: str = "
 
 def _block(links: tuple[float, ...], poses: NDArray[np.float64], want: str = "both"
            ) -> tuple[NDArray[np.float64], NDArray[np.bool_]]:
+    """:func:`_block_reach` with ``ok`` always an array."""
+    block, ok = _block_reach(links, poses, want)
+    return block, (np.ones(poses.shape[0], dtype=bool) if ok is None else ok)
+
+
+def _block_reach(links: tuple[float, ...], poses: NDArray[np.float64], want: str = "both"
+                 ) -> tuple[NDArray[np.float64], NDArray[np.bool_] | None]:
     """Both IK branches as one array (2, k, n): [0] the elbow-up, [1] the elbow-down joint
     rows (contiguous, so every step is a fast 1-D ufunc), angles not wrapped; NaN where out
-    of reach. With ``want`` "up" or "down", (1, k, n): that branch alone.
+    of reach. With ``want`` "up" or "down", (1, k, n): that branch alone. ``ok``: whether
+    each pose is within reach, None when all are (told from the extremes of |w|², the
+    per-pose test only when one is outside or NaN).
 
     q2 = ∓atan2(√(1 − c²), c) with c = cos q2; q1 = atan2(w) ∓ atan2(l2·sin|q2|, l1 + l2·c)
     is evaluated as one atan2 of the complex product w·conj(l1 + l2c ± i·l2·sin|q2|).
@@ -182,11 +193,14 @@ def _block(links: tuple[float, ...], poses: NDArray[np.float64], want: str = "bo
         wx, wy = np.ascontiguousarray(x), np.ascontiguousarray(y)
     r2 = wx * wx + wy * wy
     inner, outer = abs(l1 - l2), l1 + l2
-    ok = (r2 >= max(inner - REACH_TOLERANCE, 0.0) ** 2) & (r2 <= (outer + REACH_TOLERANCE) ** 2)
+    r2_lo, r2_hi = max(inner - REACH_TOLERANCE, 0.0) ** 2, (outer + REACH_TOLERANCE) ** 2
+    ok = None
+    if not r2_lo <= float(np.minimum.reduce(r2)) or not float(np.maximum.reduce(r2)) <= r2_hi:
+        ok = (r2 >= r2_lo) & (r2 <= r2_hi)
     c = (r2 - (l1 * l1 + l2 * l2)) * (1.0 / (2.0 * l1 * l2))
     np.minimum(np.maximum(c, -1.0, out=c), 1.0, out=c)  # np.clip, without its wrapper
     s = np.sqrt(1.0 - c * c)
-    if not _all(ok):
+    if ok is not None and not _all(ok):
         s[~ok] = np.nan
     q2 = np.arctan2(s, c)
     a = l1 + l2 * c
@@ -435,17 +449,21 @@ def ik_path_unchecked(links: tuple[float, ...], poses: NDArray[np.float64],
     n = poses.shape[0]
     if n == 0:
         return np.empty((0, k)), None
-    first_down = _first_down(links, poses[:1], reference, elbow)
-    if first_down is None:
-        return None, 0
-    one, ok = _block(links, poses, "down" if first_down[0] else "up")
-    if not _all(ok):
+    if reference is None:  # _first_down's answer without its array
+        down = elbow == "down"
+    else:
+        first_down = _first_down(links, poses[:1], reference, elbow)
+        if first_down is None:
+            return None, 0
+        down = bool(first_down[0])
+    one, ok = _block_reach(links, poses, "down" if down else "up")
+    if ok is not None and not _all(ok):
         return None, int(np.argmin(ok))
     rows = one[0]
     steps = _wrap_in_place(rows[:, 1:] - rows[:, :-1])
     if not _one_branch_holds(rows[1], steps):
         block, _ = _block(links, poses)
-        rows = np.where(_choose(block, first_down[0]), block[1], block[0])
+        rows = np.where(_choose(block, down), block[1], block[0])
         steps = _wrap_in_place(rows[:, 1:] - rows[:, :-1])
     return _unwrapped(rows, steps, _target(k, reference, limits)), None
 
@@ -473,8 +491,8 @@ def ik_paths_unchecked(links: tuple[float, ...], poses: NDArray[np.float64],
     first_down = _first_down(links, poses[edges[:-1]], reference, elbow)
     if first_down is None or first_down.any() != first_down.all():
         return each()
-    one, ok = _block(links, poses, "down" if first_down[0] else "up")
-    if not _all(ok):
+    one, ok = _block_reach(links, poses, "down" if first_down[0] else "up")
+    if ok is not None and not _all(ok):
         return each()
     rows = one[0]
     steps = _wrap_in_place(rows[:, 1:] - rows[:, :-1])
@@ -507,10 +525,22 @@ def _target(k: int, reference: NDArray[np.float64] | None, limits: ArrayLike | N
     the limits, else 0."""
     if reference is not None:
         return reference
+    if isinstance(limits, tuple):  # hashable: its middle found once
+        return _middle(limits)
     if limits is not None:
         middle = np.asarray(limits, dtype=np.float64)
         return (middle[:, 0] + middle[:, 1]) * 0.5  # the rows' mean, as (a + b)/2 is
     return np.zeros(k)
+
+
+@functools.lru_cache(maxsize=64)
+def _middle(limits: tuple[tuple[float, float], ...]) -> NDArray[np.float64]:
+    """:func:`_target`'s middle of a tuple of (min, max) limits (the same operations),
+    read-only."""
+    middle = np.asarray(limits, dtype=np.float64)
+    out = (middle[:, 0] + middle[:, 1]) * 0.5
+    out.setflags(write=False)
+    return out
 
 
 def _unwrapped(rows: NDArray[np.float64], steps: NDArray[np.float64],
@@ -523,9 +553,7 @@ def _unwrapped(rows: NDArray[np.float64], steps: NDArray[np.float64],
     np.add.accumulate(steps, axis=1, out=out[:, 1:])
     out[:, 1:] += rows[:, :1]
     out += (_TWO_PI * np.rint((target - out[:, 0]) / _TWO_PI))[:, None]
-    q = np.empty((rows.shape[1], rows.shape[0]))
-    q.T[...] = out
-    return q
+    return out.T.copy()  # (n, k), C order
 
 
 def _one_branch_holds(q2: NDArray[np.float64], steps: NDArray[np.float64]) -> bool:
@@ -540,37 +568,18 @@ def _one_branch_holds(q2: NDArray[np.float64], steps: NDArray[np.float64]) -> bo
     """
     if steps.shape[1] == 0:
         return True
-    a = np.abs(q2)
-    # the ufuncs' reduce: ndarray.min/sum/max without numpy's wrappers, the same numbers
-    margin = float(np.minimum.reduce(np.minimum(a, math.pi - a)))
+    # min(|q2|, π − |q2|) over the path is min(min |q2|, π − max |q2|) (π − x falls as x
+    # rises, rounding too); |q2| is q2 or −q2 along a one-signed path (one branch's),
+    # whose extremes are then q2's own (the ufuncs' reduce: no numpy wrappers)
+    lo, hi = float(np.minimum.reduce(q2)), float(np.maximum.reduce(q2))
+    if lo >= 0.0:
+        a_lo, a_hi = lo, hi
+    elif hi <= 0.0:
+        a_lo, a_hi = -hi, -lo
+    else:
+        a = np.abs(q2)
+        a_lo, a_hi = float(np.minimum.reduce(a)), float(np.maximum.reduce(a))
+    margin = min(a_lo, math.pi - a_hi)
     sq = steps * steps
     step2 = float(np.maximum.reduce(np.add.reduce(sq, axis=0)))
     return margin > 2.0 * SINGULAR_TOLERANCE and step2 <= 0.25 * margin * margin
-
-
-def jacobian(links: Sequence[float], q: ArrayLike) -> NDArray[np.float64]:
-    """Jacobian (n, 3, k) of (x, y, θ) with respect to q: ∂x/∂q_j = −Σ_{i≥j} l_i sin φ_i,
-    ∂y/∂q_j = Σ_{i≥j} l_i cos φ_i, ∂θ/∂q_j = 1."""
-    links = _links(links)
-    q = _joints(q, len(links))
-    phi = np.cumsum(q, axis=1)
-    lengths = np.asarray(links)
-    # Reverse cumulative sums give the Σ over i ≥ j.
-    jx = -np.cumsum((lengths * np.sin(phi))[:, ::-1], axis=1)[:, ::-1]
-    jy = np.cumsum((lengths * np.cos(phi))[:, ::-1], axis=1)[:, ::-1]
-    return np.stack([jx, jy, np.ones_like(q)], axis=1)
-
-
-def manipulability(links: Sequence[float], q: ArrayLike) -> NDArray[np.float64]:
-    """|det| of the wrist-position Jacobian, l1·l2·|sin q2| (n,): 0 at the straight or folded
-    arm (for 3R it is also |det J| of the full (x, y, θ) Jacobian)."""
-    links = _links(links)
-    q = _joints(q, len(links))
-    return links[0] * links[1] * np.abs(np.sin(q[:, 1]))
-
-
-def near_singular(links: Sequence[float], q: ArrayLike, tol: float = 1e-3) -> NDArray[np.bool_]:
-    """Whether each configuration is within ``tol`` of a singularity: |sin q2| < tol."""
-    links = _links(links)
-    q = _joints(q, len(links))
-    return np.abs(np.sin(q[:, 1])) < tol
