@@ -159,9 +159,12 @@ class UniformTiming:
             if q is None:
                 assert bad is not None
                 return self._unreachable(piece, ref, offset, poses, joints, segment_of, p, bad)
-            lo = 0 if offset == 0 else 1
-            poses[offset + lo: offset + n + 1] = p[lo:]
-            joints[offset + lo: offset + n + 1] = q[lo:]
+            if len(self.pieces) == 1:  # one piece: its own arrays are the plan's, not copies
+                poses, joints = p, q
+            else:
+                lo = 0 if offset == 0 else 1
+                poses[offset + lo: offset + n + 1] = p[lo:]
+                joints[offset + lo: offset + n + 1] = q[lo:]
             starts.append(offset)
             offset += n
             ref = q[-1]
