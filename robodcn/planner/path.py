@@ -272,16 +272,21 @@ def segments_of(req: PlanRequest) -> list[Segment]:
     On a position-only (2-joint) arm θ plays no part: every θ is 0, so each segment is the
     straight-line position interpolation whatever the method (no rotation to screw about).
     """
-    wp = plan_waypoints(req)
+    # the chaining in plain floats (the same sums; numpy scalars cost more on a few poses),
+    # one array per waypoint, each segment's end the next one's start
+    rows = plan_waypoints(req).tolist()
     k = angle_column(req.arm)
     out = []
-    start = wp[0].copy()
+    start = rows[0]
+    start_array = np.array(start)
     for j in range(req.segments):
         turn = req.segment_turn(j)
-        end = wp[j + 1].copy()
-        end[k] = start[k] + turn_angle(start[k], wp[j + 1, k], turn)
-        out.append(Segment(start, end, req.segment_method(j), turn, req.segment_beta(j)))
-        start = end
+        end = rows[j + 1]
+        end[k] = start[k] + turn_angle(start[k], end[k], turn)
+        end_array = np.array(end)
+        out.append(Segment(start_array, end_array, req.segment_method(j), turn,
+                           req.segment_beta(j)))
+        start, start_array = end, end_array
     return out
 
 
