@@ -202,21 +202,21 @@ def check_waypoints(value: Any, arm: Arm, *, start: bool = False
     return tuple(out)
 
 
-#: id(prefixItems list) → per item (minimum, maximum) (the contract's schemas live as long
-#: as the module, so their ids are stable)
-_BOUNDS: dict[int, tuple[tuple[float, float], ...]] = {}
+#: id(prefixItems list) → (that list, per item (minimum, maximum)); the list is held, so
+#: its id is never another's
+_BOUNDS: dict[int, tuple[list, tuple[tuple[float, float], ...]]] = {}
 
 
 def _item_bounds(items: list[Mapping[str, Any]]) -> tuple[tuple[float, float], ...]:
     """Each pose item's closed range, read once per schema (an item with an exclusive
     bound gets an empty range: check_number decides it)."""
     found = _BOUNDS.get(id(items))
-    if found is None:
-        found = _BOUNDS[id(items)] = tuple(
+    if found is None or found[0] is not items:
+        found = _BOUNDS[id(items)] = (items, tuple(
             (math.inf, -math.inf) if "exclusiveMinimum" in it else
             (float(it.get("minimum", -math.inf)), float(it.get("maximum", math.inf)))
-            for it in items)
-    return found
+            for it in items))
+    return found[1]
 
 
 def check_waypoint_count(value: list | tuple, start: bool) -> None:
