@@ -186,8 +186,9 @@ def _block_reach(links: tuple[float, ...], poses: NDArray[np.float64], want: str
         # cos θ and sin θ from t = tan(θ/2) (Weierstrass): numpy's SIMD tan is ~15× faster
         # than cos + sin here, and the rational forms lose at most a few ulp.
         t = np.tan(0.5 * th)
-        inv = links[2] / (1.0 + t * t)
-        wx = x - (1.0 - t * t) * inv
+        tt = t * t  # t² once (the same product both times)
+        inv = links[2] / (1.0 + tt)
+        wx = x - (1.0 - tt) * inv
         wy = y - 2.0 * t * inv
     else:
         wx, wy = np.ascontiguousarray(x), np.ascontiguousarray(y)
