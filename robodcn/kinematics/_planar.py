@@ -488,18 +488,20 @@ def ik_paths_unchecked(links: tuple[float, ...], poses: NDArray[np.float64],
 
     if len(alone) < 2 or min(counts) < 2 or bounds[-1] != poses.shape[0]:
         return each()
-    edges = np.array(bounds)
-    first_down = _first_down(links, poses[edges[:-1]], reference, elbow)
-    if first_down is None or first_down.any() != first_down.all():
-        return each()
-    one, ok = _block_reach(links, poses, "down" if first_down[0] else "up")
+    if reference is None:  # every path starts on elbow: _first_down without its array
+        down = elbow == "down"
+    else:
+        first_down = _first_down(links, poses[bounds[:-1]], reference, elbow)
+        if first_down is None or first_down.any() != first_down.all():
+            return each()
+        down = bool(first_down[0])
+    one, ok = _block_reach(links, poses, "down" if down else "up")
     if ok is not None and not _all(ok):
         return each()
     rows = one[0]
     steps = _wrap_in_place(rows[:, 1:] - rows[:, :-1])
-    inner = np.ones(steps.shape[1], dtype=bool)
-    inner[edges[1:-1] - 1] = False  # the step from one path's end to the next one's start
-    if not _one_branch_holds(rows[1], steps[:, inner]):
+    # the step from one path's end to the next one's start is no step of a path
+    if not _one_branch_holds(rows[1], steps, skip=[b - 1 for b in bounds[1:-1]]):
         return each()  # each path alone holds or not: its own result either way
     target = _target(len(links), reference, limits)
     return [(_unwrapped(rows[:, a:b], steps[:, a:b - 1], target), None) for a, b in alone]
@@ -557,7 +559,8 @@ def _unwrapped(rows: NDArray[np.float64], steps: NDArray[np.float64],
     return out.T.copy()  # (n, k), C order
 
 
-def _one_branch_holds(q2: NDArray[np.float64], steps: NDArray[np.float64]) -> bool:
+def _one_branch_holds(q2: NDArray[np.float64], steps: NDArray[np.float64],
+                      skip: Sequence[int] = ()) -> bool:
     """Whether the nearest-branch rule keeps the path on the branch of ``q2`` (n,) (atan2
     outputs in [−π, π]) with wrapped joint steps ``steps`` (k, n − 1) along it.
 
@@ -566,6 +569,7 @@ def _one_branch_holds(q2: NDArray[np.float64], steps: NDArray[np.float64]) -> bo
     next sample is then at least 2m − δ from the path's sample, δ the largest step, which
     is farther than the own branch's next sample (≤ δ) whenever δ < m. Half of m is asked
     for, so rounding never decides; SINGULAR_TOLERANCE is far below any such m.
+    ``skip``: steps (columns) left out of δ, the joins of stacked paths.
     """
     if steps.shape[1] == 0:
         return True
@@ -582,5 +586,8 @@ def _one_branch_holds(q2: NDArray[np.float64], steps: NDArray[np.float64]) -> bo
         a_lo, a_hi = float(np.minimum.reduce(a)), float(np.maximum.reduce(a))
     margin = min(a_lo, math.pi - a_hi)
     sq = steps * steps
-    step2 = float(np.maximum.reduce(np.add.reduce(sq, axis=0)))
+    total = np.add.reduce(sq, axis=0)
+    if len(skip):  # sums of squares are ≥ 0: a skipped step set to 0 leaves the others' max
+        total[skip] = 0.0
+    step2 = float(np.maximum.reduce(total))
     return margin > 2.0 * SINGULAR_TOLERANCE and step2 <= 0.25 * margin * margin
