@@ -8,6 +8,7 @@ which kind of arm they time.
 
 from __future__ import annotations
 
+import functools
 import itertools
 import math
 from collections.abc import Sequence
@@ -127,16 +128,25 @@ class Piece:
                ) -> tuple[NDArray[np.float64], NDArray[np.float64] | None, int | None]:
         """Poses and joints (n + 1 rows) at τ_i = i/n, and None; or poses, None and the
         local index of the first pose out of reach."""
-        tau = np.arange(n + 1) / n
         if self.path is None:
-            q = self.q_from + np.outer(timing.profile_unchecked("quintic", tau),
+            q = self.q_from + np.outer(_law_grid("quintic", n, timing.DEFAULT_ACCEL_FRACTION),
                                        self.q_to - self.q_from)
             return pose_of(arm, q), q, None
-        poses = self.path(timing.profile_unchecked(self.profile, tau, self.accel_fraction))
+        poses = self.path(_law_grid(self.profile, n, self.accel_fraction))
         q, bad = joints_of(arm, poses, reference, self.elbow)
         if q is not None and arm.dof == 2:
             poses[:, 2] = q[:, 0] + q[:, 1]  # θ plays no part: report the arm's own (FK)
         return poses, q, bad
+
+
+@functools.lru_cache(maxsize=64)
+def _law_grid(profile: str, n: int, accel_fraction: float) -> NDArray[np.float64]:
+    """The uniform law's path parameters u_i = profile(i/n), i = 0..n (timing.
+    profile_unchecked), read-only: the auto search's estimate samples every piece at
+    COARSE periods, each plan anew."""
+    u = timing.profile_unchecked(profile, np.arange(n + 1) / n, accel_fraction)
+    u.setflags(write=False)
+    return u
 
 
 def pose_width(arm: Arm) -> int:
