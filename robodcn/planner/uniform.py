@@ -45,7 +45,6 @@ from robodcn.planner.samples import Sampled
 def _pieces(req: PlanRequest) -> tuple[list[Piece], NDArray | None]:
     arm = req.arm
     start = None if req.start_joints is None else np.asarray(req.start_joints)
-    limits = [(j.min_angle, j.max_angle) for j in arm.joints]
     segments = segments_of(req)
     if req.blend:
         paths = [blended_path(req, segments, start)]
@@ -54,6 +53,7 @@ def _pieces(req: PlanRequest) -> tuple[list[Piece], NDArray | None]:
     pieces = [Piece(path=p, profile=req.profile, elbow=req.branch) for p in paths]
     if start is None:
         return pieces, start
+    limits = [(j.min_angle, j.max_angle) for j in arm.joints]
     first = within_limits(first_joints(arm, segments[0].start, start, req.branch), limits)
     # Half the finest servo step: closer than that the servos cannot tell the difference.
     tolerance = min(math.pi / j.servo.ticks_per_turn for j in arm.joints)
