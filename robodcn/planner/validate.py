@@ -139,7 +139,8 @@ def torque_limits(req: PlanRequest) -> TorqueLimits | None:
     (``payload_kg``, default the arm's), None when no joint sets one."""
     if not arm_arrays.arrays_of(req.arm).torque_limited:
         return None
-    return TorqueLimits.of(req.arm, getattr(req, "payload_kg", None))
+    # TorqueLimits.of builds the arm's rigid-body model (~40 µs): once per arm and payload
+    return arm_arrays.limits_of(req.arm, getattr(req, "payload_kg", None)).torque
 
 
 def sample_torques(torque: TorqueLimits, joints: NDArray, rate: float,
