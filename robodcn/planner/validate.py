@@ -144,23 +144,26 @@ def torque_limits(req: PlanRequest) -> TorqueLimits | None:
 
 
 def sample_torques(torque: TorqueLimits, joints: NDArray, rate: float,
-                   history: NDArray | None = None) -> tuple[NDArray, NDArray]:
+                   history: NDArray | None = None, *, gravity: bool = True
+                   ) -> tuple[NDArray, NDArray | None]:
     """(τ, g), each (n, k): the torque of every sample's central differences (module doc),
     row r charged to sample min(r, n − 1) as :func:`differences` charges the acceleration
-    (the larger |τ| of the rows past the end), and the gravity torque of the same rows."""
+    (the larger |τ| of the rows past the end), and the gravity torque of the same rows
+    (``gravity=False``: None, one inverse-dynamics pass instead of two)."""
     pre = np.repeat(joints[:1], 2, axis=0) if history is None else history[-2:]
     padded = np.concatenate([pre, joints, joints[-1:]])
     mid = padded[1:-1]
     qd = (padded[2:] - padded[:-2]) * (0.5 * rate)
     qdd = (padded[2:] - 2.0 * mid + padded[:-2]) * (rate * rate)
     tau = torque.torques(mid, qd, qdd)
-    grav = torque.torques(mid, np.zeros_like(mid), np.zeros_like(mid))
+    grav = torque.torques(mid, np.zeros_like(mid), np.zeros_like(mid)) if gravity else None
     n = joints.shape[0]
     if tau.shape[0] > n:  # rows past the end belong to the last sample
         last = np.argmax(np.abs(tau[n - 1:]), axis=0)
         cols = np.arange(tau.shape[1])
         tau = np.concatenate([tau[:n - 1], tau[n - 1:][last, cols][None]])
-        grav = np.concatenate([grav[:n - 1], grav[n - 1:][last, cols][None]])
+        if grav is not None:
+            grav = np.concatenate([grav[:n - 1], grav[n - 1:][last, cols][None]])
     return tau, grav
 
 
@@ -282,9 +285,10 @@ def check(req: PlanRequest, poses: NDArray, joints: NDArray, *, dynamics: bool =
     tmin, tmax = consts.tmin, consts.tmax
     slack = 1.0 + LIMIT_SLACK
     torque = torque_limits(req) if dynamics and n > 1 else None
-    tau = grav = None
+    tau = None
     if torque is not None:
-        tau, grav = sample_torques(torque, joints, rate, history)
+        # the gravity torques only name a torque violation's field (below): not asked here
+        tau, _ = sample_torques(torque, joints, rate, history, gravity=False)
     # the fast path compares per-joint extremes in plain floats: the limits as lists
     b_lo, b_hi, b_tmin, b_tmax, b_v, b_a, b_jk = consts.bounds
     if (history is None or not dynamics) and _fine(
@@ -339,8 +343,12 @@ def check(req: PlanRequest, poses: NDArray, joints: NDArray, *, dynamics: bool =
         segment = (int(segment_of[i]), int(segment_of[i]) + 1)
     field = "duration" if quantity in ("velocity", "acceleration", "jerk", "torque") else (
         f"waypoints[{waypoint}]" if waypoint is not None else "waypoints")
-    if quantity == "torque" and grav is not None and abs(float(grav[i, j])) > limit:
-        field = "payload_kg"  # gravity alone overloads the joint there: no duration helps
+    if quantity == "torque":
+        assert torque is not None
+        _, grav = sample_torques(torque, joints, rate, history)
+        assert grav is not None
+        if abs(float(grav[i, j])) > limit:
+            field = "payload_kg"  # gravity alone overloads the joint there: no duration helps
     if segment is None and segment_of is not None and quantity in ("position", "ticks") \
             and req.start_joints is not None:
         field = "start_joints"
