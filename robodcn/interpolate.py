@@ -15,6 +15,7 @@ Conventions: metres and radians; the output θ is unwrapped continuously from st
 
 from __future__ import annotations
 
+import functools
 from typing import Literal
 
 import numpy as np
@@ -61,6 +62,14 @@ def _pose(name: str, value: ArrayLike) -> NDArray[np.float64]:
     return pose
 
 
+@functools.lru_cache(maxsize=256)
+def _pole_factor(chord: complex, phi: float) -> complex:
+    """v = (c_q − c_p)·e^{−iφ} / sin φ of :func:`sclerp_positions`, once per segment: a
+    planner samples one segment several times (its search's candidate counts), and the
+    two numpy scalar transcendentals cost more than the rest of a short evaluation."""
+    return chord * np.exp(-1j * phi) / np.sin(phi)
+
+
 def sclerp_positions(c_start: complex, c_end: complex, delta: float, s: NDArray[np.float64],
                      out_x: NDArray[np.float64], out_y: NDArray[np.float64]) -> None:
     """Positions of planar ScLERP in closed form, written into ``out_x``, ``out_y``.
@@ -82,7 +91,7 @@ def sclerp_positions(c_start: complex, c_end: complex, delta: float, s: NDArray[
         np.multiply(s, chord.real, out=out_x)
         np.multiply(s, chord.imag, out=out_y)
     else:
-        v = chord * np.exp(-1j * phi) / np.sin(phi)
+        v = _pole_factor(chord, phi)
         tau = np.multiply(s, phi)
         np.tan(tau, out=tau)
         p = np.multiply(tau, tau)
