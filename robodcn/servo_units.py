@@ -102,9 +102,17 @@ def ticks_unchecked(angles: NDArray[np.float64], servos: Sequence[ServoSpec],
         whole += offset
         return whole
     out = np.empty(angles.shape, dtype=np.int64)
+    # round_half_away per column into two buffers made once (the same operations): fresh
+    # temporaries of a long plan's columns cost more than the arithmetic
+    x = np.empty(angles.shape[0])
+    r = np.empty(angles.shape[0])
     for j in range(angles.shape[1]):
-        x = angles[:, j] * scale[j]
-        out[:, j] = round_half_away(x)
+        np.multiply(angles[:, j], scale[j], out=x)
+        np.abs(x, out=r)
+        r += 0.5
+        np.floor(r, out=r)
+        np.copysign(r, x, out=r)
+        out[:, j] = r
         out[:, j] += offset[j]
     return out
 

@@ -1,4 +1,4 @@
-"""Planar serial-arm kinematics: vectorised FK, analytic IK (2R, 3R), workspace (the
+"""Planar serial-arm kinematics: analytic IK (2R, 3R), workspace (FK: :mod:`._forward`, the
 Jacobian: :mod:`._jacobian`).
 
 Conventions (shared/design.md §4): joint i turns about the z axis; φ_i = q_1 + … + q_i is the
@@ -98,55 +98,6 @@ def reachable(links: Sequence[float], poses: ArrayLike) -> NDArray[np.bool_]:
     return (r >= inner - REACH_TOLERANCE) & (r <= outer + REACH_TOLERANCE)
 
 
-#: From this many rows on, :func:`fk` takes cos and sin from tan(φ/2) (more numpy calls, each
-#: cheaper per row).
-FK_TAN_ROWS = 256
-
-
-def fk(links: Sequence[float], q: ArrayLike) -> NDArray[np.float64]:
-    """Forward kinematics: poses (n, 3) = (Σ l_i cos φ_i, Σ l_i sin φ_i, φ_k) for q (n, k)."""
-    links = _links(links)
-    return fk_unchecked(links, _joints(q, len(links)))
-
-
-def fk_unchecked(links: tuple[float, ...], q: NDArray[np.float64]) -> NDArray[np.float64]:
-    """:func:`fk` without the argument checks, for callers that validated them (the
-    planner): ``links`` a tuple of 2 or 3 positive floats, ``q`` a finite float64 (n, k)
-    array with k = len(links)."""
-    n, k = q.shape
-    if n < FK_TAN_ROWS:  # few rows: fewer numpy calls win
-        phi = np.add.accumulate(q, axis=1)  # np.cumsum's own ufunc, without its wrappers
-        out = np.empty((n, 3))
-        lengths = np.asarray(links)
-        out[:, 0] = np.cos(phi) @ lengths
-        out[:, 1] = np.sin(phi) @ lengths
-        out[:, 2] = phi[:, -1]
-        return out
-    phi = np.empty((k, n))  # joint rows: every step below is a contiguous 1-D ufunc
-    np.cumsum(q.T, axis=0, out=phi)
-    # cos φ and sin φ from t = tan(φ/2) (Weierstrass), as in _block: numpy's SIMD tan is
-    # ~10× faster than cos + sin, and the rational forms are within a few ulp of them.
-    t = np.multiply(phi, 0.5)
-    np.tan(t, out=t)
-    inv = t * t
-    inv += 1.0
-    np.reciprocal(inv, out=inv)
-    c = 2.0 * inv  # (1 − t²)/(1 + t²) = 2/(1 + t²) − 1
-    c -= 1.0
-    t *= inv
-    t *= 2.0  # sin φ = 2t/(1 + t²)
-    out = np.empty((n, 3))
-    x = c[0] * links[0]
-    y = t[0] * links[0]
-    for j in range(1, k):
-        x += c[j] * links[j]
-        y += t[j] * links[j]
-    out[:, 0] = x
-    out[:, 1] = y
-    out[:, 2] = phi[-1]
-    return out
-
-
 def _columns(links: tuple[float, ...], poses: NDArray[np.float64], want: str = "both"
              ) -> tuple[list[NDArray], list[NDArray], NDArray[np.bool_]]:
     """Both IK branches as per-joint 1-D columns (rows of :func:`_block`), angles not
@@ -181,36 +132,53 @@ def _block_reach(links: tuple[float, ...], poses: NDArray[np.float64], want: str
     k = len(links)
     x = poses[:, 0]
     y = poses[:, 1]
+    # each step is the plain expression's IEEE operation on the same operands (a + b and
+    # a·b commute exactly), written into temporaries already made: a long path's fresh
+    # temporaries cost more than the arithmetic
     if k == 3:
         th = poses[:, 2]
         # cos θ and sin θ from t = tan(θ/2) (Weierstrass): numpy's SIMD tan is ~15× faster
         # than cos + sin here, and the rational forms lose at most a few ulp.
-        t = np.tan(0.5 * th)
-        tt = t * t  # t² once (the same product both times)
-        inv = links[2] / (1.0 + tt)
-        wx = x - (1.0 - tt) * inv
-        wy = y - 2.0 * t * inv
+        t = np.multiply(th, 0.5)
+        np.tan(t, out=t)
+        tt = t * t
+        inv = tt + 1.0
+        np.divide(links[2], inv, out=inv)  # l3 / (1 + t²)
+        wx = np.subtract(1.0, tt, out=tt)
+        wx *= inv
+        np.subtract(x, wx, out=wx)  # x − (1 − t²)·inv
+        wy = np.multiply(t, 2.0, out=t)
+        wy *= inv
+        np.subtract(y, wy, out=wy)  # y − 2t·inv
+        r2 = inv  # free from here
+        np.multiply(wx, wx, out=r2)
     else:
         wx, wy = np.ascontiguousarray(x), np.ascontiguousarray(y)
-    r2 = wx * wx + wy * wy
+        r2 = wx * wx
+    b = wy * wy
+    r2 += b
     inner, outer = abs(l1 - l2), l1 + l2
     r2_lo, r2_hi = max(inner - REACH_TOLERANCE, 0.0) ** 2, (outer + REACH_TOLERANCE) ** 2
     ok = None
     if not r2_lo <= float(np.minimum.reduce(r2)) or not float(np.maximum.reduce(r2)) <= r2_hi:
         ok = (r2 >= r2_lo) & (r2 <= r2_hi)
-    c = (r2 - (l1 * l1 + l2 * l2)) * (1.0 / (2.0 * l1 * l2))
+    c = np.subtract(r2, l1 * l1 + l2 * l2, out=r2)
+    c *= 1.0 / (2.0 * l1 * l2)  # (r² − l1² − l2²)/(2·l1·l2)
     np.minimum(np.maximum(c, -1.0, out=c), 1.0, out=c)  # np.clip, without its wrapper
-    s = np.sqrt(1.0 - c * c)
+    s = np.multiply(c, c, out=b)
+    np.subtract(1.0, s, out=s)
+    np.sqrt(s, out=s)  # √(1 − c²)
     if ok is not None and not _all(ok):
         s[~ok] = np.nan
     q2 = np.arctan2(s, c)
-    a = l1 + l2 * c
-    b = l2 * s
+    a = np.multiply(c, l2, out=c)
+    a += l1  # l1 + l2·c
+    b = np.multiply(s, l2, out=s)  # l2·s
     # q1 = arg(w) − arg(a ± ib): branch "up" has q2 = −|q2|, so subtracts arg(a − ib).
     re_ab = wx * a
-    im_ab = wy * a
+    im_ab = np.multiply(wy, a, out=a)
     re_bb = wy * b
-    im_bb = wx * b
+    im_bb = np.multiply(wx, b, out=b)
     block = np.empty((1 if want != "both" else 2, k, poses.shape[0]))
     if want != "down":
         up = block[0]
