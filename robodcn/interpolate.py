@@ -98,11 +98,12 @@ def sclerp_positions(c_start: complex, c_end: complex, delta: float, s: NDArray[
         p += 1.0
         np.divide(tau, p, out=p)  # P
         q = np.multiply(tau, p, out=tau)  # Q
-        # (P + iQ)·v
+        # (P + iQ)·v: x = P·v_re − Q·v_im, y = P·v_im + Q·v_re, the products written into
+        # the buffers P and Q once each is read for the last time
         np.multiply(p, v.real, out=out_x)
-        out_x -= q * v.imag
         np.multiply(p, v.imag, out=out_y)
-        out_y += q * v.real
+        out_x -= np.multiply(q, v.imag, out=p)
+        out_y += np.multiply(q, v.real, out=q)
     out_x += c_start.real
     out_y += c_start.imag
 

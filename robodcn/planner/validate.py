@@ -185,11 +185,11 @@ def _fine(joints: NDArray, ticks: NDArray, lo: NDArray, hi: NDArray, tmin: NDArr
         if limits is None or n < 2:
             continue
         v, a, jk = limits
-        d = np.diff(q)
+        d = q[1:] - q[:-1]  # np.diff's own subtraction, without its wrapper
         if max(d.max(), -d.min()) * rate > v[j] * slack:
             return False
         # At rest on both sides: the end velocities are accelerations from/to zero.
-        d2 = np.diff(d) if n > 2 else np.empty(0)
+        d2 = d[1:] - d[:-1] if n > 2 else np.empty(0)
         step = max(abs(d[0]), abs(d[-1]), d2.max(initial=0.0), -d2.min(initial=0.0))
         if step * rate * rate > a[j] * slack:
             return False
