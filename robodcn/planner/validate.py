@@ -167,20 +167,39 @@ def sample_torques(torque: TorqueLimits, joints: NDArray, rate: float,
     return tau, grav
 
 
+def _tick_of(x: float, scale: float, offset: int) -> int:
+    """servo_units.ticks_unchecked of one angle in plain floats: offset + round half away
+    from zero of x·scale (the same product, floor(|y| + 0.5) and sign)."""
+    y = x * scale
+    return offset + int(math.copysign(math.floor(abs(y) + 0.5), y))
+
+
 def _fine(joints: NDArray, ticks: NDArray, lo: NDArray, hi: NDArray, tmin: NDArray,
           tmax: NDArray, limits: tuple[NDArray, NDArray, NDArray] | None, rate: float,
-          slack: float) -> bool:
+          slack: float, columns: tuple[list[float], list[int]] | None = None) -> bool:
     """Whether every check passes, from per-joint extremes on contiguous columns (the fast
     path: per-sample arrays are built only when something fails); a short plan's whole
-    arrays at once (:data:`FINE_BLOCK_ROWS`), the same extremes."""
+    arrays at once (:data:`FINE_BLOCK_ROWS`), the same extremes. ``columns``: the tick
+    conversion's (scale, offset) when ``ticks`` are its output: a column's tick extremes
+    are then the ticks of its angle extremes (the conversion is monotone, rising with a
+    positive scale, falling with a negative one), no pass over the ticks."""
     n = joints.shape[0]
     if n < FINE_BLOCK_ROWS:
         return _fine_block(joints, ticks, lo, hi, tmin, tmax, limits, rate, slack)
     for j in range(joints.shape[1]):
         q = np.ascontiguousarray(joints[:, j])
-        tick = np.ascontiguousarray(ticks[:, j])
-        if not (lo[j] <= q.min() and q.max() <= hi[j] and tmin[j] <= tick.min()
-                and tick.max() <= tmax[j]):
+        q_lo, q_hi = float(q.min()), float(q.max())
+        if not (lo[j] <= q_lo and q_hi <= hi[j]):
+            return False
+        if columns is None:
+            tick = np.ascontiguousarray(ticks[:, j])
+            t_lo, t_hi = tick.min(), tick.max()
+        else:
+            scale, offset = columns[0][j], columns[1][j]
+            t_lo, t_hi = (_tick_of(q_lo, scale, offset), _tick_of(q_hi, scale, offset))
+            if scale < 0.0:
+                t_lo, t_hi = t_hi, t_lo
+        if not (tmin[j] <= t_lo and t_hi <= tmax[j]):
             return False
         if limits is None or n < 2:
             continue
@@ -280,8 +299,10 @@ def check(req: PlanRequest, poses: NDArray, joints: NDArray, *, dynamics: bool =
     # the arm's constant arrays, built once per arm (planner.arm_arrays)
     consts = arm_arrays.arrays_of(arm)
     lo, hi, v, a, jk = consts.lo, consts.hi, consts.v, consts.a, consts.jerk
+    columns = None
     if ticks is None:
         ticks = servo_units.ticks_unchecked(joints, (), (consts.tick_scale, consts.tick_offset))
+        columns = (consts.tick_scale.tolist(), consts.tick_offset.tolist())
     tmin, tmax = consts.tmin, consts.tmax
     slack = 1.0 + LIMIT_SLACK
     torque = torque_limits(req) if dynamics and n > 1 else None
@@ -293,7 +314,7 @@ def check(req: PlanRequest, poses: NDArray, joints: NDArray, *, dynamics: bool =
     b_lo, b_hi, b_tmin, b_tmax, b_v, b_a, b_jk = consts.bounds
     if (history is None or not dynamics) and _fine(
             joints, ticks, b_lo, b_hi, b_tmin, b_tmax, (b_v, b_a, b_jk) if dynamics else None,
-            rate, slack) \
+            rate, slack, columns) \
             and (tau is None or (np.abs(tau) <= torque.tau * slack).all()):
         return ticks, None
     rates = []
