@@ -15,6 +15,7 @@ Conventions: metres and radians; the output θ is unwrapped continuously from st
 
 from __future__ import annotations
 
+import functools
 from typing import Literal
 
 import numpy as np
@@ -39,7 +40,9 @@ def turn_angle(theta_start: float, theta_end: float, turn: str = "shortest") -> 
     "cw" → (−2π, 0]. Angles within 1e-12 rad of a whole turn count as no rotation.
     """
     _checks.one_of("turn", turn, dcn.TURNS)
-    delta = float(np.remainder(theta_end - theta_start, _TWO_PI))  # [0, 2π)
+    # [0, 2π): Python's float % is numpy.remainder's rule (fmod, moved into the divisor's
+    # sign), the same bits without a ufunc call on a scalar
+    delta = float(theta_end - theta_start) % _TWO_PI
     if delta < _HALF_TURN_TOLERANCE or delta > _TWO_PI - _HALF_TURN_TOLERANCE:
         delta = 0.0  # no rotation, also for "ccw"/"cw": never a spurious full turn
     if turn == "ccw":
@@ -57,6 +60,14 @@ def _pose(name: str, value: ArrayLike) -> NDArray[np.float64]:
         raise InputError(f"{name} must be a pose (x, y, θ) of shape (3,), got shape "
                                  f"{pose.shape}", field=name, value=value)
     return pose
+
+
+@functools.lru_cache(maxsize=256)
+def _pole_factor(chord: complex, phi: float) -> complex:
+    """v = (c_q − c_p)·e^{−iφ} / sin φ of :func:`sclerp_positions`, once per segment: a
+    planner samples one segment several times (its search's candidate counts), and the
+    two numpy scalar transcendentals cost more than the rest of a short evaluation."""
+    return chord * np.exp(-1j * phi) / np.sin(phi)
 
 
 def sclerp_positions(c_start: complex, c_end: complex, delta: float, s: NDArray[np.float64],
@@ -80,18 +91,19 @@ def sclerp_positions(c_start: complex, c_end: complex, delta: float, s: NDArray[
         np.multiply(s, chord.real, out=out_x)
         np.multiply(s, chord.imag, out=out_y)
     else:
-        v = chord * np.exp(-1j * phi) / np.sin(phi)
+        v = _pole_factor(chord, phi)
         tau = np.multiply(s, phi)
         np.tan(tau, out=tau)
         p = np.multiply(tau, tau)
         p += 1.0
         np.divide(tau, p, out=p)  # P
         q = np.multiply(tau, p, out=tau)  # Q
-        # (P + iQ)·v
+        # (P + iQ)·v: x = P·v_re − Q·v_im, y = P·v_im + Q·v_re, the products written into
+        # the buffers P and Q once each is read for the last time
         np.multiply(p, v.real, out=out_x)
-        out_x -= q * v.imag
         np.multiply(p, v.imag, out=out_y)
-        out_y += q * v.real
+        out_x -= np.multiply(q, v.imag, out=p)
+        out_y += np.multiply(q, v.real, out=q)
     out_x += c_start.real
     out_y += c_start.imag
 

@@ -73,24 +73,47 @@ def radians_to_ticks(angles: ArrayLike, servos: Sequence[ServoSpec]) -> NDArray[
 WHOLE_ROWS = 512
 
 
-def ticks_unchecked(angles: NDArray[np.float64], servos: Sequence[ServoSpec]
+def tick_columns(servos: Sequence[ServoSpec]) -> tuple[NDArray[np.float64], NDArray[np.int64]]:
+    """The servos' (direction·ticks_per_turn/2π, zero_offset) arrays (k,) that
+    :func:`ticks_unchecked` converts with."""
+    return (np.array([s.direction * s.ticks_per_turn / (2.0 * np.pi) for s in servos]),
+            np.array([s.zero_offset for s in servos], dtype=np.int64))
+
+
+def ticks_unchecked(angles: NDArray[np.float64], servos: Sequence[ServoSpec],
+                    columns: tuple[NDArray[np.float64], NDArray[np.int64]] | None = None
                     ) -> NDArray[np.int64]:
     """:func:`radians_to_ticks` for a finite (n, k) array, without the argument checks.
 
     Works one contiguous column at a time (each stays in cache), a short plan's whole array
     at once (fewer numpy calls; the same products and rounding, so the same ticks): the
-    planner's hot path.
+    planner's hot path. ``columns``: the servos' :func:`tick_columns` when the caller keeps
+    them (planner.arm_arrays; ``servos`` is then not read), else built here.
     """
+    scale, offset = tick_columns(servos) if columns is None else columns
     if angles.shape[0] < WHOLE_ROWS:
-        scale = np.array([s.direction * s.ticks_per_turn / (2.0 * np.pi) for s in servos])
-        whole = round_half_away(angles * scale).astype(np.int64)
-        whole += np.array([s.zero_offset for s in servos], dtype=np.int64)
+        # round_half_away in place (the same floor(|x| + 0.5) with x's sign)
+        x = angles * scale
+        r = np.abs(x)
+        r += 0.5
+        np.floor(r, out=r)
+        np.copysign(r, x, out=r)
+        whole = r.astype(np.int64)
+        whole += offset
         return whole
     out = np.empty(angles.shape, dtype=np.int64)
-    for j, servo in enumerate(servos):
-        x = angles[:, j] * (servo.direction * servo.ticks_per_turn / (2.0 * np.pi))
-        out[:, j] = round_half_away(x)
-        out[:, j] += servo.zero_offset
+    # round_half_away per column into two buffers made once (the same operations): fresh
+    # temporaries of a long plan's columns cost more than the arithmetic
+    x = np.empty(angles.shape[0])
+    r = np.empty(angles.shape[0])
+    for j in range(angles.shape[1]):
+        np.multiply(angles[:, j], scale[j], out=x)
+        np.abs(x, out=r)
+        r += 0.5
+        np.floor(r, out=r)
+        np.copysign(r, x, out=r)
+        out[:, j] = r
+        out[:, j] += offset[j]
     return out
 
 

@@ -125,6 +125,9 @@ def check_per_segment(name: str, value: Any, segments: int) -> Any:
     error names it (``beta[1]``), a list of the wrong length names the field.
     """
     f = field(name)
+    # the common case, one valid choice for every segment: what check_choice returns
+    if type(value) is str and value in f.choices:
+        return value
     one = f.schema["oneOf"][0]
 
     def check(path: str, v: Any) -> Any:
@@ -181,6 +184,7 @@ def check_waypoints(value: Any, arm: Arm, *, start: bool = False
     check_waypoint_count(value, start)
     items = f.schema["items"]["prefixItems"]
     width = max(sizes)
+    bounds = _item_bounds(items)
     out = []
     for i, pose in enumerate(value):
         if isinstance(pose, np.ndarray):
@@ -188,11 +192,31 @@ def check_waypoints(value: Any, arm: Arm, *, start: bool = False
         if not isinstance(pose, list | tuple) or len(pose) not in sizes:
             raise fail(f"waypoints[{i}]", f"must be {shape} (metres, radians), got "
                        f"{_show(pose)}", pose)
-        xs = [check_number(f"waypoints[{i}][{k}]", v, items[k],
+        # a float within its item's range is check_number's own answer (inf and NaN fail
+        # the comparisons); anything else is checked there, which names what is wrong
+        xs = [v if type(v) is float and bounds[k][0] <= v <= bounds[k][1] else
+              check_number(f"waypoints[{i}][{k}]", v, items[k],
                            "rad" if k == width - 1 else "m")
               for k, v in enumerate(pose)]
         out.append((*xs, *(0.0,) * (width - len(xs))))
     return tuple(out)
+
+
+#: id(prefixItems list) → (that list, per item (minimum, maximum)); the list is held, so
+#: its id is never another's
+_BOUNDS: dict[int, tuple[list, tuple[tuple[float, float], ...]]] = {}
+
+
+def _item_bounds(items: list[Mapping[str, Any]]) -> tuple[tuple[float, float], ...]:
+    """Each pose item's closed range, read once per schema (an item with an exclusive
+    bound gets an empty range: check_number decides it)."""
+    found = _BOUNDS.get(id(items))
+    if found is None or found[0] is not items:
+        found = _BOUNDS[id(items)] = (items, tuple(
+            (math.inf, -math.inf) if "exclusiveMinimum" in it else
+            (float(it.get("minimum", -math.inf)), float(it.get("maximum", math.inf)))
+            for it in items))
+    return found[1]
 
 
 def check_waypoint_count(value: list | tuple, start: bool) -> None:

@@ -10,6 +10,7 @@ keywords of :func:`robodcn.planner.plan`, the CLI options of ``plan``/``sim``/``
 
 from __future__ import annotations
 
+import functools
 from collections.abc import Mapping
 from dataclasses import dataclass
 from typing import Any
@@ -91,9 +92,10 @@ class Field:
     cli_unit: str | None = None
     required: bool = False
 
-    @property
+    @functools.cached_property
     def choices(self) -> tuple[str, ...]:
-        """The enum of a string field (or of each entry of a per-segment list)."""
+        """The enum of a string field (or of each entry of a per-segment list); found once
+        (every request checks its choice fields against it)."""
         return _enum_of(self.schema)
 
 

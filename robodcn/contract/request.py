@@ -137,27 +137,29 @@ class PlanRequest:
     payload_kg: float | None = DEFAULTS.payload_kg
 
     def __post_init__(self) -> None:
-        put = object.__setattr__
+        # frozen: the checked values go straight into the instance dict (what
+        # object.__setattr__ does for a dataclass without slots, ~15 times per request)
+        values = self.__dict__
         if not isinstance(self.arm, Arm):
             raise fail("arm", f"must be an Arm (robodcn.load_arm), got {type(self.arm)!r}",
                        self.arm)
         # a lone waypoint needs a start: checked last, once the start fields are
         wp = checks.check_waypoints(self.waypoints, self.arm, start=True)
-        put(self, "waypoints", wp)
+        values["waypoints"] = wp
         segments = max(1, len(wp) - 1)
-        put(self, "method", checks.check_per_segment("method", self.method, segments))
-        put(self, "turn", checks.check_per_segment("turn", self.turn, segments))
-        put(self, "beta", checks.check_per_segment("beta", self.beta, segments))
+        values["method"] = checks.check_per_segment("method", self.method, segments)
+        values["turn"] = checks.check_per_segment("turn", self.turn, segments)
+        values["beta"] = checks.check_per_segment("beta", self.beta, segments)
         if self.rate_hz is None:
-            put(self, "rate_hz", self.arm.bus.rate_hz)
+            values["rate_hz"] = self.arm.bus.rate_hz
         if self.payload_kg is None:
-            put(self, "payload_kg", self.arm.payload_kg)
+            values["payload_kg"] = self.arm.payload_kg
         for name in ("profile", "rate_hz", "blend", "elbow", "payload_kg"):
-            put(self, name, checks.check_field(name, getattr(self, name)))
-        put(self, "duration", checks.check_duration(self.duration, self.rate_hz, segments))
-        put(self, "start_joints", checks.check_start_joints(self.start_joints, self.arm))
+            values[name] = checks.check_field(name, values[name])
+        values["duration"] = checks.check_duration(self.duration, self.rate_hz, segments)
+        values["start_joints"] = checks.check_start_joints(self.start_joints, self.arm)
         state = checks.check_start_state(self.start_state, self.arm)
-        put(self, "start_state", None if state is None else StartState(*state))
+        values["start_state"] = None if state is None else StartState(*state)
         if self.start_state is not None:
             if self.start_joints is not None:
                 raise fail("start_state", "cannot be given with start_joints (both say where "
@@ -172,6 +174,8 @@ class PlanRequest:
     def _warn_ignored_beta(self) -> None:
         """BetaIgnoredWarning: one β ≠ 1 that no segment reads, or per-segment β ≠ 1 on
         segments whose method does not read it (``segments`` on the warning)."""
+        if type(self.beta) is float and self.beta == 1.0:
+            return  # the default: no segment has a β ≠ 1 to ignore
         ignored = [j for j in range(self.segments) if self.segment_beta(j) != 1.0
                    and self.segment_method(j) not in BETA_METHODS]
         if isinstance(self.beta, float):

@@ -3,7 +3,9 @@
 Two arm kinds, one module each:
 
 - :mod:`robodcn.kinematics._planar` — a planar 2R/3R arm in the (x, y) plane, CCW joint
-  angles, poses (x, y, θ): :func:`fk`, :func:`ik`, :func:`ik_path`, :func:`jacobian` …
+  angles, poses (x, y, θ): :func:`ik`, :func:`ik_path` …; its FK in
+  :mod:`robodcn.kinematics._forward` (:func:`fk`), its Jacobian and singularity measures in
+  :mod:`robodcn.kinematics._jacobian` (:func:`jacobian` …)
 - :mod:`robodcn.kinematics._yawed` — a base yaw turning a planar chain of offset links in a
   vertical plane (the OpenMANIPULATOR-X), servo angles with ROBOTIS's conventions, poses
   (x, y, z, pitch): :class:`Chain`, :func:`fk_yawed`, :func:`ik_yawed`, :func:`to_plane` …
@@ -11,20 +13,18 @@ Two arm kinds, one module each:
 Every function takes arrays of shape (n, ...) and never loops over samples in Python.
 """
 
+from robodcn.kinematics._forward import fk, fk_unchecked
+from robodcn.kinematics._jacobian import jacobian, manipulability, near_singular
 from robodcn.kinematics._planar import (
     ELBOWS,
     REACH_TOLERANCE,
     SINGULAR_TOLERANCE,
     choose_branches,
-    fk,
     ik,
     ik_branches,
     ik_path,
     ik_path_unchecked,
     ik_paths_unchecked,
-    jacobian,
-    manipulability,
-    near_singular,
     reachable,
     try_ik_path,
     workspace,
@@ -60,6 +60,7 @@ __all__ = [
     "Chain",
     "choose_branches",
     "fk",
+    "fk_unchecked",
     "fk_yawed",
     "from_plane",
     "ik",

@@ -1,4 +1,5 @@
-"""Planar serial-arm kinematics: vectorised FK, analytic IK (2R, 3R), Jacobian, workspace.
+"""Planar serial-arm kinematics: analytic IK (2R, 3R), workspace (FK: :mod:`._forward`, the
+Jacobian: :mod:`._jacobian`).
 
 Conventions (shared/design.md §4): joint i turns about the z axis; φ_i = q_1 + … + q_i is the
 absolute angle of link i; the tool point is Σ l_i·(cos φ_i, sin φ_i) and, for a 3-joint arm,
@@ -16,6 +17,7 @@ Every function takes arrays of shape (n, ...) and never loops over samples in Py
 
 from __future__ import annotations
 
+import functools
 import itertools
 import math
 from collections.abc import Sequence
@@ -32,6 +34,9 @@ REACH_TOLERANCE = 1e-9
 
 ELBOWS = ("up", "down")
 _TWO_PI = 2.0 * np.pi
+#: ndarray.all without its Python wrapper (numpy's _methods._all): the IK asks it of every
+#: path, ~0.4 µs a call on a small one
+_all = np.logical_and.reduce
 
 
 def _links(links: Sequence[float]) -> tuple[float, ...]:
@@ -93,49 +98,6 @@ def reachable(links: Sequence[float], poses: ArrayLike) -> NDArray[np.bool_]:
     return (r >= inner - REACH_TOLERANCE) & (r <= outer + REACH_TOLERANCE)
 
 
-#: From this many rows on, :func:`fk` takes cos and sin from tan(φ/2) (more numpy calls, each
-#: cheaper per row).
-FK_TAN_ROWS = 256
-
-
-def fk(links: Sequence[float], q: ArrayLike) -> NDArray[np.float64]:
-    """Forward kinematics: poses (n, 3) = (Σ l_i cos φ_i, Σ l_i sin φ_i, φ_k) for q (n, k)."""
-    links = _links(links)
-    q = _joints(q, len(links))
-    n, k = q.shape
-    if n < FK_TAN_ROWS:  # few rows: fewer numpy calls win
-        phi = np.cumsum(q, axis=1)
-        out = np.empty((n, 3))
-        lengths = np.asarray(links)
-        out[:, 0] = np.cos(phi) @ lengths
-        out[:, 1] = np.sin(phi) @ lengths
-        out[:, 2] = phi[:, -1]
-        return out
-    phi = np.empty((k, n))  # joint rows: every step below is a contiguous 1-D ufunc
-    np.cumsum(q.T, axis=0, out=phi)
-    # cos φ and sin φ from t = tan(φ/2) (Weierstrass), as in _block: numpy's SIMD tan is
-    # ~10× faster than cos + sin, and the rational forms are within a few ulp of them.
-    t = np.multiply(phi, 0.5)
-    np.tan(t, out=t)
-    inv = t * t
-    inv += 1.0
-    np.reciprocal(inv, out=inv)
-    c = 2.0 * inv  # (1 − t²)/(1 + t²) = 2/(1 + t²) − 1
-    c -= 1.0
-    t *= inv
-    t *= 2.0  # sin φ = 2t/(1 + t²)
-    out = np.empty((n, 3))
-    x = c[0] * links[0]
-    y = t[0] * links[0]
-    for j in range(1, k):
-        x += c[j] * links[j]
-        y += t[j] * links[j]
-    out[:, 0] = x
-    out[:, 1] = y
-    out[:, 2] = phi[-1]
-    return out
-
-
 def _columns(links: tuple[float, ...], poses: NDArray[np.float64], want: str = "both"
              ) -> tuple[list[NDArray], list[NDArray], NDArray[np.bool_]]:
     """Both IK branches as per-joint 1-D columns (rows of :func:`_block`), angles not
@@ -150,9 +112,18 @@ def _columns(links: tuple[float, ...], poses: NDArray[np.float64], want: str = "
 
 def _block(links: tuple[float, ...], poses: NDArray[np.float64], want: str = "both"
            ) -> tuple[NDArray[np.float64], NDArray[np.bool_]]:
+    """:func:`_block_reach` with ``ok`` always an array."""
+    block, ok = _block_reach(links, poses, want)
+    return block, (np.ones(poses.shape[0], dtype=bool) if ok is None else ok)
+
+
+def _block_reach(links: tuple[float, ...], poses: NDArray[np.float64], want: str = "both"
+                 ) -> tuple[NDArray[np.float64], NDArray[np.bool_] | None]:
     """Both IK branches as one array (2, k, n): [0] the elbow-up, [1] the elbow-down joint
     rows (contiguous, so every step is a fast 1-D ufunc), angles not wrapped; NaN where out
-    of reach. With ``want`` "up" or "down", (1, k, n): that branch alone.
+    of reach. With ``want`` "up" or "down", (1, k, n): that branch alone. ``ok``: whether
+    each pose is within reach, None when all are (told from the extremes of |w|², the
+    per-pose test only when one is outside or NaN).
 
     q2 = ∓atan2(√(1 − c²), c) with c = cos q2; q1 = atan2(w) ∓ atan2(l2·sin|q2|, l1 + l2·c)
     is evaluated as one atan2 of the complex product w·conj(l1 + l2c ± i·l2·sin|q2|).
@@ -161,32 +132,53 @@ def _block(links: tuple[float, ...], poses: NDArray[np.float64], want: str = "bo
     k = len(links)
     x = poses[:, 0]
     y = poses[:, 1]
+    # each step is the plain expression's IEEE operation on the same operands (a + b and
+    # a·b commute exactly), written into temporaries already made: a long path's fresh
+    # temporaries cost more than the arithmetic
     if k == 3:
         th = poses[:, 2]
         # cos θ and sin θ from t = tan(θ/2) (Weierstrass): numpy's SIMD tan is ~15× faster
         # than cos + sin here, and the rational forms lose at most a few ulp.
-        t = np.tan(0.5 * th)
-        inv = links[2] / (1.0 + t * t)
-        wx = x - (1.0 - t * t) * inv
-        wy = y - 2.0 * t * inv
+        t = np.multiply(th, 0.5)
+        np.tan(t, out=t)
+        tt = t * t
+        inv = tt + 1.0
+        np.divide(links[2], inv, out=inv)  # l3 / (1 + t²)
+        wx = np.subtract(1.0, tt, out=tt)
+        wx *= inv
+        np.subtract(x, wx, out=wx)  # x − (1 − t²)·inv
+        wy = np.multiply(t, 2.0, out=t)
+        wy *= inv
+        np.subtract(y, wy, out=wy)  # y − 2t·inv
+        r2 = inv  # free from here
+        np.multiply(wx, wx, out=r2)
     else:
         wx, wy = np.ascontiguousarray(x), np.ascontiguousarray(y)
-    r2 = wx * wx + wy * wy
+        r2 = wx * wx
+    b = wy * wy
+    r2 += b
     inner, outer = abs(l1 - l2), l1 + l2
-    ok = (r2 >= max(inner - REACH_TOLERANCE, 0.0) ** 2) & (r2 <= (outer + REACH_TOLERANCE) ** 2)
-    c = (r2 - (l1 * l1 + l2 * l2)) * (1.0 / (2.0 * l1 * l2))
+    r2_lo, r2_hi = max(inner - REACH_TOLERANCE, 0.0) ** 2, (outer + REACH_TOLERANCE) ** 2
+    ok = None
+    if not r2_lo <= float(np.minimum.reduce(r2)) or not float(np.maximum.reduce(r2)) <= r2_hi:
+        ok = (r2 >= r2_lo) & (r2 <= r2_hi)
+    c = np.subtract(r2, l1 * l1 + l2 * l2, out=r2)
+    c *= 1.0 / (2.0 * l1 * l2)  # (r² − l1² − l2²)/(2·l1·l2)
     np.minimum(np.maximum(c, -1.0, out=c), 1.0, out=c)  # np.clip, without its wrapper
-    s = np.sqrt(1.0 - c * c)
-    if not ok.all():
+    s = np.multiply(c, c, out=b)
+    np.subtract(1.0, s, out=s)
+    np.sqrt(s, out=s)  # √(1 − c²)
+    if ok is not None and not _all(ok):
         s[~ok] = np.nan
     q2 = np.arctan2(s, c)
-    a = l1 + l2 * c
-    b = l2 * s
+    a = np.multiply(c, l2, out=c)
+    a += l1  # l1 + l2·c
+    b = np.multiply(s, l2, out=s)  # l2·s
     # q1 = arg(w) − arg(a ± ib): branch "up" has q2 = −|q2|, so subtracts arg(a − ib).
     re_ab = wx * a
-    im_ab = wy * a
+    im_ab = np.multiply(wy, a, out=a)
     re_bb = wy * b
-    im_bb = wx * b
+    im_bb = np.multiply(wx, b, out=b)
     block = np.empty((1 if want != "both" else 2, k, poses.shape[0]))
     if want != "down":
         up = block[0]
@@ -249,7 +241,7 @@ def ik(links: Sequence[float], poses: ArrayLike, elbow: str = "up") -> NDArray[n
 
 
 def _raise_unreachable(links: Sequence[float], poses: ArrayLike, ok: NDArray[np.bool_]) -> None:
-    if ok.all():
+    if _all(ok):
         return
     i = int(np.argmin(ok))
     poses = np.asarray(poses, dtype=np.float64)
@@ -426,17 +418,21 @@ def ik_path_unchecked(links: tuple[float, ...], poses: NDArray[np.float64],
     n = poses.shape[0]
     if n == 0:
         return np.empty((0, k)), None
-    first_down = _first_down(links, poses[:1], reference, elbow)
-    if first_down is None:
-        return None, 0
-    one, ok = _block(links, poses, "down" if first_down[0] else "up")
-    if not ok.all():
+    if reference is None:  # _first_down's answer without its array
+        down = elbow == "down"
+    else:
+        first_down = _first_down(links, poses[:1], reference, elbow)
+        if first_down is None:
+            return None, 0
+        down = bool(first_down[0])
+    one, ok = _block_reach(links, poses, "down" if down else "up")
+    if ok is not None and not _all(ok):
         return None, int(np.argmin(ok))
     rows = one[0]
     steps = _wrap_in_place(rows[:, 1:] - rows[:, :-1])
     if not _one_branch_holds(rows[1], steps):
         block, _ = _block(links, poses)
-        rows = np.where(_choose(block, first_down[0]), block[1], block[0])
+        rows = np.where(_choose(block, down), block[1], block[0])
         steps = _wrap_in_place(rows[:, 1:] - rows[:, :-1])
     return _unwrapped(rows, steps, _target(k, reference, limits)), None
 
@@ -449,26 +445,31 @@ def ik_paths_unchecked(links: tuple[float, ...], poses: NDArray[np.float64],
     in order), each exactly as that path alone gives it; in one pass over all of them where
     they start on one branch and stay clear of singularities (a search's candidate
     samplings of one path), else path by path."""
-    edges = np.cumsum([0, *counts])
-    alone = [(int(a), int(b)) for a, b in itertools.pairwise(edges)]
+    # plain ints (numpy's cumsum of a list goes through its slow wrapper), an array where
+    # they index
+    bounds = [0, *itertools.accumulate(counts)]
+    alone = list(itertools.pairwise(bounds))
 
     def each() -> list[tuple[NDArray[np.float64] | None, int | None]]:
         return [ik_path_unchecked(links, poses[a:b], reference, elbow, limits)
                 for a, b in alone]
 
-    if len(alone) < 2 or min(counts) < 2 or edges[-1] != poses.shape[0]:
+    if len(alone) < 2 or min(counts) < 2 or bounds[-1] != poses.shape[0]:
         return each()
-    first_down = _first_down(links, poses[edges[:-1]], reference, elbow)
-    if first_down is None or first_down.any() != first_down.all():
-        return each()
-    one, ok = _block(links, poses, "down" if first_down[0] else "up")
-    if not ok.all():
+    if reference is None:  # every path starts on elbow: _first_down without its array
+        down = elbow == "down"
+    else:
+        first_down = _first_down(links, poses[bounds[:-1]], reference, elbow)
+        if first_down is None or first_down.any() != first_down.all():
+            return each()
+        down = bool(first_down[0])
+    one, ok = _block_reach(links, poses, "down" if down else "up")
+    if ok is not None and not _all(ok):
         return each()
     rows = one[0]
     steps = _wrap_in_place(rows[:, 1:] - rows[:, :-1])
-    inner = np.ones(steps.shape[1], dtype=bool)
-    inner[edges[1:-1] - 1] = False  # the step from one path's end to the next one's start
-    if not _one_branch_holds(rows[1], steps[:, inner]):
+    # the step from one path's end to the next one's start is no step of a path
+    if not _one_branch_holds(rows[1], steps, skip=[b - 1 for b in bounds[1:-1]]):
         return each()  # each path alone holds or not: its own result either way
     target = _target(len(links), reference, limits)
     return [(_unwrapped(rows[:, a:b], steps[:, a:b - 1], target), None) for a, b in alone]
@@ -482,7 +483,7 @@ def _first_down(links: tuple[float, ...], firsts: NDArray[np.float64],
     if reference is None:
         return np.full(firsts.shape[0], elbow == "down")
     block, ok = _block(links, firsts)
-    if not ok.all():
+    if not _all(ok):
         return None
     d_up, d_dn = _sq_sum(_wrap_in_place(block - reference[:, None]))
     return np.where(np.abs(d_dn - d_up) > SINGULAR_TOLERANCE ** 2, d_dn < d_up,
@@ -495,10 +496,22 @@ def _target(k: int, reference: NDArray[np.float64] | None, limits: ArrayLike | N
     the limits, else 0."""
     if reference is not None:
         return reference
+    if isinstance(limits, tuple):  # hashable: its middle found once
+        return _middle(limits)
     if limits is not None:
         middle = np.asarray(limits, dtype=np.float64)
         return (middle[:, 0] + middle[:, 1]) * 0.5  # the rows' mean, as (a + b)/2 is
     return np.zeros(k)
+
+
+@functools.lru_cache(maxsize=64)
+def _middle(limits: tuple[tuple[float, float], ...]) -> NDArray[np.float64]:
+    """:func:`_target`'s middle of a tuple of (min, max) limits (the same operations),
+    read-only."""
+    middle = np.asarray(limits, dtype=np.float64)
+    out = (middle[:, 0] + middle[:, 1]) * 0.5
+    out.setflags(write=False)
+    return out
 
 
 def _unwrapped(rows: NDArray[np.float64], steps: NDArray[np.float64],
@@ -511,12 +524,11 @@ def _unwrapped(rows: NDArray[np.float64], steps: NDArray[np.float64],
     np.add.accumulate(steps, axis=1, out=out[:, 1:])
     out[:, 1:] += rows[:, :1]
     out += (_TWO_PI * np.rint((target - out[:, 0]) / _TWO_PI))[:, None]
-    q = np.empty((rows.shape[1], rows.shape[0]))
-    q.T[...] = out
-    return q
+    return out.T.copy()  # (n, k), C order
 
 
-def _one_branch_holds(q2: NDArray[np.float64], steps: NDArray[np.float64]) -> bool:
+def _one_branch_holds(q2: NDArray[np.float64], steps: NDArray[np.float64],
+                      skip: Sequence[int] = ()) -> bool:
     """Whether the nearest-branch rule keeps the path on the branch of ``q2`` (n,) (atan2
     outputs in [−π, π]) with wrapped joint steps ``steps`` (k, n − 1) along it.
 
@@ -525,39 +537,25 @@ def _one_branch_holds(q2: NDArray[np.float64], steps: NDArray[np.float64]) -> bo
     next sample is then at least 2m − δ from the path's sample, δ the largest step, which
     is farther than the own branch's next sample (≤ δ) whenever δ < m. Half of m is asked
     for, so rounding never decides; SINGULAR_TOLERANCE is far below any such m.
+    ``skip``: steps (columns) left out of δ, the joins of stacked paths.
     """
     if steps.shape[1] == 0:
         return True
-    a = np.abs(q2)
-    margin = float(np.minimum(a, math.pi - a).min())
+    # min(|q2|, π − |q2|) over the path is min(min |q2|, π − max |q2|) (π − x falls as x
+    # rises, rounding too); |q2| is q2 or −q2 along a one-signed path (one branch's),
+    # whose extremes are then q2's own (the ufuncs' reduce: no numpy wrappers)
+    lo, hi = float(np.minimum.reduce(q2)), float(np.maximum.reduce(q2))
+    if lo >= 0.0:
+        a_lo, a_hi = lo, hi
+    elif hi <= 0.0:
+        a_lo, a_hi = -hi, -lo
+    else:
+        a = np.abs(q2)
+        a_lo, a_hi = float(np.minimum.reduce(a)), float(np.maximum.reduce(a))
+    margin = min(a_lo, math.pi - a_hi)
     sq = steps * steps
-    step2 = float(sq.sum(axis=0).max())
+    total = np.add.reduce(sq, axis=0)
+    if len(skip):  # sums of squares are ≥ 0: a skipped step set to 0 leaves the others' max
+        total[skip] = 0.0
+    step2 = float(np.maximum.reduce(total))
     return margin > 2.0 * SINGULAR_TOLERANCE and step2 <= 0.25 * margin * margin
-
-
-def jacobian(links: Sequence[float], q: ArrayLike) -> NDArray[np.float64]:
-    """Jacobian (n, 3, k) of (x, y, θ) with respect to q: ∂x/∂q_j = −Σ_{i≥j} l_i sin φ_i,
-    ∂y/∂q_j = Σ_{i≥j} l_i cos φ_i, ∂θ/∂q_j = 1."""
-    links = _links(links)
-    q = _joints(q, len(links))
-    phi = np.cumsum(q, axis=1)
-    lengths = np.asarray(links)
-    # Reverse cumulative sums give the Σ over i ≥ j.
-    jx = -np.cumsum((lengths * np.sin(phi))[:, ::-1], axis=1)[:, ::-1]
-    jy = np.cumsum((lengths * np.cos(phi))[:, ::-1], axis=1)[:, ::-1]
-    return np.stack([jx, jy, np.ones_like(q)], axis=1)
-
-
-def manipulability(links: Sequence[float], q: ArrayLike) -> NDArray[np.float64]:
-    """|det| of the wrist-position Jacobian, l1·l2·|sin q2| (n,): 0 at the straight or folded
-    arm (for 3R it is also |det J| of the full (x, y, θ) Jacobian)."""
-    links = _links(links)
-    q = _joints(q, len(links))
-    return links[0] * links[1] * np.abs(np.sin(q[:, 1]))
-
-
-def near_singular(links: Sequence[float], q: ArrayLike, tol: float = 1e-3) -> NDArray[np.bool_]:
-    """Whether each configuration is within ``tol`` of a singularity: |sin q2| < tol."""
-    links = _links(links)
-    q = _joints(q, len(links))
-    return np.abs(np.sin(q[:, 1])) < tol

@@ -35,7 +35,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from robodcn import _checks
 from robodcn.errors import InputError, UnreachableError
-from robodcn.kinematics import _planar
+from robodcn.kinematics import _forward, _planar
 from robodcn.kinematics._planar import ELBOWS, _joints, wrap
 
 #: Distance (m) from the yaw axis under which a pose counts as on it: its yaw is undefined.
@@ -145,7 +145,7 @@ def plane_fk(chain: Chain, q: ArrayLike) -> NDArray[np.float64]:
     q (n, k): r = Σ L_i cos ψ_i, z = h + Σ L_i sin ψ_i, pitch = ψ_k wrapped into [−π, π],
     ψ = α − cumsum(q)."""
     q = _joints(q, len(chain.links))
-    out = _planar.fk(chain.lengths, chain.offsets - q)
+    out = _forward.fk(chain.lengths, chain.offsets - q)
     out[:, 1] += chain.shoulder_height
     out[:, 2] = wrap(out[:, 2])
     return out

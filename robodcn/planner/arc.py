@@ -34,8 +34,11 @@ class ArcPath:
         self.segments = path.segments
         self._u, self._sigma = u, sigma
         self._u_of: Smooth | None = None
-        self.knots = np.interp(path.knots, u, sigma)
-        self.knots[0], self.knots[-1] = 0.0, 1.0
+        if path.knots.shape[0] == 2:  # no inner knot: both ends are set below anyway
+            self.knots = np.array([0.0, 1.0])
+        else:
+            self.knots = np.interp(path.knots, u, sigma)
+            self.knots[0], self.knots[-1] = 0.0, 1.0
 
     @property
     def u_of(self) -> Smooth:

@@ -32,7 +32,7 @@ from robodcn.planner.optimal import OptimalTiming
 from robodcn.planner.path import to_user
 from robodcn.planner.pieces import build_pieces
 from robodcn.planner.samples import Sampled, Timing
-from robodcn.planner.trajectory import Trajectory
+from robodcn.planner.trajectory import Trajectory, planned
 from robodcn.planner.uniform import UniformTiming
 
 
@@ -55,10 +55,11 @@ def assemble(req: PlanRequest, sampled: Sampled, ticks: NDArray[np.int64],
     elbow, switches = reach.elbow_branches(req, sampled.joints)
     if switches:
         warn_switches(switches, rate)
-    return Trajectory(t, to_user(arm, sampled.poses), sampled.joints, ticks, arm.joint_names,
-                      arm.servo_ids, rate,
-                      req.method if isinstance(req.method, str) else list(req.method),
-                      req, elbow, switches, sampled.approach, start_state)
+    # validated samples: the Trajectory's own checks need not run again (trajectory.planned)
+    return planned(t, to_user(arm, sampled.poses), sampled.joints, ticks, request=req,
+                   method=req.method if isinstance(req.method, str) else list(req.method),
+                   elbow=elbow, branch_switches=switches, approach_samples=sampled.approach,
+                   start_state=start_state)
 
 
 def run(req: PlanRequest, law: Timing) -> Trajectory:

@@ -51,7 +51,7 @@ from robodcn.contract.request import PlanRequest, StartState
 from robodcn.errors import InputError, TooLargeError, Violation
 from robodcn.path_timing import JointLimits, moving_start
 from robodcn.path_timing.moving_start import JointState, StartSegment
-from robodcn.planner import path, reach, search, validate
+from robodcn.planner import arm_arrays, path, reach, search, validate
 from robodcn.planner.arc import by_arc_length
 from robodcn.planner.path import joints_of
 from robodcn.planner.pieces import DENSE as DENSE  # re-export
@@ -124,7 +124,7 @@ def stretch_factors(req: PlanRequest, joints: NDArray, history: NDArray | None) 
     """Per sample, the uniform stretch λ that brings its finite differences within the limits:
     max(|q̇|/v, √(|q̈|/a), ∛(|q⃛|/j)) over the joints, charged as validation charges them
     (to the last sample of each difference), and spread back over the samples they span."""
-    lim = JointLimits.of(req.arm, torque=False)  # torque: below, with the request's payload
+    lim = arm_arrays.limits_of(req.arm, torque=False)  # torque: below, with the request's payload
     rate = req.rate_hz
     f = np.ones(joints.shape[0])
     ratios = []
@@ -190,7 +190,8 @@ class OptimalTiming:
     def __init__(self, req: PlanRequest, pieces: list[DensePiece], fine: bool = False
                  ) -> None:
         self.req = req
-        self.limits = JointLimits.of(req.arm, getattr(req, "payload_kg", None))
+        # built once per arm and payload (planner.arm_arrays)
+        self.limits = arm_arrays.limits_of(req.arm, getattr(req, "payload_kg", None))
         state = req.start_state
         self.start_state = state
         self.state = None if state is None else JointState(*state.arrays())

@@ -8,6 +8,8 @@ which kind of arm they time.
 
 from __future__ import annotations
 
+import functools
+import itertools
 import math
 from collections.abc import Sequence
 from typing import NamedTuple
@@ -20,7 +22,7 @@ from robodcn.config import Arm
 from robodcn.contract.request import PlanRequest
 from robodcn.interpolate import interpolate_unchecked, turn_angle
 from robodcn.path_timing.limits import JointLimits
-from robodcn.planner import yawed
+from robodcn.planner import arm_arrays, yawed
 
 #: Samples of the coarse uniform grid used for estimates and path shaping.
 COARSE = 128
@@ -108,14 +110,14 @@ class Piece:
         tau = np.concatenate([np.arange(n + 1) / n for n in counts])
         # one segment: its poses are the interpolation at each parameter, in any order
         poses = self.path(timing.profile_unchecked(self.profile, tau, self.accel_fraction))
-        limits = [(j.min_angle, j.max_angle) for j in arm.joints]
+        consts = arm_arrays.arrays_of(arm)
         ref = None if reference is None else np.asarray(reference, dtype=np.float64)
         rows = [n + 1 for n in counts]
-        solved = kinematics.ik_paths_unchecked(tuple(float(v) for v in arm.links), poses,
-                                               rows, ref, self.elbow, limits)
+        solved = kinematics.ik_paths_unchecked(consts.links, poses, rows, ref, self.elbow,
+                                               consts.angle_limits)
         out = []
-        for (q, bad), a, b in zip(solved, np.cumsum([0, *rows[:-1]]), np.cumsum(rows),
-                                  strict=True):
+        ends = list(itertools.accumulate(rows))  # plain ints: numpy's cumsum of a list is slow
+        for (q, bad), a, b in zip(solved, [0, *ends[:-1]], ends, strict=True):
             p = poses[a:b]
             if q is not None and arm.dof == 2:
                 p[:, 2] = q[:, 0] + q[:, 1]  # θ plays no part: report the arm's own (FK)
@@ -126,16 +128,25 @@ class Piece:
                ) -> tuple[NDArray[np.float64], NDArray[np.float64] | None, int | None]:
         """Poses and joints (n + 1 rows) at τ_i = i/n, and None; or poses, None and the
         local index of the first pose out of reach."""
-        tau = np.arange(n + 1) / n
         if self.path is None:
-            q = self.q_from + np.outer(timing.profile_unchecked("quintic", tau),
+            q = self.q_from + np.outer(_law_grid("quintic", n, timing.DEFAULT_ACCEL_FRACTION),
                                        self.q_to - self.q_from)
             return pose_of(arm, q), q, None
-        poses = self.path(timing.profile_unchecked(self.profile, tau, self.accel_fraction))
+        poses = self.path(_law_grid(self.profile, n, self.accel_fraction))
         q, bad = joints_of(arm, poses, reference, self.elbow)
         if q is not None and arm.dof == 2:
             poses[:, 2] = q[:, 0] + q[:, 1]  # θ plays no part: report the arm's own (FK)
         return poses, q, bad
+
+
+@functools.lru_cache(maxsize=64)
+def _law_grid(profile: str, n: int, accel_fraction: float) -> NDArray[np.float64]:
+    """The uniform law's path parameters u_i = profile(i/n), i = 0..n (timing.
+    profile_unchecked), read-only: the auto search's estimate samples every piece at
+    COARSE periods, each plan anew."""
+    u = timing.profile_unchecked(profile, np.arange(n + 1) / n, accel_fraction)
+    u.setflags(write=False)
+    return u
 
 
 def pose_width(arm: Arm) -> int:
@@ -152,7 +163,9 @@ def pose_of(arm: Arm, q: NDArray[np.float64]) -> NDArray[np.float64]:
     """Path poses (n, 3|4) of joints q (n, k): planar FK, or a yawed arm's plane poses."""
     if arm.yawed:
         return yawed.plane_pose_of(arm, q)
-    return kinematics.fk(arm.links, q)
+    # the planner's joints are its own (finite, (n, k)): fk's argument checks skipped
+    return kinematics.fk_unchecked(arm_arrays.arrays_of(arm).links,
+                                   np.asarray(q, dtype=np.float64))
 
 
 def to_user(arm: Arm, poses: NDArray[np.float64]) -> NDArray[np.float64]:
@@ -181,7 +194,7 @@ def _ik(arm: Arm, poses: NDArray[np.float64], reference: NDArray | None, elbow: 
         return yawed.plane_joints(arm, poses, reference, elbow, limits)
     # the request is validated: the links, the path's poses and the reference are checked
     ref = None if reference is None else np.asarray(reference, dtype=np.float64)
-    return kinematics.ik_path_unchecked(tuple(float(v) for v in arm.links), poses, ref, elbow,
+    return kinematics.ik_path_unchecked(arm_arrays.arrays_of(arm).links, poses, ref, elbow,
                                         limits)
 
 
@@ -191,8 +204,7 @@ def joints_of(arm: Arm, poses: NDArray[np.float64], reference: NDArray | None, e
     :func:`robodcn.planner.yawed.plane_joints`): the first sample on ``elbow`` (or nearest
     ``reference``), each later one on the branch nearest the previous sample; or (None,
     first pose out of reach)."""
-    limits = [(j.min_angle, j.max_angle) for j in arm.joints]
-    return _ik(arm, poses, reference, elbow, limits)
+    return _ik(arm, poses, reference, elbow, arm_arrays.arrays_of(arm).angle_limits)
 
 
 def first_joints(arm: Arm, pose: NDArray[np.float64], reference: NDArray | None, elbow: str
@@ -270,16 +282,21 @@ def segments_of(req: PlanRequest) -> list[Segment]:
     On a position-only (2-joint) arm θ plays no part: every θ is 0, so each segment is the
     straight-line position interpolation whatever the method (no rotation to screw about).
     """
-    wp = plan_waypoints(req)
+    # the chaining in plain floats (the same sums; numpy scalars cost more on a few poses),
+    # one array per waypoint, each segment's end the next one's start
+    rows = plan_waypoints(req).tolist()
     k = angle_column(req.arm)
     out = []
-    start = wp[0].copy()
+    start = rows[0]
+    start_array = np.array(start)
     for j in range(req.segments):
         turn = req.segment_turn(j)
-        end = wp[j + 1].copy()
-        end[k] = start[k] + turn_angle(start[k], wp[j + 1, k], turn)
-        out.append(Segment(start, end, req.segment_method(j), turn, req.segment_beta(j)))
-        start = end
+        end = rows[j + 1]
+        end[k] = start[k] + turn_angle(start[k], end[k], turn)
+        end_array = np.array(end)
+        out.append(Segment(start_array, end_array, req.segment_method(j), turn,
+                           req.segment_beta(j)))
+        start, start_array = end, end_array
     return out
 
 

@@ -24,6 +24,7 @@ from robodcn.contract.request import PlanRequest
 from robodcn.interpolate import turn_angle
 from robodcn.path_timing import PathTiming
 from robodcn.path_timing.arclength import Smooth
+from robodcn.planner import arm_arrays
 from robodcn.planner.path import (
     Path,
     Segment,
@@ -58,8 +59,8 @@ DENSE_RATE_HZ = 250.0
 def dense_per_segment(req: PlanRequest, segments: int, fine: bool = False) -> int:
     """IK samples per segment the optimal law of ``req`` is timed on, on a path of
     ``segments`` segments (the constants above)."""
-    # JointLimits.jerk_limited, read off the joints without building the limit arrays
-    if any(jt.max_jerk is not None for jt in req.arm.joints):
+    # JointLimits.jerk_limited, read off the arm's arrays built once (planner.arm_arrays)
+    if arm_arrays.arrays_of(req.arm).jerk_limited:
         dense = DENSE_JERK
     elif fine:
         dense = min(DENSE_JERK, math.ceil(DENSE * max(1.0, req.rate_hz / DENSE_RATE_HZ)))
@@ -122,7 +123,12 @@ def _dense_s(path: Path, count: int) -> NDArray:
 
 def _moves(q: NDArray) -> bool:
     """Whether a joint moves along the samples q (n, k): its range above 1e-12 rad (numpy.ptp
-    as max − min, without its wrapper)."""
+    as max − min, without its wrapper). The range is at least |q_end − q_start| (both are
+    in it), so a piece whose ends differ by more moves: told from its two rows in plain
+    floats, the reductions only for a piece that returns to where it started."""
+    first, last = q[0].tolist(), q[-1].tolist()
+    if max(abs(b - a) for a, b in zip(first, last, strict=True)) > 1e-12:
+        return True
     return float((np.maximum.reduce(q, axis=0) - np.minimum.reduce(q, axis=0)).max()) > 1e-12
 
 

@@ -18,6 +18,7 @@ from robodcn.config import Arm
 from robodcn.contract import MAX_SAMPLES, intervals
 from robodcn.errors import TooLargeError
 from robodcn.path_timing.limits import JointLimits
+from robodcn.planner import arm_arrays
 from robodcn.planner.path import COARSE, Piece
 
 MAX_SEARCH_STEPS = 40
@@ -28,7 +29,7 @@ def fd_need(q: NDArray[np.float64], arm: Arm, lim: JointLimits | None = None) ->
     arm's limits (jerk included where a joint sets one; ``lim`` the arm's
     ``JointLimits.of(arm, torque=False)`` when the caller has them)."""
     if lim is None:
-        lim = JointLimits.of(arm, torque=False)
+        lim = arm_arrays.limits_of(arm, torque=False)
     return timing.fd_min_duration_unchecked(q, lim.v, lim.a, j_max=lim.j)
 
 
@@ -56,7 +57,7 @@ def search(piece: Piece, arm: Arm, reference: NDArray | None, rate: float,
     the caller need not sample the chosen N again.
     """
 
-    lim = JointLimits.of(arm, torque=False)
+    lim = arm_arrays.limits_of(arm, torque=False)  # built once per arm
     if cache is None:
         cache = {}
 

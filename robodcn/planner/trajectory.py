@@ -5,7 +5,8 @@ from __future__ import annotations
 import csv
 import io
 import json
-from dataclasses import dataclass, field
+import math
+from dataclasses import dataclass, field, fields
 from typing import Any
 
 import numpy as np
@@ -15,6 +16,7 @@ from robodcn import _checks
 from robodcn.config import PLANAR_POSE, RATE_RANGE, YAWED_POSE, Arm
 from robodcn.contract.request import PlanRequest, StartState
 from robodcn.errors import InputError
+from robodcn.planner import arm_arrays
 
 
 @dataclass(eq=False)
@@ -234,3 +236,36 @@ class Trajectory:
         return out.getvalue()
 
 
+_FIELDS = frozenset(f.name for f in fields(Trajectory))
+
+
+def planned(t: NDArray[np.float64], poses: NDArray[np.float64], joints: NDArray[np.float64],
+            ticks: NDArray[np.int64], *, request: PlanRequest, method: str | list[str],
+            elbow: str | None, branch_switches: tuple[int, ...], approach_samples: int,
+            start_state: StartState | None) -> Trajectory:
+    """The planner's own Trajectory of ``request`` (robodcn.planner.build.assemble).
+
+    Its arrays come out of validation as the contract has them — t = arange(n) / rate_hz
+    exactly, float64 poses (n, width) and joints (n, k), int64 ticks (n, k), n ≥ 1 — and
+    the names, ids and rate are the validated arm's and request's, so the checks and
+    conversions of ``__post_init__`` (~7 µs of a small plan) are not repeated. Finiteness
+    is still asked, by one sum of each array (finite exactly when every entry is, short of
+    an overflow past 1e308, which takes the full construction and its message).
+    """
+    if not (math.isfinite(float(poses.sum())) and math.isfinite(float(joints.sum()))):
+        arm = request.arm
+        return Trajectory(t, poses, joints, ticks, arm.joint_names, arm.servo_ids,
+                          request.rate_hz, method, request, elbow, branch_switches,
+                          approach_samples, start_state)
+    arm = request.arm
+    consts = arm_arrays.arrays_of(arm)  # the names and ids, built once per arm
+    traj = object.__new__(Trajectory)
+    values = {"t": t, "poses": poses, "joints": joints, "ticks": ticks,
+              "joint_names": consts.joint_names, "servo_ids": consts.servo_ids,
+              "rate_hz": request.rate_hz, "method": method, "request": request,
+              "elbow": elbow, "branch_switches": branch_switches,
+              "approach_samples": approach_samples, "start_state": start_state,
+              "pose_keys": arm.pose_keys}
+    assert values.keys() == _FIELDS, "planned() sets every field of Trajectory"
+    traj.__dict__.update(values)
+    return traj

@@ -45,7 +45,6 @@ from robodcn.planner.samples import Sampled
 def _pieces(req: PlanRequest) -> tuple[list[Piece], NDArray | None]:
     arm = req.arm
     start = None if req.start_joints is None else np.asarray(req.start_joints)
-    limits = [(j.min_angle, j.max_angle) for j in arm.joints]
     segments = segments_of(req)
     if req.blend:
         paths = [blended_path(req, segments, start)]
@@ -54,6 +53,7 @@ def _pieces(req: PlanRequest) -> tuple[list[Piece], NDArray | None]:
     pieces = [Piece(path=p, profile=req.profile, elbow=req.branch) for p in paths]
     if start is None:
         return pieces, start
+    limits = [(j.min_angle, j.max_angle) for j in arm.joints]
     first = within_limits(first_joints(arm, segments[0].start, start, req.branch), limits)
     # Half the finest servo step: closer than that the servos cannot tell the difference.
     tolerance = min(math.pi / j.servo.ticks_per_turn for j in arm.joints)
@@ -146,19 +146,25 @@ class UniformTiming:
             if piece.path is not None:
                 last = segment + len(piece.path.segments)
                 marks[offset], marks[offset + n] = segment, last
-                u = timing.profile_unchecked(piece.profile, np.arange(n + 1) / n,
-                                             piece.accel_fraction)
-                inner = np.searchsorted(piece.path.knots[1:-1], u, side="right")
-                segment_of[offset:offset + n + 1] = segment + np.minimum(
-                    inner, len(piece.path.segments) - 1)
+                if last == segment + 1:  # one segment, no inner knot: every sample on it
+                    segment_of[offset:offset + n + 1] = segment
+                else:
+                    u = timing.profile_unchecked(piece.profile, np.arange(n + 1) / n,
+                                                 piece.accel_fraction)
+                    inner = np.searchsorted(piece.path.knots[1:-1], u, side="right")
+                    segment_of[offset:offset + n + 1] = segment + np.minimum(
+                        inner, len(piece.path.segments) - 1)
                 segment = last
             p, q, bad = self._sampled(len(starts), piece, n, ref)
             if q is None:
                 assert bad is not None
                 return self._unreachable(piece, ref, offset, poses, joints, segment_of, p, bad)
-            lo = 0 if offset == 0 else 1
-            poses[offset + lo: offset + n + 1] = p[lo:]
-            joints[offset + lo: offset + n + 1] = q[lo:]
+            if len(self.pieces) == 1:  # one piece: its own arrays are the plan's, not copies
+                poses, joints = p, q
+            else:
+                lo = 0 if offset == 0 else 1
+                poses[offset + lo: offset + n + 1] = p[lo:]
+                joints[offset + lo: offset + n + 1] = q[lo:]
             starts.append(offset)
             offset += n
             ref = q[-1]

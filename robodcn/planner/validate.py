@@ -30,14 +30,14 @@ from robodcn.config import Arm
 from robodcn.contract.request import PlanRequest
 from robodcn.errors import QUANTITY_UNITS, VIOLATION_ERRORS, UnreachableError, Violation
 from robodcn.messages import describe_violation
-from robodcn.path_timing.limits import JointLimits
 from robodcn.path_timing.torque import TorqueLimits
+from robodcn.planner import arm_arrays
 
 #: Relative slack on velocity/acceleration/jerk limits, for float rounding only (auto timing
 #: itself uses the exact limits, so auto plans never rely on it).
 LIMIT_SLACK = 1e-9
 #: Slack on joint position limits (rad), float rounding only.
-ANGLE_SLACK = 1e-9
+ANGLE_SLACK = arm_arrays.ANGLE_SLACK
 #: The finite-difference order of each dynamic quantity (what a uniform stretch λ divides by
 #: λ^order).
 ORDER = {"velocity": 1, "acceleration": 2, "jerk": 3, "torque": 2}
@@ -47,9 +47,37 @@ def fmt_pose(pose: Sequence[float]) -> str:
     return f"x={pose[0]:.4f} m, y={pose[1]:.4f} m, θ={math.degrees(pose[2]):.1f}°"
 
 
+#: Waypoints whose wrist radius lies this far (m) inside the annulus pass on the plain-float
+#: test of :func:`check_waypoints`; closer to an edge the arrays decide (libm's cos, sin and
+#: hypot may differ from numpy's by an ulp, ~1e-16 m here).
+_CLEAR = 1e-12
+
+
+def _clear_of_edges(links: Sequence[float], waypoints: Sequence[Sequence[float]]) -> bool:
+    """Whether every waypoint's wrist radius |p − l3·(cos θ, sin θ)| (|p| for 2 links) lies
+    :data:`_CLEAR` inside the annulus [|l1 − l2|, l1 + l2] ± REACH_TOLERANCE, in plain
+    floats: a few poses take a few µs of numpy calls each otherwise."""
+    if len(links) not in (2, 3) or len(waypoints) > 16:
+        return False
+    l1, l2 = links[0], links[1]
+    lo = abs(l1 - l2) - kinematics.REACH_TOLERANCE + _CLEAR
+    hi = l1 + l2 + kinematics.REACH_TOLERANCE - _CLEAR
+    l3 = links[2] if len(links) == 3 else 0.0
+    for pose in waypoints:
+        x, y = pose[0], pose[1]
+        if l3:
+            x -= l3 * math.cos(pose[2])
+            y -= l3 * math.sin(pose[2])
+        if not lo < math.hypot(x, y) < hi:
+            return False
+    return True
+
+
 def check_waypoints(req: PlanRequest) -> None:
     """Every waypoint within the workspace annulus, else UnreachableError naming it."""
     arm = req.arm
+    if _clear_of_edges(arm.links, req.waypoints):
+        return
     wp = req.waypoints_array
     ok = kinematics.reachable(arm.links, wp)
     if ok.all():
@@ -64,9 +92,10 @@ def check_waypoints(req: PlanRequest) -> None:
 
 
 def dynamic_limits(arm: Arm) -> tuple[NDArray, NDArray, NDArray]:
-    """Per-joint velocity, acceleration and jerk limits (inf where no jerk limit is set)."""
-    lim = JointLimits.of(arm, torque=False)
-    return lim.v, lim.a, lim.jerk
+    """Per-joint velocity, acceleration and jerk limits (inf where no jerk limit is set;
+    read-only, built once per arm: planner.arm_arrays)."""
+    consts = arm_arrays.arrays_of(arm)
+    return consts.v, consts.a, consts.jerk
 
 
 def reach_violation(req: PlanRequest, sample: int, pose: Sequence[float],
@@ -108,53 +137,78 @@ def differences(joints: NDArray, order: int, history: NDArray | None = None) -> 
 def torque_limits(req: PlanRequest) -> TorqueLimits | None:
     """The request's torque limits: the arm's ``max_torque_nm`` with the request's payload
     (``payload_kg``, default the arm's), None when no joint sets one."""
-    return TorqueLimits.of(req.arm, getattr(req, "payload_kg", None))
+    if not arm_arrays.arrays_of(req.arm).torque_limited:
+        return None
+    # TorqueLimits.of builds the arm's rigid-body model (~40 µs): once per arm and payload
+    return arm_arrays.limits_of(req.arm, getattr(req, "payload_kg", None)).torque
 
 
 def sample_torques(torque: TorqueLimits, joints: NDArray, rate: float,
-                   history: NDArray | None = None) -> tuple[NDArray, NDArray]:
+                   history: NDArray | None = None, *, gravity: bool = True
+                   ) -> tuple[NDArray, NDArray | None]:
     """(τ, g), each (n, k): the torque of every sample's central differences (module doc),
     row r charged to sample min(r, n − 1) as :func:`differences` charges the acceleration
-    (the larger |τ| of the rows past the end), and the gravity torque of the same rows."""
+    (the larger |τ| of the rows past the end), and the gravity torque of the same rows
+    (``gravity=False``: None, one inverse-dynamics pass instead of two)."""
     pre = np.repeat(joints[:1], 2, axis=0) if history is None else history[-2:]
     padded = np.concatenate([pre, joints, joints[-1:]])
     mid = padded[1:-1]
     qd = (padded[2:] - padded[:-2]) * (0.5 * rate)
     qdd = (padded[2:] - 2.0 * mid + padded[:-2]) * (rate * rate)
     tau = torque.torques(mid, qd, qdd)
-    grav = torque.torques(mid, np.zeros_like(mid), np.zeros_like(mid))
+    grav = torque.torques(mid, np.zeros_like(mid), np.zeros_like(mid)) if gravity else None
     n = joints.shape[0]
     if tau.shape[0] > n:  # rows past the end belong to the last sample
         last = np.argmax(np.abs(tau[n - 1:]), axis=0)
         cols = np.arange(tau.shape[1])
         tau = np.concatenate([tau[:n - 1], tau[n - 1:][last, cols][None]])
-        grav = np.concatenate([grav[:n - 1], grav[n - 1:][last, cols][None]])
+        if grav is not None:
+            grav = np.concatenate([grav[:n - 1], grav[n - 1:][last, cols][None]])
     return tau, grav
+
+
+def _tick_of(x: float, scale: float, offset: int) -> int:
+    """servo_units.ticks_unchecked of one angle in plain floats: offset + round half away
+    from zero of x·scale (the same product, floor(|y| + 0.5) and sign)."""
+    y = x * scale
+    return offset + int(math.copysign(math.floor(abs(y) + 0.5), y))
 
 
 def _fine(joints: NDArray, ticks: NDArray, lo: NDArray, hi: NDArray, tmin: NDArray,
           tmax: NDArray, limits: tuple[NDArray, NDArray, NDArray] | None, rate: float,
-          slack: float) -> bool:
+          slack: float, columns: tuple[list[float], list[int]] | None = None) -> bool:
     """Whether every check passes, from per-joint extremes on contiguous columns (the fast
     path: per-sample arrays are built only when something fails); a short plan's whole
-    arrays at once (:data:`FINE_BLOCK_ROWS`), the same extremes."""
+    arrays at once (:data:`FINE_BLOCK_ROWS`), the same extremes. ``columns``: the tick
+    conversion's (scale, offset) when ``ticks`` are its output: a column's tick extremes
+    are then the ticks of its angle extremes (the conversion is monotone, rising with a
+    positive scale, falling with a negative one), no pass over the ticks."""
     n = joints.shape[0]
     if n < FINE_BLOCK_ROWS:
         return _fine_block(joints, ticks, lo, hi, tmin, tmax, limits, rate, slack)
     for j in range(joints.shape[1]):
         q = np.ascontiguousarray(joints[:, j])
-        tick = np.ascontiguousarray(ticks[:, j])
-        if not (lo[j] <= q.min() and q.max() <= hi[j] and tmin[j] <= tick.min()
-                and tick.max() <= tmax[j]):
+        q_lo, q_hi = float(q.min()), float(q.max())
+        if not (lo[j] <= q_lo and q_hi <= hi[j]):
+            return False
+        if columns is None:
+            tick = np.ascontiguousarray(ticks[:, j])
+            t_lo, t_hi = tick.min(), tick.max()
+        else:
+            scale, offset = columns[0][j], columns[1][j]
+            t_lo, t_hi = (_tick_of(q_lo, scale, offset), _tick_of(q_hi, scale, offset))
+            if scale < 0.0:
+                t_lo, t_hi = t_hi, t_lo
+        if not (tmin[j] <= t_lo and t_hi <= tmax[j]):
             return False
         if limits is None or n < 2:
             continue
         v, a, jk = limits
-        d = np.diff(q)
+        d = q[1:] - q[:-1]  # np.diff's own subtraction, without its wrapper
         if max(d.max(), -d.min()) * rate > v[j] * slack:
             return False
         # At rest on both sides: the end velocities are accelerations from/to zero.
-        d2 = np.diff(d) if n > 2 else np.empty(0)
+        d2 = d[1:] - d[:-1] if n > 2 else np.empty(0)
         step = max(abs(d[0]), abs(d[-1]), d2.max(initial=0.0), -d2.min(initial=0.0))
         if step * rate * rate > a[j] * slack:
             return False
@@ -171,31 +225,49 @@ def _fine(joints: NDArray, ticks: NDArray, lo: NDArray, hi: NDArray, tmin: NDArr
 FINE_BLOCK_ROWS = servo_units.WHOLE_ROWS
 
 
-def _fine_block(joints: NDArray, ticks: NDArray, lo: NDArray, hi: NDArray, tmin: NDArray,
-                tmax: NDArray, limits: tuple[NDArray, NDArray, NDArray] | None, rate: float,
-                slack: float) -> bool:
-    """:func:`_fine` on the whole arrays: the same per-joint extremes and comparisons."""
+_min, _max = np.minimum.reduce, np.maximum.reduce
+
+
+def _listed(x: NDArray | list) -> list:
+    return x.tolist() if isinstance(x, np.ndarray) else x
+
+
+def _fine_block(joints: NDArray, ticks: NDArray, lo: NDArray | list, hi: NDArray | list,
+                tmin: NDArray | list, tmax: NDArray | list,
+                limits: tuple[NDArray | list, NDArray | list, NDArray | list] | None,
+                rate: float, slack: float) -> bool:
+    """:func:`_fine` on the whole arrays: the same per-joint extremes and comparisons, the
+    k comparisons of each in plain floats (the limits may come as lists: check's, built
+    once per arm). The differences run on the samples padded with their first and last
+    (at rest on both sides): the end velocities' steps from and to zero are then rows of
+    the second difference, the same numbers as |q₁ − q₀| and |q_n − q_{n−1}|."""
     n = joints.shape[0]
-    inside = (lo <= joints.min(axis=0)) & (joints.max(axis=0) <= hi)
-    inside &= (tmin <= ticks.min(axis=0)) & (ticks.max(axis=0) <= tmax)
-    if not inside.all():
-        return False
+    k = joints.shape[1]
+    # ndarray.min/max as the ufuncs' reduce: the same extremes without numpy's wrappers
+    q_lo, q_hi = _min(joints, axis=0).tolist(), _max(joints, axis=0).tolist()
+    t_lo, t_hi = _min(ticks, axis=0).tolist(), _max(ticks, axis=0).tolist()
+    lo, hi, tmin, tmax = _listed(lo), _listed(hi), _listed(tmin), _listed(tmax)
+    for j in range(k):
+        if not (lo[j] <= q_lo[j] and q_hi[j] <= hi[j] and tmin[j] <= t_lo[j]
+                and t_hi[j] <= tmax[j]):
+            return False
     if limits is None or n < 2:
         return True
-    v, a, jk = limits
-    d = joints[1:] - joints[:-1]
-    if (np.abs(d).max(axis=0) * rate > v * slack).any():
-        return False
-    # At rest on both sides: the end velocities are accelerations from/to zero.
-    step = np.maximum(np.abs(d[0]), np.abs(d[-1]))
-    if n > 2:
-        step = np.maximum(step, np.abs(d[1:] - d[:-1]).max(axis=0))
-    if (step * rate * rate > a * slack).any():
-        return False
-    limited = np.isfinite(jk)
-    if limited.any():
+    v, a, jk = (_listed(x) for x in limits)
+    padded = np.concatenate((joints[:1], joints, joints[-1:]))
+    d = padded[1:] - padded[:-1]
+    vel = _max(np.abs(d), axis=0).tolist()
+    for j in range(k):
+        if vel[j] * rate > v[j] * slack:
+            return False
+    step = _max(np.abs(d[1:] - d[:-1]), axis=0).tolist()
+    for j in range(k):
+        if step[j] * rate * rate > a[j] * slack:
+            return False
+    limited = [math.isfinite(x) for x in jk]
+    if any(limited):
         d3 = differences(joints[:, limited], 3).max(axis=0)
-        if (d3 * rate ** 3 > jk[limited] * slack).any():
+        if (d3 * rate ** 3 > np.asarray(jk)[limited] * slack).any():
             return False
     return True
 
@@ -224,20 +296,25 @@ def check(req: PlanRequest, poses: NDArray, joints: NDArray, *, dynamics: bool =
     arm = req.arm
     rate = req.rate_hz
     n = joints.shape[0]
-    lo = np.array([j.min_angle for j in arm.joints]) - ANGLE_SLACK
-    hi = np.array([j.max_angle for j in arm.joints]) + ANGLE_SLACK
-    v, a, jk = dynamic_limits(arm)
+    # the arm's constant arrays, built once per arm (planner.arm_arrays)
+    consts = arm_arrays.arrays_of(arm)
+    lo, hi, v, a, jk = consts.lo, consts.hi, consts.v, consts.a, consts.jerk
+    columns = None
     if ticks is None:
-        ticks = servo_units.ticks_unchecked(joints, arm.servos)
-    tmin = np.array([j.servo.min_tick for j in arm.joints])
-    tmax = np.array([j.servo.max_tick for j in arm.joints])
+        ticks = servo_units.ticks_unchecked(joints, (), (consts.tick_scale, consts.tick_offset))
+        columns = (consts.tick_scale.tolist(), consts.tick_offset.tolist())
+    tmin, tmax = consts.tmin, consts.tmax
     slack = 1.0 + LIMIT_SLACK
     torque = torque_limits(req) if dynamics and n > 1 else None
-    tau = grav = None
+    tau = None
     if torque is not None:
-        tau, grav = sample_torques(torque, joints, rate, history)
+        # the gravity torques only name a torque violation's field (below): not asked here
+        tau, _ = sample_torques(torque, joints, rate, history, gravity=False)
+    # the fast path compares per-joint extremes in plain floats: the limits as lists
+    b_lo, b_hi, b_tmin, b_tmax, b_v, b_a, b_jk = consts.bounds
     if (history is None or not dynamics) and _fine(
-            joints, ticks, lo, hi, tmin, tmax, (v, a, jk) if dynamics else None, rate, slack) \
+            joints, ticks, b_lo, b_hi, b_tmin, b_tmax, (b_v, b_a, b_jk) if dynamics else None,
+            rate, slack, columns) \
             and (tau is None or (np.abs(tau) <= torque.tau * slack).all()):
         return ticks, None
     rates = []
@@ -287,8 +364,12 @@ def check(req: PlanRequest, poses: NDArray, joints: NDArray, *, dynamics: bool =
         segment = (int(segment_of[i]), int(segment_of[i]) + 1)
     field = "duration" if quantity in ("velocity", "acceleration", "jerk", "torque") else (
         f"waypoints[{waypoint}]" if waypoint is not None else "waypoints")
-    if quantity == "torque" and grav is not None and abs(float(grav[i, j])) > limit:
-        field = "payload_kg"  # gravity alone overloads the joint there: no duration helps
+    if quantity == "torque":
+        assert torque is not None
+        _, grav = sample_torques(torque, joints, rate, history)
+        assert grav is not None
+        if abs(float(grav[i, j])) > limit:
+            field = "payload_kg"  # gravity alone overloads the joint there: no duration helps
     if segment is None and segment_of is not None and quantity in ("position", "ticks") \
             and req.start_joints is not None:
         field = "start_joints"
@@ -306,12 +387,19 @@ def elbow_branches(joints: NDArray) -> tuple[str | None, tuple[int, ...]]:
     and carry the branch before them, so a switch is counted where the branch after a
     singular stretch differs from the one before it.
     """
-    q2 = kinematics.wrap(joints[:, 1])
+    column = joints[:, 1]
     tol = kinematics.SINGULAR_TOLERANCE
     # the common case, one branch throughout clear of both singularities: the per-sample
     # tests below on the two extremes (|q2| and π − |q2| are monotone there, so these are
-    # the very comparisons of the samples nearest 0 and ±π): no sample singular, no change
-    low, high = float(q2.min()), float(q2.max())
+    # the very comparisons of the samples nearest 0 and ±π): no sample singular, no change.
+    # Within ±3 rad wrap is the identity (rint(q/2π) = 0, q − 0 = q): the raw column's
+    # extremes are the wrapped ones, the column wrapped only when it leaves that
+    low, high = float(np.minimum.reduce(column)), float(np.maximum.reduce(column))
+    if -3.0 <= low and high <= 3.0:
+        q2 = column
+    else:
+        q2 = kinematics.wrap(column)
+        low, high = float(q2.min()), float(q2.max())
     if high < 0.0 and not abs(high) < tol and not math.pi - abs(low) < tol:
         return "up", ()
     if low > 0.0 and not abs(low) < tol and not math.pi - abs(high) < tol:
