@@ -165,11 +165,12 @@ def interpolated_rows(sg: NDArray, rows: TorqueRows) -> TorqueRows:
             np.concatenate([hi, nxt[3]], axis=1))
 
 
-def solve(sg: NDArray, dq: NDArray, ddq: NDArray, v: NDArray, a: NDArray, extra_cap: NDArray,
-           x_start: float, x_end: float, rows: TorqueRows | None = None
-           ) -> tuple[NDArray, NDArray]:
+def solve(sg: NDArray, dq: NDArray, ddq: NDArray, v: NDArray, a: NDArray,
+          extra_cap: NDArray | None, x_start: float, x_end: float,
+          rows: TorqueRows | None = None) -> tuple[NDArray, NDArray]:
     """x (N + 1,), u (N,) of TOPP-RA on grid sg; raises when the start is not controllable.
-    ``rows``: further linear constraints (torque: :mod:`robodcn.path_timing.torque`).
+    ``extra_cap``: (N + 1,) a further bound on x at each point, None: none (min(x, inf) is
+    x); ``rows``: further linear constraints (torque: :mod:`robodcn.path_timing.torque`).
 
     On up to :data:`~robodcn.path_timing.reachability.LOOP_STAGES` stages without rows and
     with per-joint limits the constraints are built one row per constraint
@@ -182,7 +183,8 @@ def solve(sg: NDArray, dq: NDArray, ddq: NDArray, v: NDArray, a: NDArray, extra_
     columns = _columns.constraints(delta, dq, ddq, v, a) if fast else None
     if columns is not None:
         half, r, x_cap = columns
-        x_cap = np.minimum(x_cap, extra_cap)
+        if extra_cap is not None:
+            x_cap = np.minimum(x_cap, extra_cap)
         pieces = _columns.pieces(delta, half, r)
         x_max = reachability.backward_loop(min(float(x_end), float(x_cap[n_stages])),
                                            pieces.w, pieces.z, x_cap[:n_stages])
@@ -193,7 +195,8 @@ def solve(sg: NDArray, dq: NDArray, ddq: NDArray, v: NDArray, a: NDArray, extra_
             if rows is not None:
                 rows = interpolated_rows(sg, rows)
         p_lo, p_hi, r_rows, x_cap = reachability.stage_constraints(dq, ddq, v, a, rows)
-        x_cap = np.minimum(x_cap, extra_cap)
+        if extra_cap is not None:
+            x_cap = np.minimum(x_cap, extra_cap)
         x_max_arr = reachability.controllable(delta, p_lo, r_rows, x_cap, x_end)
         x_max_0 = float(x_max_arr[0])
     if x_start > x_max_0 * (1 + 1e-9) + 1e-15:
