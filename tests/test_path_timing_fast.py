@@ -6,7 +6,7 @@ import numpy as np
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from robodcn.path_timing import _columns, _stageloop, reachability, topp
+from robodcn.path_timing import _columns, _gradient, _stageloop, reachability, topp
 
 
 def _plain(x: float, w: np.ndarray, z: np.ndarray) -> np.ndarray:
@@ -126,3 +126,27 @@ def test_derivatives_one_piece_is_the_piecewise_form(seed, n, k):
     general = topp.derivatives(q, s, [0, n - 1], 3, repeated=True)  # the per-piece loop
     for f, g in zip(fast, general, strict=True):
         assert f.tobytes() == g.tobytes()
+
+
+def test_kept_gradients_are_fresh_copies_of_the_same_bits():
+    """_gradient.repeated hands out the gradients of the same bytes again (copies: a caller
+    writing into them changes nothing kept) and recomputes for other bytes (-0.0 is not
+    0.0, a longer order extends the entry)."""
+    q, s, _, _ = _path(7, 40, 3)
+    q[0, 0] = 0.0
+    want = topp.derivatives(q, s, [0, q.shape[0] - 1], 3, repeated=True)
+    first = _gradient.repeated(s, q, 2)
+    for got in first:
+        got[:] = np.nan  # must not reach the kept entry
+    again = _gradient.repeated(s, q, 3)
+    assert len(again) == 3
+    for f, g in zip(again, want, strict=True):
+        assert f.tobytes() == g.tobytes()
+    flipped = q.copy()
+    flipped[0, 0] = -0.0
+    want = topp.derivatives(flipped, s, [0, q.shape[0] - 1], 2, repeated=True)
+    for f, g in zip(_gradient.repeated(s, flipped, 2), want, strict=True):
+        assert f.tobytes() == g.tobytes()
+    for count in range(_gradient.KEEP + 2):  # more paths than kept: the oldest go
+        _gradient.repeated(s, q + count, 1)
+    assert len(_gradient._kept) <= _gradient.KEEP

@@ -3,14 +3,59 @@
 The path's q′ and q″ (:func:`~robodcn.path_timing.topp.path_derivatives`) and the C²
 interpolant's slopes (:class:`~robodcn.path_timing.arclength.Smooth`) differentiate several
 arrays on one grid x; numpy.gradient recomputes its coefficients (and checks) every call.
+
+Both differentiate the same data too: the planner times a piece's dense samples (q′, q″ for
+TOPP-RA) and then samples their C² interpolant, whose slopes are those q′, q″. So the
+repeated gradients f′, f″, … of the last few (x, f) are kept (:func:`repeated`), keyed by
+their bytes (the same bits in, the same bits out) and handed out as copies.
 """
 
 from __future__ import annotations
 
+import threading
+
 import numpy as np
 from numpy.typing import NDArray
 
-__all__ = ["Gradient"]
+__all__ = ["Gradient", "repeated"]
+
+#: (x, f) pairs whose repeated gradients are kept (the pieces of a plan, timed then sampled)
+KEEP = 4
+#: Largest f (entries) whose gradients are kept (a 10 s plan's pieces fit; larger are rare)
+KEEP_SIZE = 50_000
+
+_kept: dict[tuple, list[NDArray[np.float64]]] = {}
+_lock = threading.Lock()
+
+
+def repeated(x: NDArray[np.float64], f: NDArray[np.float64], order: int
+             ) -> list[NDArray[np.float64]]:
+    """[f′, f″, …] (``order`` of them) on x, f′ = Gradient(x)(f) and each next the gradient
+    of the one before; fresh arrays (copies of the kept ones, module doc).
+
+    ``x`` (n ≥ 2,) and ``f`` (n, …) float64."""
+    if f.size > KEEP_SIZE:
+        return _repeated(x, f, order)
+    key = (f.shape, x.tobytes(), f.tobytes())
+    with _lock:
+        got = _kept.get(key)
+    if got is None or len(got) < order:
+        got = _repeated(x, f, order)
+        with _lock:
+            if len(_kept) >= KEEP and key not in _kept:
+                del _kept[next(iter(_kept))]  # the oldest entry
+            _kept[key] = got
+    return [d.copy() for d in got[:order]]
+
+
+def _repeated(x: NDArray[np.float64], f: NDArray[np.float64], order: int
+              ) -> list[NDArray[np.float64]]:
+    grad = Gradient(x)
+    out = []
+    for _ in range(order):
+        f = grad(f)
+        out.append(f)
+    return out
 
 
 class Gradient:

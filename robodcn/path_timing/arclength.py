@@ -32,6 +32,7 @@ from collections.abc import Callable
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from robodcn.path_timing import _gradient
 from robodcn.path_timing._gradient import Gradient
 
 __all__ = ["UNEVEN", "Monotone", "Smooth", "arc_grid", "arc_length"]
@@ -143,11 +144,14 @@ class Smooth:
         self.x = np.asarray(x, dtype=np.float64)
         self.y = np.asarray(y, dtype=np.float64)
         self.monotone = monotone
-        grad = Gradient(self.x)  # numpy.gradient, edge order 2 (1 for two samples)
-        self.d1 = grad(self.y)
+        # numpy.gradient, edge order 2 (1 for two samples)
         if monotone:
-            self.d1 = np.maximum(self.d1, 0.0)
-        self.d2 = grad(self.d1)
+            grad = Gradient(self.x)
+            self.d1 = np.maximum(grad(self.y), 0.0)
+            self.d2 = grad(self.d1)
+        else:
+            # the q′, q″ the law was timed with (path_derivatives), kept from its timing
+            self.d1, self.d2 = _gradient.repeated(self.x, self.y, 2)
         self.h = self.x[1:] - self.x[:-1]  # np.diff
         self._table: NDArray[np.float64] | None = None
         self._ends: NDArray[np.float64] | None = None

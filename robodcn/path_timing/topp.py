@@ -18,7 +18,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from robodcn.errors import InputError
-from robodcn.path_timing import _columns, reachability
+from robodcn.path_timing import _columns, _gradient, reachability
 from robodcn.path_timing._gradient import Gradient
 from robodcn.path_timing.torque import TorqueRows
 
@@ -98,14 +98,9 @@ def derivatives(q: NDArray[np.float64], s: NDArray[np.float64], cuts: Sequence[i
     cut = sorted(set(int(c) for c in cuts if 0 < c < q.shape[0] - 1)) if len(cuts) else []
     if not cut and not repeated and q.shape[0] >= 2:
         # one piece without dwells (the planner's dense paths): the derivatives are the
-        # gradients themselves, no per-piece copies
-        grad = Gradient(s)
-        out = []
-        f = q
-        for _ in range(order):
-            f = grad(f)
-            out.append(f)
-        return out
+        # gradients themselves, no per-piece copies (kept: the planner's interpolant of the
+        # same samples asks for them again)
+        return _gradient.repeated(s, q, order)
     edges = [0, *cut, q.shape[0] - 1]
     out = [np.empty_like(q) for _ in range(order)]
     for a, b in itertools.pairwise(edges):
