@@ -49,6 +49,56 @@ def test_stage_loop_is_the_plain_loop(m, n, seed, specials, x0):
     assert reachability._sequential(x0, w, z).tobytes() == want.tobytes()
 
 
+@settings(max_examples=300, deadline=None)
+@given(st.integers(0, 4), st.integers(0, 150), st.integers(0, 2 ** 32 - 1),
+       st.lists(_values, min_size=0, max_size=6), st.sampled_from([0.0, 1.0, 3.0]))
+def test_capped_stage_loop_is_the_plain_loop(m, n, seed, specials, x0):
+    """capped_recurrence skips the stages where the cap binds: pieces about x + z (z ≥ 0)
+    under a wandering cap, so long runs follow the cap and leave it; zero caps, and
+    non-finite entries among them."""
+    rng = np.random.default_rng(seed)
+    w = 1.0 + 0.1 * rng.normal(size=(m, n)) * rng.choice([0.0, 1.0, 20.0], size=(m, n))
+    z = np.abs(rng.normal(size=(m, n))) * rng.choice([0.0, 0.1, 1.0, 3.0], size=(m, n))
+    cap = np.cumsum(rng.normal(size=n) * 0.3) + 5.0 * rng.random()
+    cap[rng.random(n) < 0.05] = 0.0
+    flat = np.concatenate([w.ravel(), z.ravel(), cap])
+    for v in specials if flat.size else ():
+        flat[rng.integers(flat.size)] = v
+    w, z, cap = flat[:m * n].reshape(m, n), flat[m * n:2 * m * n].reshape(m, n), flat[2 * m * n:]
+    want = _plain(x0, np.concatenate([w, np.zeros((1, n))]).T, np.concatenate([z, cap[None]]).T)
+    got = _stageloop.capped_recurrence(x0, np.concatenate([w, z, cap[None]]), m)
+    assert np.asarray(got).tobytes() == want.tobytes()
+
+
+def test_capped_stage_loop_skips_the_capped_stages():
+    """On a pass that follows its cap after a few stages, the loop runs those few only."""
+    n = 200
+    w = np.ones((2, n))
+    z = np.full((2, n), 0.5)
+    cap = np.full(n, 3.0)  # from 0 by 0.5 a stage: the cap after 6 stages, then held
+    ran = []
+    loop = _stageloop._exit_loop
+
+    def counting(m, exits):
+        inner = loop(m, exits)
+
+        def run(x, columns, out):
+            before = len(out)
+            try:
+                return inner(x, columns, out)
+            finally:
+                ran.append(len(out) - before)
+        return run
+
+    _stageloop._exit_loop = counting
+    try:
+        got = _stageloop.capped_recurrence(0.0, np.concatenate([w, z, cap[None]]), 2)
+    finally:
+        _stageloop._exit_loop = loop
+    assert got == [0.0, 0.5, 1.0, 1.5, 2.0, 2.5, *[3.0] * (n - 5)]
+    assert sum(ran) == 6
+
+
 def _path(seed: int, n: int, k: int):
     rng = np.random.default_rng(seed)
     s = np.cumsum(rng.uniform(0.5, 1.5, n))
@@ -76,7 +126,7 @@ def test_column_constraints_are_the_general_ones(seed, n, k):
     assert np.ascontiguousarray(r_c.T).tobytes() == r.tobytes()
     assert cap_c.tobytes() == x_cap.tobytes()
     n_stages = delta.shape[0]
-    pieces = _columns.pieces(delta, half, r_c)
+    pieces = _columns.pieces(delta, half, r_c, cap_c)
     w, z = reachability.backward_pieces(delta[:, None], p_lo[:n_stages], r[:n_stages])
     assert np.ascontiguousarray(pieces.w.T).tobytes() == w.tobytes()
     assert np.ascontiguousarray(pieces.z.T).tobytes() == z.tobytes()

@@ -180,9 +180,9 @@ def solve(sg: NDArray, dq: NDArray, ddq: NDArray, v: NDArray, a: NDArray,
         half, r, x_cap = columns
         if extra_cap is not None:
             x_cap = np.minimum(x_cap, extra_cap)
-        pieces = _columns.pieces(delta, half, r)
-        x_max = reachability.backward_loop(min(float(x_end), float(x_cap[n_stages])),
-                                           pieces.w, pieces.z, x_cap[:n_stages])
+        pieces = _columns.pieces(delta, half, r, x_cap)
+        x_max = reachability.backward_block(min(float(x_end), float(x_cap[n_stages])),
+                                            pieces.backward, pieces.m)
         x_max_0 = x_max[0]
     else:
         if INTERPOLATED:
@@ -201,8 +201,9 @@ def solve(sg: NDArray, dq: NDArray, ddq: NDArray, v: NDArray, a: NDArray,
                          field="sd_start", value=math.sqrt(x_start))
     x0 = min(x_start, x_max_0)
     if columns is not None:
-        return reachability.forward_recurrence(delta, pieces.slope, pieces.offset, x_max[1:],
-                                               x0)
+        forward = pieces.forward
+        forward[2 * pieces.m] = x_max[1:]  # the caps x_max,1 … x_max,N
+        return reachability.forward_block(delta, forward, pieces.m, x0)
     return reachability.greedy_forward(delta, p_hi, r_rows, x_max_arr, x0)
 
 
