@@ -44,9 +44,8 @@ def constraints(delta: NDArray[np.float64], dq: NDArray[np.float64],
     half, r : (2k, N + 1): the u-bounds L = −half + r x ≤ u ≤ half + r x of every joint and
         virtual joint (p_lo = −half, p_hi = half of ``stage_constraints``), r = −q''/q'
     x_cap : (N + 1,) the largest feasible x at each point: min_j (v_j / q'_j)² and the
-        crossings (half_l + half_j) / (r_j − r_l) of every ordered pair with r_j > r_l (the
-        general formula's gap / |d| of its unordered pair, as |r_l − r_j| = r_j − r_l
-        exactly)
+        crossings (half_l + half_j) / |r_j − r_l| of every unordered pair with r_j ≠ r_l
+        (the general formula's gap / |d|)
     """
     k = dq.shape[1]
     n = dq.shape[0]
@@ -55,10 +54,11 @@ def constraints(delta: NDArray[np.float64], dq: NDArray[np.float64],
     # point's own, with Δ = 0): ``interpolated``'s nxt_dq + 2.0 * step * nxt_ddq
     d1 = np.empty((2 * k, n))
     d1[:k] = dq_t
-    d1[k:, :-1] = dq_t[:, 1:] + 2.0 * delta * ddq_t[:, 1:]
+    virtual = np.multiply(2.0 * delta, ddq_t[:, 1:], out=d1[k:, :-1])
+    virtual += dq_t[:, 1:]  # q'_{i+1} + 2Δ_i q''_{i+1} (a sum: either order, the same bits)
     d1[k:, -1] = dq_t[:, -1] + 2.0 * 0.0 * ddq_t[:, -1]
     abs_d1 = np.abs(d1)
-    if not (abs_d1 > _FLAT).all():
+    if not np.logical_and.reduce(abs_d1 > _FLAT, axis=None):  # .all() without its wrapper
         return None
     # r = −q''/q' of each row, the virtual rows' q'' being the next point's (−q'')/q' as the
     # general −ddq / safe
@@ -75,11 +75,19 @@ def constraints(delta: NDArray[np.float64], dq: NDArray[np.float64],
     np.divide(a_col, abs_d1[k:], out=half[k:])
     # the virtual joints have no velocity limit ((inf / q')² = inf never binds the min);
     # d1[:k] is q' as a C-ordered copy: the min runs along memory
-    x_cap = ((v_max[:, None] / d1[:k]) ** 2).min(axis=0)
-    rise = r[None, :, :] - r[:, None, :]  # [l, j] = r_j − r_l
-    gap = half[:, None, :] + half[None, :, :]  # p_hi,l − p_lo,j
-    cross = np.divide(gap, rise, out=np.full(rise.shape, np.inf), where=rise > 0)
-    return half, r, np.minimum(x_cap, cross.min(axis=(0, 1)))
+    x_cap = np.minimum.reduce((v_max[:, None] / d1[:k]) ** 2, axis=0)
+    # each unordered pair once (l < j): |r_l − r_j| is the rise r_j − r_l of its order with
+    # r_j > r_l, and half_l + half_j = half_j + half_l its gap p_hi,l − p_lo,j (exact
+    # sign flips and sums: the same bits as over every ordered pair)
+    il, jl = reachability._pairs(2 * k)
+    rise = r[il]
+    rise -= r[jl]
+    np.abs(rise, out=rise)
+    gap = half[il]
+    gap += half[jl]
+    cross = np.full(rise.shape, np.inf)
+    np.divide(gap, rise, out=cross, where=rise > 0)
+    return half, r, np.minimum(x_cap, np.minimum.reduce(cross, axis=0))
 
 
 class Pieces(NamedTuple):
