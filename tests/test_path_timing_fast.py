@@ -179,18 +179,23 @@ def test_derivatives_one_piece_is_the_piecewise_form(seed, n, k):
 
 
 def test_kept_gradients_are_fresh_copies_of_the_same_bits():
-    """_gradient.repeated hands out the gradients of the same bytes again (copies: a caller
-    writing into them changes nothing kept) and recomputes for other bytes (-0.0 is not
-    0.0, a longer order extends the entry)."""
+    """_gradient.repeated keeps the gradients of its first ask (handing out copies: a
+    caller writing into them changes nothing kept), hands them over at the second ask of
+    the same bytes, then computes again; other bytes are other entries (-0.0 is not 0.0)."""
     q, s, _, _ = _path(7, 40, 3)
     q[0, 0] = 0.0
     want = topp.derivatives(q, s, [0, q.shape[0] - 1], 3, repeated=True)
-    first = _gradient.repeated(s, q, 2)
+    _gradient._kept.clear()
+    first = _gradient.repeated(s, q, 3)
     for got in first:
         got[:] = np.nan  # must not reach the kept entry
-    again = _gradient.repeated(s, q, 3)
-    assert len(again) == 3
-    for f, g in zip(again, want, strict=True):
+    assert len(_gradient._kept) == 1
+    again = _gradient.repeated(s, q, 2)
+    assert not _gradient._kept  # handed over
+    for f, g in zip(again, want[:2], strict=True):
+        assert f.tobytes() == g.tobytes()
+    third = _gradient.repeated(s, q, 3)
+    for f, g in zip(third, want, strict=True):
         assert f.tobytes() == g.tobytes()
     flipped = q.copy()
     flipped[0, 0] = -0.0

@@ -6,8 +6,10 @@ arrays on one grid x; numpy.gradient recomputes its coefficients (and checks) ev
 
 Both differentiate the same data too: the planner times a piece's dense samples (q′, q″ for
 TOPP-RA) and then samples their C² interpolant, whose slopes are those q′, q″. So the
-repeated gradients f′, f″, … of the last few (x, f) are kept (:func:`repeated`), keyed by
-their bytes (the same bits in, the same bits out) and handed out as copies.
+repeated gradients f′, f″, … of the last few (x, f) are kept until asked for once more
+(:func:`repeated`, keyed by their bytes: the same bits in, the same bits out): the second
+computation becomes a lookup, and nothing is served across plans (a plan asked again
+computes its gradients again, as a different plan would).
 """
 
 from __future__ import annotations
@@ -31,21 +33,23 @@ _lock = threading.Lock()
 def repeated(x: NDArray[np.float64], f: NDArray[np.float64], order: int
              ) -> list[NDArray[np.float64]]:
     """[f′, f″, …] (``order`` of them) on x, f′ = Gradient(x)(f) and each next the gradient
-    of the one before; fresh arrays (copies of the kept ones, module doc).
+    of the one before, as fresh arrays: kept from the first ask (copies handed out) and
+    handed over at the second (module doc).
 
     ``x`` (n ≥ 2,) and ``f`` (n, …) float64."""
     if f.size > KEEP_SIZE:
         return _repeated(x, f, order)
     key = (f.shape, x.tobytes(), f.tobytes())
     with _lock:
-        got = _kept.get(key)
-    if got is None or len(got) < order:
-        got = _repeated(x, f, order)
-        with _lock:
-            if len(_kept) >= KEEP and key not in _kept:
-                del _kept[next(iter(_kept))]  # the oldest entry
-            _kept[key] = got
-    return [d.copy() for d in got[:order]]
+        got = _kept.pop(key, None)
+    if got is not None and len(got) >= order:
+        return got[:order]  # no longer kept: the caller's own
+    got = _repeated(x, f, order)
+    with _lock:
+        if len(_kept) >= KEEP:
+            del _kept[next(iter(_kept))]  # the oldest entry
+        _kept[key] = got
+    return [d.copy() for d in got]
 
 
 def _repeated(x: NDArray[np.float64], f: NDArray[np.float64], order: int
