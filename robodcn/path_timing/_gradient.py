@@ -87,9 +87,10 @@ class Gradient:
         self.first, self.last = h, steps[-1]
         if self.n > 2:
             dx1, dx2 = dx[:-1], dx[1:]
-            self.a = -dx2 / (dx1 * (dx1 + dx2))
+            both = dx1 + dx2  # numpy's formulas compute it twice: the same bits
+            self.a = -dx2 / (dx1 * both)
             self.b = (dx2 - dx1) / (dx1 * dx2)
-            self.c = dx1 / (dx2 * (dx1 + dx2))
+            self.c = dx1 / (dx2 * both)
             self.columns = (self.a[:, None], self.b[:, None], self.c[:, None])
             d1, d2 = steps[0], steps[1]
             self.left = (-(2.0 * d1 + d2) / (d1 * (d1 + d2)), (d1 + d2) / (d1 * d2),
@@ -106,8 +107,10 @@ class Gradient:
             out[0] = (f[1] - f[0]) / h0
             out[-1] = (f[-1] - f[-2]) / h1
             return out
+        inner = out[1:-1]  # written in place: the same operations, no temporaries to copy
         if self.uniform:
-            out[1:-1] = (f[2:] - f[:-2]) / (2.0 * self.h)
+            np.subtract(f[2:], f[:-2], out=inner)
+            inner /= 2.0 * self.h
         else:
             if f.ndim == 1:
                 a, b, c = self.a, self.b, self.c
@@ -116,7 +119,9 @@ class Gradient:
             else:
                 a, b, c = (m.reshape((-1,) + (1,) * (f.ndim - 1))
                            for m in (self.a, self.b, self.c))
-            out[1:-1] = a * f[:-2] + b * f[1:-1] + c * f[2:]
+            np.multiply(a, f[:-2], out=inner)  # (a f_{i−1} + b f_i) + c f_{i+1}
+            inner += b * f[1:-1]
+            inner += c * f[2:]
         if f.ndim > 2:
             a, b, c = self.left
             out[0] = a * f[0] + b * f[1] + c * f[2]
