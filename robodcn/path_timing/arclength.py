@@ -172,24 +172,24 @@ class Smooth:
 
     def _horner(self, i: NDArray[np.int64], t: NDArray[np.float64]) -> NDArray[np.float64]:
         """The same quintic from its power-basis coefficients in t (one table per Smooth),
-        by Horner's rule."""
+        by Horner's rule. For y (n, k) the table is (6, k, intervals): each power's gather
+        and every product run along the queries (with t broadcast along a short k axis
+        numpy's inner loops would be k long), and the result is copied back to (m, k)."""
         if self._table is None:
             h = self.h[:, None] if self.y.ndim == 2 else self.h
             hh = 0.5 * h * h
             data = np.stack([self.y[:-1], self.d1[:-1] * h, self.d2[:-1] * hh, self.y[1:],
                              self.d1[1:] * h, self.d2[1:] * hh], axis=1)
-            # powers first, (6, intervals[, k]): each power's gather below is contiguous
-            self._table = np.ascontiguousarray(np.moveaxis(
-                np.einsum("mp,im...->ip...", _POWERS, data), 1, 0))
-        c = np.take(self._table, i, axis=1)
-        if c.ndim == 3:
-            t = t[:, None]
+            powers = np.einsum("mp,im...->ip...", _POWERS, data)  # (intervals, 6[, k])
+            # powers first, then joints, intervals last: each gather below is contiguous
+            self._table = np.ascontiguousarray(np.moveaxis(powers, 0, -1))
+        c = np.take(self._table, i, axis=-1)
         out = c[5] * t
         for p in (4, 3, 2, 1):
             out += c[p]
             out *= t
         out += c[0]
-        return out
+        return np.ascontiguousarray(out.T) if out.ndim == 2 else out
 
     def _hermite(self, i: NDArray[np.int64], t: NDArray[np.float64], h: NDArray[np.float64]
                  ) -> NDArray[np.float64]:
