@@ -66,6 +66,23 @@ def arc_length(q: NDArray[np.float64], u: NDArray[np.float64]) -> NDArray[np.flo
     return sigma
 
 
+#: Queries per data point from which :func:`_right_index` counts instead of searching
+MERGE_SHARE = 8
+
+
+def _right_index(x: NDArray[np.float64], xq: NDArray[np.float64]) -> NDArray[np.int64]:
+    """np.searchsorted(x, xq, side="right"): the count of points x_j ≤ each query. For many
+    sorted queries (a stream's samples on a dense grid) by one search of x's points among
+    the queries instead: x_j ≤ xq_q ⟺ q ≥ p_j, p_j = searchsorted(xq, x_j, "left"), so
+    the count is the running sum of how many p_j fall on each query (the same integers;
+    unsorted or NaN queries search as numpy does)."""
+    n = xq.shape[0] if xq.ndim == 1 else 0
+    if n > MERGE_SHARE * x.shape[0] and (xq[1:] >= xq[:-1]).all():
+        hits = np.bincount(np.searchsorted(xq, x, side="left"), minlength=n + 1)
+        return np.cumsum(hits[:n])
+    return np.searchsorted(x, xq, side="right")
+
+
 def _locate(x: NDArray[np.float64], h: NDArray[np.float64], xq: ArrayLike
             ) -> tuple[NDArray[np.float64], NDArray[np.int64], NDArray[np.float64],
                        NDArray[np.float64]]:
@@ -73,7 +90,7 @@ def _locate(x: NDArray[np.float64], h: NDArray[np.float64], xq: ArrayLike
     t = (x_q − x_i) / h_i ∈ [0, 1] (np.clip spelled out without its wrapper: the same
     values)."""
     xq = np.minimum(np.maximum(np.asarray(xq, dtype=np.float64), x[0]), x[-1])
-    i = np.searchsorted(x, xq, side="right")
+    i = _right_index(x, xq)
     i -= 1
     np.minimum(np.maximum(i, 0, out=i), h.shape[0] - 1, out=i)
     hi = h[i]
