@@ -116,7 +116,8 @@ def capped_recurrence(x0: float, block: NDArray[np.float64], m: int) -> list[flo
     running the loop only where a stage's value can depend on the one before.
 
     A stage yields its *fill* f_i = cap_i if cap_i > 0 else 0 when its cap binds. When
-    the loop's value equals the cap (a touch: x_{i+1} = f_i), the next stages are
+    the loop's value equals the cap (a touch: x_{i+1} ≥ 0 is floored, so it equals cap_i
+    only where that is its fill, x_{i+1} = f_i bit for bit), the next stages are
     checked at once: stage j is *held* when, entered with τ_j = f_{j−1} (finite), no
     piece lies below its cap, fl(τ_j w_j + z_j) ≥ cap_j for each piece (the loop's own
     float operations on the same x; a NaN piece fails), so the loop's minimum is the
