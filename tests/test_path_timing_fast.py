@@ -205,3 +205,17 @@ def test_kept_gradients_are_fresh_copies_of_the_same_bits():
     for count in range(_gradient.KEEP + 2):  # more paths than kept: the oldest go
         _gradient.repeated(s, q + count, 1)
     assert len(_gradient._kept) <= _gradient.KEEP
+
+
+def test_break_index_is_the_clipped_search():
+    """PathTiming._at0's one search over the inner breaks is clip(searchsorted − 1, 0, N − 1)
+    for times before, at, between and after the breaks (repeated breaks, NaN too)."""
+    from robodcn.path_timing.law import PathTiming
+
+    rng = np.random.default_rng(3)
+    for n in (1, 2, 7, 40):
+        tb = np.concatenate([[0.0], np.cumsum(rng.choice([0.0, 0.1, 0.5], n))])
+        law = PathTiming(tb, np.linspace(0.0, 1.0, n + 1), np.ones(n + 1), np.zeros(n))
+        t = np.concatenate([tb, rng.uniform(-1.0, tb[-1] + 1.0, 50), [np.nan, -0.0]])
+        want = np.clip(np.searchsorted(tb, t, side="right") - 1, 0, n - 1)
+        assert np.array_equal(law._at0(t)[0], want)

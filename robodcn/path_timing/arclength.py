@@ -90,9 +90,10 @@ def _locate(x: NDArray[np.float64], h: NDArray[np.float64], xq: ArrayLike
     t = (x_q − x_i) / h_i ∈ [0, 1] (np.clip spelled out without its wrapper: the same
     values)."""
     xq = np.minimum(np.maximum(np.asarray(xq, dtype=np.float64), x[0]), x[-1])
-    i = _right_index(x, xq)
-    i -= 1
-    np.minimum(np.maximum(i, 0, out=i), h.shape[0] - 1, out=i)
+    # clip(searchsorted(x, xq, "right") − 1, 0, intervals − 1) is the count of inner
+    # points x_1..x_{n−1} at or below the query (x_0 counts for every query not clipped up
+    # to 0, x_n for none not clipped down to the last interval): no clipping
+    i = _right_index(x[1:-1], xq)
     hi = h[i]
     return xq, i, hi, (xq - x[i]) / hi
 

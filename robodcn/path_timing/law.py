@@ -74,9 +74,10 @@ class PathTiming:
 
     def _at0(self, t: NDArray[np.float64]) -> tuple[NDArray, NDArray, NDArray]:
         """Each time's break index i, whether it is past the end, τ = t − t_i (0 after)."""
-        # np.clip(i, 0, stages − 1) without its wrapper: the same values
-        i = np.minimum(np.maximum(np.searchsorted(self._tb, t, side="right") - 1, 0),
-                       self._u.shape[0] - 1)
+        # clip(searchsorted(t_0..t_N, t, "right") − 1, 0, N − 1) is the count of inner
+        # breaks t_1..t_{N−1} at or below t (t_0 counts for every t that is not clipped up
+        # to 0, t_N for none that is not clipped down to N − 1): one search, no clipping
+        i = np.searchsorted(self._tb[1:-1], t, side="right")
         after = t >= self._t_end
         return i, after, np.where(after, 0.0, t - self._tb[i])
 
