@@ -31,7 +31,7 @@ Loop = Callable[[float, Sequence[Iterable[float]]], list[float]]
 ExitLoop = Callable[[float, Sequence[Iterable[float]], list[float]], bool]
 #: Stages converted to floats for :func:`capped_recurrence`'s first loop run (from rest a
 #: pass meets its cap after a third to a half of the planner's 100-stage grids) and for
-#: each later run
+#: the first run after a touch; a run that ends without one doubles the next
 FIRST_RUN = 48
 NEXT_RUN = 16
 #: Touches that hold no stage before the loop stops looking for touches
@@ -124,7 +124,8 @@ def capped_recurrence(x0: float, block: NDArray[np.float64], m: int) -> list[flo
     cap's value and x_{j+1} = f_j = τ_{j+1} (the signs of a zero x or cap change no
     comparison and no floored value). The held run's fills are copied, and the loop
     resumes at the first stage that is not held. The loop converts its columns to floats
-    in chunks as it goes (:data:`FIRST_RUN` stages, then :data:`NEXT_RUN`); after
+    in chunks as it goes (:data:`FIRST_RUN` stages, :data:`NEXT_RUN` after a touch, twice
+    the last after a chunk without one); after
     :data:`MISSES` touches that hold nothing it runs to the end without touch exits.
 
     Parameters
@@ -142,11 +143,12 @@ def capped_recurrence(x0: float, block: NDArray[np.float64], m: int) -> list[flo
     while i < n:
         stop = min(n, i + run)
         touched = _exit_loop(m, misses < MISSES)(x, block[:, i:stop].tolist(), out)
-        run = NEXT_RUN
         i = len(out) - 1
         x = out[-1]
         if not touched or i == n:
+            run *= 2  # no touch yet: longer chunks (few calls on a long free stretch)
             continue
+        run = NEXT_RUN
         if fills is None:
             fills = np.where(caps > 0.0, caps, 0.0)
         tau = fills[i - 1:n - 1]  # τ_i = f_{i−1} = x (the touch), τ_{j+1} = f_j
