@@ -77,7 +77,7 @@ def test_capped_stage_loop_skips_the_capped_stages():
     z = np.full((2, n), 0.5)
     cap = np.full(n, 3.0)  # from 0 by 0.5 a stage: the cap after 6 stages, then held
     ran = []
-    loop = _stageloop._exit_loop
+    loop = _stageloop._loop
 
     def counting(m, exits):
         inner = loop(m, exits)
@@ -90,11 +90,11 @@ def test_capped_stage_loop_skips_the_capped_stages():
                 ran.append(len(out) - before)
         return run
 
-    _stageloop._exit_loop = counting
+    _stageloop._loop = counting
     try:
         got = _stageloop.capped_recurrence(0.0, np.concatenate([w, z, cap[None]]), 2)
     finally:
-        _stageloop._exit_loop = loop
+        _stageloop._loop = loop
     assert got == [0.0, 0.5, 1.0, 1.5, 2.0, 2.5, *[3.0] * (n - 5)]
     assert sum(ran) == 6
 

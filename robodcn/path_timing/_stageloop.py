@@ -27,8 +27,7 @@ from numpy.typing import NDArray
 
 __all__ = ["capped_recurrence", "recurrence"]
 
-Loop = Callable[[float, Sequence[Iterable[float]]], list[float]]
-ExitLoop = Callable[[float, Sequence[Iterable[float]], list[float]], bool]
+Loop = Callable[[float, Sequence[Iterable[float]], list[float]], bool]
 #: Stages converted to floats for :func:`capped_recurrence`'s first loop run (from rest a
 #: pass meets its cap after a third to a half of the planner's 100-stage grids) and for
 #: the first run after a touch; a run that ends without one doubles the next
@@ -36,33 +35,6 @@ FIRST_RUN = 48
 NEXT_RUN = 16
 #: Touches that hold no stage before the loop stops looking for touches
 MISSES = 2
-
-
-@functools.cache
-def _loop(m: int) -> Loop:
-    """The unrolled stage loop for ``m`` pieces a stage (compiled once per m).
-
-    Generated source, since Python has no other way to unroll a loop over a stage's pieces:
-    an inner ``for`` over them costs about twice the unrolled body (measured on 100 stages ×
-    7 pieces: 40 µs vs 20 µs)."""
-    targets = ", ".join([*(f"w{j}" for j in range(m)), *(f"z{j}" for j in range(m)), "cap,"])
-    body = "".join(f"        t = x * w{j} + z{j}\n        if t < m:\n            m = t\n"
-                   for j in range(m))
-    src = (f"def loop(x, columns):\n"
-           f"    out = [x]\n"
-           f"    append = out.append\n"
-           f"    for {targets} in zip(*columns):\n"
-           f"        m = inf\n"
-           f"{body}"
-           f"        t = x * 0.0 + cap\n"
-           f"        if t < m:\n"
-           f"            m = t\n"
-           f"        x = m if m > 0.0 else 0.0\n"
-           f"        append(x)\n"
-           f"    return out\n")
-    namespace: dict[str, object] = {"inf": float("inf")}
-    exec(compile(src, f"<robodcn.path_timing._stageloop m={m}>", "exec"), namespace)
-    return namespace["loop"]  # type: ignore[return-value]
 
 
 def recurrence(x0: float, columns: Sequence[Iterable[float]], m: int) -> list[float]:
@@ -81,14 +53,20 @@ def recurrence(x0: float, columns: Sequence[Iterable[float]], m: int) -> list[fl
     """
     if len(columns) != 2 * m + 1:
         raise ValueError(f"{2 * m + 1} columns expected for {m} pieces, got {len(columns)}")
-    return _loop(m)(float(x0), columns)
+    out = [float(x0)]
+    _loop(m, False)(out[0], columns, out)
+    return out
 
 
 @functools.cache
-def _exit_loop(m: int, exits: bool) -> ExitLoop:
-    """:func:`_loop` appending to ``out``; with ``exits``, it returns True right after a
-    stage whose value equals its cap (a touch: :func:`capped_recurrence`), else False at
-    the end."""
+def _loop(m: int, exits: bool) -> Loop:
+    """The unrolled stage loop for ``m`` pieces a stage (compiled once per m), appending
+    each value to ``out``; with ``exits``, it returns True right after a stage whose value
+    equals its cap (a touch: :func:`capped_recurrence`), else False at the end.
+
+    Generated source, since Python has no other way to unroll a loop over a stage's pieces:
+    an inner ``for`` over them costs about twice the unrolled body (measured on 100 stages ×
+    7 pieces: 40 µs vs 20 µs)."""
     targets = ", ".join([*(f"w{j}" for j in range(m)), *(f"z{j}" for j in range(m)), "cap,"])
     body = "".join(f"        t = x * w{j} + z{j}\n        if t < m:\n            m = t\n"
                    for j in range(m))
@@ -142,7 +120,7 @@ def capped_recurrence(x0: float, block: NDArray[np.float64], m: int) -> list[flo
     x, i, run, misses = out[0], 0, FIRST_RUN, 0
     while i < n:
         stop = min(n, i + run)
-        touched = _exit_loop(m, misses < MISSES)(x, block[:, i:stop].tolist(), out)
+        touched = _loop(m, misses < MISSES)(x, block[:, i:stop].tolist(), out)
         i = len(out) - 1
         x = out[-1]
         if not touched or i == n:

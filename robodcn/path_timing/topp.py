@@ -170,7 +170,8 @@ def solve(sg: NDArray, dq: NDArray, ddq: NDArray, v: NDArray, a: NDArray,
     On up to :data:`~robodcn.path_timing.reachability.LOOP_STAGES` stages without rows and
     with per-joint limits the constraints are built one row per constraint
     (:func:`robodcn.path_timing._columns.constraints`, the same values) and both passes run
-    as plain stage loops."""
+    as plain stage loops, skipping the stages where the cap binds
+    (:func:`robodcn.path_timing._stageloop.capped_recurrence`, the same values)."""
     delta = sg[1:] - sg[:-1]  # np.diff
     n_stages = delta.shape[0]
     fast = (INTERPOLATED and rows is None and v.ndim == 1 and a.ndim == 1
