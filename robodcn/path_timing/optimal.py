@@ -123,7 +123,9 @@ def time_optimal(q: ArrayLike, s: ArrayLike, v_max: ArrayLike, a_max: ArrayLike,
         raise InputError(f"q must be finite joint samples of shape (n ≥ 2, k), got shape "
                          f"{q.shape}", field="q", value=q.shape)
     n, k = q.shape
-    if s.shape != (n,) or not np.isfinite(s).all() or (s[1:] <= s[:-1]).any():
+    # finite ends and every step > 0 (NaN fails it): every entry finite and increasing
+    if (s.shape != (n,) or not (math.isfinite(s[0]) and math.isfinite(s[-1]))
+            or not np.logical_and.reduce(s[1:] > s[:-1])):
         raise InputError(f"s must be {n} strictly increasing finite path parameters, got shape "
                          f"{s.shape}", field="s", value=s.shape)
     scale = check_number("scale", scale, 0.0, 1.0, lo_open=True)

@@ -36,7 +36,7 @@ def check_limits(name: str, value: ArrayLike | None, k: int, n: int | None = Non
     if type(value) is np.ndarray and value.dtype == np.float64 and value.shape == (k,):
         # the callers' usual form (JointLimits' arrays): no None entries to map; a copy, as
         # the conversion below makes; NaN fails "> 0" like a limit ≤ 0
-        if not (value > 0).all():
+        if not np.logical_and.reduce(value > 0):  # (.all() without its wrapper)
             raise InputError(f"{name} must be positive (None = unlimited), got "
                              f"{value.tolist()}", field=name, value=value)
         return value.copy()
