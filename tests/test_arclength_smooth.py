@@ -75,3 +75,20 @@ def test_sampling_twice_gives_the_same_plan() -> None:
     np.testing.assert_array_equal(a.poses, b.poses)
     np.testing.assert_array_equal(a.segment_of, b.segment_of)
     assert a.marks == b.marks
+
+
+@pytest.mark.parametrize("seed", range(6))
+def test_counted_interval_index_is_searchsorted(seed: int) -> None:
+    """_right_index counts the data points below many sorted queries (with repeats, data
+    points among them and the ends); unsorted and NaN queries take numpy's search; the
+    same integers either way."""
+    from robodcn.path_timing import arclength
+
+    rng = np.random.default_rng(seed)
+    x = np.sort(rng.uniform(0.0, 1.0, 40))
+    x[0], x[-1] = 0.0, 1.0
+    xq = np.sort(np.concatenate([rng.uniform(0.0, 1.0, 600), x[::3], [0.0, 1.0, 1.0]]))
+    assert xq.shape[0] > arclength.MERGE_SHARE * x.shape[0]
+    for queries in (xq, xq[::-1].copy(), np.where(np.arange(xq.shape[0]) == 7, np.nan, xq)):
+        got = arclength._right_index(x, queries)
+        assert np.array_equal(got, np.searchsorted(x, queries, side="right"))

@@ -32,6 +32,7 @@ from collections.abc import Callable
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from robodcn.path_timing import _gradient
 from robodcn.path_timing._gradient import Gradient
 
 __all__ = ["UNEVEN", "Monotone", "Smooth", "arc_grid", "arc_length"]
@@ -65,6 +66,23 @@ def arc_length(q: NDArray[np.float64], u: NDArray[np.float64]) -> NDArray[np.flo
     return sigma
 
 
+#: Queries per data point from which :func:`_right_index` counts instead of searching
+MERGE_SHARE = 8
+
+
+def _right_index(x: NDArray[np.float64], xq: NDArray[np.float64]) -> NDArray[np.int64]:
+    """np.searchsorted(x, xq, side="right"): the count of points x_j ≤ each query. For many
+    sorted queries (a stream's samples on a dense grid) by one search of x's points among
+    the queries instead: x_j ≤ xq_q ⟺ q ≥ p_j, p_j = searchsorted(xq, x_j, "left"), so
+    the count is the running sum of how many p_j fall on each query (the same integers;
+    unsorted or NaN queries search as numpy does)."""
+    n = xq.shape[0] if xq.ndim == 1 else 0
+    if n > MERGE_SHARE * x.shape[0] and (xq[1:] >= xq[:-1]).all():
+        hits = np.bincount(np.searchsorted(xq, x, side="left"), minlength=n + 1)
+        return np.cumsum(hits[:n])
+    return np.searchsorted(x, xq, side="right")
+
+
 def _locate(x: NDArray[np.float64], h: NDArray[np.float64], xq: ArrayLike
             ) -> tuple[NDArray[np.float64], NDArray[np.int64], NDArray[np.float64],
                        NDArray[np.float64]]:
@@ -72,9 +90,10 @@ def _locate(x: NDArray[np.float64], h: NDArray[np.float64], xq: ArrayLike
     t = (x_q − x_i) / h_i ∈ [0, 1] (np.clip spelled out without its wrapper: the same
     values)."""
     xq = np.minimum(np.maximum(np.asarray(xq, dtype=np.float64), x[0]), x[-1])
-    i = np.searchsorted(x, xq, side="right")
-    i -= 1
-    np.minimum(np.maximum(i, 0, out=i), h.shape[0] - 1, out=i)
+    # clip(searchsorted(x, xq, "right") − 1, 0, intervals − 1) is the count of inner
+    # points x_1..x_{n−1} at or below the query (x_0 counts for every query not clipped up
+    # to 0, x_n for none not clipped down to the last interval): no clipping
+    i = _right_index(x[1:-1], xq)
     hi = h[i]
     return xq, i, hi, (xq - x[i]) / hi
 
@@ -143,11 +162,14 @@ class Smooth:
         self.x = np.asarray(x, dtype=np.float64)
         self.y = np.asarray(y, dtype=np.float64)
         self.monotone = monotone
-        grad = Gradient(self.x)  # numpy.gradient, edge order 2 (1 for two samples)
-        self.d1 = grad(self.y)
+        # numpy.gradient, edge order 2 (1 for two samples)
         if monotone:
-            self.d1 = np.maximum(self.d1, 0.0)
-        self.d2 = grad(self.d1)
+            grad = Gradient(self.x)
+            self.d1 = np.maximum(grad(self.y), 0.0)
+            self.d2 = grad(self.d1)
+        else:
+            # the q′, q″ the law was timed with (path_derivatives), kept from its timing
+            self.d1, self.d2 = _gradient.repeated(self.x, self.y, 2)
         self.h = self.x[1:] - self.x[:-1]  # np.diff
         self._table: NDArray[np.float64] | None = None
         self._ends: NDArray[np.float64] | None = None
@@ -168,24 +190,24 @@ class Smooth:
 
     def _horner(self, i: NDArray[np.int64], t: NDArray[np.float64]) -> NDArray[np.float64]:
         """The same quintic from its power-basis coefficients in t (one table per Smooth),
-        by Horner's rule."""
+        by Horner's rule. For y (n, k) the table is (6, k, intervals): each power's gather
+        and every product run along the queries (with t broadcast along a short k axis
+        numpy's inner loops would be k long), and the result is copied back to (m, k)."""
         if self._table is None:
             h = self.h[:, None] if self.y.ndim == 2 else self.h
             hh = 0.5 * h * h
             data = np.stack([self.y[:-1], self.d1[:-1] * h, self.d2[:-1] * hh, self.y[1:],
                              self.d1[1:] * h, self.d2[1:] * hh], axis=1)
-            # powers first, (6, intervals[, k]): each power's gather below is contiguous
-            self._table = np.ascontiguousarray(np.moveaxis(
-                np.einsum("mp,im...->ip...", _POWERS, data), 1, 0))
-        c = np.take(self._table, i, axis=1)
-        if c.ndim == 3:
-            t = t[:, None]
+            powers = np.einsum("mp,im...->ip...", _POWERS, data)  # (intervals, 6[, k])
+            # powers first, then joints, intervals last: each gather below is contiguous
+            self._table = np.ascontiguousarray(np.moveaxis(powers, 0, -1))
+        c = np.take(self._table, i, axis=-1)
         out = c[5] * t
         for p in (4, 3, 2, 1):
             out += c[p]
             out *= t
         out += c[0]
-        return out
+        return np.ascontiguousarray(out.T) if out.ndim == 2 else out
 
     def _hermite(self, i: NDArray[np.int64], t: NDArray[np.float64], h: NDArray[np.float64]
                  ) -> NDArray[np.float64]:

@@ -50,10 +50,9 @@ class PathTiming:
         self._sb = np.asarray(s_breaks, dtype=np.float64)
         self._vb = np.asarray(sd_breaks, dtype=np.float64)
         self._u = np.asarray(u, dtype=np.float64)
-        dt = np.diff(self._tb)
-        # antiderivative S of s₀ at the breaks (only the filtered law needs it)
-        pieces = self._sb[:-1] * dt + self._vb[:-1] * dt ** 2 / 2 + self._u * dt ** 3 / 6
-        self._Sb = np.concatenate([[0.0], np.cumsum(pieces)])
+        # the antiderivative S of s₀ at the breaks: built on first use (:attr:`_Sb`), as
+        # only the filtered law (window > 0) reads it
+        self._big_sb: NDArray[np.float64] | None = None
         self.window = float(window)
         self.stretch_factor = float(stretch_factor)
         self.s_end = float(self._sb[-1])
@@ -61,9 +60,24 @@ class PathTiming:
         self._t_end = float(self._tb[-1])
 
     # -- the jerk-free law s₀ and its antiderivative ---------------------------------------
+    @property
+    def _Sb(self) -> NDArray[np.float64]:
+        """S at the breaks: S_0 = 0, S_{i+1} = S_i + s_i Δt + ṡ_i Δt²/2 + u_i Δt³/6."""
+        if self._big_sb is None:
+            dt = self._tb[1:] - self._tb[:-1]  # np.diff
+            pieces = (self._sb[:-1] * dt + self._vb[:-1] * dt ** 2 / 2
+                      + self._u * dt ** 3 / 6)
+            big = self._big_sb = np.empty(pieces.shape[0] + 1)
+            big[0] = 0.0
+            np.cumsum(pieces, out=big[1:])  # np.concatenate([[0.0], np.cumsum(pieces)])
+        return self._big_sb
+
     def _at0(self, t: NDArray[np.float64]) -> tuple[NDArray, NDArray, NDArray]:
         """Each time's break index i, whether it is past the end, τ = t − t_i (0 after)."""
-        i = np.clip(np.searchsorted(self._tb, t, side="right") - 1, 0, self._u.shape[0] - 1)
+        # clip(searchsorted(t_0..t_N, t, "right") − 1, 0, N − 1) is the count of inner
+        # breaks t_1..t_{N−1} at or below t (t_0 counts for every t that is not clipped up
+        # to 0, t_N for none that is not clipped down to N − 1): one search, no clipping
+        i = np.searchsorted(self._tb[1:-1], t, side="right")
         after = t >= self._t_end
         return i, after, np.where(after, 0.0, t - self._tb[i])
 
@@ -80,16 +94,20 @@ class PathTiming:
         big_s = self._Sb[i] + self._sb[i] * tau + v0 * tau ** 2 / 2 + u * tau ** 3 / 6
         return np.where(after, self._Sb[-1] + self.s_end * (t - self._t_end), big_s)
 
-    def _law0(self, t: NDArray[np.float64]) -> tuple[NDArray, NDArray, NDArray, NDArray]:
+    def _law0(self, t: NDArray[np.float64], big: bool = True
+              ) -> tuple[NDArray, NDArray, NDArray, NDArray | None]:
+        """s₀, ṡ₀, s̈₀ and (``big``, else None: the jerk-free law does not read it) S at t."""
         i, after, tau = self._at0(t)
         v0, u = self._vb[i], self._u[i]
         s = self._sb[i] + v0 * tau + u * tau ** 2 / 2
         sd = v0 + u * tau
-        big_s = self._Sb[i] + self._sb[i] * tau + v0 * tau ** 2 / 2 + u * tau ** 3 / 6
-        rest = t - self._t_end
         s = np.where(after, self.s_end, s)
         sd = np.where(after, 0.0, sd)
         sdd = np.where(after, 0.0, u)
+        if not big:
+            return s, sd, sdd, None
+        big_s = self._Sb[i] + self._sb[i] * tau + v0 * tau ** 2 / 2 + u * tau ** 3 / 6
+        rest = t - self._t_end
         big_s = np.where(after, self._Sb[-1] + self.s_end * rest, big_s)
         return s, sd, sdd, big_s
 
@@ -107,25 +125,29 @@ class PathTiming:
         """s, ṡ, s̈, s⃛ at times t (seconds from the start; held at rest after the end)."""
         t = np.asarray(t, dtype=np.float64)
         lam = self.stretch_factor
-        tl = np.maximum(t / lam, 0.0)
+        tl = np.maximum(t / lam if lam != 1.0 else t, 0.0)  # t / 1.0 is t
         w = self.window
         if w > 0:
             # the jerk-free law starts at -w (its history); tl is filtered over [tl - w, tl]
             s1, v1, a1, big1 = self._law0(tl)
             s0, v0, a0, big0 = self._law0(tl - w)
+            assert big1 is not None and big0 is not None
             s, sd, sdd, sddd = (big1 - big0) / w, (s1 - s0) / w, (v1 - v0) / w, (a1 - a0) / w
         else:
             tl = tl + float(self._tb[0])
-            s, sd, sdd, _ = self._law0(tl)
+            s, sd, sdd, _ = self._law0(tl, big=False)
             sddd = np.zeros_like(s)
         # the filter's sums round: never past the end of the path
         s = np.minimum(s, self.s_end)
+        if lam == 1.0:  # x / 1.0 is x: the divisions below would only copy
+            return Samples(t, s, sd, sdd, sddd)
         return Samples(t, s, sd / lam, sdd / lam ** 2, sddd / lam ** 3)
 
     def positions(self, t: ArrayLike) -> NDArray[np.float64]:
         """s alone at times t: :meth:`at`'s s (the same operations), without ṡ, s̈, s⃛."""
         t = np.asarray(t, dtype=np.float64)
-        tl = np.maximum(t / self.stretch_factor, 0.0)
+        lam = self.stretch_factor
+        tl = np.maximum(t / lam if lam != 1.0 else t, 0.0)  # t / 1.0 is t
         w = self.window
         if w > 0:
             s = (self._big_s0(tl) - self._big_s0(tl - w)) / w

@@ -178,7 +178,10 @@ def timed(q: NDArray, s: NDArray, limits: JointLimits, rate_hz: float, *,
     """The law of the path q(s) under :func:`path_limits` (C² path: ``smooth``); None when no
     joint moves along it. Raises the path timing's InputError when the start cannot be
     followed."""
-    if float(np.ptp(q, axis=0).max()) <= 1e-12:
+    # numpy.ptp as max − min, without its wrapper, along the samples of each joint's
+    # contiguous row (a reduction over the short axis of (n, k) is several times slower)
+    rows = np.ascontiguousarray(q.T)
+    if float((np.maximum.reduce(rows, axis=1) - np.minimum.reduce(rows, axis=1)).max()) <= 1e-12:
         return None
     lim = path_limits(limits, scale, v_room)
     return time_optimal(q, s, lim.v, lim.a, lim.j, sd_start=sd_start, sdd_start=sdd_start,

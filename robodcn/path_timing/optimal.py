@@ -62,6 +62,11 @@ from robodcn.path_timing.torque import TorqueLimits, TorqueRows
 
 #: stream rate the jerk pass checks at when the caller gives none, Hz
 CHECK_RATE_HZ = 1000.0
+#: no stops (read-only, shared)
+_NO_STOPS = np.empty(0)
+_NO_STOPS.setflags(write=False)
+_NO_STOP_IDX = np.empty(0, np.int64)
+_NO_STOP_IDX.setflags(write=False)
 
 
 def time_optimal(q: ArrayLike, s: ArrayLike, v_max: ArrayLike, a_max: ArrayLike,
@@ -118,15 +123,19 @@ def time_optimal(q: ArrayLike, s: ArrayLike, v_max: ArrayLike, a_max: ArrayLike,
         raise InputError(f"q must be finite joint samples of shape (n ≥ 2, k), got shape "
                          f"{q.shape}", field="q", value=q.shape)
     n, k = q.shape
-    if s.shape != (n,) or not np.isfinite(s).all() or (s[1:] <= s[:-1]).any():
+    # finite ends and every step > 0 (NaN fails it): every entry finite and increasing
+    if (s.shape != (n,) or not (math.isfinite(s[0]) and math.isfinite(s[-1]))
+            or not np.logical_and.reduce(s[1:] > s[:-1])):
         raise InputError(f"s must be {n} strictly increasing finite path parameters, got shape "
                          f"{s.shape}", field="s", value=s.shape)
     scale = check_number("scale", scale, 0.0, 1.0, lo_open=True)
-    v = check_limits("v_max", v_max, k, n) * scale
-    a = check_limits("a_max", a_max, k, n) * scale ** 2
+    v = check_limits("v_max", v_max, k, n)
+    a = check_limits("a_max", a_max, k, n)
+    if scale != 1.0:  # (fresh arrays either way: check_limits returns its own)
+        v, a = v * scale, a * scale ** 2
     # checked once (None: unlimited, no jerk pass)
-    j = check_limits("j_max", j_max, k) if j_max is not None else np.full(k, np.inf)
-    jerk = j_max is not None and bool(np.isfinite(j).any())
+    j = check_limits("j_max", j_max, k) if j_max is not None else None
+    jerk = j is not None and bool(np.isfinite(j).any())
     if jerk and (v.ndim == 2 or a.ndim == 2):
         raise InputError("per-sample v_max/a_max are not supported with a jerk limit",
                          field="v_max", value=v.shape)
@@ -136,20 +145,24 @@ def time_optimal(q: ArrayLike, s: ArrayLike, v_max: ArrayLike, a_max: ArrayLike,
     if jerk and sd_end != 0.0:
         raise InputError("sd_end must be 0 (to rest) when jerk is limited", field="sd_end",
                          value=sd_end)
-    stop_s = np.atleast_1d(np.asarray(stops, dtype=np.float64))
+    # no stops (the planner's pieces): no arrays to build for them
+    stop_s = (_NO_STOPS if isinstance(stops, tuple | list) and not stops
+              else np.atleast_1d(np.asarray(stops, dtype=np.float64)))
     if stop_s.size and (not np.isfinite(stop_s).all()
                         or (stop_s <= s[0]).any() or (stop_s >= s[-1]).any()):
         raise InputError(f"stops must lie strictly inside s = {s[0]:g}..{s[-1]:g}, got "
                          f"{stop_s.tolist()}", field="stops", value=stop_s.tolist())
     stop_idx = (np.unique(np.abs(s[None, :] - stop_s[:, None]).argmin(axis=1))
-                if stop_s.size else np.empty(0, np.int64))
+                if stop_s.size else _NO_STOP_IDX)
     # s is checked strictly increasing: no dwells for the derivatives' own checks to find
     derivs = derivatives(q, s, stop_idx.tolist(), 3 if jerk else 2, repeated=False)
     grid = grid_of(n, stop_idx, max(1, int(max_stages)))
     every = grid.shape[0] == n  # the grid is every sample: s[grid] would only copy
     sg = s.copy() if every else s[grid]
     dq, ddq = (derivs[0], derivs[1]) if every else (derivs[0][grid], derivs[1][grid])
-    cap = np.full(grid.shape[0], np.inf)
+    cap = None  # the extra cap on x = ṡ², None: none (inf everywhere)
+    if sd_cap is not None or stop_idx.size:
+        cap = np.full(grid.shape[0], np.inf)
     if sd_cap is not None:
         sd_cap = np.asarray(sd_cap, dtype=np.float64)
         if sd_cap.shape != (n,) or np.isnan(sd_cap).any() or (sd_cap < 0).any():
@@ -170,7 +183,10 @@ def time_optimal(q: ArrayLike, s: ArrayLike, v_max: ArrayLike, a_max: ArrayLike,
         tb[0] = 0.0
         np.cumsum(dt, out=tb[1:])  # np.concatenate([[0.0], np.cumsum(dt)])
         return PathTiming(tb, sg, sd, u)
+    assert j is not None
     j = j * scale ** 3
+    if cap is None:
+        cap = np.full(grid.shape[0], np.inf)
     return jerk_limited(s, derivs, grid, cap, v, a, j, sd_start=sd_start, sdd_start=sdd_start,
                         stop_idx=stop_idx, rate_hz=rate_hz or CHECK_RATE_HZ,
                         accel_share=accel_share, smooth=smooth, rows=rows)
@@ -202,7 +218,7 @@ def max_start_speed(q: ArrayLike, s: ArrayLike, v_max: ArrayLike, a_max: ArrayLi
     a = check_limits("a_max", a_max, k, n) * scale ** 2
     stop_s = np.atleast_1d(np.asarray(stops, dtype=np.float64))
     stop_idx = np.unique(np.abs(s[None, :] - stop_s[:, None]).argmin(axis=1)
-                         if stop_s.size else np.empty(0, np.int64))
+                         if stop_s.size else _NO_STOP_IDX)
     dq, ddq = path_derivatives(q, s, stop_idx.tolist(), 2)
     grid = grid_of(q.shape[0], stop_idx, max(1, int(max_stages)))
     dq, ddq = dq[grid], ddq[grid]

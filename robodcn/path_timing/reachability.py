@@ -145,8 +145,19 @@ def backward_pieces(delta: NDArray[np.float64], p_lo: NDArray, r: NDArray
 def backward_loop(c: float, w: NDArray, z: NDArray, cap: NDArray) -> list[float]:
     """x_max,0 … x_max,N of :func:`controllable` by the stage loop from x_max,N = c, the
     pieces (W, Z) (m, N) and the caps (N,)."""
-    columns = [*w[:, ::-1].tolist(), *z[:, ::-1].tolist(), cap[::-1].tolist()]
-    out = _stageloop.recurrence(c, columns, w.shape[0])
+    m = w.shape[0]
+    block = np.empty((2 * m + 1, w.shape[1]))
+    block[:m] = w[:, ::-1]
+    block[m:2 * m] = z[:, ::-1]
+    block[2 * m] = cap[::-1]
+    return backward_block(c, block, m)
+
+
+def backward_block(c: float, block: NDArray, m: int) -> list[float]:
+    """x_max,0 … x_max,N of :func:`controllable` by the stage loop from x_max,N = c and the
+    (2m + 1, N) block of W, Z and the caps, stages reversed (where the cap binds, without
+    the loop: :func:`~robodcn.path_timing._stageloop.capped_recurrence`)."""
+    out = _stageloop.capped_recurrence(c, block, m)
     out.reverse()
     return out
 
@@ -193,12 +204,11 @@ def greedy_forward(delta: NDArray[np.float64], p_hi: NDArray, r: NDArray,
     n_stages = delta.shape[0]
     if n_stages > LOOP_STAGES:
         return greedy_scan(delta, p_hi, r, x_max, x_start)
-    return forward_loop(delta, p_hi[:n_stages].T, r[:n_stages].T, x_max[1:].tolist(),
-                        x_start)
+    return forward_loop(delta, p_hi[:n_stages].T, r[:n_stages].T, x_max[1:], x_start)
 
 
 def forward_loop(delta: NDArray[np.float64], p_hi: NDArray, r: NDArray,
-                 caps: list[float], x_start: float
+                 caps: NDArray[np.float64], x_start: float
                  ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
     """x, u of :func:`greedy_forward` by the stage loop from p_hi, r (m, N), one row per
     constraint, and the caps x_max,1 … x_max,N."""
@@ -210,12 +220,25 @@ def forward_loop(delta: NDArray[np.float64], p_hi: NDArray, r: NDArray,
 
 
 def forward_recurrence(delta: NDArray[np.float64], slope: NDArray, offset: NDArray,
-                       caps: list[float], x_start: float
+                       caps: NDArray[np.float64], x_start: float
                        ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
     """x, u of :func:`greedy_forward` by the stage loop from its pieces (m, N), slope
-    1 + 2Δ r and offset 2Δ p_hi, one row per constraint, and the caps x_max,1 … x_max,N."""
-    x = np.array(_stageloop.recurrence(x_start, [*slope.tolist(), *offset.tolist(), caps],
-                                       slope.shape[0]))
+    1 + 2Δ r and offset 2Δ p_hi, one row per constraint, and the caps x_max,1 … x_max,N
+    (N,)."""
+    m = slope.shape[0]
+    block = np.empty((2 * m + 1, slope.shape[1]))
+    block[:m] = slope
+    block[m:2 * m] = offset
+    block[2 * m] = caps
+    return forward_block(delta, block, m, x_start)
+
+
+def forward_block(delta: NDArray[np.float64], block: NDArray, m: int, x_start: float
+                  ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """x, u of :func:`greedy_forward` by the stage loop from the (2m + 1, N) block of its
+    slopes, offsets and caps (where the cap binds, without the loop:
+    :func:`~robodcn.path_timing._stageloop.capped_recurrence`)."""
+    x = np.array(_stageloop.capped_recurrence(x_start, block, m))
     return x, (x[1:] - x[:-1]) / (2.0 * delta)  # np.diff(x) / (2.0 * delta)
 
 

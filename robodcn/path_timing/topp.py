@@ -18,7 +18,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from robodcn.errors import InputError
-from robodcn.path_timing import _columns, reachability
+from robodcn.path_timing import _columns, _gradient, reachability
 from robodcn.path_timing._gradient import Gradient
 from robodcn.path_timing.torque import TorqueRows
 
@@ -36,7 +36,7 @@ def check_limits(name: str, value: ArrayLike | None, k: int, n: int | None = Non
     if type(value) is np.ndarray and value.dtype == np.float64 and value.shape == (k,):
         # the callers' usual form (JointLimits' arrays): no None entries to map; a copy, as
         # the conversion below makes; NaN fails "> 0" like a limit ≤ 0
-        if not (value > 0).all():
+        if not np.logical_and.reduce(value > 0):  # (.all() without its wrapper)
             raise InputError(f"{name} must be positive (None = unlimited), got "
                              f"{value.tolist()}", field=name, value=value)
         return value.copy()
@@ -98,14 +98,9 @@ def derivatives(q: NDArray[np.float64], s: NDArray[np.float64], cuts: Sequence[i
     cut = sorted(set(int(c) for c in cuts if 0 < c < q.shape[0] - 1)) if len(cuts) else []
     if not cut and not repeated and q.shape[0] >= 2:
         # one piece without dwells (the planner's dense paths): the derivatives are the
-        # gradients themselves, no per-piece copies
-        grad = Gradient(s)
-        out = []
-        f = q
-        for _ in range(order):
-            f = grad(f)
-            out.append(f)
-        return out
+        # gradients themselves, no per-piece copies (kept: the planner's interpolant of the
+        # same samples asks for them again)
+        return _gradient.repeated(s, q, order)
     edges = [0, *cut, q.shape[0] - 1]
     out = [np.empty_like(q) for _ in range(order)]
     for a, b in itertools.pairwise(edges):
@@ -165,16 +160,18 @@ def interpolated_rows(sg: NDArray, rows: TorqueRows) -> TorqueRows:
             np.concatenate([hi, nxt[3]], axis=1))
 
 
-def solve(sg: NDArray, dq: NDArray, ddq: NDArray, v: NDArray, a: NDArray, extra_cap: NDArray,
-           x_start: float, x_end: float, rows: TorqueRows | None = None
-           ) -> tuple[NDArray, NDArray]:
+def solve(sg: NDArray, dq: NDArray, ddq: NDArray, v: NDArray, a: NDArray,
+          extra_cap: NDArray | None, x_start: float, x_end: float,
+          rows: TorqueRows | None = None) -> tuple[NDArray, NDArray]:
     """x (N + 1,), u (N,) of TOPP-RA on grid sg; raises when the start is not controllable.
-    ``rows``: further linear constraints (torque: :mod:`robodcn.path_timing.torque`).
+    ``extra_cap``: (N + 1,) a further bound on x at each point, None: none (min(x, inf) is
+    x); ``rows``: further linear constraints (torque: :mod:`robodcn.path_timing.torque`).
 
     On up to :data:`~robodcn.path_timing.reachability.LOOP_STAGES` stages without rows and
     with per-joint limits the constraints are built one row per constraint
     (:func:`robodcn.path_timing._columns.constraints`, the same values) and both passes run
-    as plain stage loops."""
+    as plain stage loops, skipping the stages where the cap binds
+    (:func:`robodcn.path_timing._stageloop.capped_recurrence`, the same values)."""
     delta = sg[1:] - sg[:-1]  # np.diff
     n_stages = delta.shape[0]
     fast = (INTERPOLATED and rows is None and v.ndim == 1 and a.ndim == 1
@@ -182,10 +179,11 @@ def solve(sg: NDArray, dq: NDArray, ddq: NDArray, v: NDArray, a: NDArray, extra_
     columns = _columns.constraints(delta, dq, ddq, v, a) if fast else None
     if columns is not None:
         half, r, x_cap = columns
-        x_cap = np.minimum(x_cap, extra_cap)
-        pieces = _columns.pieces(delta, half, r)
-        x_max = reachability.backward_loop(min(float(x_end), float(x_cap[n_stages])),
-                                           pieces.w, pieces.z, x_cap[:n_stages])
+        if extra_cap is not None:
+            x_cap = np.minimum(x_cap, extra_cap)
+        pieces = _columns.pieces(delta, half, r, x_cap)
+        x_max = reachability.backward_block(min(float(x_end), float(x_cap[n_stages])),
+                                            pieces.backward, pieces.m)
         x_max_0 = x_max[0]
     else:
         if INTERPOLATED:
@@ -193,7 +191,8 @@ def solve(sg: NDArray, dq: NDArray, ddq: NDArray, v: NDArray, a: NDArray, extra_
             if rows is not None:
                 rows = interpolated_rows(sg, rows)
         p_lo, p_hi, r_rows, x_cap = reachability.stage_constraints(dq, ddq, v, a, rows)
-        x_cap = np.minimum(x_cap, extra_cap)
+        if extra_cap is not None:
+            x_cap = np.minimum(x_cap, extra_cap)
         x_max_arr = reachability.controllable(delta, p_lo, r_rows, x_cap, x_end)
         x_max_0 = float(x_max_arr[0])
     if x_start > x_max_0 * (1 + 1e-9) + 1e-15:
@@ -203,8 +202,9 @@ def solve(sg: NDArray, dq: NDArray, ddq: NDArray, v: NDArray, a: NDArray, extra_
                          field="sd_start", value=math.sqrt(x_start))
     x0 = min(x_start, x_max_0)
     if columns is not None:
-        return reachability.forward_recurrence(delta, pieces.slope, pieces.offset, x_max[1:],
-                                               x0)
+        forward = pieces.forward
+        forward[2 * pieces.m] = x_max[1:]  # the caps x_max,1 … x_max,N
+        return reachability.forward_block(delta, forward, pieces.m, x0)
     return reachability.greedy_forward(delta, p_hi, r_rows, x_max_arr, x0)
 
 
