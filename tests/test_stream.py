@@ -58,6 +58,7 @@ def sim(sim3):
 
 # -- the happy path ----------------------------------------------------------------------------
 
+@pytest.mark.serial  # its rate is wall-clock (skip_late=False): a loaded parallel pass had 72 Hz
 def test_trajectory_executes_end_to_end(sim):
     with open_bus(sim) as bus:
         place(bus, TRAJ.ticks[0])

@@ -22,7 +22,7 @@ from numpy.typing import NDArray
 from robodcn import kinematics
 from robodcn.contract.request import PlanRequest
 from robodcn.errors import UnreachableError, Violation
-from robodcn.planner import validate, yawed
+from robodcn.planner import path, validate, yawed
 
 
 def fmt_pose(pose: Sequence[float]) -> str:
@@ -35,22 +35,51 @@ def fmt_pose(pose: Sequence[float]) -> str:
 
 def check_waypoints(req: PlanRequest) -> None:
     """Every waypoint reachable, else UnreachableError naming it (``waypoints[j]``) and why
-    (behind the base, on the yaw axis, out of the annulus)."""
+    (behind the base, on the yaw axis, out of the annulus); a lone waypoint's path starts at
+    the start's pose, which must be reachable too (:func:`check_start`)."""
     arm = req.arm
     if not arm.yawed:
         validate.check_waypoints(req)
+        check_start(req)
         return
     chain = arm.chain
     assert chain is not None
     wp = req.waypoints_array
     ok = kinematics.reachable_yawed(chain, wp)
     if ok.all():
+        check_start(req)
         return
     j = int(np.argmin(ok))
     why = kinematics.why_unreachable(chain, wp[j]) or "cannot be reached"
     raise UnreachableError(f"waypoints[{j}] ({fmt_pose(wp[j])}) {why}",
                            field=f"waypoints[{j}]", value=wp[j].tolist(),
                            pose=wp[j].tolist(), waypoint=j)
+
+
+def check_start(req: PlanRequest) -> None:
+    """A lone waypoint's path starts at the pose of the start (``start_joints`` or the start
+    state's joints): UnreachableError naming that field when no IK solution there lies
+    within the joint limits (the start joints put the tool behind the yaw axis, over the
+    top, or below what the chain's IK covers): the path could not begin."""
+    if req.waypoints_array.shape[0] != 1:
+        return
+    start = path.start_of(req)
+    assert start is not None, "the contract needs a start for a lone waypoint"
+    first = path.plan_waypoints(req)[:1]
+    q, _ = path.joints_of(req.arm, first, start, req.branch)
+    if q is not None:
+        return
+    field = "start_joints" if req.start_joints is not None else "start_state"
+    user = path.user_pose(req.arm, start[None, :])[0]
+    why = ""
+    if req.arm.yawed:
+        assert req.arm.chain is not None
+        why = kinematics.why_unreachable(req.arm.chain, user) or ""
+    raise UnreachableError(
+        f"{field} put the tool at {fmt_pose(user)}, where a lone waypoint's path would "
+        f"start: {why or 'no IK solution there lies within the joint limits'}; give a "
+        f"first waypoint the arm can reach", field=field,
+        value=[float(v) for v in start], pose=user.tolist())
 
 
 def _plane_reach(req: PlanRequest, pose: NDArray[np.float64]) -> tuple[float, float, str]:
