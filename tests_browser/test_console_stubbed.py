@@ -14,7 +14,7 @@ import time
 from pathlib import Path
 from typing import Any
 
-from test_console import el, severe_logs
+from test_console import el, severe_logs, type_target
 
 from robodcn.config import load_arm
 from robodcn.http.openapi import openapi
@@ -222,3 +222,39 @@ def test_the_gripper_control_posts_the_contracts_body(driver: Any, until: Any,
     assert abs(sent[2]["width_m"] - 0.03) < 1e-12 and list(sent[2]) == ["width_m"]
     time.sleep(0.2)
     assert el(driver, "error").text == ""
+
+
+def test_a_refused_move_keeps_its_error_through_the_preview_after_it(
+        driver: Any, until: Any, service: Any, stub: Any) -> None:
+    """A Move the service refuses (422) says why, and the preview that the typed target
+    schedules — answered after the refusal, planning fine — does not wipe it (it did: the
+    omx console showed no reason for a refused retarget); the user's next edit does."""
+    service.wait_idle()
+    _, st = service.call("GET", "/v1/state")
+    _, doc = service.call("GET", "/openapi.json")
+    _, arm = service.call("GET", "/v1/arm")
+    goal = [st["pose"][0] - 0.02, st["pose"][1] + 0.02, st["pose"][2]]
+    status, plan = service.call("POST", "/v1/trajectories",
+                                {"waypoints": [st["pose"], goal]})
+    assert status == 200, plan
+    fake = stub({"/openapi.json": doc, "/v1/arm": arm, "/v1/state": st})
+    refusal = {"error": {"code": "invalid_input", "field": "duration",
+                         "message": "the replacement cannot be timed to duration 3"}}
+    fake.answers[("POST", "/v1/moves")] = (422, refusal)
+    fake.answers[("POST", "/v1/trajectories")] = (200, plan)
+    open_stub(driver, until, fake)
+    type_target(driver, (goal[0], goal[1], math.degrees(goal[2])))
+    el(driver, "move").click()   # within the preview's 250 ms debounce: it answers after
+    until(lambda d: "cannot be timed to duration 3" in el(d, "error").text, 10,
+          "the refusal is not shown")
+
+    def previews_after_the_move() -> int:
+        paths = [p for m, p, _ in fake.requests if m == "POST"]
+        return paths[paths.index("/v1/moves"):].count("/v1/trajectories")
+
+    until(lambda d: previews_after_the_move() >= 1, 5, "no preview after the Move")
+    time.sleep(0.4)   # the preview's answer is drawn
+    assert "cannot be timed to duration 3" in el(driver, "error").text
+    box = el(driver, "target-x")
+    box.send_keys("1")
+    until(lambda d: el(d, "error").text == "", 5, "an edit did not clear the old refusal")

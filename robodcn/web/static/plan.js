@@ -5,6 +5,7 @@ import { S, $, DEG } from "./state.js";
 import { api } from "./api.js";
 import { redraw } from "./draw.js";
 import { showPlans } from "./plan_table.js";
+import { clearError } from "./ui.js";
 
 /** The target-pose input of each pose axis (x, y, theta | x, y, z, pitch). */
 function input(axis) {
@@ -62,7 +63,10 @@ export function planBody(method, { fromPresent = false } = {}) {
 }
 
 let previewTimer = null;
+/** A user's edit of the request: what an earlier Move or operation was refused for no
+ * longer stands (cleared now), and a preview of the new request follows. */
 export function schedulePreview() {
+  clearError();
   clearTimeout(previewTimer);
   previewTimer = setTimeout(preview, 250);
 }

@@ -42,14 +42,14 @@ function row(method, plan) {
 /** Fill the table with [method, plan] results; `inputError` replaces them all. */
 export function showPlans(results, inputError = null) {
   const tbody = $("plans").querySelector("tbody");
-  if (inputError) { showError(inputError); return; }
+  if (inputError) { showError(inputError, "preview"); return; }
   tbody.replaceChildren(...results.map(([m, p]) => row(m, p)));
   const failed = results.filter(([, p]) => p.error);
   const main = results.length ? results[0][0] : null;
   if (failed.length) {
     showError(failed.map(([m, p]) => (failed.length > 1 || m !== main ? NAMES[m] + ": " : "") +
-      errorText(p.error)).join("\n"));
+      errorText(p.error)).join("\n"), "preview");
   } else {
-    clearError();
+    clearError("preview");
   }
 }

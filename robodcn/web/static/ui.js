@@ -11,12 +11,19 @@ export function errorText(err) {
   return err.field && !message.includes(err.field) ? `${err.field}: ${message}` : message;
 }
 
-export function showError(err) {
-  $("error").textContent = errorText(err);
+/** Show `err`; `source` says what it answers ("preview": the plan table's previews). */
+export function showError(err, source = "action") {
+  const el = $("error");
+  el.textContent = errorText(err);
+  el.dataset.source = source;
 }
 
-export function clearError() {
-  $("error").textContent = "";
+/** Clear the error line; with `source`, only an error that source showed: a preview that
+ * plans fine must not wipe what a refused Move or operation said a moment before. */
+export function clearError(source = null) {
+  const el = $("error");
+  if (source !== null && el.textContent && el.dataset.source !== source) return;
+  el.textContent = "";
 }
 
 export function showTokenBox() {
