@@ -200,6 +200,30 @@ def test_a_one_waypoint_replace_with_a_payload_on_the_omx(omx_server: Any) -> No
 
 
 
+@pytest.mark.serial  # a switch placed in real time beside the stream
+@pytest.mark.parametrize("at", [0.3, 0.55])
+def test_a_replacement_to_a_duration_mid_move_runs_that_long(omx_server: Any, at: float
+                                                            ) -> None:
+    """Retargeted to the far side, high up, with ``duration: 3`` from the middle of a 6 s
+    move (the console's omx example): 422 "the re-timed path keeps exceeding a joint limit"
+    or 409 busy before (test_retarget_duration_omx has the planning); now accepted and 3 s
+    long. A 409 busy ("nothing changed, try again") is tried once more, as a client does."""
+    server, sa = omx_server
+    far, left = [0.15, -0.10, 0.18, 0.0], [0.02, 0.14, 0.26, 0.349]
+    old = start_move(server, {"waypoints": [far], "duration": 6.0}, at, timeout=20)
+    for _ in range(2):
+        status, _, new = call(server, "POST", "/v1/moves",
+                              {"waypoints": [left], "duration": 3.0, "replace": True})
+        if status != 409:
+            break
+        assert new["error"]["code"] == "busy", new
+    assert status == 202, new
+    assert abs(new["duration"] - 3.0) <= 0.02, new
+    done = poll_move(server, new["id"], finished, timeout=20)
+    assert done["status"] in ("done", "degraded"), done
+    assert call(server, "GET", f"/v1/moves/{old['id']}")[2]["status"] == "replaced"
+    _at(sa, left)
+
 def test_the_record_of_an_omx_move_has_four_number_poses(omx_server: Any) -> None:
     server, _ = omx_server
     status, _, body = call(server, "POST", "/v1/moves", {"waypoints": [NEAR],

@@ -21,6 +21,15 @@ FIRST_GUESS_S = {"retarget": 0.01, RETARGET_TO_DURATION: 0.03}
 JERK_FIRST_GUESS_S = {"retarget": 0.12, RETARGET_TO_DURATION: 0.3, "stop smoothly": 0.03,
                       "pause": 0.03, "resume": 0.1, "change speed": 0.15}
 DEFAULT_S = 0.003
+#: operations whose planning times spread widely on an arm without jerk limits too, placed
+#: from the slowest kept: a retarget to a duration fits its law in rounds, and where the
+#: moving start's stretch misses it is fitted again through rest (on the omx 30-340 ms
+#: beside a stream; placed from the fastest it missed, was planned again, and a second
+#: miss ran out of the operation's budget: 409 for a reachable request)
+SPREAD = frozenset({RETARGET_TO_DURATION})
+#: and with this much more than the slowest (a miss there costs a second planning, which the
+#: operation's budget seldom has left)
+SPREAD_MARGIN = 1.5
 #: measurements kept per operation and kind of arm
 KEEP = 5
 
@@ -30,8 +39,9 @@ class PlanningTimes:
 
     :meth:`expected` is optimistic on an arm without jerk limits (the fastest of the last
     few: a miss is planned again from further ahead) and the slowest of them with jerk
-    limits (those laws take long and vary). :attr:`warmed` says a retarget was planned with
-    this estimator already (its first one pays the planner's and numpy's first calls)."""
+    limits and for the operations in :data:`SPREAD` (those laws take long and vary; with
+    :data:`SPREAD_MARGIN` more). :attr:`warmed` says a retarget was planned with this
+    estimator already (its first one pays the planner's and numpy's first calls)."""
 
     def __init__(self) -> None:
         self._seen: dict[tuple[str, bool], list[float]] = {}
@@ -51,7 +61,10 @@ class PlanningTimes:
         return [(JERK_FIRST_GUESS_S if jerk else FIRST_GUESS_S).get(what, DEFAULT_S)]
 
     def expected(self, what: str, jerk: bool) -> float:
-        """Seconds to place the switch of ``what`` ahead of the loop."""
+        """Seconds to place the switch of ``what`` ahead of the loop: the fastest kept, but
+        the slowest with jerk limits or for a retarget to a duration (:data:`SPREAD`)."""
+        if what in SPREAD:
+            return SPREAD_MARGIN * max(self.times(what, jerk))
         return (max if jerk else min)(self.times(what, jerk))
 
     def record(self, what: str, jerk: bool, seconds: float) -> None:
@@ -75,4 +88,5 @@ class PlanningTimes:
             self._seen[(what, jerk)] = [float(t) for t in times][-KEEP:]
 
 
-__all__ = ["FIRST_GUESS_S", "JERK_FIRST_GUESS_S", "RETARGET_TO_DURATION", "PlanningTimes"]
+__all__ = ["FIRST_GUESS_S", "JERK_FIRST_GUESS_S", "RETARGET_TO_DURATION", "SPREAD",
+           "PlanningTimes"]

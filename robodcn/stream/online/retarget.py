@@ -53,7 +53,6 @@ from robodcn.stream.online.state import State
 from robodcn.stream.online.timing import Timing
 from robodcn.stream.online_path import (
     JointPath,
-    LawExceedsLimits,
     evenly_spaced,
     excess,
     retime,
@@ -68,7 +67,7 @@ GEOMETRY_SAMPLES = 400
 FIT_ROUNDS = 8
 #: rounds of fitting the moving start's stretch (met within 3 on the omx's paths; where it
 #: is not met by then it seldom is: through rest is fitted instead)
-MOVING_FIT_ROUNDS = 4
+MOVING_FIT_ROUNDS = 3
 FIT_SAMPLES, FIT_SHARE = 2, 0.005
 #: the commanded samples may pass a limit by rounding only
 LIMIT_SLACK = 1e-9
@@ -134,8 +133,11 @@ class Retargeting:
             segments = self.fitted(lambda lam: fastest if lam >= 1.0 else
                                    self.stretched(state, fastest, lam), rep.duration,
                                    MOVING_FIT_ROUNDS)
-        except LawExceedsLimits:
-            segments = None  # a stretch the limits refuse: through rest below
+        except RobodcnError:
+            # a stretch the limits refuse (LawExceedsLimits; or its path stuck where the
+            # moving start stops: "cannot move from s"), or a duration shorter than the
+            # fastest way: through rest below, else refused naming the duration
+            segments = None
         if segments is not None and self._within(segments, rep.duration) \
                 and self._keeps_limits(state, segments):
             return segments
