@@ -184,7 +184,7 @@ def solve(sg: NDArray, dq: NDArray, ddq: NDArray, v: NDArray, a: NDArray,
         pieces = _columns.pieces(delta, half, r, x_cap)
         x_max = reachability.backward_block(min(float(x_end), float(x_cap[n_stages])),
                                             pieces.backward, pieces.m)
-        x_max_0 = x_max[0]
+        x_max_0 = float(x_max[0])
     else:
         if INTERPOLATED:
             dq, ddq, v, a = interpolated(sg, dq, ddq, v, a)
