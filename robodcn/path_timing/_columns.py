@@ -67,7 +67,7 @@ def constraints(delta: NDArray[np.float64], dq: NDArray[np.float64],
     np.divide(minus, d1[:k], out=r[:k])
     np.divide(minus[:, 1:], d1[k:, :-1], out=r[k:, :-1])
     np.divide(minus[:, -1], d1[k:, -1], out=r[k:, -1])
-    if not np.isfinite(r).all():
+    if not np.logical_and.reduce(np.isfinite(r), axis=None):  # .all() without its wrapper
         return None
     a_col = a_max[:, None]
     half = np.empty((2 * k, n))
@@ -85,7 +85,8 @@ def constraints(delta: NDArray[np.float64], dq: NDArray[np.float64],
     np.abs(rise, out=rise)
     gap = half[il]
     gap += half[jl]
-    cross = np.full(rise.shape, np.inf)
+    cross = np.empty(rise.shape)  # np.full without its wrapper
+    cross.fill(np.inf)
     np.divide(gap, rise, out=cross, where=rise > 0)
     return half, r, np.minimum(x_cap, np.minimum.reduce(cross, axis=0))
 

@@ -58,7 +58,9 @@ def check_limits(name: str, value: ArrayLike | None, k: int, n: int | None = Non
 
 
 def check_number(name: str, value: float, lo: float, hi: float, *, lo_open: bool = False) -> float:
-    ok = isinstance(value, int | float | np.floating | np.integer) and math.isfinite(value)
+    # a plain float (the callers' usual argument) without the four-way isinstance
+    ok = ((type(value) is float or isinstance(value, int | float | np.floating | np.integer))
+          and math.isfinite(value))
     if ok:
         ok = (lo < value if lo_open else lo <= value) and value <= hi
     if not ok:
