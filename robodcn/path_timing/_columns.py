@@ -140,7 +140,7 @@ def pieces(delta: NDArray[np.float64], half: NDArray[np.float64], r: NDArray[np.
     offset = np.multiply(two_d, half, out=forward[m:2 * m])
     backward = np.empty((2 * m + 1, n_stages))
     w, z = backward[:m], backward[m:2 * m]
-    if not np.isfinite(half).all():
+    if not np.logical_and.reduce(np.isfinite(half), axis=None):  # (.all() without its wrapper)
         # an unlimited acceleration: backward_pieces' own rules
         w_s, z_s = reachability.backward_pieces(delta, -half, r)
         w[:] = w_s[:, ::-1]
@@ -149,9 +149,13 @@ def pieces(delta: NDArray[np.float64], half: NDArray[np.float64], r: NDArray[np.
         # backward_pieces' values: W = 1 / slope, Z = (−2Δ·p_lo)·W (−2Δ·(−half) is the
         # offset's bits) where the slope is positive, else (0, inf): no bound
         good = slope[:, ::-1] > 0
-        w[:] = 0.0
-        np.divide(1.0, slope[:, ::-1], out=w, where=good)
-        z[:] = np.inf
-        np.multiply(offset[:, ::-1], w, out=z, where=good)
+        if np.logical_and.reduce(good, axis=None):  # every slope positive (the usual case)
+            np.divide(1.0, slope[:, ::-1], out=w)
+            np.multiply(offset[:, ::-1], w, out=z)
+        else:
+            w[:] = 0.0
+            np.divide(1.0, slope[:, ::-1], out=w, where=good)
+            z[:] = np.inf
+            np.multiply(offset[:, ::-1], w, out=z, where=good)
     backward[2 * m] = x_cap[n_stages - 1::-1] if n_stages else x_cap[:0]
     return Pieces(forward, backward, m)
