@@ -85,9 +85,13 @@ def constraints(delta: NDArray[np.float64], dq: NDArray[np.float64],
     np.abs(rise, out=rise)
     gap = half[il]
     gap += half[jl]
-    cross = np.empty(rise.shape)  # np.full without its wrapper
-    cross.fill(np.inf)
-    np.divide(gap, rise, out=cross, where=rise > 0)
+    rising = rise > 0
+    if np.logical_and.reduce(rising, axis=None):  # no pair parallel (the usual case)
+        cross = np.divide(gap, rise, out=gap)
+    else:
+        cross = np.empty(rise.shape)  # np.full without its wrapper
+        cross.fill(np.inf)
+        np.divide(gap, rise, out=cross, where=rising)
     return half, r, np.minimum(x_cap, np.minimum.reduce(cross, axis=0))
 
 
