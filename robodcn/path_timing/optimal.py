@@ -182,7 +182,8 @@ def time_optimal(q: ArrayLike, s: ArrayLike, v_max: ArrayLike, a_max: ArrayLike,
         dt, sd = timed_stages(sg, x)
         tb = np.empty(dt.shape[0] + 1)
         tb[0] = 0.0
-        np.cumsum(dt, out=tb[1:])  # np.concatenate([[0.0], np.cumsum(dt)])
+        # np.concatenate([[0.0], np.cumsum(dt)]): cumsum's own ufunc, without its wrapper
+        np.add.accumulate(dt, out=tb[1:])
         return PathTiming(tb, sg, sd, u)
     assert j is not None
     j = j * scale ** 3

@@ -225,7 +225,7 @@ def timed_stages(sg: NDArray, x: NDArray) -> tuple[NDArray[np.float64], NDArray[
     """
     sd = np.sqrt(np.maximum(x, 0.0))
     speed = sd[:-1] + sd[1:]
-    if (speed <= 0).any():
+    if np.logical_or.reduce(speed <= 0):  # (.any() without its wrapper)
         i = int(np.argmax(speed <= 0))
         raise InputError(f"the path cannot move from s = {sg[i]:.6g}: every joint limit forbids"
                          " it (a stop next to a stop, or a zero limit)", field="stops",
