@@ -95,7 +95,7 @@ def test_capped_stage_loop_skips_the_capped_stages():
         got = _stageloop.capped_recurrence(0.0, np.concatenate([w, z, cap[None]]), 2)
     finally:
         _stageloop._loop = loop
-    assert got == [0.0, 0.5, 1.0, 1.5, 2.0, 2.5, *[3.0] * (n - 5)]
+    assert got.tolist() == [0.0, 0.5, 1.0, 1.5, 2.0, 2.5, *[3.0] * (n - 5)]
     assert sum(ran) == 6
 
 

@@ -67,7 +67,7 @@ def constraints(delta: NDArray[np.float64], dq: NDArray[np.float64],
     np.divide(minus, d1[:k], out=r[:k])
     np.divide(minus[:, 1:], d1[k:, :-1], out=r[k:, :-1])
     np.divide(minus[:, -1], d1[k:, -1], out=r[k:, -1])
-    if not np.isfinite(r).all():
+    if not np.logical_and.reduce(np.isfinite(r), axis=None):  # .all() without its wrapper
         return None
     a_col = a_max[:, None]
     half = np.empty((2 * k, n))
@@ -85,8 +85,13 @@ def constraints(delta: NDArray[np.float64], dq: NDArray[np.float64],
     np.abs(rise, out=rise)
     gap = half[il]
     gap += half[jl]
-    cross = np.full(rise.shape, np.inf)
-    np.divide(gap, rise, out=cross, where=rise > 0)
+    rising = rise > 0
+    if np.logical_and.reduce(rising, axis=None):  # no pair parallel (the usual case)
+        cross = np.divide(gap, rise, out=gap)
+    else:
+        cross = np.empty(rise.shape)  # np.full without its wrapper
+        cross.fill(np.inf)
+        np.divide(gap, rise, out=cross, where=rising)
     return half, r, np.minimum(x_cap, np.minimum.reduce(cross, axis=0))
 
 
@@ -139,7 +144,7 @@ def pieces(delta: NDArray[np.float64], half: NDArray[np.float64], r: NDArray[np.
     offset = np.multiply(two_d, half, out=forward[m:2 * m])
     backward = np.empty((2 * m + 1, n_stages))
     w, z = backward[:m], backward[m:2 * m]
-    if not np.isfinite(half).all():
+    if not np.logical_and.reduce(np.isfinite(half), axis=None):  # (.all() without its wrapper)
         # an unlimited acceleration: backward_pieces' own rules
         w_s, z_s = reachability.backward_pieces(delta, -half, r)
         w[:] = w_s[:, ::-1]
@@ -148,9 +153,13 @@ def pieces(delta: NDArray[np.float64], half: NDArray[np.float64], r: NDArray[np.
         # backward_pieces' values: W = 1 / slope, Z = (−2Δ·p_lo)·W (−2Δ·(−half) is the
         # offset's bits) where the slope is positive, else (0, inf): no bound
         good = slope[:, ::-1] > 0
-        w[:] = 0.0
-        np.divide(1.0, slope[:, ::-1], out=w, where=good)
-        z[:] = np.inf
-        np.multiply(offset[:, ::-1], w, out=z, where=good)
+        if np.logical_and.reduce(good, axis=None):  # every slope positive (the usual case)
+            np.divide(1.0, slope[:, ::-1], out=w)
+            np.multiply(offset[:, ::-1], w, out=z)
+        else:
+            w[:] = 0.0
+            np.divide(1.0, slope[:, ::-1], out=w, where=good)
+            z[:] = np.inf
+            np.multiply(offset[:, ::-1], w, out=z, where=good)
     backward[2 * m] = x_cap[n_stages - 1::-1] if n_stages else x_cap[:0]
     return Pieces(forward, backward, m)

@@ -28,11 +28,6 @@ from numpy.typing import NDArray
 __all__ = ["capped_recurrence", "recurrence"]
 
 Loop = Callable[[float, Sequence[Iterable[float]], list[float]], bool]
-#: Stages converted to floats for :func:`capped_recurrence`'s first loop run (from rest a
-#: pass meets its cap after a third to a half of the planner's 100-stage grids) and for
-#: the first run after a touch; a run that ends without one doubles the next
-FIRST_RUN = 48
-NEXT_RUN = 16
 #: Touches that hold no stage before the loop stops looking for touches
 MISSES = 2
 
@@ -89,8 +84,9 @@ def _loop(m: int, exits: bool) -> Loop:
     return namespace["loop"]  # type: ignore[return-value]
 
 
-def capped_recurrence(x0: float, block: NDArray[np.float64], m: int) -> list[float]:
-    """:func:`recurrence` (the same values, bit for bit) of the pieces in ``block``,
+def capped_recurrence(x0: float, block: NDArray[np.float64], m: int) -> NDArray[np.float64]:
+    """:func:`recurrence` (the same values, bit for bit, as an (N + 1,) array) of the
+    pieces in ``block``,
     running the loop only where a stage's value can depend on the one before.
 
     A stage yields its *fill* f_i = cap_i if cap_i > 0 else 0 when its cap binds. When
@@ -101,32 +97,39 @@ def capped_recurrence(x0: float, block: NDArray[np.float64], m: int) -> list[flo
     float operations on the same x; a NaN piece fails), so the loop's minimum is the
     cap's value and x_{j+1} = f_j = τ_{j+1} (the signs of a zero x or cap change no
     comparison and no floored value). The held run's fills are copied, and the loop
-    resumes at the first stage that is not held. The loop converts its columns to floats
-    in chunks as it goes (:data:`FIRST_RUN` stages, :data:`NEXT_RUN` after a touch, twice
-    the last after a chunk without one); after
+    resumes at the first stage that is not held. The loop reads the block's rows through
+    a memoryview, which yields each entry as a Python float when the loop reaches its
+    stage (a ``tolist`` would convert stages the loop never runs: ~10 ns an entry); after
     :data:`MISSES` touches that hold nothing it runs to the end without touch exits.
 
     Parameters
     ----------
     x0 : x_0
     block : (2m + 1, N) rows w_0 … w_{m−1}, z_0 … z_{m−1}, cap, one column per stage in
-        loop order (C-contiguous, so a chunk converts in one ``tolist``)
+        loop order (C-contiguous, else copied once)
     m : pieces a stage besides the cap
     """
     n = block.shape[1]
+    if n == 0:  # (a memoryview cannot be cast with a zero in its shape)
+        return np.array([float(x0)])
     caps = block[2 * m]
     fills: NDArray[np.float64] | None = None
-    out = [float(x0)]
-    x, i, run, misses = out[0], 0, FIRST_RUN, 0
+    res = np.empty(n + 1)
+    # the loop's values since res[start] (a held run's fills go into res as they are: no
+    # list of them to convert back)
+    out, start = [float(x0)], 0
+    # the block's entries in row order (C order: ascontiguousarray copies nothing then); a
+    # row's slice from stage i on yields its entries as Python floats, the same doubles
+    flat = memoryview(np.ascontiguousarray(block)).cast("B").cast("d")
+    rows = range(2 * m + 1)
+    x, i, misses = out[0], 0, 0
     while i < n:
-        stop = min(n, i + run)
-        touched = _loop(m, misses < MISSES)(x, block[:, i:stop].tolist(), out)
-        i = len(out) - 1
+        columns = [flat[r * n + i:(r + 1) * n] for r in rows]
+        touched = _loop(m, misses < MISSES)(x, columns, out)
+        i = start + len(out) - 1
         x = out[-1]
         if not touched or i == n:
-            run *= 2  # no touch yet: longer chunks (few calls on a long free stretch)
             continue
-        run = NEXT_RUN
         if fills is None:
             fills = np.where(caps > 0.0, caps, 0.0)
         tau = fills[i - 1:n - 1]  # τ_i = f_{i−1} = x (the touch), τ_{j+1} = f_j
@@ -146,7 +149,10 @@ def capped_recurrence(x0: float, block: NDArray[np.float64], m: int) -> list[flo
         if k == 0:
             misses += 1
             continue
-        out.extend(fills[i:i + k].tolist())
+        res[start:i + 1] = out
+        res[i + 1:i + 1 + k] = fills[i:i + k]
         i += k
-        x = out[-1]
-    return out
+        x = float(fills[i - 1])
+        out, start = [x], i
+    res[start:] = out
+    return res

@@ -54,7 +54,7 @@ def arc_length(q: NDArray[np.float64], u: NDArray[np.float64]) -> NDArray[np.flo
     d = q[1:] - q[:-1]  # np.diff, and the row norms as numpy.linalg.norm takes them
     d *= d
     step = np.sqrt(np.add.reduce(d, axis=1))
-    length = float(step.sum())
+    length = float(np.add.reduce(step))  # step.sum() without its wrapper
     span = float(u[-1] - u[0])
     step = np.hypot(step, PARAM_SHARE * (length if length > 0 else 1.0) * (u[1:] - u[:-1])
                     / span)
@@ -78,9 +78,9 @@ def _right_index(x: NDArray[np.float64], xq: NDArray[np.float64]) -> NDArray[np.
     unsorted or NaN queries search as numpy does)."""
     n = xq.shape[0] if xq.ndim == 1 else 0
     if n > MERGE_SHARE * x.shape[0] and (xq[1:] >= xq[:-1]).all():
-        hits = np.bincount(np.searchsorted(xq, x, side="left"), minlength=n + 1)
+        hits = np.bincount(xq.searchsorted(x, side="left"), minlength=n + 1)
         return np.cumsum(hits[:n])
-    return np.searchsorted(x, xq, side="right")
+    return x.searchsorted(xq, side="right")  # (the method: np.searchsorted's wrapper skipped)
 
 
 def _locate(x: NDArray[np.float64], h: NDArray[np.float64], xq: ArrayLike
@@ -233,7 +233,7 @@ class Smooth:
             for m, data in enumerate((self.y, self.d1, self.d2)):
                 ends[m] = data[:-1]
                 ends[m + 3] = data[1:]
-        data = np.take(self._ends, i, axis=1)
+        data = self._ends.take(i, axis=1)  # np.take without its wrapper
         data *= b[:, :, None] if self.y.ndim == 2 else b
         # the sum over the six rows in order (a reduction over the outer axis adds row by
         # row, as the explicit sum does)
@@ -259,7 +259,8 @@ class Smooth:
 def uneven(sigma: NDArray[np.float64]) -> float:
     """Largest step of σ over the mean step."""
     step = sigma[1:] - sigma[:-1]
-    return float(step.max() * step.shape[0] / (sigma[-1] - sigma[0]))
+    # step.max() without its wrapper
+    return float(np.maximum.reduce(step) * step.shape[0] / (sigma[-1] - sigma[0]))
 
 
 def arc_grid(u: NDArray[np.float64], q: NDArray[np.float64],

@@ -77,7 +77,7 @@ class PathTiming:
         # clip(searchsorted(t_0..t_N, t, "right") − 1, 0, N − 1) is the count of inner
         # breaks t_1..t_{N−1} at or below t (t_0 counts for every t that is not clipped up
         # to 0, t_N for none that is not clipped down to N − 1): one search, no clipping
-        i = np.searchsorted(self._tb[1:-1], t, side="right")
+        i = self._tb[1:-1].searchsorted(t, side="right")  # (np.searchsorted's wrapper skipped)
         after = t >= self._t_end
         return i, after, np.where(after, 0.0, t - self._tb[i])
 

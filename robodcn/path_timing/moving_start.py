@@ -178,14 +178,28 @@ def timed(q: NDArray, s: NDArray, limits: JointLimits, rate_hz: float, *,
     """The law of the path q(s) under :func:`path_limits` (C² path: ``smooth``); None when no
     joint moves along it. Raises the path timing's InputError when the start cannot be
     followed."""
-    # numpy.ptp as max − min, without its wrapper, along the samples of each joint's
-    # contiguous row (a reduction over the short axis of (n, k) is several times slower)
-    rows = np.ascontiguousarray(q.T)
-    if float((np.maximum.reduce(rows, axis=1) - np.minimum.reduce(rows, axis=1)).max()) <= 1e-12:
+    if not _moves(q):
         return None
     lim = path_limits(limits, scale, v_room)
     return time_optimal(q, s, lim.v, lim.a, lim.j, sd_start=sd_start, sdd_start=sdd_start,
                         rate_hz=rate_hz, smooth=True, torque=lim.torque)
+
+
+def _moves(q: NDArray) -> bool:
+    """Whether a joint's range along q (n, k) exceeds 1e-12 rad (numpy.ptp as max − min).
+
+    The range is at least |q_end − q_start| (both ends are in it, and rounding is monotone:
+    fl(max − min) ≥ fl(|q_end − q_start|)), so a path whose ends differ by more moves: told
+    from its two rows in plain floats; the reductions (along each joint's contiguous row: a
+    reduction over the short axis of (n, k) is several times slower) only for a path that
+    returns to where it started. A NaN range counts as moving."""
+    first, last = q[0].tolist(), q[-1].tolist()
+    if max(abs(b - a) for a, b in zip(first, last, strict=True)) > 1e-12:
+        return True
+    rows = np.ascontiguousarray(q.T)
+    # a NaN range moves (time_optimal then names the bad q)
+    return not float((np.maximum.reduce(rows, axis=1)
+                      - np.minimum.reduce(rows, axis=1)).max()) <= 1e-12
 
 
 def _tangent(q: NDArray, s: NDArray) -> NDArray:

@@ -119,7 +119,8 @@ def time_optimal(q: ArrayLike, s: ArrayLike, v_max: ArrayLike, a_max: ArrayLike,
     """
     q = np.asarray(q, dtype=np.float64)
     s = np.asarray(s, dtype=np.float64)
-    if q.ndim != 2 or q.shape[0] < 2 or not np.isfinite(q).all():
+    # (.all() without its wrapper)
+    if q.ndim != 2 or q.shape[0] < 2 or not np.logical_and.reduce(np.isfinite(q), axis=None):
         raise InputError(f"q must be finite joint samples of shape (n ≥ 2, k), got shape "
                          f"{q.shape}", field="q", value=q.shape)
     n, k = q.shape
@@ -181,7 +182,8 @@ def time_optimal(q: ArrayLike, s: ArrayLike, v_max: ArrayLike, a_max: ArrayLike,
         dt, sd = timed_stages(sg, x)
         tb = np.empty(dt.shape[0] + 1)
         tb[0] = 0.0
-        np.cumsum(dt, out=tb[1:])  # np.concatenate([[0.0], np.cumsum(dt)])
+        # np.concatenate([[0.0], np.cumsum(dt)]): cumsum's own ufunc, without its wrapper
+        np.add.accumulate(dt, out=tb[1:])
         return PathTiming(tb, sg, sd, u)
     assert j is not None
     j = j * scale ** 3

@@ -142,7 +142,7 @@ def backward_pieces(delta: NDArray[np.float64], p_lo: NDArray, r: NDArray
     return w, np.where(good, -2.0 * delta * np.where(good, p_lo, 0.0) * w, np.inf)
 
 
-def backward_loop(c: float, w: NDArray, z: NDArray, cap: NDArray) -> list[float]:
+def backward_loop(c: float, w: NDArray, z: NDArray, cap: NDArray) -> NDArray[np.float64]:
     """x_max,0 … x_max,N of :func:`controllable` by the stage loop from x_max,N = c, the
     pieces (W, Z) (m, N) and the caps (N,)."""
     m = w.shape[0]
@@ -153,13 +153,11 @@ def backward_loop(c: float, w: NDArray, z: NDArray, cap: NDArray) -> list[float]
     return backward_block(c, block, m)
 
 
-def backward_block(c: float, block: NDArray, m: int) -> list[float]:
+def backward_block(c: float, block: NDArray, m: int) -> NDArray[np.float64]:
     """x_max,0 … x_max,N of :func:`controllable` by the stage loop from x_max,N = c and the
     (2m + 1, N) block of W, Z and the caps, stages reversed (where the cap binds, without
-    the loop: :func:`~robodcn.path_timing._stageloop.capped_recurrence`)."""
-    out = _stageloop.capped_recurrence(c, block, m)
-    out.reverse()
-    return out
+    the loop: :func:`~robodcn.path_timing._stageloop.capped_recurrence`); a reversed view."""
+    return _stageloop.capped_recurrence(c, block, m)[::-1]
 
 
 def controllable_scan(delta: NDArray[np.float64], p_lo: NDArray, r: NDArray,
@@ -238,7 +236,7 @@ def forward_block(delta: NDArray[np.float64], block: NDArray, m: int, x_start: f
     """x, u of :func:`greedy_forward` by the stage loop from the (2m + 1, N) block of its
     slopes, offsets and caps (where the cap binds, without the loop:
     :func:`~robodcn.path_timing._stageloop.capped_recurrence`)."""
-    x = np.array(_stageloop.capped_recurrence(x_start, block, m))
+    x = _stageloop.capped_recurrence(x_start, block, m)
     return x, (x[1:] - x[:-1]) / (2.0 * delta)  # np.diff(x) / (2.0 * delta)
 
 

@@ -58,7 +58,9 @@ def check_limits(name: str, value: ArrayLike | None, k: int, n: int | None = Non
 
 
 def check_number(name: str, value: float, lo: float, hi: float, *, lo_open: bool = False) -> float:
-    ok = isinstance(value, int | float | np.floating | np.integer) and math.isfinite(value)
+    # a plain float (the callers' usual argument) without the four-way isinstance
+    ok = ((type(value) is float or isinstance(value, int | float | np.floating | np.integer))
+          and math.isfinite(value))
     if ok:
         ok = (lo < value if lo_open else lo <= value) and value <= hi
     if not ok:
@@ -184,7 +186,7 @@ def solve(sg: NDArray, dq: NDArray, ddq: NDArray, v: NDArray, a: NDArray,
         pieces = _columns.pieces(delta, half, r, x_cap)
         x_max = reachability.backward_block(min(float(x_end), float(x_cap[n_stages])),
                                             pieces.backward, pieces.m)
-        x_max_0 = x_max[0]
+        x_max_0 = float(x_max[0])
     else:
         if INTERPOLATED:
             dq, ddq, v, a = interpolated(sg, dq, ddq, v, a)
@@ -223,7 +225,7 @@ def timed_stages(sg: NDArray, x: NDArray) -> tuple[NDArray[np.float64], NDArray[
     """
     sd = np.sqrt(np.maximum(x, 0.0))
     speed = sd[:-1] + sd[1:]
-    if (speed <= 0).any():
+    if np.logical_or.reduce(speed <= 0):  # (.any() without its wrapper)
         i = int(np.argmax(speed <= 0))
         raise InputError(f"the path cannot move from s = {sg[i]:.6g}: every joint limit forbids"
                          " it (a stop next to a stop, or a zero limit)", field="stops",

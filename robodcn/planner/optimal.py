@@ -315,7 +315,8 @@ class OptimalTiming:
             else:
                 m = len(piece.path.segments)
                 if m == 1:  # no inner knot: every sample on the piece's one segment
-                    seg = np.full(s.shape[0], piece.segment0, dtype=np.int64)
+                    seg = np.empty(s.shape[0], dtype=np.int64)  # np.full, unwrapped
+                    seg.fill(piece.segment0)
                 else:
                     inner = np.searchsorted(piece.path.knots[1:-1], s, side="right")
                     seg = piece.segment0 + np.minimum(inner, m - 1)

@@ -252,7 +252,9 @@ def planned(t: NDArray[np.float64], poses: NDArray[np.float64], joints: NDArray[
     is still asked, by one sum of each array (finite exactly when every entry is, short of
     an overflow past 1e308, which takes the full construction and its message).
     """
-    if not (math.isfinite(float(poses.sum())) and math.isfinite(float(joints.sum()))):
+    # (ndarray.sum as the ufunc's reduce, without its wrapper)
+    if not (math.isfinite(float(np.add.reduce(poses, axis=None)))
+            and math.isfinite(float(np.add.reduce(joints, axis=None)))):
         arm = request.arm
         return Trajectory(t, poses, joints, ticks, arm.joint_names, arm.servo_ids,
                           request.rate_hz, method, request, elbow, branch_switches,
