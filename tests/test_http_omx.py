@@ -29,6 +29,7 @@ from http_helpers import (
 
 from robodcn import servo_units
 from robodcn.config import load_arm
+from robodcn.stream.online.retarget import FIT_SAMPLES
 from robodcn.workflow.poses import tool_pose
 from robodcn.workflow.record import recording_csv
 
@@ -217,10 +218,13 @@ def test_a_replacement_to_a_duration_mid_move_runs_that_long(omx_server: Any, at
         if status != 409:
             break
         assert new["error"]["code"] == "busy", new
+    if status != 202:
+        poll_move(server, old["id"], finished, timeout=20)
     assert status == 202, new
-    assert abs(new["duration"] - 3.0) <= 0.02, new
     done = poll_move(server, new["id"], finished, timeout=20)
     assert done["status"] in ("done", "degraded"), done
+    # the fit's tolerance (FIT_SAMPLES samples), and the duration counts intervals
+    assert abs(new["duration"] - 3.0) <= (FIT_SAMPLES + 1) / new["samples"] * 3.0, new
     assert call(server, "GET", f"/v1/moves/{old['id']}")[2]["status"] == "replaced"
     _at(sa, left)
 
