@@ -15,7 +15,8 @@ Conventions: metres and radians; the output θ is unwrapped continuously from st
 
 from __future__ import annotations
 
-import functools
+import cmath
+import math
 from typing import Literal
 
 import numpy as np
@@ -62,12 +63,11 @@ def _pose(name: str, value: ArrayLike) -> NDArray[np.float64]:
     return pose
 
 
-@functools.lru_cache(maxsize=256)
 def _pole_factor(chord: complex, phi: float) -> complex:
-    """v = (c_q − c_p)·e^{−iφ} / sin φ of :func:`sclerp_positions`, once per segment: a
-    planner samples one segment several times (its search's candidate counts), and the
-    two numpy scalar transcendentals cost more than the rest of a short evaluation."""
-    return chord * np.exp(-1j * phi) / np.sin(phi)
+    """v = (c_q − c_p)·e^{−iφ} / sin φ of :func:`sclerp_positions`, on Python scalars
+    (cmath, math): numpy's scalar transcendentals cost more than the rest of a short
+    evaluation, and a planner samples one segment several times."""
+    return chord * cmath.exp(-1j * phi) / math.sin(phi)
 
 
 def sclerp_positions(c_start: complex, c_end: complex, delta: float, s: NDArray[np.float64],
