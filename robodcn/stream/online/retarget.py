@@ -51,12 +51,7 @@ from robodcn.stream.online.replacement import Replacement, Target
 from robodcn.stream.online.samples import Segment
 from robodcn.stream.online.state import State
 from robodcn.stream.online.timing import Timing
-from robodcn.stream.online_path import (
-    JointPath,
-    evenly_spaced,
-    excess,
-    retime,
-)
+from robodcn.stream.online_path import JointPath, evenly_spaced, excess, retime
 
 #: geometry of a retarget: sampled at this rate over this many seconds (quintic, slow)
 GEOMETRY_RATE_HZ = 200.0
@@ -129,17 +124,19 @@ class Retargeting:
             return fastest
         if not _moves(fastest):
             return self.held(state, fastest, rep.duration)
+        want, tol = self._wanted(rep.duration)
+        if _count(fastest) > want + tol:  # shorter than the fastest way: nothing to fit
+            self.refuse(rep.duration, fastest)
         try:
             segments = self.fitted(lambda lam: fastest if lam >= 1.0 else
                                    self.stretched(state, fastest, lam), rep.duration,
                                    MOVING_FIT_ROUNDS)
         except RobodcnError:
             # a stretch the limits refuse (LawExceedsLimits; or its path stuck where the
-            # moving start stops: "cannot move from s"), or a duration shorter than the
-            # fastest way: through rest below, else refused naming the duration
+            # moving start stops: "cannot move from s"): through rest below
             segments = None
         if segments is not None and self._within(segments, rep.duration) \
-                and self._keeps_limits(state, segments):
+                and self._keeps_limits(state, np.vstack([seg[0] for seg in segments])):
             return segments
         # The moving start's law stretched along its own path has no λ that lasts the
         # duration (its brake to the slower law's speed jumps in length: 222 → 400 samples
@@ -157,17 +154,23 @@ class Retargeting:
             return rest
         self.refuse(rep.duration, fastest)
 
-    def _keeps_limits(self, state: State, segments: list[Segment]) -> bool:
-        """Whether the samples keep every limit with the commanded ones before the switch
-        (:func:`~robodcn.stream.online_path.excess` on the wire's finite differences)."""
+    def _keeps_limits(self, state: State, joints: NDArray) -> bool:
+        """Whether the samples ``joints`` after the switch keep every limit with the
+        commanded ones before it (:func:`~robodcn.stream.online_path.excess` on the wire's
+        finite differences)."""
         history = state.history if state.history is not None else state.q[None]
-        joints = np.vstack([history, *(seg[0] for seg in segments)])
-        return excess(joints, self.timing.limits, self.timing.rate) <= 1.0 + LIMIT_SLACK
+        return excess(np.vstack([history, joints]), self.timing.limits,
+                      self.timing.rate) <= 1.0 + LIMIT_SLACK
+
+    def _wanted(self, duration: float | str) -> tuple[float, float]:
+        """(samples, tolerance) a numeric ``duration`` / speed scale asks for."""
+        want = float(duration) * self.timing.rate / self.speed
+        return want, max(FIT_SAMPLES, FIT_SHARE * want)
 
     def _within(self, segments: list[Segment], duration: float | str) -> bool:
         """Whether ``segments`` last ``duration`` / speed scale within the fit's tolerance."""
-        want = float(duration) * self.timing.rate / self.speed
-        return abs(_count(segments) - want) <= max(FIT_SAMPLES, FIT_SHARE * want)
+        want, tol = self._wanted(duration)
+        return abs(_count(segments) - want) <= tol
 
     def met(self, segments: list[Segment], duration: float | str) -> list[Segment]:
         """``segments``, when they last ``duration`` (within the fit's tolerance); else
@@ -217,8 +220,7 @@ class Retargeting:
         if duration == "auto":
             return segments
         rate = self.timing.rate
-        want = float(duration) * rate / self.speed
-        tol = max(FIT_SAMPLES, FIT_SHARE * want)
+        want, tol = self._wanted(duration)
         n = _count(segments)
         if n > want + tol:
             raise InputError(f"the replacement needs at least {n / rate * self.speed:.3f} s "
@@ -293,7 +295,6 @@ class Retargeting:
         path = self.geometry(state.q, rep)
         pieces = _pieces(path)
         q1, s1 = pieces[0]
-        history = state.history if state.history is not None else state.q[None]
         # a new path that starts ahead of the motion (within AHEAD_DEG of q̇₀) is blended
         # into, not braked to: no stop unless the goal lies behind or to the side
         ahead = _cosine(q1[1] - q1[0], js.qd) >= math.cos(math.radians(AHEAD_DEG))
@@ -310,7 +311,7 @@ class Retargeting:
                 continue
             joints = np.vstack([joints, self._rest(path, pieces, limits)])
             tried += 1
-            if excess(np.vstack([history, joints]), full, rate) <= 1.0 + LIMIT_SLACK:
+            if self._keeps_limits(state, joints):
                 found = [segment_of(state.q, joints)]
                 if full.torque is None or tried == 1:
                     return found
