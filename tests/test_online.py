@@ -22,13 +22,8 @@ from conftest import ARM3R
 from online_helpers import (
     RATE,
     SWITCH_SETTLE,
-    A,
-    J,
-    V,
-    _check_jerk,
     _check_limits,
     _check_wire_steps,
-    _jerk_move,
     _move,
     _run,
     _sent,
@@ -112,33 +107,6 @@ def test_pause_then_resume_ends_at_the_original_goal(sa):
     still = np.all(np.diff(ticks, axis=0) == 0, axis=1)
     runs = np.diff(np.flatnonzero(np.diff(np.concatenate([[0], still, [0]]))))[::2]
     assert runs.max() >= 1.0 * RATE
-
-
-# -- jerk limits ---------------------------------------------------------------------------------
-
-def test_jerk_limited_pause_resume_and_speed_scaling_keep_every_limit(sa):
-    traj = _jerk_move(sa, duration=2.0)
-    k = 0.5
-
-    def ops(ex):
-        _wait_sample(ex, int(0.3 * len(traj.t)))
-        ex.pause()
-        assert ex.paused
-        time.sleep(0.5)
-        ex.set_speed(k)        # while paused: taken by the resume
-        ex.resume()
-        assert not ex.paused and ex.speed == k
-
-    report, ex, wire = _run(sa, traj, ops)
-    assert report.outcome == "done", report.headline
-    _, joints, ticks = _sent(ex, wire)
-    _check_jerk(joints)
-    resumed = ex.switches[1][1]
-    _check_jerk(joints[resumed - 3:], V * k, A * k * k, J * k ** 3)
-    assert np.array_equal(ticks[-1], traj.ticks[-1])
-    still = np.all(np.diff(ticks, axis=0) == 0, axis=1)
-    runs = np.diff(np.flatnonzero(np.diff(np.concatenate([[0], still, [0]]))))[::2]
-    assert runs.max() >= 0.4 * RATE
 
 
 # -- a retarget under load: the switch is placed from what the missed attempt measured ------

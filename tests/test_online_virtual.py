@@ -25,6 +25,7 @@ from online_helpers import (
     START,
     TICK,
     A,
+    J,
     V,
     _braking_distance,
     _check_jerk,
@@ -37,6 +38,7 @@ from online_helpers import (
     _run_at,
     _sent,
     arm_at_start,
+    drive_held,
 )
 
 from robodcn import kinematics, servo_units
@@ -410,6 +412,45 @@ def test_jerk_limited_speed_change_in_motion_keeps_every_limit(sa, at):
     _check_jerk(joints)
     assert np.array_equal(ticks[-1], traj.ticks[-1])
     assert len(ticks) > len(traj.t), "slower"
+
+
+def test_jerk_limited_pause_resume_and_speed_scaling_keep_every_limit(sa):
+    """Paused at 30 % of a jerk-limited move, held for 0.5 s of the schedule, resumed at
+    k = 0.5 (set while paused): every limit holds throughout and k's limits after the
+    resume; it stands still in between and ends at the plan's goal. On virtual time: the
+    schedule's logic, not the host's (a host stall past the Bus Watchdog stops the arm,
+    as it must, and is no finding about pause or resume)."""
+    traj = _jerk_move(sa, duration=2.0)
+    k = 0.5
+    paused_at = int(0.3 * len(traj.t)) + 1
+
+    def pause(ex):
+        ex.pause()
+        assert ex.paused
+
+    def speed_and_resume(ex):
+        assert ex.paused and not ex.done
+        ex.set_speed(k)        # while paused: taken by the resume
+        ex.resume()
+        assert not ex.paused and ex.speed == k
+
+    clock = VirtualClock()
+    clock.hold(0.0)
+    sa.sim.clear_log()
+    before = len(sa.sim.goal_history(ARM3R.servo_ids[0]))
+    ex = start(traj, sa.bus, skip_late=False, compensation=False, clock=clock, watchdog_ms=0)
+    report = drive_held(clock, ex, [(paused_at, pause),
+                                    (paused_at + int(0.5 * RATE), speed_and_resume)])
+    assert report.outcome == "done", report.headline
+    wire = np.array([sa.sim.goal_history(i)[before:] for i in ARM3R.servo_ids]).T
+    _, joints, ticks = _sent(ex, wire)
+    _check_jerk(joints)
+    resumed = ex.switches[1][1]
+    _check_jerk(joints[resumed - 3:], V * k, A * k * k, J * k ** 3)
+    assert np.array_equal(ticks[-1], traj.ticks[-1])
+    still = np.all(np.diff(ticks, axis=0) == 0, axis=1)
+    runs = np.diff(np.flatnonzero(np.diff(np.concatenate([[0], still, [0]]))))[::2]
+    assert runs.max() >= 0.4 * RATE
 
 
 def test_jerk_limited_retarget_brakes_to_rest_then_leaves_within_every_limit(sa):
