@@ -65,10 +65,26 @@ class Case:
         return v, a, JERK_PER_ACCEL * a
 
     def quintic_auto(self) -> tuple[float, np.ndarray]:
-        """Today's quintic ``duration="auto"`` and its own peak joint jerk (FD at 1 kHz)."""
+        """Today's quintic ``duration="auto"`` and its own peak joint jerk (rad/s³).
+
+        The peak is where the quintic leaves or reaches rest: its jerk steps from 0 to
+        60 L/T³ there, which the third difference at 1 kHz sees only partly (≈ 2 % low).
+        There q − q_rest = A t³ + B t⁴ + O(t⁵) (u ∝ t³ from rest with zero acceleration), so
+        from the next two samples d₁ = A h³ + B h⁴, d₂ = 8 A h³ + 16 B h⁴ the jerk 6 A =
+        6 (16 d₁ − d₂) / (8 h³) up to O(h²); elsewhere the third difference."""
         traj = robodcn.plan(self.arm, self.waypoints, method=self.method, beta=self.beta,
                             blend=self.blend, profile="quintic", rate_hz=1000)
-        jerk = np.abs(np.diff(traj.joints, 3, axis=0)).max(axis=0) * 1000.0 ** 3
+        h, q = 1e-3, traj.joints
+        jerk = np.abs(np.diff(q, 3, axis=0)).max(axis=0) / h ** 3
+        rests = [0, q.shape[0] - 1]
+        if not self.blend:  # it stops at every via: the sample nearest its pose
+            rests += [int(np.argmin(np.linalg.norm(traj.poses[:, :2] - np.asarray(via[:2]),
+                                                   axis=1))) for via in self.waypoints[1:-1]]
+        for i in rests:  # leaving rest (forwards) and reaching it (backwards)
+            for k in (1, -1):
+                if 0 <= i + 2 * k < q.shape[0]:
+                    d1, d2 = q[i + k] - q[i], q[i + 2 * k] - q[i]
+                    jerk = np.maximum(jerk, np.abs(6.0 * (16.0 * d1 - d2) / (8.0 * h ** 3)))
         return traj.duration, jerk
 
 
@@ -486,8 +502,10 @@ def run() -> str:
         "|---|---|---|",
         f"| worst duration ratio ours / toppra (no jerk limit) | {worst['ratio']:.4f} | "
         f"≤ {TOPPRA_RATIO_TARGET} {_ok(worst['ratio'] <= TOPPRA_RATIO_TARGET)} |",
-        f"| worst jerk-limited (j = 10 a) / quintic `auto` | {worst['jerk_vs_quintic']:.3f} | "
-        f"≤ 1 {_ok(worst['jerk_vs_quintic'] <= 1.0)} |",
+        # the quintic `auto` here is the planner's without a jerk limit: its own jerk may be
+        # over 10 a, so it is no bound for a law held to 10 a (shown, no target)
+        f"| worst jerk-limited (j = 10 a) / quintic `auto` without a jerk limit | "
+        f"{worst['jerk_vs_quintic']:.3f} | — |",
         f"| worst jerk-limited (j = the quintic plan's own peak jerk) / quintic `auto` | "
         f"{worst['qjerk_vs_quintic']:.3f} | ≤ 1 {_ok(worst['qjerk_vs_quintic'] <= 1.0)} |",
         f"| jerk-limited / jerk-free optimum | {worst['jerk_ratio_min']:.3f}–"

@@ -65,10 +65,11 @@ def test_request_to_first_changed_goal_is_planning_time_plus_two_periods(sa):
     excess = [due - planning for planning, due, _, _ in lat]
     allowance = 0.5 * float(np.median([planning for planning, _, _, _ in lat]))
     assert float(np.median(excess)) <= 2.0 / RATE + allowance, lat
-    # It is sent then, up to the loop's own lateness: the first changed sample is no later
-    # past its due time than the other samples of the run (the worst of them, away from the
-    # switches) plus one period — host load that delays every sample does not fail this,
-    # a swap that delays the loop does.
+    # It is sent then, up to the loop's own lateness: the first changed samples are no later
+    # past their due times than the other samples of the run (the worst of them, away from
+    # the switches) plus one period — host load that delays every sample does not fail this,
+    # a swap that delays the loop does. A swap's cost is in every switch, a host's preemption
+    # (a CPU hog's time slice, ~10 ms) in any one sample: the median of the four is compared.
     index, at, _ = ex.sent()
     streamer = ex.stream
     late = at - (streamer.t_start + index * streamer.period)
@@ -78,9 +79,8 @@ def test_request_to_first_changed_goal_is_planning_time_plus_two_periods(sa):
         near |= (index >= first) & (index < first + SWITCH_SETTLE)
     assert (~near).sum() > len(index) // 2
     ordinary = float(late[~near].max())
-    for first in firsts:
-        k = int(np.flatnonzero(index >= first)[0])
-        assert late[k] <= ordinary + 1.0 / RATE, (first, late[k], ordinary)
+    at_switch = [float(late[int(np.flatnonzero(index >= first)[0])]) for first in firsts]
+    assert float(np.median(at_switch)) <= ordinary + 1.0 / RATE, (at_switch, ordinary)
 
 
 # -- pause / resume ----------------------------------------------------------------------------

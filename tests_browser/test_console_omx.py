@@ -23,6 +23,7 @@ from test_console import (
     FINISHED,
     click_move_and_wait_running,
     el,
+    forget_earlier_pages,
     move_with_screenshot,
     severe_logs,
     shown_plan,
@@ -114,7 +115,7 @@ def pose_error(pose: list[float], want: tuple[float, ...]) -> tuple[float, float
 
 def test_the_omx_page_shows_four_pose_numbers_and_its_home_in_both_views(
         driver: Any, until: Any, omx_service: Any) -> None:
-    driver.get_log("browser")
+    forget_earlier_pages(driver)
     omx_service.wait_idle()
     open_omx(driver, until, omx_service)
     time.sleep(0.5)

@@ -14,7 +14,7 @@ import time
 from pathlib import Path
 from typing import Any
 
-from test_console import el, severe_logs, type_target
+from test_console import el, forget_earlier_pages, severe_logs, type_target
 
 from robodcn.config import load_arm
 from robodcn.http.openapi import openapi
@@ -85,7 +85,7 @@ def test_a_degraded_move_shows_why(driver: Any, until: Any, service: Any, stub: 
     _, plan = service.call("GET", f"/v1/moves/{info['id']}/trajectory")
     fake = stub({"/openapi.json": doc, "/v1/arm": arm, "/v1/state": st,
                  "/v1/moves/9": degraded, "/v1/moves/9/trajectory": plan})
-    driver.get_log("browser")  # drop what earlier pages logged
+    forget_earlier_pages(driver)
     open_stub(driver, until, fake)
     assert not el(driver, "move-reason").is_displayed()
     short = {k: degraded[k] for k in ("id", "progress", "elapsed", "duration", "tracking_error",
@@ -136,7 +136,7 @@ def test_a_yawed_arm_has_four_pose_numbers_a_side_and_a_top_view(driver: Any, un
                                                                  stub: Any) -> None:
     q = [0.5, -0.5, 0.4, 0.6]
     arm, fake = yawed_stub(stub, q)
-    driver.get_log("browser")
+    forget_earlier_pages(driver)
     open_stub(driver, until, fake)
     for testid in ("target-x", "target-y", "target-z", "target-pitch"):
         assert el(driver, testid).is_displayed(), testid

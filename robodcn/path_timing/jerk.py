@@ -11,6 +11,7 @@ from numpy.typing import NDArray
 from robodcn.errors import InputError
 from robodcn.path_timing import reachability
 from robodcn.path_timing.law import ChainTiming, PathTiming
+from robodcn.path_timing.quintic_law import fastest_quintic
 from robodcn.path_timing.topp import solve, stage_times
 from robodcn.path_timing.torque import TorqueRows
 
@@ -99,10 +100,14 @@ def _corner_cap(s: NDArray, jumps: NDArray, dq: NDArray, ddq: NDArray, v: NDArra
 
 def _rest_piece(s: NDArray, derivs: list[NDArray], sg: NDArray, dq: NDArray, ddq: NDArray,
                 cap: NDArray, v: NDArray, a: NDArray, j: NDArray, accel_share: float,
-                finite: NDArray, rate_hz: float, rows: TorqueRows | None = None
-                ) -> PathTiming:
+                finite: NDArray, rate_hz: float, rows: TorqueRows | None = None,
+                stops_at_end: bool = False, quintic: bool = True) -> PathTiming:
     """Rest to rest without stops: the shortest over acceleration shares and windows of the
-    filtered optimum, each stretched just enough to keep every limit."""
+    filtered optimum, each stretched just enough to keep every limit, or the fastest
+    uniform quintic when that is faster. ``stops_at_end``: the piece's last sample is a stop
+    inside the path, whose derivatives are the next piece's (:func:`own_end`); ``quintic``:
+    whether the uniform quintic is a candidate (not under a caller's speed cap, which it does
+    not follow)."""
     best, choice = None, None
     for share in (accel_share, 0.8 * accel_share, 0.6 * accel_share):
         x, u = solve(sg, dq, ddq, v, a * share, cap, 0.0, 0.0, rows)
@@ -135,7 +140,32 @@ def _rest_piece(s: NDArray, derivs: list[NDArray], sg: NDArray, dq: NDArray, ddq
         local_cap = _tighten(local_cap, x, sg, s_t, factor, float(np.sqrt(x.max())) * w)
     # the candidates were looked at coarsely: the chosen one at the stream rate itself
     lam = _stretch_needed(*joint_ratios(best, s, derivs, v, a, j, rate_hz))
-    return best.stretch(lam * best.duration) if lam > 1.0 else best
+    best = best.stretch(lam * best.duration) if lam > 1.0 else best
+    # the filter's overhead (a window a piece) can cost more than a uniform law saves
+    # under a tight jerk limit: the fastest quintic within the same limits, when faster
+    if not quintic:
+        return best
+    mine = own_end(derivs) if stops_at_end else derivs
+    uniform = fastest_quintic(
+        float(sg[0]), float(sg[-1]),
+        lambda law: joint_ratios(law, s, mine, v, a, j, rate_hz), best.duration,
+        None if rows is None else (sg, rows))
+    return uniform if uniform is not None and uniform.duration < best.duration else best
+
+
+def own_end(derivs: list[NDArray]) -> list[NDArray]:
+    """The piece's derivatives with its last sample's q′, q″, q‴ carried on linearly from
+    the two before it. At a stop the path has a corner, and the sample there holds the next
+    piece's one-sided derivatives (``topp.derivatives`` writes each piece in turn); a law
+    that reaches the stop with its full jerk (the quintic's s⃛ = 60 L/T³ at τ = 1) must be
+    checked with this piece's own q′ there."""
+    out = list(derivs)
+    if derivs[0].shape[0] >= 3:
+        for d in range(3):
+            fixed = derivs[d].copy()
+            fixed[-1] = 2.0 * fixed[-2] - fixed[-3]
+            out[d] = fixed
+    return out
 
 
 def _quick_rate(law: PathTiming, rate_hz: float) -> float:
@@ -179,10 +209,12 @@ def _filtered(sg: NDArray, x: NDArray, u: NDArray, dt: NDArray, stop_breaks: NDA
 def jerk_limited(s: NDArray, derivs: list[NDArray], grid: NDArray, cap: NDArray, v: NDArray,
                  a: NDArray, j: NDArray, *, sd_start: float, sdd_start: float,
                  stop_idx: NDArray, rate_hz: float, accel_share: float,
-                 smooth: bool = False, rows: TorqueRows | None = None) -> PathTiming:
+                 smooth: bool = False, rows: TorqueRows | None = None,
+                 speed_capped: bool = False) -> PathTiming:
     """Filtered time-optimal law within v, a, j (module doc of ``optimal``); ``rows``: the
     torque rows on the grid, kept by the filtered law's optimum (the filter mixes it over
-    its window: the planner's validation checks the samples)."""
+    its window: the planner's validation checks the samples); ``speed_capped``: the caller
+    capped ṡ (``sd_cap``), which only the filtered law follows (no quintic fallback)."""
     inner = 1.0 - JERK_MARGIN
     lim_v, lim_a, lim_j = v * inner, a * inner, j * inner
     finite = np.isfinite(j)
@@ -216,7 +248,9 @@ def jerk_limited(s: NDArray, derivs: list[NDArray], grid: NDArray, cap: NDArray,
             pieces.append(_rest_piece(s[lo:hi + 1], [d[lo:hi + 1] for d in derivs], sg[sl],
                                       dq[sl], ddq[sl], cap[sl], lim_v, lim_a, lim_j,
                                       accel_share, finite, rate_hz,
-                                      None if rows is None else tuple(m[sl] for m in rows)))
+                                      None if rows is None else tuple(m[sl] for m in rows),
+                                      stops_at_end=g1 != cuts[-1],
+                                      quintic=not speed_capped))
         return pieces[0] if len(pieces) == 1 else ChainTiming(pieces)
 
     # A moving start cannot be stretched (ṡ(0) would change): shrink the limits instead.

@@ -28,9 +28,12 @@ of stretching (a stretch would change ṡ₀).
 Known limits: the box filter's overhead is one window (≈ 2a/j) per piece where the
 jerk-limited optimum needs about a/j, so the jerk-limited law is not time-optimal (a
 third-order phase-plane pass — the jerk-limited TOPP-RA extension of Pham & Pham — is not
-built); see the bench (bench/bench_path_timing.py) for the ratios. Through the planner
-(C² paths, the configs' jerk 20 a) it beats the quintic ``auto`` under the same jerk limit on
-every bench path.
+built); see the bench (bench/bench_path_timing.py) for the ratios. Under a tight jerk limit
+that overhead outweighs what the optimum saves, so each rest-to-rest piece (without a
+caller's ``sd_cap``) also tries the fastest uniform quintic in s within the same limits
+(:mod:`robodcn.path_timing.quintic_law`) and keeps the faster. Through the planner (C²
+paths, the configs' jerk 20 a) the filtered law beats the quintic ``auto`` under the same
+jerk limit on every bench path.
 """
 
 from __future__ import annotations
@@ -191,7 +194,8 @@ def time_optimal(q: ArrayLike, s: ArrayLike, v_max: ArrayLike, a_max: ArrayLike,
         cap = np.full(grid.shape[0], np.inf)
     return jerk_limited(s, derivs, grid, cap, v, a, j, sd_start=sd_start, sdd_start=sdd_start,
                         stop_idx=stop_idx, rate_hz=rate_hz or CHECK_RATE_HZ,
-                        accel_share=accel_share, smooth=smooth, rows=rows)
+                        accel_share=accel_share, smooth=smooth, rows=rows,
+                        speed_capped=sd_cap is not None)
 
 
 def torque_rows(torque: TorqueLimits | None, q: NDArray, dq: NDArray, ddq: NDArray,
