@@ -42,6 +42,7 @@ PLAN_TARGET_MS = 10.0
 MOVING_TARGET_MS = 5.0
 _PATH_DURATION = 40.0  # s, of the linear sampling plan (slow: only its geometry is used)
 _PATH_RATE = 100.0
+QUINTIC_PERIOD = 1e-3  # s: one period of the 1 kHz quintic plans compared with
 
 
 @dataclass
@@ -185,7 +186,9 @@ def accuracy_rows(all_cases: list[Case]) -> tuple[list[str], dict[str, float]]:
         jl = ours(case, jerk=True)
         quintic, quintic_jerk = case.quintic_auto()
         jq = ours(case, jerk=quintic_jerk)
-        worst["qjerk_vs_quintic"] = max(worst["qjerk_vs_quintic"], jq.duration / quintic)
+        # the measure (17 §1): never slower than quintic `auto` + one period (1 kHz)
+        worst["qjerk_vs_quintic"] = max(worst["qjerk_vs_quintic"],
+                                        (jq.duration - QUINTIC_PERIOD) / quintic)
         ratio = law.duration / ref
         worst["ratio"] = max(worst["ratio"], ratio)
         worst["jerk_vs_quintic"] = max(worst["jerk_vs_quintic"], jl.duration / quintic)
@@ -198,7 +201,8 @@ def accuracy_rows(all_cases: list[Case]) -> tuple[list[str], dict[str, float]]:
         rows.append(f"| {case.name} | {law.duration:.4f} | {ref:.4f} | {ratio:.4f} "
                     f"{_ok(ratio <= TOPPRA_RATIO_TARGET)} | {jl.duration:.4f} | "
                     f"{jl.duration / law.duration:.3f} {_ok(jl.duration <= quintic)} | "
-                    f"{jq.duration:.4f} {_ok(jq.duration <= quintic)} | {quintic:.3f} | "
+                    f"{jq.duration:.4f} {_ok(jq.duration <= quintic + QUINTIC_PERIOD)} | "
+                    f"{quintic:.3f} | "
                     f"{t_ours * 1e3:.2f} | {t_ref * 1e3:.2f} |")
     worst["blend_over_stops"] = max(p["blend"] / p["stops"] for p in blend_vs_stop.values())
     worst["free_blend_over_stops"] = max(p["blend"] / p["stops"] for p in free_blend.values())
@@ -507,7 +511,8 @@ def run() -> str:
         f"| worst jerk-limited (j = 10 a) / quintic `auto` without a jerk limit | "
         f"{worst['jerk_vs_quintic']:.3f} | — |",
         f"| worst jerk-limited (j = the quintic plan's own peak jerk) / quintic `auto` | "
-        f"{worst['qjerk_vs_quintic']:.3f} | ≤ 1 {_ok(worst['qjerk_vs_quintic'] <= 1.0)} |",
+        f"{worst['qjerk_vs_quintic']:.4f} (+ one period) | "
+        f"≤ 1 {_ok(worst['qjerk_vs_quintic'] <= 1.0)} |",
         f"| jerk-limited / jerk-free optimum | {worst['jerk_ratio_min']:.3f}–"
         f"{worst['jerk_ratio_max']:.3f} | — |",
         f"| worst blend / stop-at-every-via, no jerk limit | "

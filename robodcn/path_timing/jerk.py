@@ -18,6 +18,9 @@ from robodcn.path_timing.torque import TorqueRows
 # share of the jerk limit the term |q'''| ṡ³ may take; the rest is left to q' s⃛ + 3 q'' ṡ s̈
 #: inner margin of the jerk pass: it aims for (1 - margin) × every limit
 JERK_MARGIN = 0.005
+#: share of every limit the uniform quintic is held to (checked at each stream sample; a
+#: peak between two samples is higher by O((rate·T)⁻²), ~1e-6 at 1 kHz over a second)
+QUINTIC_SHARE = 1.0 - JERK_MARGIN
 _CURVATURE_SHARE = 0.5
 _WINDOWS = (1.0, 0.75, 0.55, 0.4, 0.3)
 _MOVING_ATTEMPTS = 8
@@ -101,13 +104,16 @@ def _corner_cap(s: NDArray, jumps: NDArray, dq: NDArray, ddq: NDArray, v: NDArra
 def _rest_piece(s: NDArray, derivs: list[NDArray], sg: NDArray, dq: NDArray, ddq: NDArray,
                 cap: NDArray, v: NDArray, a: NDArray, j: NDArray, accel_share: float,
                 finite: NDArray, rate_hz: float, rows: TorqueRows | None = None,
-                stops_at_end: bool = False, quintic: bool = True) -> PathTiming:
+                stops_at_end: bool = False, quintic: bool = True,
+                outer: tuple[NDArray, NDArray, NDArray] | None = None) -> PathTiming:
     """Rest to rest without stops: the shortest over acceleration shares and windows of the
     filtered optimum, each stretched just enough to keep every limit, or the fastest
     uniform quintic when that is faster. ``stops_at_end``: the piece's last sample is a stop
     inside the path, whose derivatives are the next piece's (:func:`own_end`); ``quintic``:
     whether the uniform quintic is a candidate (not under a caller's speed cap, which it does
-    not follow)."""
+    not follow); ``outer``: the limits themselves (v, a, j are the jerk pass's inner ones),
+    which the quintic is held to: it is checked exactly at every stream sample, where the
+    filtered law's margin is for its coarse looks and the filter's mixing."""
     best, choice = None, None
     for share in (accel_share, 0.8 * accel_share, 0.6 * accel_share):
         x, u = solve(sg, dq, ddq, v, a * share, cap, 0.0, 0.0, rows)
@@ -146,9 +152,10 @@ def _rest_piece(s: NDArray, derivs: list[NDArray], sg: NDArray, dq: NDArray, ddq
     if not quintic:
         return best
     mine = own_end(derivs) if stops_at_end else derivs
+    qv, qa, qj = outer if outer is not None else (v, a, j)
     uniform = fastest_quintic(
         float(sg[0]), float(sg[-1]),
-        lambda law: joint_ratios(law, s, mine, v, a, j, rate_hz), best.duration,
+        lambda law: joint_ratios(law, s, mine, qv, qa, qj, rate_hz), best.duration,
         None if rows is None else (sg, rows))
     return uniform if uniform is not None and uniform.duration < best.duration else best
 
@@ -250,7 +257,9 @@ def jerk_limited(s: NDArray, derivs: list[NDArray], grid: NDArray, cap: NDArray,
                                       accel_share, finite, rate_hz,
                                       None if rows is None else tuple(m[sl] for m in rows),
                                       stops_at_end=g1 != cuts[-1],
-                                      quintic=not speed_capped))
+                                      quintic=not speed_capped,
+                                      outer=(v * QUINTIC_SHARE, a * QUINTIC_SHARE,
+                                             j * QUINTIC_SHARE)))
         return pieces[0] if len(pieces) == 1 else ChainTiming(pieces)
 
     # A moving start cannot be stretched (ṡ(0) would change): shrink the limits instead.

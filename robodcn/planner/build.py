@@ -24,10 +24,11 @@ from robodcn.errors import (
     AccelerationLimitError,
     BranchSwitchWarning,
     JerkLimitError,
+    TorqueLimitError,
     VelocityLimitError,
     Violation,
 )
-from robodcn.planner import reach, validate
+from robodcn.planner import arm_arrays, reach, validate
 from robodcn.planner.optimal import OptimalTiming
 from robodcn.planner.path import to_user
 from robodcn.planner.pieces import build_pieces
@@ -118,7 +119,39 @@ def plan_request(req: PlanRequest) -> Trajectory:
     if pieces is None:
         assert bad_pose is not None
         _unreachable_path(req, bad_pose)
-    return run(req, OptimalTiming(req, pieces, fine=fine))
+    if req.start_state is not None or not arm_arrays.arrays_of(req.arm).jerk_limited:
+        return run(req, OptimalTiming(req, pieces, fine=fine))
+    return _no_slower_than_quintic(req, pieces, fine)
+
+
+def _no_slower_than_quintic(req: PlanRequest, pieces, fine: bool) -> Trajectory:
+    """The optimal law from rest under a jerk limit, or the uniform quintic on the same
+    geometry where that is faster (``auto``) or meets a ``duration`` the optimal law cannot.
+
+    Without a jerk limit TOPP-RA's law is the optimum; with one, the jerk pass filters it
+    (``path_timing.optimal``: about one window's overhead a piece, and validation slows what
+    its model of the samples misjudged), which under a tight limit lost to the quintic by up
+    to 1.5× (issue 17 §1: the default profile is never slower than quintic). The request
+    stays the caller's: only the time law along the path differs."""
+    quintic = dataclasses.replace(req, profile="quintic")
+    try:
+        best = run(req, OptimalTiming(req, pieces, fine=fine))
+    except (VelocityLimitError, AccelerationLimitError, JerkLimitError, TorqueLimitError):
+        if req.duration == "auto":
+            raise
+        try:  # a fixed duration the optimal law cannot keep: the quintic may
+            return run(req, UniformTiming(quintic))
+        except (VelocityLimitError, AccelerationLimitError, JerkLimitError,
+                TorqueLimitError):
+            pass
+        raise
+    if req.duration != "auto":
+        return best
+    try:
+        uniform = run(req, UniformTiming(quintic))
+    except (VelocityLimitError, AccelerationLimitError, JerkLimitError, TorqueLimitError):
+        return best
+    return uniform if uniform.t.shape[0] < best.t.shape[0] else best
 
 
 def plan(arm: Arm, waypoints: ArrayLike, *, method: str | Sequence[str] = DEFAULTS.method,
