@@ -20,7 +20,7 @@ from robodcn.path_timing.torque import TorqueRows
 JERK_MARGIN = 0.005
 #: share of every limit the uniform quintic is held to (checked at each stream sample; a
 #: peak between two samples is higher by O((rate·T)⁻²), ~1e-6 at 1 kHz over a second)
-QUINTIC_SHARE = 1.0 - JERK_MARGIN
+QUINTIC_SHARE = 1.0 - 1e-5
 _CURVATURE_SHARE = 0.5
 _WINDOWS = (1.0, 0.75, 0.55, 0.4, 0.3)
 _MOVING_ATTEMPTS = 8
