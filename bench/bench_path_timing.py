@@ -169,8 +169,8 @@ def _ok(flag: bool) -> str:
 
 def accuracy_rows(all_cases: list[Case]) -> tuple[list[str], dict[str, float]]:
     rows = ["| path | ours (s) | toppra (s) | ours / toppra | jerk 10a (s) | "
-            "jerk 10a / optimum (✓ ≤ quintic) | jerk = quintic's (s) | quintic auto (s) | "
-            "ours ms | toppra ms |",
+            "jerk 10a / optimum | jerk = quintic's (s), ✓ ≤ quintic + one period | "
+            "quintic auto (s) | ours ms | toppra ms |",
             "|---|---|---|---|---|---|---|---|---|---|"]
     worst = {"ratio": 0.0, "jerk_vs_quintic": 0.0, "jerk_ratio_min": math.inf,
              "jerk_ratio_max": 0.0, "qjerk_vs_quintic": 0.0}
@@ -200,7 +200,7 @@ def accuracy_rows(all_cases: list[Case]) -> tuple[list[str], dict[str, float]]:
             free_blend.setdefault(key, {})[kind] = law.duration
         rows.append(f"| {case.name} | {law.duration:.4f} | {ref:.4f} | {ratio:.4f} "
                     f"{_ok(ratio <= TOPPRA_RATIO_TARGET)} | {jl.duration:.4f} | "
-                    f"{jl.duration / law.duration:.3f} {_ok(jl.duration <= quintic)} | "
+                    f"{jl.duration / law.duration:.3f} | "
                     f"{jq.duration:.4f} {_ok(jq.duration <= quintic + QUINTIC_PERIOD)} | "
                     f"{quintic:.3f} | "
                     f"{t_ours * 1e3:.2f} | {t_ref * 1e3:.2f} |")

@@ -17,6 +17,7 @@ piece takes the faster of the two.
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -83,8 +84,8 @@ class QuinticTiming(PathTiming):
         return f"QuinticTiming(duration={self._duration:.6g} s)"
 
 
-def torque_ratio(law: PathTiming, m: Samples, sg: NDArray, rows: TorqueRows) -> float:
-    """max over the samples ``m`` of ``law`` of (A s̈ + B ṡ²) / bound: the factor λ² a uniform
+def torque_ratio(m: Samples, sg: NDArray, rows: TorqueRows) -> float:
+    """max over the samples ``m`` of a law of (A s̈ + B ṡ²) / bound: the factor λ² a uniform
     slow-down needs for lo ≤ A s̈ + B ṡ² ≤ hi (rows on the grid ``sg``, read at s(t))."""
     big_a, big_b, lo, hi = (np.stack([np.interp(m.s, sg, r[:, i]) for i in range(r.shape[1])],
                                      axis=1) for r in rows)
@@ -95,7 +96,9 @@ def torque_ratio(law: PathTiming, m: Samples, sg: NDArray, rows: TorqueRows) -> 
     return float(over.max(initial=0.0))
 
 
-def fastest_quintic(s_start: float, s_end: float, ratios, guess: float,
+def fastest_quintic(s_start: float, s_end: float,
+                    ratios: Callable[[PathTiming], tuple[float, float, float, float]],
+                    guess: float,
                     torque: tuple[NDArray, TorqueRows] | None = None) -> QuinticTiming | None:
     """The shortest :class:`QuinticTiming` from ``s_start`` to ``s_end`` within the limits,
     None if it is not found within a few rounds (then it is no candidate).
@@ -110,8 +113,7 @@ def fastest_quintic(s_start: float, s_end: float, ratios, guess: float,
         need = max(rv, math.sqrt(ra), rj ** (1.0 / 3.0), math.sqrt(r_step))
         if torque is not None:
             sg, rows = torque
-            need = max(need, math.sqrt(torque_ratio(law, law.sample(_check_hz(law)), sg,
-                                                    rows)))
+            need = max(need, math.sqrt(torque_ratio(law.sample(_check_hz(law)), sg, rows)))
         return need
 
     law = QuinticTiming(s_start, s_end, guess)
