@@ -1,8 +1,9 @@
 """Online execution in real time (issue 10 §2–§4) against firmware_sim over a pty, through
-dynamixel-sdk: what depends on the host's clock — request → first changed goal in periods,
-a pause held for a second of real time, a retarget racing a stalled loop or the move's own
-end. The operations' logic (which samples a retarget, stop or speed change sends) is tested
-on virtual time in test_online_virtual.py.
+dynamixel-sdk: what depends on the host's clock — a switch sent on time (the swap does not
+delay the loop), a pause held for a second of real time, a retarget racing a stalled loop
+or the move's own end. The operations' logic (which samples a retarget, stop or speed
+change sends, and where a switch is placed) is tested on virtual time in
+test_online_virtual.py.
 
 Every check reads the goals the simulated servos accepted (``SimBus.goal_history``) and the
 commanded joints of the samples sent (``Execution.sent``): the wire must carry exactly the
@@ -42,9 +43,14 @@ def sa():
     with arm_at_start() as s:
         yield s
 
-# -- latency -------------------------------------------------------------------------------
+# -- switches on time ----------------------------------------------------------------------
 
-def test_request_to_first_changed_goal_is_planning_time_plus_two_periods(sa):
+def test_a_switch_is_sent_on_time_the_swap_does_not_delay_the_loop(sa):
+    """Four retargets of a running move in real time: their first changed samples go out
+    no later past their due times than the loop's other samples. Where they are placed
+    (the expected planning time + 2 periods after the request) is the logic, tested on
+    virtual time (test_online_virtual); the wall-clock request → goal latency is
+    ``make bench``'s (bench_online), as a loaded host's planning times are no unit test's."""
     traj = _move(sa, duration=3.0)
     goals = [(0.2, 0.15, 0.2), (0.15, 0.2, 0.5), (0.1, 0.22, 0.9), (0.05, 0.25, 1.2)]
 
@@ -56,16 +62,8 @@ def test_request_to_first_changed_goal_is_planning_time_plus_two_periods(sa):
     report, ex, wire = _run(sa, traj, ops)
     assert report.outcome in ("done", "degraded"), report.headline
     _sent(ex, wire)
-    lat = ex.latencies()
-    assert len(lat) == len(goals)
-    # The first changed sample is placed 2 periods after the planning time expected (the
-    # fastest recent one; a miss is planned again further ahead, and that request's
-    # planning time counts both attempts): up to the spread of planning times on a loaded
-    # machine, request → due is the planning time + 2 periods.
-    excess = [due - planning for planning, due, _, _ in lat]
-    allowance = 0.5 * float(np.median([planning for planning, _, _, _ in lat]))
-    assert float(np.median(excess)) <= 2.0 / RATE + allowance, lat
-    # It is sent then, up to the loop's own lateness: the first changed samples are no later
+    assert len(ex.latencies()) == len(goals)
+    # Sent on time, up to the loop's own lateness: the first changed samples are no later
     # past their due times than the other samples of the run (the worst of them, away from
     # the switches) plus one period — host load that delays every sample does not fail this,
     # a swap that delays the loop does. A swap's cost is in every switch, a host's preemption

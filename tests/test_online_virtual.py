@@ -474,6 +474,32 @@ def test_jerk_limited_retarget_brakes_to_rest_then_leaves_within_every_limit(sa)
 
 # -- where switches are placed from ----------------------------------------------------------
 
+def test_the_first_changed_sample_is_due_the_expected_planning_time_plus_two_periods(sa):
+    """Request → first changed goal (issue 10 §2): held at a known sample, each retarget
+    places its first changed sample ⌈planning time expected × rate⌉ + 2 samples after the
+    one in progress: due the expected planning time + 1.5–2.5 periods after the request
+    (the request comes halfway through a period). The wall-clock latency on firmware_sim is
+    measured by ``make bench`` (bench_online: due − planning against the same rule)."""
+    traj = _move(sa, duration=3.0)
+    goals = [(0.2, 0.15, 0.2), (0.15, 0.2, 0.5), (0.1, 0.22, 0.9), (0.05, 0.25, 1.2)]
+    at = [200 + 60 * k for k in range(len(goals))]
+
+    def retarget(goal):
+        return lambda ex: ex.retarget([None, goal])
+
+    clock = VirtualClock()
+    clock.hold(0.0)
+    ex = start(traj, sa.bus, skip_late=False, compensation=False, clock=clock, watchdog_ms=0)
+    ex.planning_times.set("retarget", False, [0.01])
+    report = drive_held(clock, ex, [(a, retarget(g)) for a, g in zip(at, goals, strict=True)])
+    assert report.outcome == "done", report.headline
+    assert len(ex.switches) == len(goals)
+    for a, (_requested, first, due, _took, ahead) in zip(at, ex.switches, strict=True):
+        assert first == a + 1 + math.ceil(ahead * RATE), (a, first, ahead)
+        asked = ex.stream.t_start + (a - 0.5) / RATE  # the held clock when it was asked
+        assert ahead + 1.5 / RATE - 1e-9 <= due - asked <= ahead + 2.5 / RATE + 1e-9
+
+
 def test_planning_times_start_from_a_guess_and_follow_the_measurements():
     from robodcn.stream import PlanningTimes
 
