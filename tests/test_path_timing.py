@@ -388,3 +388,41 @@ def test_smooth_power_basis_matches_the_hermite_basis(ndim):
     np.testing.assert_allclose(many, few, rtol=0, atol=1e-13)
     if ndim == 1:
         np.testing.assert_allclose(many, 2.0 * xq * xq - xq + 0.5, rtol=0, atol=1e-12)
+
+
+def _straight_then_arc(s: np.ndarray, radius: float = 0.3) -> np.ndarray:
+    """A joint path with a curvature corner at s = 0.5: straight, then an arc (C¹ there)."""
+    a = np.where(s < 0.5, 0.0, (s - 0.5) / radius)
+    x = np.where(s < 0.5, s, 0.5 + radius * np.sin(a))
+    y = np.where(s < 0.5, 0.0, radius * (1.0 - np.cos(a)))
+    return np.stack([x, y], axis=1)
+
+
+def test_a_corner_is_a_spike_of_the_change_of_q2_not_its_level():
+    from robodcn.path_timing.jerk import corner_jumps
+    from robodcn.path_timing.topp import derivatives
+
+    s = np.linspace(0.0, 1.0, 400)
+    smooth = np.stack([s ** 3, np.sin(3 * s)], axis=1)  # q''' ≠ 0 everywhere, no corner
+    assert corner_jumps(derivatives(smooth, s, [], 2, repeated=False)[1]).max() == 0.0
+    s = np.linspace(0.0, 1.2, 401)
+    jumps = corner_jumps(derivatives(_straight_then_arc(s), s, [], 2, repeated=False)[1])
+    marked = np.flatnonzero(jumps.max(axis=1) > 0)
+    assert marked.size and (np.abs(s[marked] - 0.5) <= 4 * (s[1] - s[0])).all()
+
+
+@pytest.mark.parametrize("n", [201, 801])
+def test_a_curvature_corner_is_crossed_within_every_limit(n):
+    """The step of joint acceleration at a C¹ corner is crossed slowly enough (the jerk
+    pass's corner cap, ``smooth=False``), on a coarse grid as on a fine one; the coarse one
+    took 3.5× as long before only spikes counted as corners."""
+    s = np.linspace(0.0, 1.2, n)
+    v, a, j = np.array([1.0, 1.0]), np.array([5.0, 5.0]), np.array([100.0, 100.0])
+    law = time_optimal(_straight_then_arc(s), s, v, a, j, rate_hz=RATE)
+    vel, acc, jrk = fd(_straight_then_arc(law.sample(RATE).s), RATE)
+    assert (np.abs(vel) <= v * (1 + V_TOL)).all()
+    assert (np.abs(acc) <= a * (1 + A_TOL)).all()
+    assert (np.abs(jrk) <= j * (1 + J_TOL)).all(), (np.abs(jrk) / j).max()
+    fine = time_optimal(_straight_then_arc(np.linspace(0.0, 1.2, 1601)),
+                        np.linspace(0.0, 1.2, 1601), v, a, j, rate_hz=RATE)
+    assert law.duration <= 1.15 * fine.duration, (law.duration, fine.duration)

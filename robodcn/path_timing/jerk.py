@@ -26,6 +26,8 @@ _WINDOWS = (1.0, 0.75, 0.55, 0.4, 0.3)
 _MOVING_ATTEMPTS = 8
 _LOCAL_ROUNDS = 2
 _QUICK_SAMPLES = 2500
+#: samples either side whose median change of q'' is a smooth path's own (corner_jumps)
+_CORNER_REACH = 8
 
 
 def corner_jumps(ddq: NDArray) -> NDArray:
@@ -37,7 +39,21 @@ def corner_jumps(ddq: NDArray) -> NDArray:
     """
     n = ddq.shape[0]
     i = np.arange(n)
-    return np.abs(ddq[np.minimum(i + 2, n - 1)] - ddq[np.maximum(i - 1, 0)])
+    jumps = np.abs(ddq[np.minimum(i + 2, n - 1)] - ddq[np.maximum(i - 1, 0)])
+    if n < 2 * _CORNER_REACH + 1:
+        return jumps
+    # A corner is a spike of the change, not its level: a smooth q'' changes by 3 Δs |q'''|
+    # over the same three intervals everywhere (the q''' ṡ³ term covers it), and read as a
+    # step it capped a smooth path's speed and counted its whole jerk as a step's (a cubic
+    # path at jerk 15 a stretched 1.7×). Only the excess over the neighbourhood's median
+    # counts.
+    window = np.lib.stride_tricks.sliding_window_view(
+        np.pad(jumps, ((_CORNER_REACH, _CORNER_REACH), (0, 0)), mode="edge"),
+        2 * _CORNER_REACH + 1, axis=0)
+    level = np.median(window, axis=-1)
+    # and not the rounding of a straight stretch's q'' = 0 (its median is 0 too)
+    noise = 1e-6 * np.abs(ddq).max(axis=0)
+    return np.maximum(jumps - 3.0 * level - noise, 0.0)
 
 
 def joint_ratios(law: PathTiming, s: NDArray, derivs: list[NDArray], v: NDArray, a: NDArray,
