@@ -19,9 +19,10 @@ two rounds lower the speed only where a limit is over, and any residual excess i
 the uniform stretch λ = max(1, r_v, √r_a, ∛r_j) that divides velocity, acceleration and jerk
 by λ, λ², λ³. A curvature corner of the path (a step of q'', as at the planner's C¹ blends) is
 a step of joint acceleration Δq'' ṡ² within one stream period, so it is crossed slowly enough
-that Δq'' ṡ² × rate stays within the jerk limit (``smooth=True`` skips this for a path known
-to be C², as the planner's blends now are: the check reads any fast change of q'' as a
-corner). From a moving start (ṡ₀, s̈₀) the filter's
+that Δq'' ṡ² × rate stays within the jerk limit; a corner is a change of q'' that stands
+out of its neighbourhood's (:func:`~robodcn.path_timing.jerk.corner_jumps`), not a smooth
+path's steady change (``smooth=True`` skips the search for a path known to be C², as the
+planner's blends now are). From a moving start (ṡ₀, s̈₀) the filter's
 history is chosen so the filtered law starts exactly there, and the limits are shrunk instead
 of stretching (a stretch would change ṡ₀).
 
