@@ -87,13 +87,18 @@ def _run_at(sa, trajectory, at: int, ops, timeout=60.0, compensation=False, **op
     run ``ops(execution)``, release it, wait; the report, the execution and the wire goals.
     The operation is placed at a known sample whatever the host does (the Bus Watchdog,
     a real-time guard, is off: the loop waits on the test while held)."""
+    return _run_steps(sa, trajectory, [(at, ops)], timeout, compensation, **options)
+
+
+def _run_steps(sa, trajectory, steps, timeout=60.0, compensation=False, **options):
+    """:func:`_run_at` for several (sample, ops) in turn (:func:`drive_held`)."""
     clock = VirtualClock()
     clock.hold(0.0)
     sa.sim.clear_log()
     before = len(sa.sim.goal_history(ARM3R.servo_ids[0]))
     ex = start(trajectory, sa.bus, skip_late=False, compensation=compensation, clock=clock,
                watchdog_ms=0, **options)
-    report = drive_held(clock, ex, [(at, ops)], timeout)
+    report = drive_held(clock, ex, steps, timeout)
     assert report.lateness_max_s == 0.0, "virtual time: every sample on time"
     wire = np.array([sa.sim.goal_history(i)[before:] for i in ARM3R.servo_ids]).T
     return report, ex, wire

@@ -36,9 +36,9 @@ from online_helpers import (
     _jerk_move,
     _move,
     _run_at,
+    _run_steps,
     _sent,
     arm_at_start,
-    drive_held,
 )
 
 from robodcn import kinematics, servo_units
@@ -434,15 +434,9 @@ def test_jerk_limited_pause_resume_and_speed_scaling_keep_every_limit(sa):
         ex.resume()
         assert not ex.paused and ex.speed == k
 
-    clock = VirtualClock()
-    clock.hold(0.0)
-    sa.sim.clear_log()
-    before = len(sa.sim.goal_history(ARM3R.servo_ids[0]))
-    ex = start(traj, sa.bus, skip_late=False, compensation=False, clock=clock, watchdog_ms=0)
-    report = drive_held(clock, ex, [(paused_at, pause),
-                                    (paused_at + int(0.5 * RATE), speed_and_resume)])
+    report, ex, wire = _run_steps(sa, traj, [(paused_at, pause),
+                                             (paused_at + int(0.5 * RATE), speed_and_resume)])
     assert report.outcome == "done", report.headline
-    wire = np.array([sa.sim.goal_history(i)[before:] for i in ARM3R.servo_ids]).T
     _, joints, ticks = _sent(ex, wire)
     _check_jerk(joints)
     resumed = ex.switches[1][1]
@@ -485,13 +479,14 @@ def test_the_first_changed_sample_is_due_the_expected_planning_time_plus_two_per
     at = [200 + 60 * k for k in range(len(goals))]
 
     def retarget(goal):
-        return lambda ex: ex.retarget([None, goal])
+        def op(ex):
+            if not ex.switches:  # placed from a known expectation: 10 ms
+                ex.planning_times.set("retarget", False, [0.01])
+            ex.retarget([None, goal])
+        return op
 
-    clock = VirtualClock()
-    clock.hold(0.0)
-    ex = start(traj, sa.bus, skip_late=False, compensation=False, clock=clock, watchdog_ms=0)
-    ex.planning_times.set("retarget", False, [0.01])
-    report = drive_held(clock, ex, [(a, retarget(g)) for a, g in zip(at, goals, strict=True)])
+    report, ex, _wire = _run_steps(sa, traj, [(a, retarget(g))
+                                              for a, g in zip(at, goals, strict=True)])
     assert report.outcome == "done", report.headline
     assert len(ex.switches) == len(goals)
     for a, (_requested, first, due, _took, ahead) in zip(at, ex.switches, strict=True):
