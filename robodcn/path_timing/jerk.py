@@ -128,8 +128,8 @@ def _corner_cap(s: NDArray, jumps: NDArray, dq: NDArray, ddq: NDArray, v: NDArra
 def _rest_piece(s: NDArray, derivs: list[NDArray], sg: NDArray, dq: NDArray, ddq: NDArray,
                 cap: NDArray, v: NDArray, a: NDArray, j: NDArray, accel_share: float,
                 finite: NDArray, rate_hz: float, rows: TorqueRows | None = None,
-                stops_at_end: bool = False, quintic: bool = True,
-                outer: tuple[NDArray, NDArray, NDArray] | None = None) -> PathTiming:
+                *, outer: tuple[NDArray, NDArray, NDArray], stops_at_end: bool = False,
+                quintic: bool = True) -> PathTiming:
     """Rest to rest without stops: the shortest over acceleration shares and windows of the
     filtered optimum, each stretched just enough to keep every limit, or the fastest
     uniform quintic when that is faster. ``stops_at_end``: the piece's last sample is a stop
@@ -176,7 +176,7 @@ def _rest_piece(s: NDArray, derivs: list[NDArray], sg: NDArray, dq: NDArray, ddq
     if not quintic:
         return best
     mine = own_end(derivs) if stops_at_end else derivs
-    qv, qa, qj = outer if outer is not None else (v, a, j)
+    qv, qa, qj = outer
     uniform = fastest_quintic(
         float(sg[0]), float(sg[-1]),
         lambda law: joint_ratios(law, s, mine, qv, qa, qj, rate_hz), best.duration,

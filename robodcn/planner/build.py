@@ -36,6 +36,9 @@ from robodcn.planner.samples import Sampled, Timing
 from robodcn.planner.trajectory import Trajectory, planned
 from robodcn.planner.uniform import UniformTiming
 
+#: what a law's samples past a dynamic limit raise (validate.raise_for)
+_LIMIT_ERRORS = (VelocityLimitError, AccelerationLimitError, JerkLimitError, TorqueLimitError)
+
 
 def warn_switches(samples: tuple[int, ...], rate: float) -> None:
     """Never silent: a branch switch is data on the trajectory and a warning of our own."""
@@ -133,23 +136,21 @@ def _no_slower_than_quintic(req: PlanRequest, pieces, fine: bool) -> Trajectory:
     its model of the samples misjudged), which under a tight limit lost to the quintic by up
     to 1.5× (issue 17 §1: the default profile is never slower than quintic). The request
     stays the caller's: only the time law along the path differs."""
-    quintic = dataclasses.replace(req, profile="quintic")
+    quintic = UniformTiming(dataclasses.replace(req, profile="quintic"))
     try:
         best = run(req, OptimalTiming(req, pieces, fine=fine))
-    except (VelocityLimitError, AccelerationLimitError, JerkLimitError, TorqueLimitError):
+    except _LIMIT_ERRORS as refused:
         if req.duration == "auto":
             raise
         try:  # a fixed duration the optimal law cannot keep: the quintic may
-            return run(req, UniformTiming(quintic))
-        except (VelocityLimitError, AccelerationLimitError, JerkLimitError,
-                TorqueLimitError):
-            pass
-        raise
+            return run(req, quintic)
+        except _LIMIT_ERRORS:
+            raise refused from None
     if req.duration != "auto":
         return best
     try:
-        uniform = run(req, UniformTiming(quintic))
-    except (VelocityLimitError, AccelerationLimitError, JerkLimitError, TorqueLimitError):
+        uniform = run(req, quintic)
+    except _LIMIT_ERRORS:
         return best
     return uniform if uniform.t.shape[0] < best.t.shape[0] else best
 
