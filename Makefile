@@ -15,9 +15,13 @@ $(STAMP): pyproject.toml
 	$(PY) -m pip install --quiet -e '.[dev,plot]'
 	touch $(STAMP)
 
+# Both passes always run, and each reports, even when the first fails; make fails if either did.
 test: $(STAMP)
-	$(PY) -m pytest -q -n 2 --dist loadfile -m "not serial"
-	$(PY) -m pytest -q -m serial
+	@parallel=0; serial=0; \
+	$(PY) -m pytest -q -n 2 --dist loadfile -m "not serial" || parallel=$$?; \
+	$(PY) -m pytest -q -m serial || serial=$$?; \
+	echo "make test: parallel pass exit $$parallel, serial pass exit $$serial"; \
+	[ $$parallel -eq 0 ] && [ $$serial -eq 0 ]
 
 # The web console in headless Chromium (tests_browser/, not part of `make test`). Installs
 # what is missing: the Debian packages chromium and chromium-driver (when root), and the

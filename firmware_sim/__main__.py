@@ -211,6 +211,10 @@ def main(argv: list[str] | None = None) -> int:
     signal.signal(signal.SIGINT, on_signal)
     signal.signal(signal.SIGTERM, on_signal)
     control = None
+    try:
+        bus.start()
+    except FileExistsError as exc:
+        p.error(f"--link: {exc.strerror}")
     with bus:
         if args.control:
             try:

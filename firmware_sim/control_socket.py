@@ -22,6 +22,7 @@ import contextlib
 import logging
 import os
 import socket
+import stat
 import threading
 from collections.abc import Callable
 
@@ -75,12 +76,38 @@ def _do(action: Callable[[], object]) -> str:
     return "ok"
 
 
+
+def take_over_stale_socket(path: str) -> None:
+    """Remove the UNIX socket at ``path`` if nothing listens on it any more.
+
+    A simulator killed with ``kill -9`` leaves its control socket behind; ``bind`` would then
+    fail with EADDRINUSE. A socket that still answers belongs to a running simulator and a
+    path that is not a socket is somebody's file: both are left alone (``bind`` refuses).
+    """
+    try:
+        if not stat.S_ISSOCK(os.stat(path).st_mode):
+            return
+    except FileNotFoundError:
+        return
+    probe = socket.socket(socket.AF_UNIX, socket.SOCK_STREAM)
+    try:
+        probe.connect(path)
+    except ConnectionRefusedError:
+        log.info("removing the stale control socket %s (nothing listens on it)", path)
+        with contextlib.suppress(FileNotFoundError):
+            os.unlink(path)
+    except OSError:
+        pass
+    finally:
+        probe.close()
+
 class ControlServer:
     """Serve :func:`execute` on a UNIX socket at ``path`` in a daemon thread."""
 
     def __init__(self, bus: SimBus, path: str) -> None:
         self.bus = bus
         self.path = path
+        take_over_stale_socket(path)
         self._sock = socket.socket(socket.AF_UNIX, socket.SOCK_STREAM)
         self._sock.bind(path)
         self._sock.listen(4)

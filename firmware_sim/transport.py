@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import contextlib
 import errno
+import logging
 import os
 import select
 import termios
@@ -29,6 +30,26 @@ def _termios_rates() -> dict[int, int]:
 
 _TERMIOS_RATES = _termios_rates()
 
+log = logging.getLogger(__name__)
+
+
+def take_over_stale_link(link: str, own_pty: str) -> None:
+    """Remove ``link`` if it is a symlink left by a simulator that died (``kill -9``).
+
+    A link whose pty is gone (a dangling symlink), or names the pty this simulator was just
+    given (the kernel reuses a freed pty's number), is stale and removed; a link to another
+    pty that exists may belong to a running simulator, and anything that is not a symlink is
+    somebody's file: both raise FileExistsError naming the path, as ``os.symlink`` would.
+    """
+    if not os.path.islink(link):
+        return                                  # nothing there, or a file symlink() refuses
+    if os.readlink(link) != own_pty and os.path.exists(link):
+        raise FileExistsError(errno.EEXIST,
+                              f"{link} links to {os.readlink(link)}, which is still open "
+                              "(another firmware_sim?)", link)
+    log.info("removing the stale link %s (its pty %s is gone)", link, os.readlink(link))
+    with contextlib.suppress(FileNotFoundError):
+        os.unlink(link)
 
 class PtyPort:
     """One pty: :attr:`path` for the client, the master end for the sim.
@@ -57,6 +78,7 @@ class PtyPort:
             os.set_blocking(master, False)
             self.path = os.ttyname(slave)
             if self.link:
+                take_over_stale_link(self.link, self.path)
                 os.symlink(self.path, self.link)
                 self._link_made = True
         except BaseException:
