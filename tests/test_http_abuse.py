@@ -356,7 +356,7 @@ def test_losing_the_device_mid_move_is_a_fault_then_recovers(tmp_path: Any) -> N
 
     link = str(tmp_path / "ttyARM")
     sim = SimBus(ARM.servo_ids, timing="fast", link=link).start()
-    bus = ServoBus(link, 1_000_000, servos=ARM.servos, rx_timeout_ms=20).open()
+    bus = ServoBus(link, 1_000_000, servos=ARM.servos).open()
     bus.verify()
     controller = ArmController(ARM, bus, execute_options=LOADED_MACHINE)
     try:
