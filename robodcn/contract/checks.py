@@ -23,7 +23,7 @@ from typing import Any
 
 import numpy as np
 
-from robodcn._checks import is_real
+from robodcn._checks import is_finite_real, is_real
 from robodcn.config import Arm
 from robodcn.contract.fields import (
     ANGLE_ITEM,
@@ -292,7 +292,7 @@ def check_start_state(value: Any, arm: Arm
         row = []
         for i, (v, joint) in enumerate(zip(given, arm.joints, strict=True)):
             path = f"start_state.{name}[{i}]"
-            if not is_real(v) or not math.isfinite(float(v)):
+            if not is_finite_real(v):
                 raise fail(path, f"must be a finite number ({unit}), got {_show(v)}", v)
             limit = getattr(joint, limit_of)
             if abs(float(v)) > limit * (1 + 1e-9):
