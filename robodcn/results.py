@@ -156,10 +156,14 @@ class ExecutionInfo:
 
     @classmethod
     def of(cls, options: Any) -> ExecutionInfo:
-        """The info of a :class:`robodcn.stream.ExecutionOptions` (tracking_limit in rad)."""
+        """The info of a :class:`robodcn.stream.ExecutionOptions` (tracking_limit in rad).
+
+        The limit was given in degrees and is held in radians: the round trip is rounded to
+        nine decimals, so ``--tracking-limit 15`` reads back 15, not 14.999999999999998.
+        """
         limit = options.tracking_limit
         return cls(compensation=bool(options.compensation),
-                   tracking_limit_deg=None if limit is None else math.degrees(limit),
+                   tracking_limit_deg=None if limit is None else round(math.degrees(limit), 9),
                    recover=bool(options.recover))
 
 
