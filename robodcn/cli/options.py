@@ -33,9 +33,18 @@ class Parser(argparse.ArgumentParser):
     def error(self, message: str):  # type: ignore[override]
         from robodcn.cli.error_text import one_line
 
+        if message.startswith("the following arguments are required"):
+            # argparse checks required options before it returns the unknown ones: a typo of
+            # a required option (--too) is named here, where the user will look.
+            known = {o for a in self._actions for o in a.option_strings}
+            typed = [a for a in getattr(self, "_args_seen", ())
+                     if a.startswith("--") and a.split("=", 1)[0] not in known]
+            if self.suggestion(typed):
+                message = f"unrecognized arguments: {' '.join(typed)}{self.suggestion(typed)}"
         self.exit(2, one_line(f"{self.prog}: {message} (see '{self.prog} --help')") + "\n")
 
     def parse_known_args(self, args=None, namespace=None):  # type: ignore[override]
+        self._args_seen = list(sys.argv[1:] if args is None else args)
         namespace, extras = super().parse_known_args(args, namespace)
         if extras and self._subparsers is None:
             return namespace, extras
@@ -260,14 +269,53 @@ def parse_pose(text: str, option: str, *, radians: bool = False,
     if len(values) == 2:
         values.append(0.0)
     angle = values[-1] if radians else math.radians(values[-1])
+    if abs(angle) > 2 * math.pi * (1 + 1e-12) and not (position_only and len(parts) == 2):
+        _warn_beyond_a_turn(option, values[-1], angle, radians)
     return (*values[:-1], angle)
+
+
+def _warn_beyond_a_turn(option: str, typed: float, angle: float, radians: bool) -> None:
+    """A pose angle beyond a full turn names the orientation of its wrap: say which is taken
+    (the path still turns the shorter way unless --turn says otherwise)."""
+    import warnings
+
+    from robodcn.errors import RobodcnWarning
+
+    wrapped = math.remainder(angle, 2 * math.pi)
+    shown = (f"{typed:g} rad is {math.degrees(angle):.6g}°" if radians
+             else f"{typed:g}°")
+    warnings.warn(RobodcnWarning(
+        f"{option}: the angle {shown}, beyond a full turn; the pose's orientation is that of "
+        f"{math.degrees(wrapped) + 0.0:.6g}°" + (" (did you mean degrees? drop --radians)"
+                                                   if radians and abs(typed) > 2 * math.pi
+                                                   else "")), stacklevel=3)
+
+
+#: The arm's own poses a pose option also takes by name.
+POSE_NAMES = ("home", "rest")
 
 
 def arm_pose(arm, text: str, option: str, *, radians: bool = False) -> tuple[float, ...]:
     """:func:`parse_pose` with the form ``arm`` takes: ``x,y,z,pitch`` on a yawed arm,
-    ``x,y`` or ``x,y,θ`` on a 2-joint arm, ``x,y,θ`` otherwise."""
-    return parse_pose(text, option, radians=radians, position_only=not arm.yawed and
-                      arm.dof == 2, yawed=arm.yawed)
+    ``x,y`` or ``x,y,θ`` on a 2-joint arm, ``x,y,θ`` otherwise; or one of the arm's own
+    poses by name (``home``, ``rest``: the ``[arm.home]`` / ``[arm.rest]`` tables)."""
+    name = str(text).strip().lower()
+    if name in POSE_NAMES:
+        pose = arm.home if name == "home" else arm.rest
+        if pose is None:
+            raise InputError(f"{option} rest: this arm file has no [arm.rest] pose; give "
+                             "the pose as numbers or add the table", field=option.lstrip("-"),
+                             value=text)
+        return tuple(float(v) for v in pose)
+    try:
+        return parse_pose(text, option, radians=radians, position_only=not arm.yawed and
+                          arm.dof == 2, yawed=arm.yawed)
+    except InputError as exc:
+        if any(c.isalpha() for c in name.replace("e", "")):
+            raise InputError(f"{exc}, or one of the arm's poses by name: "
+                             f"{', '.join(POSE_NAMES)}", field=exc.field,
+                             value=text) from None
+        raise
 
 
 def check_output_path(path: str, option: str, *, overwrite: bool = True) -> Path:

@@ -1,0 +1,63 @@
+"""What a user types for a pose: the arm's poses by name, angles beyond a turn, typos of --to."""
+
+from __future__ import annotations
+
+import json
+import math
+
+import pytest
+
+from robodcn import cli
+from robodcn.workflow import resolve_arm
+
+ARMS = ("arm3r", "omx")
+
+
+def _plan_json(capsys, *argv: str) -> tuple[dict, str]:
+    assert cli.main(["plan", *argv, "--format", "json", "-q"]) == 0
+    out = capsys.readouterr()
+    return json.loads(out.out), out.err
+
+
+@pytest.mark.parametrize("name", ARMS)
+def test_to_home_ends_at_the_arm_files_home_pose(capsys, name: str) -> None:
+    arm = resolve_arm(name)
+    plan, _ = _plan_json(capsys, "--arm", name, "--from", _typed(arm, arm.home, 0.01),
+                         "--to", "home")
+    assert plan["poses"][-1] == pytest.approx(list(arm.home), abs=1e-9)
+
+
+def _typed(arm, pose, nudge: float) -> str:
+    """``pose`` as the user types it (degrees), its first coordinate moved by ``nudge`` m."""
+    values = [pose[0] + nudge, *pose[1:-1], math.degrees(pose[-1])]
+    return ",".join(f"{v:.9g}" for v in values)
+
+
+def test_a_named_pose_the_arm_lacks_says_so(capsys) -> None:
+    arm = resolve_arm("arm3r")
+    assert arm.rest is None
+    assert cli.main(["plan", "--arm", "arm3r", "--to", "rest"]) != 0
+    err = capsys.readouterr().err
+    assert "--to rest" in err and "[arm.rest]" in err
+
+
+def test_a_word_that_is_no_pose_lists_the_names(capsys) -> None:
+    assert cli.main(["plan", "--arm", "arm3r", "--to", "hme"]) != 0
+    assert "home, rest" in capsys.readouterr().err
+
+
+def test_an_angle_beyond_a_turn_warns_with_the_angle_taken(capsys) -> None:
+    _, err = _plan_json(capsys, "--arm", "arm3r", "--to", "0.12,0.24,420")
+    assert "warning: --to: the angle 420°, beyond a full turn" in err and "of 60°" in err
+    _, err = _plan_json(capsys, "--arm", "arm3r", "--to", "0.12,0.24,7", "--radians")
+    assert "7 rad is 401.07°" in err and "drop --radians" in err
+    _, err = _plan_json(capsys, "--arm", "arm3r", "--to", "0.12,0.24,270")
+    assert "warning" not in err                         # within a turn: a legitimate -90°
+
+
+def test_a_typo_of_a_required_option_is_named_with_its_fix(capsys) -> None:
+    with pytest.raises(SystemExit) as exc:
+        cli.main(["plan", "--arm", "arm3r", "--too", "0.12,0.24,60"])
+    err = capsys.readouterr().err
+    assert exc.value.code == 2
+    assert "unrecognized arguments: --too; did you mean --to?" in err, err
