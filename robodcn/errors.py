@@ -10,7 +10,8 @@ The classes map onto CLI exit codes and HTTP statuses through ``exit_code`` and
     │   ├── ConfigError               exit 2   422  bad arm/bus TOML (file, key, value)
     │   ├── DegenerateError           exit 2   422  e.g. DLB with a zero denominator
     │   ├── TooLargeError             exit 2   413  a plan over the 10⁶-sample limit
-    │   └── GravityReleaseError       exit 2   409  torque off would drop the arm: confirm
+    │   ├── GravityReleaseError       exit 2   409  torque off would drop the arm: confirm
+    │   └── FileWriteError            exit 2   500  a file cannot be written (old one kept)
     ├── PlanError                     exit 3   422  plan infeasible (names the sample)
     │   ├── UnreachableError
     │   ├── JointLimitError
@@ -177,6 +178,26 @@ class GravityReleaseError(InputError):
         self.joints = joints
         self.holding_torque_nm = holding_torque_nm
         self.rest = rest
+
+
+class FileWriteError(InputError):
+    """A file robodcn writes (a plan, taught poses, a calibrated config, a plot) cannot be
+    written: ``path`` names it, ``strerror`` and ``errno`` are the operating system's reason
+    (as in OSError). The write was atomic (:mod:`robodcn._files`): an existing file is
+    unchanged. ``saved_to`` is where the content was saved instead, when it was (taught
+    poses, a calibration: work a hand did that must not be lost).
+    """
+
+    code = "file_write"
+    http_status = 500
+
+    def __init__(self, message: str, *, path: str, strerror: str, errno: int | None = None,
+                 field: str | None = None, saved_to: str | None = None) -> None:
+        super().__init__(message, field=field, value=path)
+        self.path = path
+        self.strerror = strerror
+        self.errno = errno
+        self.saved_to = saved_to
 
 
 class PlanError(RobodcnError):

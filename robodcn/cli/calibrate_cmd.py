@@ -14,6 +14,7 @@ import sys
 
 from robodcn.cli import options
 from robodcn.cli.dialogue import confirm, say, stdin_prompt
+from robodcn.cli.output import save_work
 from robodcn.cli.servo_session import add_bus_options, open_bus
 from robodcn.errors import InputError, StoppedError
 
@@ -100,6 +101,6 @@ def run(args: argparse.Namespace) -> int:
     sys.stdout.flush()
     if not confirm(f"write {out}?", yes=args.yes):
         raise StoppedError(f"{out} not written", field="out", value=str(out))
-    out.write_text(new, encoding="utf-8")
+    save_work(out, new, what="the calibrated config")
     say(f"wrote {out} (torque stays off)")
     return 0

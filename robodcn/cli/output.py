@@ -1,9 +1,14 @@
-"""Writing to standard output when the reader may go away (``robodcn plan … | head``)."""
+"""Writing to standard output when the reader may go away (``robodcn plan … | head``), and
+files a hand's work went into (taught poses, a calibration), which must never be lost."""
 
 from __future__ import annotations
 
 import os
 import sys
+from pathlib import Path
+
+from robodcn._files import write_or_rescue
+from robodcn.errors import FileWriteError
 
 
 def emit(text: str) -> bool:
@@ -21,6 +26,26 @@ def emit(text: str) -> bool:
         return False
 
 
+def save_work(path: str | os.PathLike[str], text: str, *, what: str) -> Path:
+    """Write ``text`` (``--out``) whole (:func:`robodcn._files.write_or_rescue`); when it
+    cannot be written anywhere, not even in the current or the temporary directory, the
+    text goes to standard output so the user still has it.
+
+    Raises
+    ------
+    FileWriteError
+        ``path`` was not written; the message says where ``what`` is instead.
+    """
+    try:
+        return write_or_rescue(path, text, field="--out", what=what)
+    except FileWriteError as exc:
+        if exc.saved_to is not None or not emit(text):
+            raise
+        raise FileWriteError(f"{exc.message}; it is printed on standard output",
+                             path=exc.path, strerror=exc.strerror, errno=exc.errno,
+                             field=exc.field) from None
+
+
 def silence_stdout() -> None:
     """Point stdout at /dev/null so the interpreter's final flush cannot fail again."""
     try:
@@ -31,4 +56,4 @@ def silence_stdout() -> None:
         pass
 
 
-__all__ = ["emit", "silence_stdout"]
+__all__ = ["emit", "save_work", "silence_stdout"]

@@ -5,10 +5,10 @@ from __future__ import annotations
 import argparse
 import sys
 
+from robodcn._files import write_file
 from robodcn.cli import motion_cmd, options, planning
 from robodcn.cli.output import emit
 from robodcn.cli.report_text import plan_csv, plan_summary, plan_table
-from robodcn.errors import InputError
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
@@ -40,12 +40,7 @@ def run(args: argparse.Namespace) -> int:
     text = {"table": plan_table, "json": lambda tr: tr.to_json() + "\n",
             "csv": plan_csv}[args.format](traj)
     if args.out is not None:
-        try:
-            with open(args.out, "w") as out:
-                out.write(text)
-        except OSError as exc:
-            raise InputError(f"--out {args.out}: {exc.strerror or exc}", field="--out",
-                             value=args.out) from None
+        write_file(args.out, text, field="--out")
         print(f"wrote {len(traj.t)} samples ({traj.duration:.3f} s) to {args.out}",
               file=sys.stderr)
     else:

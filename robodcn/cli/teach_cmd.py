@@ -16,10 +16,14 @@ hand leaves it, and at the end holds there in position mode; ``--release`` then 
 from __future__ import annotations
 
 import argparse
+import functools
+from pathlib import Path
 
 from robodcn import contract
+from robodcn._files import rescue
 from robodcn.cli import options, releasing
 from robodcn.cli.dialogue import say, stdin_prompt
+from robodcn.cli.output import save_work
 from robodcn.cli.report_text import pose_text
 from robodcn.cli.servo_session import add_bus_options, open_bus
 from robodcn.errors import InputError
@@ -100,12 +104,16 @@ def _gripper(teaching, command: str) -> None:
         f"{pose_text(teaching.arm.pose_keys, pose)}, gripper = {command!r}")
 
 
-def _check_segments(method, turn, count: int, out) -> None:
+def _check_segments(method, turn, count: int, out, text: str) -> None:
+    """``--method``/``--turn`` lists against the taught segments; on a mismatch the poses
+    (``text``, the file without those lists) are saved elsewhere and the error says where."""
     for option, value in (("--method", method), ("--turn", turn)):
         if isinstance(value, list) and len(value) != count - 1:
+            saved = rescue(out, text)
+            where = (f"the {count} taught waypoints are saved in {saved} (without "
+                     f"{option})" if isinstance(saved, Path) else f"{out} not written")
             raise InputError(f"{option} lists {len(value)} values for {count - 1} "
-                             f"segments; {out} not written", field=option.lstrip("-"),
-                             value=value)
+                             f"segments; {where}", field=option.lstrip("-"), value=value)
 
 
 def _teach(args: argparse.Namespace, arm, bus):
@@ -167,9 +175,9 @@ def run(args: argparse.Namespace) -> int:
     if len(poses) < 2:
         raise InputError(f"recorded {len(poses)} waypoint(s), a motion needs at least 2; "
                          f"{out} not written", field="waypoints", value=len(poses))
-    _check_segments(method, turn, len(poses), out)
-    out.write_text(waypoints_toml(poses, arm_name=arm.name, method=method, turn=turn,
-                                  beta=args.beta, keys=arm.pose_keys,
-                                  extras=teaching.actions), encoding="utf-8")
+    toml = functools.partial(waypoints_toml, poses, arm_name=arm.name, beta=args.beta,
+                             keys=arm.pose_keys, extras=teaching.actions)
+    _check_segments(method, turn, len(poses), out, toml(method=None, turn=None))
+    save_work(out, toml(method=method, turn=turn), what=f"the {len(poses)} taught waypoints")
     say(f"wrote {len(poses)} waypoints to {out}")
     return 0

@@ -28,6 +28,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from robodcn import kinematics, servo_units
+from robodcn._files import replace_file
 from robodcn.config import Arm
 from robodcn.errors import InputError
 from robodcn.plots._marks import approach_end, waypoint_samples
@@ -58,6 +59,20 @@ def _pyplot():
     import matplotlib.pyplot as plt
 
     return plt
+
+
+def save_figure(fig: Any, plt: Any, path: str) -> None:
+    """Save ``fig`` to ``path`` whole or not at all (:func:`robodcn._files.replace_file`), in
+    the format the suffix names (matplotlib's ``savefig.format`` without one), and close it."""
+    import os
+
+    import matplotlib
+
+    fmt = os.path.splitext(path)[1].lstrip(".").lower() or matplotlib.rcParams["savefig.format"]
+    try:
+        replace_file(path, lambda out: fig.savefig(out, format=fmt, dpi=110), field="--plot")
+    finally:
+        plt.close(fig)
 
 
 def arm_points(links: Sequence[float], q: ArrayLike) -> NDArray[np.float64]:
@@ -139,8 +154,7 @@ def plot_motion(path: str, arm: Arm, traj, *,
             axis.tick_params(labelbottom=False)
     right[-1].set_xlabel("t [s]")
     fig.tight_layout()
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
+    save_figure(fig, plt, path)
 
 
 def _draw_path(ax, arm: Arm, traj, wp, samples, stop, near_limits, title) -> None:

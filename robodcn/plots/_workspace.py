@@ -7,7 +7,7 @@ from numpy.typing import NDArray
 
 from robodcn import kinematics
 from robodcn.config import Arm
-from robodcn.plots._motion import _draw_arm, _pyplot
+from robodcn.plots._motion import _draw_arm, _pyplot, save_figure
 from robodcn.plots._yawed import plot_plane_workspace
 
 
@@ -42,5 +42,4 @@ def _finish(fig, ax, plt, path: str) -> None:
     ax.grid(alpha=0.3)
     ax.legend(fontsize="small", loc="lower left")
     fig.tight_layout()
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
+    save_figure(fig, plt, path)
