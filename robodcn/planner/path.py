@@ -96,6 +96,9 @@ class Piece:
         self.elbow = elbow
         self.profile = profile
         self.accel_fraction = timing.DEFAULT_ACCEL_FRACTION
+        #: (v_s, a_s): the path speed and acceleration limits over s ∈ [0, 1] of a
+        #: trapezoid piece (:func:`shape_trapezoid`), for :func:`fit_trapezoid`
+        self.path_limits: tuple[float, float] | None = None
         self.q_from = q_from
         self.q_to = q_to
 
@@ -273,6 +276,38 @@ def shape_trapezoid(piece: Piece, arm: Arm, reference: NDArray | None) -> None:
         a_s = float(np.min(a / slope))
     _, rho = timing.trapezoid_min_time(1.0, v_s, a_s)
     piece.accel_fraction = min(0.5, max(0.05, rho))
+    piece.path_limits = (v_s, a_s)
+
+
+def fit_trapezoid(piece: Piece, arm: Arm, duration_s: float) -> bool:
+    """The trapezoid's acceleration fraction for a piece given ``duration_s`` (a fixed
+    duration); True if ρ changed.
+
+    :func:`shape_trapezoid` gives the minimum-time ρ* over s ∈ [0, 1] in T* (timing.
+    trapezoid_min_time): a triangle (ρ* = ½) whenever the velocity limit does not bind, so a
+    fixed duration with time to spare had no cruise at all. Given T, ρ moves from ρ* (T ≤
+    1.3 T*, so that a duration near the minimum, such as ``auto``'s own, times the same law)
+    linearly to the default ρ = ¼ (T ≥ 2 T*: accelerate a quarter of the time, cruise half,
+    decelerate a quarter); a ρ* ≤ ¼ already cruises and is kept. Both ends are within the
+    path limits there (the path acceleration 1/(ρ(1 − ρ)T²) and speed 1/((1 − ρ)T) fall
+    with T faster than ρ(1 − ρ) and 1 − ρ do). Under a jerk limit ρ* is kept: the trapezoid
+    steps its acceleration, so its sampled jerk ≈ A·rate, which a smaller ρ raises.
+    """
+    limits = piece.path_limits
+    if piece.profile != "trapezoid" or limits is None or not duration_s > 0.0 \
+            or any(j.max_jerk is not None for j in arm.joints):
+        return False
+    fastest, rho_star = timing.trapezoid_min_time(1.0, *limits)
+    rho_star = min(0.5, max(0.05, rho_star))
+    target = timing.DEFAULT_ACCEL_FRACTION
+    if rho_star <= target:
+        rho = rho_star
+    else:
+        spare = min(1.0, max(0.0, (duration_s / fastest - 1.3) / 0.7))
+        rho = rho_star + (target - rho_star) * spare
+    changed = rho != piece.accel_fraction
+    piece.accel_fraction = rho
+    return changed
 
 
 def segments_of(req: PlanRequest) -> list[Segment]:

@@ -33,6 +33,7 @@ from robodcn.planner.path import (
     Piece,
     blended_path,
     first_joints,
+    fit_trapezoid,
     joints_of,
     pose_width,
     segments_of,
@@ -94,6 +95,9 @@ def _counts(req: PlanRequest, pieces: list[Piece], start: NDArray | None,
     if req.duration != "auto":
         shares = iter(search.split(intervals(req.duration, rate), estimates))
         counts = [c if c else next(shares) for c in counts]
+        for i, (piece, n) in enumerate(zip(pieces, counts, strict=True)):
+            if fit_trapezoid(piece, arm, n / rate) and caches is not None:
+                caches[i][1].clear()            # samples taken with the minimum-time ρ
     return counts
 
 
