@@ -38,7 +38,7 @@ def quantity(value: float, unit: str, units: Units) -> str:
         name, factor = _CLI_UNITS.get(unit, (unit, 1.0))
         x = value * factor
         if name == "°":
-            return f"{x:.1f}°"
+            return f"{round(x, 1) + 0.0:.1f}°"             # + 0.0: never "-0.0°"
         return f"{x:.4g} {name}".rstrip()
     return f"{value:.4g}{_SI_UNITS.get(unit, ' ' + unit)}"
 
@@ -141,6 +141,22 @@ def describe_violation(v: Violation, units: Units = "si",
     return text
 
 
+def _range_in_units(item: Any, units: Units) -> str | None:
+    """A number out of its range (contract.checks.fail's data) restated in the user's
+    units: ``= 83.2° is outside the limits of joint 'elbow', -103.0°..80.2°`` on the CLI for
+    ``start_joints[2] = 1.4527 rad …``; None where the error's own reason says it already."""
+    number, bounds, unit = (getattr(item, k, None) for k in ("number", "bounds", "unit"))
+    if units != "cli" or number is None or bounds is None or unit not in _CLI_UNITS \
+            or _CLI_UNITS[unit][1] == 1.0:
+        return None
+    lo, hi = (quantity(b, unit, units) for b in bounds)
+    joint = getattr(item, "joint", None)
+    if joint is not None:
+        return (f"= {quantity(number, unit, units)} is outside the limits of joint "
+                f"{joint!r}, {lo}..{hi}")
+    return f"must be within {lo}..{hi}, got {quantity(number, unit, units)}"
+
+
 def describe(item: RobodcnError | Violation | Warning, units: Units = "si",
              waypoint_names: Sequence[str] | None = None) -> str:
     """``item`` in the user's terms (module docstring); errors from data, not text.
@@ -156,7 +172,9 @@ def describe(item: RobodcnError | Violation | Warning, units: Units = "si",
     reason = getattr(item, "reason", None)
     path = getattr(item, "field", None)
     if reason is not None and path is not None:
-        return f"{field_name(path, units, waypoint_names)} {reason}"
+        name = field_name(path, units, waypoint_names)
+        restated = _range_in_units(item, units)
+        return f"{name} {restated or reason}"
     if isinstance(item, PlanError) and item.waypoint is not None and units == "cli" \
             and waypoint_names is not None and item.waypoint < len(waypoint_names):
         return f"{item.message} ({waypoint_names[item.waypoint]})"

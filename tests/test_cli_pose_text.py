@@ -61,3 +61,35 @@ def test_a_typo_of_a_required_option_is_named_with_its_fix(capsys) -> None:
     err = capsys.readouterr().err
     assert exc.value.code == 2
     assert "unrecognized arguments: --too; did you mean --to?" in err, err
+
+
+def test_an_angle_out_of_range_is_said_in_degrees(capsys) -> None:
+    assert cli.main(["plan", "--arm", "arm3r", "--to", "0.2,0.1,1e6"]) != 0
+    err = capsys.readouterr().err
+    assert "--to must be within -57295.8°..57295.8°, got 1000000.0°" in err, err
+    assert "rad" not in err and "warning" not in err
+
+
+def test_start_joints_outside_a_joint_s_limits_in_degrees_one_quote() -> None:
+    from robodcn.contract.checks import check_start_joints
+    from robodcn.errors import InputError
+    from robodcn.messages import describe
+
+    arm = resolve_arm("omx")
+    elbow = arm.joints[2]
+    joints = [0.0, 0.0, elbow.max_angle + math.radians(3.0), 0.0]
+    with pytest.raises(InputError) as exc:
+        check_start_joints(joints, arm)
+    cli_text = describe(exc.value, units="cli")
+    assert cli_text == (f"start_joints[2] = {math.degrees(joints[2]):.1f}° is outside the limits "
+                        f"of joint {elbow.name!r}, {math.degrees(elbow.min_angle):.1f}°.."
+                        f"{math.degrees(elbow.max_angle):.1f}°")
+    assert "''" not in cli_text
+    assert "rad" in describe(exc.value, units="si")
+
+
+def test_no_negative_zero_degrees() -> None:
+    from robodcn.messages import quantity
+
+    assert quantity(-1e-4, "rad", "cli") == "0.0°"
+    assert quantity(-0.02, "rad", "cli") == "-1.1°"

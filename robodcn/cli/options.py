@@ -269,7 +269,10 @@ def parse_pose(text: str, option: str, *, radians: bool = False,
     if len(values) == 2:
         values.append(0.0)
     angle = values[-1] if radians else math.radians(values[-1])
-    if abs(angle) > 2 * math.pi * (1 + 1e-12) and not (position_only and len(parts) == 2):
+    from robodcn.contract.fields import MAX_ANGLE
+
+    if 2 * math.pi * (1 + 1e-12) < abs(angle) <= MAX_ANGLE \
+            and not (position_only and len(parts) == 2):       # beyond MAX_ANGLE: an error
         _warn_beyond_a_turn(option, values[-1], angle, radians)
     return (*values[:-1], angle)
 

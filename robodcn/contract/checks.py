@@ -59,15 +59,24 @@ def _show(value: Any) -> str:
     return text if len(text) <= 60 else text[:57] + "..."
 
 
-def fail(path: str, reason: str, value: Any, *, too_large: bool = False) -> InputError:
+def fail(path: str, reason: str, value: Any, *, too_large: bool = False,
+         number: float | None = None, bounds: tuple[float, float] | None = None,
+         unit: str | None = None, joint: str | None = None) -> InputError:
     """The InputError (TooLargeError) for ``path``; message ``"<path> <reason>"``.
 
     ``reason`` is kept on the error (``.reason``) so that a surface can restate it under
-    its own name for the field (:func:`robodcn.messages.describe`).
+    its own name for the field (:func:`robodcn.messages.describe`). A number out of its
+    range also carries it as data: ``.number`` (the value given, SI), ``.bounds`` (the
+    range, SI), ``.unit`` (its SI unit) and ``.joint`` (the joint whose limits they are), so
+    that the command line can say it in degrees.
     """
     cls = TooLargeError if too_large else InputError
     err = cls(f"{path} {reason}", field=path, value=value)
     err.reason = reason  # type: ignore[attr-defined]
+    err.number = number  # type: ignore[attr-defined]
+    err.bounds = bounds  # type: ignore[attr-defined]
+    err.unit = unit  # type: ignore[attr-defined]
+    err.joint = joint  # type: ignore[attr-defined]
     return err
 
 
@@ -107,7 +116,9 @@ def check_number(path: str, value: Any, schema: Mapping[str, Any],
     hi = schema.get("maximum", math.inf)
     xlo = schema.get("exclusiveMinimum")
     if not lo <= x <= hi or (xlo is not None and not x > xlo):
-        raise fail(path, f"must be {_range_text(schema, unit)}, got {_show(value)}", value)
+        raise fail(path, f"must be {_range_text(schema, unit)}, got {_show(value)}", value,
+                   number=x, unit=unit,
+                   bounds=(lo, hi) if xlo is None and math.isfinite(lo + hi) else None)
     return x
 
 
@@ -249,8 +260,10 @@ def check_start_joints(value: Any, arm: Arm, name: str = "start_joints"
         x = check_number(path, v, ANGLE_ITEM, "rad")
         # Same slack as the planner's position check: float rounding only.
         if not joint.min_angle - 1e-9 <= x <= joint.max_angle + 1e-9:
-            raise fail(path, f"= {x:.4f} rad is outside joint {joint.name!r}'s limits "
-                       f"{joint.min_angle:.4f}..{joint.max_angle:.4f} rad", v)
+            raise fail(path, f"= {x:.4f} rad is outside the limits of joint "
+                       f"{joint.name!r}, {joint.min_angle:.4f}..{joint.max_angle:.4f} rad", v,
+                       number=x, bounds=(joint.min_angle, joint.max_angle), unit="rad",
+                       joint=joint.name)
         out.append(x)
     return tuple(out)
 
