@@ -106,11 +106,20 @@ def address(server: Any) -> tuple[str, int]:
     return ("127.0.0.1" if host == "0.0.0.0" else host), port
 
 
+def host_line(server: Any) -> bytes:
+    """The ``Host`` header line a client of ``server`` sends (``Host: 127.0.0.1:PORT``), for
+    requests written as raw bytes: the service answers no other (robodcn.http.gate)."""
+    return f"Host: {address(server)[0]}:{address(server)[1]}\r\n".encode()
+
+
 def call(server: Any, method: str, path: str, body: Any = None, *,
          headers: dict[str, str] | None = None, raw: bytes | None = None,
          timeout: float = 10.0, require_body: bool = False) -> tuple[int, dict[str, str], Any]:
     """One request on a fresh connection; the JSON body decoded (None for HEAD, unless
-    ``require_body``: then every answer must carry one)."""
+    ``require_body``: then every answer must carry one). A POST/PUT/DELETE without ``body``
+    or ``raw`` sends ``{}`` (the service reads no empty body as {})."""
+    if body is None and raw is None and method in ("POST", "PUT", "DELETE"):
+        body = {}
     conn = http.client.HTTPConnection(*address(server), timeout=timeout)
     try:
         data = raw if raw is not None else (None if body is None else json.dumps(body).encode())

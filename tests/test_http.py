@@ -27,6 +27,7 @@ from http_helpers import (  # arm_server: a fixture
     TARGET,
     address,
     error_of,
+    host_line,
     read_all,
     running,
 )
@@ -190,8 +191,8 @@ def test_plan_over_a_million_samples_is_413(planner_server: Any) -> None:
 def test_missing_length_is_411(planner_server: Any) -> None:
     host, port = address(planner_server)
     with socket.create_connection((host, port), timeout=5) as sock:
-        sock.sendall(b"POST /v1/trajectories HTTP/1.1\r\nHost: x\r\n"
-                     b"Content-Type: application/json\r\nConnection: close\r\n\r\n")
+        sock.sendall(b"POST /v1/trajectories HTTP/1.1\r\n" + host_line(planner_server)
+                     + b"Content-Type: application/json\r\nConnection: close\r\n\r\n")
         head, _, payload = read_all(sock).partition(b"\r\n\r\n")
     assert head.startswith(b"HTTP/1.1 411")
     assert json.loads(payload)["error"]["field"] == "Content-Length"

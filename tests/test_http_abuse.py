@@ -25,6 +25,7 @@ from http_helpers import (
     error_of,
     exchange,
     finished,
+    host_line,
     poll_move,
     read_all,
     running,
@@ -158,8 +159,11 @@ def test_bad_content_length_is_400(planner_server: Any, lengths: list[bytes]) ->
 
 def test_pipelined_requests_are_answered_in_order(planner_server: Any) -> None:
     with socket.create_connection(address(planner_server), timeout=5) as sock:
-        sock.sendall(b"GET /healthz HTTP/1.1\r\nHost: x\r\n\r\n" * 3
-                     + b"GET /nothing HTTP/1.1\r\nHost: x\r\nConnection: close\r\n\r\n")
+        host = host_line(planner_server)
+        sock.sendall(b"GET /healthz HTTP/1.1\r\n" + host + b"\r\n"
+                     + b"GET /healthz HTTP/1.1\r\n" + host + b"\r\n"
+                     + b"GET /healthz HTTP/1.1\r\n" + host + b"\r\n"
+                     + b"GET /nothing HTTP/1.1\r\n" + host + b"Connection: close\r\n\r\n")
         reply = read_all(sock)
     assert reply.count(b"HTTP/1.1 200") == 3 and reply.count(b"HTTP/1.1 404") == 1
 
@@ -301,8 +305,8 @@ def test_undeclared_methods_are_405_with_allow_everywhere(planner_server: Any,
         allowed = [r.method for r in ROUTES if r.regex.match(path)]
         if method in allowed:
             continue
-        line, body = exchange(planner_server, f"{method} {path} HTTP/1.1\r\nHost: x\r\n"
-                              "Connection: close\r\n\r\n".encode())
+        line, body = exchange(planner_server, f"{method} {path} HTTP/1.1\r\n".encode()
+                              + host_line(planner_server) + b"Connection: close\r\n\r\n")
         assert line.startswith(b"HTTP/1.1 405"), (method, path, line)
         assert error_of(body)["code"] == "method_not_allowed"
     status, headers, _ = call(planner_server, "TRACE", "/v1/stop")
@@ -311,7 +315,8 @@ def test_undeclared_methods_are_405_with_allow_everywhere(planner_server: Any,
 
 def test_head_mirrors_get_without_a_body(planner_server: Any) -> None:
     with socket.create_connection(address(planner_server), timeout=5) as sock:
-        sock.sendall(b"HEAD /healthz HTTP/1.1\r\nHost: x\r\nConnection: close\r\n\r\n")
+        sock.sendall(b"HEAD /healthz HTTP/1.1\r\n" + host_line(planner_server)
+                     + b"Connection: close\r\n\r\n")
         reply = read_all(sock)
     head, _, body = reply.partition(b"\r\n\r\n")
     assert head.startswith(b"HTTP/1.1 200") and body == b""
@@ -441,9 +446,10 @@ def test_a_streaming_route_outlives_the_deadline_in_its_own_bounded_pool() -> No
                          operations={"ticks": ticks})
     with running(server):
         with socket.create_connection(address(server), timeout=5) as first:
-            first.sendall(b"GET /v1/ticks HTTP/1.1\r\nHost: x\r\n\r\n")
+            first.sendall(b"GET /v1/ticks HTTP/1.1\r\n" + host_line(server) + b"\r\n")
             time.sleep(0.2)
-            line, body = exchange(server, b"GET /v1/ticks HTTP/1.1\r\nHost: x\r\n\r\n")
+            line, body = exchange(server, b"GET /v1/ticks HTTP/1.1\r\n" + host_line(server)
+                                  + b"\r\n")
             assert line.startswith(b"HTTP/1.1 503") and error_of(body)["code"] == "busy"
             assert call(server, "GET", "/healthz")[0] == 200  # others are served meanwhile
             reply = read_all(first)

@@ -75,7 +75,7 @@ def test_reboot_clears_hardware_errors(arm_server: Any) -> None:
                                       "servo_ids": [ARM.servo_ids[0]]}
     assert servo.hardware_error == 0
     assert call(server, "GET", "/v1/state")[2]["alerts"] == {}
-    status, _, body = call(server, "POST", "/v1/reboot")  # no body: every servo
+    status, _, body = call(server, "POST", "/v1/reboot", {})  # {}: every servo
     assert status == 200 and body["servo_ids"] == list(ARM.servo_ids)
     status, _, body = call(server, "POST", "/v1/reboot", {"joint": "knee"})
     assert status == 422 and error_of(body)["field"] == "joint"

@@ -17,7 +17,7 @@ from pathlib import Path
 from typing import Any
 
 import pytest
-from http_helpers import running
+from http_helpers import host_line, running
 
 from robodcn.config import load_arm
 from robodcn.errors import CommError
@@ -63,7 +63,7 @@ class Stream:
 
     def __init__(self, server: Any, path: str = "/v1/events") -> None:
         self.sock = socket.create_connection(server.server_address[:2], timeout=5)
-        self.sock.sendall(f"GET {path} HTTP/1.1\r\nHost: test\r\n\r\n".encode())
+        self.sock.sendall(f"GET {path} HTTP/1.1\r\n".encode() + host_line(server) + b"\r\n")
         self.buffer = b""
         self.eof = False
         head = b""

@@ -48,12 +48,12 @@ class Service:
         return "\n".join(kept[-lines:])
 
     def call(self, method: str, path: str, body: Any = None) -> tuple[int, Any]:
+        if body is None and method != "GET":
+            body = {}  # every POST/PUT carries a JSON body
         headers = {"Content-Type": "application/json"} if body is not None else {}
         if self.token:
             headers["Authorization"] = f"Bearer {self.token}"
         data = None if body is None else json.dumps(body).encode()
-        if method == "POST" and data is None:
-            data = b""
         req = urllib.request.Request(self.url + path, method=method, data=data, headers=headers)
         try:
             with urllib.request.urlopen(req, timeout=20) as resp:

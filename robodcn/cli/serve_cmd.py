@@ -47,15 +47,24 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         "serve", help="run the HTTP trajectory service",
         description="Serve the HTTP API (GET /openapi.json lists it). Binds 127.0.0.1 by "
                     "default; any other address needs --token (or ROBODCN_TOKEN), and every "
-                    "POST must then carry 'Authorization: Bearer TOKEN'. Logs one line per "
+                    "POST, PUT and DELETE must then carry 'Authorization: Bearer TOKEN'. "
+                    "Answers only requests naming it (Host 127.0.0.1:PORT, localhost:PORT, "
+                    "[::1]:PORT, the bound address, or an --allow-host name) and refuses "
+                    "requests from other web pages' origins (403). Logs one line per "
                     "request. Exits 6 when the address cannot be bound (e.g. in use).")
     options.add_arm_option(p)
     p.add_argument("--host", default="127.0.0.1", help="address to bind (default 127.0.0.1)")
     p.add_argument("--port", type=options.tcp_port, default=8080,
                    help="TCP port (default 8080; 0 = any)")
     p.add_argument("--token", default=os.environ.get("ROBODCN_TOKEN"),
-                   help="bearer token for POST requests, 1-256 visible ASCII characters "
-                        "(default: $ROBODCN_TOKEN)")
+                   help="bearer token for POST, PUT and DELETE requests, 1-256 visible "
+                        "ASCII characters (default: $ROBODCN_TOKEN)")
+    p.add_argument("--allow-host", action="append", default=[], metavar="NAME",
+                   help="also answer requests naming NAME (a host name or address, no port) "
+                        "in their Host and Origin, e.g. the machine's LAN name behind "
+                        "--host 0.0.0.0; repeatable (default: 127.0.0.1, localhost, [::1] "
+                        "and the bound address only: a page re-pointing its own name at "
+                        "this machine, DNS rebinding, is refused)")
     target = p.add_mutually_exclusive_group()
     target.add_argument("--sim", action="store_true", help="serve a simulated arm")
     target.add_argument("--device", metavar="DEV",
@@ -85,7 +94,8 @@ def _cmd_serve(args: argparse.Namespace) -> int:
         raise InputError("--baud is for a device; --plan-only opens none", field="--baud",
                          value=args.baud)
     arm = options.load_arm(args)
-    serve(arm, host=args.host, port=args.port, token=args.token, sim=args.sim,
+    serve(arm, host=args.host, port=args.port, token=args.token,
+          allow_hosts=tuple(args.allow_host), sim=args.sim,
           device=args.device, baud=args.baud, execution=execution_options(args),
           plan_only=args.plan_only, processes=args.processes,
           ready=lambda url: print(f"robodcn: serving {arm.name!r} on {url}", flush=True))

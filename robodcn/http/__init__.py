@@ -26,14 +26,17 @@ JointTrajectory JSON}`` (:func:`robodcn.workflow.files.trajectory_from_data`, th
 Errors are ``{"error": {"code", "message", "field", ...}}`` with the status of the
 :mod:`robodcn.errors` class (``http_status``: 422 input/plan, 413 too large, 409 busy, 503
 bus fault) or of the HTTP check that failed: 400 malformed request or JSON (not UTF-8, too
-deep), 401 missing/wrong bearer token, 404 unknown path or move, 405 method not served
-(with ``Allow``), 408 request not complete within its deadline, 411 no Content-Length, 413
-body over 1 MiB, 414/431 request line/head too long, 415 not JSON, 505 not HTTP/1.x, 503
-server full; a console file unchanged since its ETag is 304.
+deep), 401 missing/wrong bearer token (on every POST, PUT and DELETE when one is set), 403 a
+``Host`` or ``Origin`` not the service's (:mod:`~robodcn.http.gate`), 404 unknown path or
+move, 405 method not served (with ``Allow``), 408 request not complete within its
+deadline, 411 no Content-Length, 413 body over 1 MiB, 414/431 request line/head too long,
+415 not JSON (every POST, PUT and DELETE carries a JSON body, ``{}`` for none), 505 not
+HTTP/1.x, 503 server full; a console file unchanged since its ETag is 304.
 
 Modules: :mod:`~robodcn.http.limits` (every limit), :mod:`~robodcn.http.framing` (request
 reader, responses), :mod:`~robodcn.http.jsonbody`, :mod:`~robodcn.http.routes`,
-:mod:`~robodcn.http.auth` (the bearer token), :mod:`~robodcn.http.context` (what an
+:mod:`~robodcn.http.auth` (the bearer token), :mod:`~robodcn.http.gate` (the Host
+allow-list and the Origin check), :mod:`~robodcn.http.context` (what an
 operation sees of the server), :mod:`~robodcn.http.planbody`,
 :mod:`~robodcn.http.planning` (size check, planning lanes), :mod:`~robodcn.http.openapi`,
 :mod:`~robodcn.http.ops` and :mod:`~robodcn.http.online_ops` (the operations; a move goes

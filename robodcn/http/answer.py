@@ -18,6 +18,7 @@ from robodcn.errors import BusError, RobodcnError
 from robodcn.http.auth import authorize
 from robodcn.http.context import Service
 from robodcn.http.framing import HTTPError, Reply, Request, dumps, error_body
+from robodcn.http.jsonbody import require_json
 from robodcn.http.routes import Route
 from robodcn.results import to_json
 
@@ -42,10 +43,12 @@ def reply_of(route: Route, payload: Any) -> Reply:
 
 def answer(server: Service, operation: Operation, route: Route, request: Request,
            params: dict[str, str]) -> tuple[int, Reply]:
-    """Authorize and run ``operation``; every failure becomes its JSON error, never a
-    traceback."""
+    """Authorize (the token, :mod:`robodcn.http.auth`), require a JSON body of a changing
+    method (:func:`~robodcn.http.jsonbody.require_json`) and run ``operation``; every
+    failure becomes its JSON error, never a traceback."""
     try:
         authorize(server.token, request)
+        require_json(request)
         status, payload = operation(server, request, params)
         return status, reply_of(route, payload)
     except HTTPError as exc:

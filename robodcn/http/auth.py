@@ -1,4 +1,4 @@
-"""Who may drive the arm: the bearer token every POST carries when one is set.
+"""Who may drive the arm: the bearer token every POST, PUT and DELETE carries when one is set.
 
 Binding a non-loopback address needs a token (:func:`robodcn.http.listen.make_server`); a
 token is visible ASCII so that the header's bytes compare exactly (RFC 6750's b64token).
@@ -12,6 +12,7 @@ from typing import Any
 
 from robodcn.errors import InputError
 from robodcn.http.framing import HTTPError, Request
+from robodcn.http.jsonbody import CHANGING
 
 #: The environment variable ``robodcn serve`` takes its token from.
 TOKEN_ENV = "ROBODCN_TOKEN"
@@ -40,17 +41,19 @@ def check_token(token: Any) -> None:
 
 
 def authorize(token: str | None, request: Request) -> None:
-    """401 unless a POST carries ``Authorization: Bearer <token>`` (when a token is set).
+    """401 unless a request that changes anything (POST, PUT, PATCH, DELETE:
+    :data:`~robodcn.http.jsonbody.CHANGING`) carries ``Authorization: Bearer <token>``
+    (when a token is set). GET and HEAD read only and need none.
 
     Tokens are visible ASCII (checked at startup), so the header's bytes compare exactly.
     """
-    if token is None or request.method != "POST":
+    if token is None or request.method not in CHANGING:
         return
     given = request.headers.get("authorization", "")
     scheme, _, value = given.partition(" ")
     if scheme.lower() != "bearer" or not hmac.compare_digest(
             value.strip().encode("latin-1"), token.encode("ascii")):
         raise HTTPError(401, "unauthorized", "this server needs 'Authorization: Bearer "
-                        "<token>' on every POST" + (" (the token given is wrong)"
+                        "<token>' on every POST, PUT and DELETE" + (" (the token given is wrong)"
                                                     if given else ""),
                         "Authorization", {"WWW-Authenticate": "Bearer"})

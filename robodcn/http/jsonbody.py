@@ -5,6 +5,10 @@ JSON (NaN and Infinity included), another encoding (a UTF-16 body, a BOM) or nes
 than :data:`~robodcn.http.limits.MAX_JSON_DEPTH` are 400. Numbers stay as JSON gives them:
 an integer too large for a float (``1`` followed by 400 zeros) or ``1e400`` (inf) is refused
 by the contract's field checks, naming the field (422).
+
+Every POST, PUT, PATCH and DELETE carries a JSON body (:func:`require_json`, checked before
+its operation runs): ``Content-Type: application/json`` and at least ``{}``, 415 otherwise;
+an empty body is never read as ``{}``.
 """
 
 from __future__ import annotations
@@ -35,12 +39,13 @@ def _depth(value: Any, limit: int) -> int:
     return deepest
 
 
-def decode_json(body: bytes, content_type: str | None) -> Any:
-    """``body`` (the bytes of a request declared ``application/json``) → Python values.
+#: The methods that change something: each needs a JSON body (and the token, when set).
+CHANGING = frozenset({"POST", "PUT", "PATCH", "DELETE"})
 
-    Raises HTTPError 415 when the media type is not JSON or names another charset, 400 when
-    the bytes are not UTF-8 JSON or nest deeper than MAX_JSON_DEPTH.
-    """
+
+def check_media(content_type: str | None) -> None:
+    """HTTPError 415 unless ``content_type`` is ``application/json`` (charset UTF-8, if
+    one is named)."""
     media, _, params = (content_type or "").partition(";")
     if media.strip().lower() != "application/json":
         raise HTTPError(415, "unsupported_media_type", f"Content-Type must be "
@@ -52,6 +57,15 @@ def decode_json(body: bytes, content_type: str | None) -> Any:
             raise HTTPError(415, "unsupported_media_type", f"JSON over HTTP is UTF-8 "
                             f"(RFC 8259); charset {value.strip()!r} is not accepted",
                             "Content-Type")
+
+
+def decode_json(body: bytes, content_type: str | None) -> Any:
+    """``body`` (the bytes of a request declared ``application/json``) → Python values.
+
+    Raises HTTPError 415 when the media type is not JSON or names another charset, 400 when
+    the bytes are not UTF-8 JSON or nest deeper than MAX_JSON_DEPTH.
+    """
+    check_media(content_type)
     try:
         text = body.decode("utf-8")
     except UnicodeDecodeError as exc:
@@ -74,18 +88,26 @@ def decode_json(body: bytes, content_type: str | None) -> Any:
     return value
 
 
-def read_json(request: Request, *, required: bool = True) -> Any:
-    """The request body as JSON (411 when required and absent; 415, 400 from decode_json)."""
+def require_json(request: Request) -> None:
+    """A POST/PUT/PATCH/DELETE carries ``Content-Type: application/json`` and a non-empty
+    body (``{}`` for an operation without fields): 415 otherwise, 411 without a
+    Content-Length. Nothing else reaches an operation, so no request a foreign page can
+    send without a CORS preflight (a form post, a ``no-cors`` fetch: text/plain, form
+    data, no body) ever acts (:mod:`robodcn.http.gate`). Other methods pass."""
+    if request.method not in CHANGING:
+        return
+    check_media(request.headers.get("content-type"))
     if "content-length" not in request.headers and not request.body:
-        if required:
-            raise HTTPError(411, "length_required", "a JSON body with Content-Length is "
-                            "required", "Content-Length")
-        return None
-    if not request.body and not required:
-        return None
+        raise HTTPError(411, "length_required", "a JSON body with Content-Length is "
+                        "required", "Content-Length")
+    if not request.body.strip():
+        raise HTTPError(415, "unsupported_media_type", f"{request.method} {request.path} "
+                        "needs a JSON body: an empty body is not one (send {} for an "
+                        "operation without fields)", "body")
+
+
+def read_json(request: Request) -> Any:
+    """The request body as JSON (:func:`require_json`'s 411 and 415; 400 from
+    :func:`decode_json`)."""
+    require_json(request)
     return decode_json(request.body, request.headers.get("content-type"))
-
-
-def read_optional(request: Request) -> Any:
-    """The body of a request whose body may be omitted: ``{}`` when there is none."""
-    return read_json(request, required=False) if request.body else {}

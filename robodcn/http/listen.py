@@ -17,6 +17,7 @@ from robodcn.errors import InputError, RobodcnError
 from robodcn.http import limits
 from robodcn.http.answer import Operation
 from robodcn.http.auth import TOKEN_ENV, check_token, is_loopback
+from robodcn.http.gate import Gate
 from robodcn.http.prefork import PreforkServer, bind_group
 from robodcn.http.routes import ROUTES, Route
 from robodcn.http.server import RobodcnHTTPServer
@@ -46,7 +47,7 @@ def check_processes(processes: Any, *, arm_attached: bool) -> None:
 
 
 def make_server(arm: Arm, controller: ArmController | None, *, host: str = "127.0.0.1",
-                port: int = 0, token: str | None = None,
+                port: int = 0, token: str | None = None, allow_hosts: tuple[str, ...] = (),
                 request_timeout: float = limits.REQUEST_TIMEOUT,
                 max_connections: int = limits.MAX_CONNECTIONS,
                 max_per_client: int = limits.MAX_PER_CLIENT,
@@ -62,8 +63,11 @@ def make_server(arm: Arm, controller: ArmController | None, *, host: str = "127.
     controller : robodcn.controller.ArmController, or None for a plan-only service (the
         move, stop and state endpoints then answer 503)
     host, port : address to bind; port 0 picks a free port (``server.server_address``)
-    token : bearer token every POST must carry (visible ASCII); required when ``host`` is
-        not loopback
+    token : bearer token every POST, PUT and DELETE must carry (visible ASCII); required
+        when ``host`` is not loopback
+    allow_hosts : host names (or addresses) the service answers to besides 127.0.0.1,
+        localhost, [::1] and the bound address: the ``Host`` allow-list and the origins
+        ``http://NAME:port`` (:mod:`robodcn.http.gate`)
     request_timeout : seconds from a connection being ready for a request to the request's
         last byte (an absolute deadline)
     max_connections, max_per_client : open connections in all and from one address
@@ -78,7 +82,8 @@ def make_server(arm: Arm, controller: ArmController | None, *, host: str = "127.
     Raises
     ------
     InputError
-        A non-loopback host without a token, a malformed token, a bad port or timeout;
+        A non-loopback host without a token, a malformed token, a bad port or timeout, an
+        ``allow_hosts`` entry that is not a host name (field ``allow_host``);
         ``processes`` not a positive integer, or above 1 with a controller.
     ListenError
         The address cannot be bound (in use, not local): exit code 6.
@@ -86,7 +91,8 @@ def make_server(arm: Arm, controller: ArmController | None, *, host: str = "127.
     check_token(token)
     if not is_loopback(host) and token is None:
         raise InputError(f"binding {host} exposes the arm to the network: give a token "
-                         f"(--token or {TOKEN_ENV}) that every POST must carry",
+                         f"(--token or {TOKEN_ENV}) that every POST, PUT and DELETE must "
+                         "carry",
                          field="token", value=None)
     if not is_int(port) or not 0 <= port <= 65535:
         raise InputError(f"port must be an integer 0..65535, got {port!r}", field="port",
@@ -100,6 +106,7 @@ def make_server(arm: Arm, controller: ArmController | None, *, host: str = "127.
                          f"{request_timeout!r}", field="request_timeout",
                          value=request_timeout)
     check_processes(processes, arm_attached=controller is not None)
+    Gate.of(host, port, tuple(allow_hosts))  # InputError naming allow_host, before binding
 
     def server(sock: Any = None) -> RobodcnHTTPServer:
         return RobodcnHTTPServer((host, port), arm, controller, token=token,
@@ -107,7 +114,8 @@ def make_server(arm: Arm, controller: ArmController | None, *, host: str = "127.
                                  max_connections=max_connections,
                                  max_per_client=max_per_client, workers=workers,
                                  stream_slots=stream_slots, routes=routes,
-                                 operations=operations, sock=sock)
+                                 operations=operations, sock=sock,
+                                 allow_hosts=tuple(allow_hosts))
     try:
         if processes == 1:
             return server()

@@ -7,7 +7,7 @@
   running, the move starts as usual. :func:`take_replace` reads the flag.
 * ``POST /v1/stop`` ``{"mode": "smooth" | "hold"}`` (default smooth: decelerate along the
   path within the limits, then hold; hold: at once).
-* ``POST /v1/pause``, ``POST /v1/resume`` (empty body), ``PUT /v1/speed {"scale": k}``,
+* ``POST /v1/pause {}``, ``POST /v1/resume {}``, ``PUT /v1/speed {"scale": k}``,
   0 < k ≤ 1 (422 naming ``scale`` otherwise); 409 when no move runs.
 
 The routes are in :data:`robodcn.http.routes.ROUTES`, the body schemas in
@@ -24,7 +24,7 @@ from robodcn._checks import is_finite_real, show
 from robodcn.errors import InputError
 from robodcn.http.context import Service, controller_of
 from robodcn.http.framing import Request
-from robodcn.http.jsonbody import read_json, read_optional
+from robodcn.http.jsonbody import read_json
 from robodcn.stream import STOP_MODES
 
 
@@ -43,9 +43,9 @@ def body_schemas(move_body: dict[str, Any]) -> dict[str, dict[str, Any]]:
             "mode": {"enum": list(STOP_MODES), "default": "smooth",
                      "description": "smooth: decelerate along the path within the limits, "
                                     "then hold; hold: hold where the arm is at once"}},
-            "description": "Optional: the body may be omitted (a smooth stop)."},
+            "description": "{} is a smooth stop."},
         "EmptyBody": {"type": "object", "additionalProperties": False, "properties": {},
-                      "description": "Empty (the body may be omitted)."},
+                      "description": "No fields: send {}."},
         "SpeedBody": {"type": "object", "additionalProperties": False, "required": ["scale"],
                       "properties": {"scale": {
                           "type": "number", "exclusiveMinimum": 0, "maximum": 1,
@@ -101,14 +101,14 @@ def speed_scale(body: Any) -> float:
 def op_pause(server: Service, request: Request, params: dict[str, str]
              ) -> tuple[int, Any]:
     controller = controller_of(server)
-    _fields(read_optional(request), (), "pause")
+    _fields(read_json(request), (), "pause")
     return 200, controller.pause()
 
 
 def op_resume(server: Service, request: Request, params: dict[str, str]
               ) -> tuple[int, Any]:
     controller = controller_of(server)
-    _fields(read_optional(request), (), "resume")
+    _fields(read_json(request), (), "resume")
     return 200, controller.resume()
 
 

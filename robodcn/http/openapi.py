@@ -11,6 +11,7 @@ import robodcn
 from robodcn.config import Arm
 from robodcn.contract import schema_of
 from robodcn.http import online_ops
+from robodcn.http.jsonbody import CHANGING
 from robodcn.http.planbody import move_body_schema, plan_body_schema, trajectory_move_schema
 from robodcn.http.routes import ROUTES, TRANSPORT_ERRORS, Route
 from robodcn.planner import Trajectory
@@ -38,7 +39,7 @@ def schemas(arm: Arm | None = None) -> dict[str, dict[str, Any]]:
         "GripperBody": gripper_body_schema(arm),
         "RebootBody": {"type": "object", "additionalProperties": False,
                        "properties": {"joint": _joint(arm)},
-                       "description": "Empty or {} reboots every servo."},
+                       "description": "{} reboots every servo."},
         "Events": events_schema(),
         "Page": {"type": "string"},
         "Trajectory": schema_of(Trajectory),
@@ -131,7 +132,7 @@ def openapi(arm: Arm | None = None, *, token: bool = False,
             op["parameters"] = [{"name": p, "in": "path", "required": True,
                                  "schema": {"type": "string"}} for p in route.params]
         if route.body:
-            op["requestBody"] = {"required": route.body_required,
+            op["requestBody"] = {"required": True,
                                  "content": {"application/json": {
                                      "schema": {"$ref": f"#/components/schemas/{route.body}"}}}}
         codes = set(route.errors) | set(TRANSPORT_ERRORS)
@@ -139,7 +140,7 @@ def openapi(arm: Arm | None = None, *, token: bool = False,
                           "move_record", "torque", "reboot", "events", "pause", "resume",
                           "set_speed", "gripper"):
             codes.add(503)  # no arm attached, or a bus fault
-        if route.method == "POST" and token:
+        if route.method in CHANGING and token:
             codes.add(401)
         for code in sorted(codes):
             if code == 304:  # revalidated: no body
@@ -149,7 +150,7 @@ def openapi(arm: Arm | None = None, *, token: bool = False,
                 "description": HTTPStatus(code).phrase,
                 "content": {"application/json": {
                     "schema": {"$ref": "#/components/schemas/Error"}}}}
-        if route.method == "POST" and token:
+        if route.method in CHANGING and token:
             op["security"] = [{"bearer": []}]
         paths.setdefault(route.path, {})[route.method.lower()] = op
     doc: dict[str, Any] = {
@@ -157,7 +158,12 @@ def openapi(arm: Arm | None = None, *, token: bool = False,
         "info": {"title": "robodcn trajectory service", "version": robodcn.__version__,
                  "description": "Plan planar rigid-motion trajectories (dual complex numbers) "
                                 "and execute them on Dynamixel servos. SI units: metres, "
-                                "radians, seconds." + (f" Arm: {arm.name}." if arm else "")},
+                                "radians, seconds. Every POST, PUT and DELETE takes "
+                                "Content-Type: application/json and a JSON body ({} for an "
+                                "operation without fields; 415 otherwise). A Host other than "
+                                "the service's (127.0.0.1, localhost, [::1] and its port), or "
+                                "an Origin other than its own, is refused with 403."
+                                + (f" Arm: {arm.name}." if arm else "")},
         "paths": paths,
         "components": {"schemas": schemas(arm)},
     }

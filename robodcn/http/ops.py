@@ -18,7 +18,7 @@ from robodcn.http import online_ops
 from robodcn.http.answer import Operation
 from robodcn.http.context import Service, controller_of
 from robodcn.http.framing import HTTPError, Reply, Request, stream_head
-from robodcn.http.jsonbody import read_json, read_optional
+from robodcn.http.jsonbody import read_json
 from robodcn.http.limits import MAX_RESPONSE
 from robodcn.http.planbody import (
     check_move,
@@ -165,7 +165,7 @@ def op_gripper(server: Service, request: Request, params: dict[str, str]
 def op_reboot(server: Service, request: Request, params: dict[str, str]
               ) -> tuple[int, Any]:
     controller = controller_of(server)
-    body = _admin_body(server, read_optional(request), ("joint",), "reboot")
+    body = _admin_body(server, read_json(request), ("joint",), "reboot")
     ids = controller.reboot(body.get("joint"))
     return 200, RebootAnswer(joint=body.get("joint"), servo_ids=list(ids))
 
@@ -213,7 +213,7 @@ def op_get_move(server: Service, request: Request, params: dict[str, str]
 def op_stop(server: Service, request: Request, params: dict[str, str]
             ) -> tuple[int, Any]:
     controller = controller_of(server)
-    return 200, controller.stop_move(online_ops.stop_mode(read_optional(request)))
+    return 200, controller.stop_move(online_ops.stop_mode(read_json(request)))
 
 
 def op_state(server: Service, request: Request, params: dict[str, str]

@@ -48,7 +48,9 @@ class Route:
     pool: Pool = "work"
     media: str = "application/json"   # content type of the success answer
     alt_media: tuple[str, ...] = ()    # other content types it may have (Accept, file kind)
-    body_required: bool = True
+    #: GET/HEAD are served whatever the request's Origin (the console's files, which a page
+    #: may link); every other route refuses a foreign Origin (robodcn.http.gate).
+    public: bool = False
     regex: re.Pattern[str] = field(init=False, repr=False, compare=False)
 
     def __post_init__(self) -> None:
@@ -61,9 +63,11 @@ class Route:
 
 
 #: Statuses any operation can answer before it runs: a malformed or oversized request
-#: (400, 414, 431), a stalled one (408), a full server (503).
-TRANSPORT_ERRORS = (400, 405, 408, 414, 431, 503)
-#: Statuses of reading a JSON body.
+#: (400, 414, 431), a Host or Origin not the service's (403, robodcn.http.gate), a stalled
+#: one (408), a full server (503).
+TRANSPORT_ERRORS = (400, 403, 405, 408, 414, 431, 503)
+#: Statuses of reading a JSON body (every POST/PUT/DELETE has one: 411 without a length,
+#: 415 without application/json or with an empty body).
 BODY_ERRORS = (400, 411, 413, 415, 422)
 
 ROUTES: tuple[Route, ...] = (
@@ -78,13 +82,11 @@ ROUTES: tuple[Route, ...] = (
           "Move", None, (404,), pool="read"),
     Route("POST", "/v1/stop", "stop", "Stop the running move (smooth: decelerate along its "
           "path, then hold; hold: at once)", 200,
-          "Stop", "StopBody", (400, 413, 415, 422), pool="control", body_required=False),
+          "Stop", "StopBody", BODY_ERRORS, pool="control"),
     Route("POST", "/v1/pause", "pause", "Pause the running move: a smooth stop on its path",
-          200, "Move", "EmptyBody", (400, 409, 413, 415, 422), pool="control",
-          body_required=False),
+          200, "Move", "EmptyBody", (*BODY_ERRORS, 409), pool="control"),
     Route("POST", "/v1/resume", "resume", "Resume the paused move along the same path", 200,
-          "Move", "EmptyBody", (400, 409, 413, 415, 422), pool="control",
-          body_required=False),
+          "Move", "EmptyBody", (*BODY_ERRORS, 409), pool="control"),
     Route("PUT", "/v1/speed", "set_speed", "Scale the running move's speed live (limits "
           "v·k, a·k², j·k³)", 200, "Move", "SpeedBody", (*BODY_ERRORS, 409), pool="control"),
     Route("GET", "/v1/state", "state", "Present joints, pose, torque and hardware alerts",
@@ -103,15 +105,15 @@ ROUTES: tuple[Route, ...] = (
           200, "Gripper", "GripperBody", (*BODY_ERRORS, 404, 409)),
     Route("POST", "/v1/reboot", "reboot", "Reboot one servo or all (clears hardware "
           "errors; torque is off afterwards)", 200, "Reboot", "RebootBody",
-          (*BODY_ERRORS, 409), body_required=False),
+          (*BODY_ERRORS, 409)),
     Route("GET", "/v1/events", "events", "Server-Sent Events: state (≥ 20 Hz while moving, "
           "≥ 1 Hz at rest), move status changes, alerts", 200, "Events", None, (503,),
           pool="stream", media="text/event-stream"),
     Route("GET", "/", "console", "The web console (HTML page)", 200, "Page", None, (304,),
-          pool="read", media="text/html"),
+          pool="read", media="text/html", public=True),
     Route("GET", "/static/{name}", "static", "A file of the web console (JS, CSS)", 200,
           "Page", None, (304, 404), pool="read", media="text/javascript",
-          alt_media=("text/css", "text/html", "image/png", "image/svg+xml")),
+          alt_media=("text/css", "text/html", "image/png", "image/svg+xml"), public=True),
 )
 
 

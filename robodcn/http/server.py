@@ -52,6 +52,7 @@ from robodcn.http.framing import (
     error_body,
     response,
 )
+from robodcn.http.gate import Gate
 from robodcn.http.openapi import openapi
 from robodcn.http.ops import OPERATIONS
 from robodcn.http.routes import ROUTES, Route, match
@@ -101,7 +102,8 @@ class RobodcnHTTPServer:
     Use :func:`robodcn.http.listen.make_server`; then ``serve_forever()`` in one thread,
     ``shutdown()`` from another, ``server_close()`` at the end. ``sock``: a listening socket
     to serve on instead of binding ``address`` (a worker of
-    :class:`~robodcn.http.prefork.PreforkServer`).
+    :class:`~robodcn.http.prefork.PreforkServer`). ``allow_hosts``: more names it answers
+    to (:class:`~robodcn.http.gate.Gate`; the loopback names and the bound address always).
     """
 
     def __init__(self, address: tuple[str, int], arm: Arm, controller: ArmController | None, *,
@@ -112,7 +114,8 @@ class RobodcnHTTPServer:
                  stream_slots: int = limits.STREAM_SLOTS,
                  routes: tuple[Route, ...] = ROUTES,
                  operations: dict[str, Operation] | None = None,
-                 sock: socket.socket | None = None) -> None:
+                 sock: socket.socket | None = None,
+                 allow_hosts: tuple[str, ...] = ()) -> None:
         self.arm = arm
         self.controller = controller
         self.token = token
@@ -131,6 +134,8 @@ class RobodcnHTTPServer:
         self.socket = _listen(address) if sock is None else sock
         self.socket.setblocking(False)
         self.server_address = self.socket.getsockname()
+        #: Which Host and Origin values are served (403 otherwise), checked before dispatch.
+        self.gate = Gate.of(self.server_address[0], self.server_address[1], allow_hosts)
         self._pools = {"work": ThreadPoolExecutor(workers, "robodcn-http-work"),
                        "read": ThreadPoolExecutor(control_workers, "robodcn-http-read"),
                        "control": ThreadPoolExecutor(control_workers, "robodcn-http-control")}
@@ -354,11 +359,18 @@ class RobodcnHTTPServer:
         """Hand ``request`` to its pool, or answer it here; True when ``conn`` may frame its
         next request at once (answered inline and kept alive)."""
         started = time.monotonic()
+        refused: HTTPError | None = None
         try:
             route, params = match(request.method, request.path, self.routes)
         except HTTPError as exc:
-            # 404/405 are answered here, without a worker: a flood of them costs no thread.
-            return self._answer_inline(conn, request, exc, started)
+            route, params, refused = None, {}, exc
+        try:
+            self.gate.check(request, route)
+        except HTTPError as exc:
+            refused = exc  # a foreign Host or Origin: 403 before anything else
+        if refused is not None or route is None:
+            # 403/404/405 are answered here, without a worker: a flood of them costs no thread.
+            return self._answer_inline(conn, request, refused, started)
         pool = route.pool
         if pool == "stream":
             if not self._stream_slots.acquire(blocking=False):

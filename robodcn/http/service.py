@@ -72,6 +72,7 @@ def open_device(arm: Arm, device: str | None = None, baud: int | None = None
 
 
 def serve(arm: Arm, *, host: str = "127.0.0.1", port: int = 8080, token: str | None = None,
+          allow_hosts: tuple[str, ...] = (),
           sim: bool = False, device: str | None = None, baud: int | None = None,
           ready: Callable[[str], None] | None = None,
           execution: ExecutionOptions | dict[str, Any] | None = None,
@@ -82,10 +83,11 @@ def serve(arm: Arm, *, host: str = "127.0.0.1", port: int = 8080, token: str | N
     timing; otherwise ``device`` (default: the arm's bus port) is opened at ``baud`` (default:
     the arm's) and verified against the arm's servos (BusError when they do not answer).
     ``token`` defaults to ``$ROBODCN_TOKEN`` (visible ASCII, checked first); ``ready(url)``
-    is called once the socket listens. ``execution``: the options every move executes with
-    (:class:`~robodcn.stream.ExecutionOptions`, or a dict of its fields over
-    :data:`robodcn.controller.DEFAULT_EXECUTE`; ``GET /v1/arm`` shows them). Raises
-    ListenError (exit 6) when the address is busy.
+    is called once the socket listens; ``allow_hosts``: names the service answers to besides
+    the loopback ones (the Host allow-list, :mod:`robodcn.http.gate`). ``execution``: the
+    options every move executes with (:class:`~robodcn.stream.ExecutionOptions`, or a dict
+    of its fields over :data:`robodcn.controller.DEFAULT_EXECUTE`; ``GET /v1/arm`` shows
+    them). Raises ListenError (exit 6) when the address is busy.
 
     ``plan_only=True``: no arm attached (no bus is opened; the move, stop and state
     endpoints answer 503), answered by ``processes`` worker processes
@@ -104,7 +106,7 @@ def serve(arm: Arm, *, host: str = "127.0.0.1", port: int = 8080, token: str | N
     logging.captureWarnings(True)
     if plan_only:
         server = make_server(arm, None, host=host, port=port, token=token,
-                             processes=processes)
+                             allow_hosts=allow_hosts, processes=processes)
         try:
             with contextlib.ExitStack() as stack:
                 if processes == 1:
@@ -124,7 +126,8 @@ def serve(arm: Arm, *, host: str = "127.0.0.1", port: int = 8080, token: str | N
             bus = stack.enter_context(open_device(arm, device, baud))
         controller = ArmController(arm, bus, execute_options=execution)
         stack.callback(controller.close)
-        server = make_server(arm, controller, host=host, port=port, token=token)
+        server = make_server(arm, controller, host=host, port=port, token=token,
+                             allow_hosts=allow_hosts)
         stack.callback(server.server_close)
         stack.enter_context(signals_stop(server, controller))
         if ready is not None:

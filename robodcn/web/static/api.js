@@ -4,8 +4,11 @@
 import { S } from "./state.js";
 import { showTokenBox } from "./ui.js";
 
-/** A JSON request; throws {status, error} with the service's error body on failure. */
+/** A JSON request; throws {status, error} with the service's error body on failure. Every
+ * request that changes something (POST, PUT, DELETE) carries a JSON body, {} when it has no
+ * fields: the service refuses any other (415), so that no foreign page can send one. */
 export async function api(method, path, body) {
+  if (method !== "GET" && body === undefined) body = {};
   if (method !== "GET" && S.tokenRequired && !S.token) {
     showTokenBox();
     throw { status: 401, error: { code: "unauthorized", field: "token",

@@ -48,7 +48,7 @@ export async function post(path, body) {
 
 export function stop(kind) {
   const mode = kind === "hold" ? S.features.holdStop : S.features.smoothStop;
-  return post("/v1/stop", mode ? { mode } : undefined);
+  return post("/v1/stop", mode ? { mode } : {});
 }
 
 /** The step of jog direction `dir` ("+x", "-t", "+z", …) on a pose of the arm's axes:
