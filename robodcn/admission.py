@@ -67,12 +67,13 @@ class MoveOrder:
     request ``parse`` gives once the present joints are read (a body of one waypoint: from
     the present state), or play a given ``trajectory`` (exactly one of the three);
     ``replace``: take over the running move in flight (waypoints only) instead of refusing
-    while one runs."""
+    while one runs; ``start_at``: UNIX time (s) the first sample is due (None: at once)."""
 
     request: PlanRequest | None = None
     trajectory: Trajectory | None = None
     replace: bool = False
     parse: Parse | None = None
+    start_at: float | None = None
 
     def __post_init__(self) -> None:
         given = [v for v in (self.request, self.trajectory, self.parse) if v is not None]
@@ -117,6 +118,10 @@ def admit(controller: ArmController, order: MoveOrder, *,
     moves) and BusError when the servos cannot be read.
     """
     if order.replace and controller.busy:
+        if order.start_at is not None:
+            raise InputError("start_at schedules a move from rest: a replacement takes over "
+                             "the running move at once (drop start_at or replace)",
+                             field="start_at", value=order.start_at)
         if order.trajectory is not None:
             raise InputError("replace takes waypoints: a given trajectory cannot take over a "
                              "running move in flight (stop it first)", field="replace",
@@ -147,7 +152,8 @@ def admit(controller: ArmController, order: MoveOrder, *,
             if trajectory is not given:  # the samples prepended are the approach
                 trajectory.approach_samples = len(trajectory.t) - len(given.t)
         return controller.start_move(trajectory,
-                                     present_ticks=tuple(int(v) for v in ticks))
+                                     present_ticks=tuple(int(v) for v in ticks),
+                                     start_at=order.start_at)
 
 
 __all__ = ["MoveOrder", "Parse", "Planning", "admit"]

@@ -66,6 +66,9 @@ DEFAULT_EXECUTE = ExecutionOptions(approach=True, release=False)
 #: Seconds an online operation on a queued move waits for its stream to start (then 409):
 #: with the operation's own planning, the answer stays within a second.
 QUEUED_WAIT = 0.4
+#: Seconds before a move's ``start_at`` its stream is prepared (configure, start check):
+#: more than preparing takes, less than the Bus Watchdog (≥ 250 ms) once armed.
+START_LEAD_S = 0.15
 #: Seconds a replacement waits for another being planned (then 409): a queue of them would
 #: hold each answer for the planning of all before it.
 REPLACE_WAIT = 0.2
@@ -161,11 +164,15 @@ class ArmController:
                 self._admitting = None
 
     def start_move(self, trajectory: Trajectory, *,
-                   present_ticks: tuple[int, ...] | None = None) -> MoveRecord:
+                   present_ticks: tuple[int, ...] | None = None,
+                   start_at: float | None = None) -> MoveRecord:
         """Queue ``trajectory`` for execution on the worker thread; returns its record.
 
         ``present_ticks``: Present Position as read for planning it (admission), so the
         executor need not read it again; None when the executor is to read it.
+        ``start_at``: UNIX time (s) its first sample is due (None: at once); the worker
+        waits (stoppable) until :data:`START_LEAD_S` before it, then prepares the stream,
+        whose loop puts the first sample at ``start_at`` itself.
 
         Raises BusyError while another move is queued or running, InputError when the
         trajectory drives other servos than the arm's or the controller is closed.
@@ -180,7 +187,7 @@ class ArmController:
         with self._lock:
             self._check_free()
             record = MoveRecord(id=str(next(self._ids)), trajectory=trajectory,
-                                present_ticks=present_ticks)
+                                present_ticks=present_ticks, start_at=start_at)
             self._current = record
             self._moves[record.id] = record
             self._trim()
@@ -382,10 +389,13 @@ class ArmController:
         worker = self._worker
         try:
             worker.recover()
+            if record.start_at is not None:
+                # wait here, not in the loop: an armed Bus Watchdog would trip meanwhile
+                record.stop_signal.wait(max(0.0, record.start_at - START_LEAD_S - time.time()))
             # streamed on this (the worker) thread: the execution's online operations
             # (pause, speed, replace) come from the request threads
             execution = prepare(record.trajectory, self.bus, self.execute_options,
-                                stop=record.stop_signal,
+                                start_at=record.start_at, stop=record.stop_signal,
                                 progress=lambda p: self._on_progress(self._live_of(record), p),
                                 arm=self.arm, planning_times=self._planning_times,
                                 present_ticks=record.present_ticks)

@@ -84,6 +84,8 @@ class MoveRecord:
     latest: Progress | None = field(default=None, repr=False)
     #: The running execution (robodcn.stream.start): pause, resume, speed, replace.
     execution: Any = field(default=None, repr=False)
+    #: UNIX time (s) its first sample is due (a move body's ``start_at``); None: at once.
+    start_at: float | None = None
     #: Sample of the execution where this move begins (a replacement starts mid-stream).
     offset: int = 0
     #: Sample where a replacement took the execution over (None: this move ran to its end).

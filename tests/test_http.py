@@ -382,11 +382,11 @@ def test_openapi_body_schema_is_what_the_parser_accepts(planner_server: Any) -> 
     status, _, data = call(planner_server, "POST", "/v1/trajectories", body)
     assert status == 200, data
     # A move body: the plan's fields but start_joints and start_state (the move starts where
-    # the arm is), and replace; or a trajectory to play.
+    # the arm is), replace and start_at; or a trajectory to play.
     planned, given = doc["components"]["schemas"]["MoveBody"]["anyOf"]
-    assert set(planned["properties"]) - {"replace"} == set(props) - {"start_joints",
-                                                                      "start_state"}
-    assert set(given["properties"]) == {"trajectory", "rate_hz", "replace"}
+    assert set(planned["properties"]) - {"replace", "start_at"} == set(props) - {
+        "start_joints", "start_state"}
+    assert set(given["properties"]) == {"trajectory", "rate_hz", "replace", "start_at"}
 
 
 # -- token ------------------------------------------------------------------------------------

@@ -21,6 +21,7 @@ import copy
 from typing import Any
 
 from robodcn._checks import is_finite_real, show
+from robodcn.contract.start_at import START_AT_SCHEMA
 from robodcn.errors import InputError
 from robodcn.http.context import Service, controller_of
 from robodcn.http.framing import Request
@@ -37,6 +38,7 @@ def body_schemas(move_body: dict[str, Any]) -> dict[str, dict[str, Any]]:
                        "'replaced'); without it a running move answers 409. A replace "
                        "while another is being planned, or one that would miss its "
                        "switch, answers 409 busy with nothing changed: try again."}
+    move["properties"]["start_at"] = START_AT_SCHEMA
     return {
         "MoveBody": move,
         "StopBody": {"type": "object", "additionalProperties": False, "properties": {

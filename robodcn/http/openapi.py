@@ -10,6 +10,7 @@ from typing import Any
 import robodcn
 from robodcn.config import Arm
 from robodcn.contract import schema_of
+from robodcn.contract.start_at import START_AT_SCHEMA
 from robodcn.http import online_ops
 from robodcn.http.jsonbody import CHANGING
 from robodcn.http.planbody import move_body_schema, plan_body_schema, trajectory_move_schema
@@ -28,6 +29,7 @@ def schemas(arm: Arm | None = None) -> dict[str, dict[str, Any]]:
         "type": "boolean", "default": False,
         "description": "A given trajectory cannot replace a running move in flight: true "
                        "while a move runs is a 422 naming replace (stop it first)."}
+    given["properties"]["start_at"] = START_AT_SCHEMA
     return {
         "PlanBody": plan_body_schema(arm),
         "TorqueBody": {"type": "object", "additionalProperties": False, "required": ["on"],

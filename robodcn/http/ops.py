@@ -13,6 +13,7 @@ from typing import Any
 
 import robodcn
 from robodcn.admission import MoveOrder, admit
+from robodcn.contract.start_at import take_start_at
 from robodcn.errors import InputError, RobodcnError, TooLargeError
 from robodcn.http import online_ops
 from robodcn.http.answer import Operation
@@ -83,13 +84,16 @@ def move_order(server: Service, body: Any) -> MoveOrder:
     the present state: its body is parsed by admission once the present joints are read
     (its own rules are checked now)."""
     body, replace = online_ops.take_replace(body)
+    body, start_at = take_start_at(body)
     if isinstance(body, dict) and "trajectory" in body:
-        return MoveOrder(trajectory=_given_trajectory(server, body), replace=replace)
+        return MoveOrder(trajectory=_given_trajectory(server, body), replace=replace,
+                         start_at=start_at)
     if from_present(body):
         check_move(body)
         arm = server.arm
-        return MoveOrder(parse=lambda joints: parse_move(arm, body, joints), replace=replace)
-    return MoveOrder(request=parse_move(server.arm, body), replace=replace)
+        return MoveOrder(parse=lambda joints: parse_move(arm, body, joints), replace=replace,
+                         start_at=start_at)
+    return MoveOrder(request=parse_move(server.arm, body), replace=replace, start_at=start_at)
 
 
 def op_start_move(server: Service, request: Request, params: dict[str, str]

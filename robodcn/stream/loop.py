@@ -84,6 +84,7 @@ class Stream:
         self.period = source.period
         self.rate_hz = source.rate_hz
         self.clock = opts.clock
+        self.start_at = opts.start_at
         self.stop = opts.stop
         self.progress = opts.progress
         self.skip_late = opts.skip_late
@@ -149,6 +150,8 @@ class Stream:
         feedback_every = self.feedback_every
         watchdog_s = bus.watchdog_ms / 1000.0
         t0 = clock.now() + min(period, 0.002)
+        if self.start_at is not None:  # a UNIX time on this loop's clock
+            t0 = max(t0, clock.now() + (self.start_at - time.time()))
         self.t_start = t0
         i = 0
         last_write = t0

@@ -108,6 +108,8 @@ class ExecutionOptions:
         torque and report it (the move stays stopped).
     hooks : :class:`ExecutionHooks` (``stop``, ``progress``, ``attach``; also readable as
         attributes of the options).
+    start_at : UNIX time (s, this host's clock) the first sample is due; None: as soon as
+        the loop starts. A time already past starts at once.
     """
 
     feedback_every: int = 1
@@ -129,6 +131,7 @@ class ExecutionOptions:
     collision_cycles: int = 3
     recover: bool = False
     hooks: ExecutionHooks = field(default_factory=ExecutionHooks)
+    start_at: float | None = None
 
     def __post_init__(self) -> None:
         _integer("feedback_every", self.feedback_every, 0)
