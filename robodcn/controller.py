@@ -464,6 +464,8 @@ class ArmController:
             if self._current is record:
                 self._current = None
             self._trim()
+        if report is not None and report.out_of_position:
+            log.warning("move %s: %s", record.id, report.headline)
         record.prepared.set()
         record.done.set()
 

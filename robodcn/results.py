@@ -13,7 +13,9 @@ from typing import Any, Literal
 
 from robodcn.workflow.gripper import GripperResult
 
-#: Move lifecycle. ``done``: every sample sent; ``degraded``: completed with samples skipped;
+#: Move lifecycle. ``done``: every sample sent and the arm at rest in position;
+#: ``degraded``: completed with samples skipped, or at rest out of position (the report's
+#: ``out_of_position`` names each joint's error);
 #: ``stopped``: stopped by a request (the arm holds); ``fault``: a bus or servo fault ended
 #: it after motion began; ``collision``: the collision stop ended it; ``failed``: refused
 #: before any sample was sent; ``replaced``: a move with ``"replace": true`` took over the

@@ -36,7 +36,7 @@ EXIT_CODES: dict[int, str] = {
     Exit.USAGE: "bad usage or input (nothing moved)",
     Exit.INFEASIBLE: "plan infeasible (nothing moved)",
     Exit.FAULT: "servo or bus fault, or a collision stop (including: scan found no servo)",
-    Exit.DEGRADED: "completed with samples skipped",
+    Exit.DEGRADED: "completed with samples skipped, or the arm came to rest out of position",
     Exit.CANNOT_SERVE: "cannot serve (TCP address in use or not available, or a "
                        "--processes worker died)",
     Exit.STOPPED: "stopped by the user (Ctrl-C)",

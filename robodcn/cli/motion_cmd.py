@@ -2,8 +2,8 @@
 
 Both check every option and output path, read the present pose, plan from it (a
 joint-space approach first when --from is elsewhere), stream, print the report and exit
-with the outcome's code: 0 done, 5 completed with samples skipped, 4 fault or collision,
-130 stopped.
+with the outcome's code: 0 done (in position), 5 completed with samples skipped or out of
+position, 4 fault or collision, 130 stopped.
 :func:`stream` and :func:`finish` are the execute / report / plot path every command that
 moves the arm shares (``robodcn run`` too).
 """
@@ -98,7 +98,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         description="Plan from the arm's present pose (read from the servos) and stream it. "
                     "With --from, a joint-space approach from the present pose to --from is "
                     "planned first. Ctrl-C stops and holds. Exit code 5: completed with "
-                    "samples skipped.")
+                    "samples skipped, or the arm came to rest out of position.")
     planning.add_motion_options(p, start_help="start pose (default: the present pose); the "
                                               "arm approaches it first")
     options.add_device_options(p, default_help="default: the arm's [bus] port")

@@ -2,7 +2,7 @@
 
 ``report_text`` never says more than happened: the headline comes from the run's outcome
 ("done" | "degraded" | "stopped" | "fault" | "collision"), so a run that skipped samples says
-how many. Per joint it gives the tracking error (max, RMS) and, with the servos' feedback
+how many, and one that came to rest off its goal names each joint's error in degrees. Per joint it gives the tracking error (max, RMS) and, with the servos' feedback
 block, the peak velocity and current against the current limit, the plan's predicted current
 and the collision-stop threshold; then where a limit came within 10 %.
 """
@@ -47,8 +47,14 @@ def headline(report: Any) -> str:
                     "(--tracking-limit)")
         return f"{kind} {report.headline.removeprefix('fault ')}"
     if report.outcome == "degraded":
-        return (f"{report.headline} (the stream fell behind its {report.rate_hz:g} Hz "
-                "schedule; try a lower --rate)")
+        hints = []
+        if report.skipped:
+            hints.append(f"the stream fell behind its {report.rate_hz:g} Hz schedule; try a "
+                         "lower --rate")
+        if report.out_of_position:
+            hints.append("the arm came to rest off its goal: a load the plan did not "
+                         "expect (--payload), or a joint held back")
+        return f"{report.headline} ({'; '.join(hints)})"
     return report.headline
 
 
@@ -116,6 +122,10 @@ def report_text(report: Any, approach_s: float = 0.0) -> str:
         lines.append(f"  overload recovery of servo {rec['servo_id']}: {done}")
     if r.get("final_error_ticks") is not None:
         lines.append("  final error (ticks) " + ", ".join(map(str, r["final_error_ticks"])))
+    if r.get("out_of_position"):
+        from robodcn.stream.in_position import misses_text
+
+        lines.append("  out of position: " + misses_text(r["out_of_position"]))
     if r.get("hardware_errors"):
         lines.append("  hardware errors " + ", ".join(
             f"servo {k}: {v}" for k, v in r["hardware_errors"].items()))

@@ -20,7 +20,9 @@ one)::
     [[joints]] name, min | min_deg, max | max_deg, max_velocity | max_velocity_deg_s,
                max_acceleration | max_acceleration_deg_s2,
                optional max_jerk | max_jerk_deg_s3 (absent: no jerk limit),
-               optional max_torque_nm, optional collision_current_a
+               optional max_torque_nm, optional collision_current_a,
+               optional in_position | in_position_deg (how far from a move's goal the
+               joint may rest and be in position; default 3 ticks)
     [joints.servo] id, model, ticks_per_turn, zero_offset, direction, min_tick, max_tick
     [dynamics] optional: link_masses, link_com, link_inertias, payload_kg,
                rotor_inertia_kg_m2; a planar arm gravity = [gx, gy]; a yawed arm
@@ -43,6 +45,7 @@ from robodcn.config._rigid import rigid_chain, rotor_inertias
 from robodcn.config._specs import (
     BAUD_RATES,
     ELBOWS,
+    IN_POSITION_TICKS,
     LINK_RANGE,
     MAX_JERK,
     MAX_SERVO_ID,
@@ -62,7 +65,7 @@ from robodcn.config._specs import (
 )
 
 __all__ = [
-    "BAUD_RATES", "ELBOWS", "LINK_RANGE", "MAX_JERK", "MAX_SERVO_ID", "PLANAR_POSE", "PLANES",
+    "BAUD_RATES", "ELBOWS", "IN_POSITION_TICKS", "LINK_RANGE", "MAX_JERK", "MAX_SERVO_ID", "PLANAR_POSE", "PLANES",
     "RATE_RANGE", "SERVO_MODELS", "SERVO_SPECS", "YAWED_POSE", "Arm", "BusSpec",
     "GripperSpec", "JointSpec", "MassProperties", "ServoModel", "ServoSpec", "arm_from_dict",
     "load_arm", "rigid_chain", "rotor_inertias",

@@ -8,6 +8,7 @@ import math
 from robodcn.config._reader import Reader
 from robodcn.config._specs import (
     BAUD_RATES,
+    IN_POSITION_MAX,
     MAX_JERK,
     MAX_SERVO_ID,
     RATE_RANGE,
@@ -58,7 +59,8 @@ def joint(r: Reader) -> JointSpec:
     """One ``[[joints]]`` entry."""
     r.only({"name", "min", "min_deg", "max", "max_deg", "max_velocity", "max_velocity_deg_s",
             "max_acceleration", "max_acceleration_deg_s2", "max_jerk", "max_jerk_deg_s3",
-            "servo", "collision_current_a", "max_torque_nm"})
+            "servo", "collision_current_a", "max_torque_nm", "in_position",
+            "in_position_deg"})
     name = r.string("name")
     spec = servo(r.sub("servo"))
     model = SERVO_SPECS[spec.model]
@@ -113,7 +115,16 @@ def joint(r: Reader) -> JointSpec:
     if torque is not None and not 0.0 < torque <= model.stall_torque:
         raise r.fail("max_torque_nm", f"must be a torque within 0..{model.stall_torque:g} N·m "
                      f"(the {spec.model}'s stall torque)", torque)
-    return JointSpec(name, lo, hi, vel, acc, spec, jerk, collision, torque)
+    in_position = None
+    if r.has("in_position") or r.has("in_position_deg"):
+        in_position = r.angle("in_position", "in_position_deg")
+        tick = 2.0 * math.pi / spec.ticks_per_turn
+        if not tick <= in_position <= IN_POSITION_MAX:
+            key = key_of("in_position", "in_position_deg")
+            low, high = (in_deg("in_position", "in_position_deg", x, "°")
+                         for x in (tick, IN_POSITION_MAX))
+            raise r.fail(key, f"must be within {low} (one tick)..{high}", r.table[key])
+    return JointSpec(name, lo, hi, vel, acc, spec, jerk, collision, torque, in_position)
 
 
 def bus(r: Reader) -> BusSpec:

@@ -63,6 +63,11 @@ PLANES = ("horizontal", "vertical")
 RATE_RANGE = (1.0, 1000.0)
 #: Highest Dynamixel id a servo may carry (254 is broadcast, 253 reserved).
 MAX_SERVO_ID = 252
+#: Default in-position tolerance of a joint, servo ticks (0.26° on a 4096-tick servo): a few
+#: ticks, the servo's own resolution and a P loop's rest dead band.
+IN_POSITION_TICKS = 3
+#: Largest ``in_position`` accepted, rad (10°): beyond it "in position" would mean nothing.
+IN_POSITION_MAX = math.radians(10.0)
 #: Pose keys of a planar arm (x, y, θ) and of a yawed arm (x, y, z, pitch), in order.
 PLANAR_POSE = ("x", "y", "theta")
 YAWED_POSE = ("x", "y", "z", "pitch")
@@ -104,6 +109,17 @@ class JointSpec:
     collision_current: float | None = None
     #: Largest torque the timing may ask of the joint, N·m (``max_torque_nm``); None: none.
     max_torque: float | None = None
+    #: How far the arm may rest from a move's goal and still be in position, rad
+    #: (``in_position`` | ``in_position_deg``); None: :data:`IN_POSITION_TICKS` ticks.
+    in_position: float | None = None
+
+    @property
+    def in_position_tolerance(self) -> float:
+        """The in-position tolerance, rad: ``in_position``, else :data:`IN_POSITION_TICKS`
+        ticks (2π·ticks / ticks_per_turn)."""
+        if self.in_position is not None:
+            return self.in_position
+        return IN_POSITION_TICKS * 2.0 * math.pi / self.servo.ticks_per_turn
 
 
 @dataclass(frozen=True)
@@ -304,7 +320,8 @@ class Arm:
                  **({} if j.max_torque is None else {"max_torque_nm": j.max_torque}),
                  "servo": j.servo.to_dict(),
                  **({} if j.collision_current is None
-                    else {"collision_current_a": j.collision_current})}
+                    else {"collision_current_a": j.collision_current}),
+                 **({} if j.in_position is None else {"in_position": j.in_position})}
                 for j in self.joints],
             **({"dynamics": dict(self.dynamics)} if self.dynamics else {}),
             **({"gripper": self.gripper.to_dict()} if self.gripper is not None else {}),

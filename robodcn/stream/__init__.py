@@ -10,7 +10,8 @@ final reads), ``summary`` (the report of a finished stream), ``report`` (:class:
 ``source`` (the loop's sample source), ``rate`` (the bus-capacity warning), ``realtime``
 (timer slack, SCHED_FIFO), ``servo_model`` (arm inverse dynamics and the DC-motor model),
 ``compensation`` (the goals that make a servo follow the plan), ``collision`` (predicted
-currents, collision thresholds), ``trace`` (every feedback read, :class:`ExecutionTrace`),
+currents, collision thresholds), ``trace`` (every feedback read, :class:`ExecutionTrace`), ``in_position`` (the final
+position against the goal, :class:`PositionMiss`),
 ``online`` (operations on a running stream: :func:`start`, :class:`Execution`) and
 ``online_path`` (its path maths). Every public name is importable from ``robodcn.stream``.
 """
@@ -22,6 +23,7 @@ import logging
 from robodcn.stream.clock import REAL_CLOCK, Clock, RealClock, VirtualClock
 from robodcn.stream.collision import predicted_currents, thresholds
 from robodcn.stream.compensation import compensated_ticks
+from robodcn.stream.in_position import PositionMiss
 from robodcn.stream.online import STOP_MODES, Execution, OnlineSamples, PlanningTimes, start
 from robodcn.stream.options import ExecutionHooks, ExecutionOptions
 from robodcn.stream.rate import RateCheck, RateWarning, check_rate
@@ -54,6 +56,7 @@ logging.getLogger("robodcn.stream").addHandler(logging.NullHandler())
 
 __all__ = [
     "OUTCOMES",
+    "PositionMiss",
     "PROGRESS_INTERVAL_S",
     "REALTIME_PRIORITY",
     "REAL_CLOCK",

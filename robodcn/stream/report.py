@@ -14,12 +14,14 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from robodcn.stream.in_position import PositionMiss, misses_text
 from robodcn.stream.trace import ExecutionTrace
 
 STOP_REASONS = ("completed", "stopped", "comm_failure", "hardware_alert", "tracking_error",
                 "collision")
-#: ``ExecutionReport.outcome``: every sample sent / completed with samples left out / stopped
-#: on request / stopped by a bus, servo or tracking fault.
+#: ``ExecutionReport.outcome``: every sample sent and the arm in position / completed with
+#: samples left out or out of position / stopped on request / stopped by a bus, servo or
+#: tracking fault / stopped by the collision stop.
 OUTCOMES = ("done", "degraded", "stopped", "fault", "collision")
 
 
@@ -125,10 +127,11 @@ def near_limits(joint_names: tuple[str, ...], samples: NDArray[np.int64],
     return tuple(out)
 
 
-def outcome_of(stop_reason: str, skipped: int) -> str:
-    """``"done"``, ``"degraded"``, ``"stopped"`` or ``"fault"`` (see :data:`OUTCOMES`)."""
+def outcome_of(stop_reason: str, skipped: int, out_of_position: bool = False) -> str:
+    """``"done"``, ``"degraded"``, ``"stopped"`` or ``"fault"`` (see :data:`OUTCOMES`):
+    a completed stream is ``done`` only with no sample skipped and the arm in position."""
     if stop_reason == "completed":
-        return "done" if skipped == 0 else "degraded"
+        return "done" if skipped == 0 and not out_of_position else "degraded"
     if stop_reason in ("stopped", "collision"):
         return stop_reason
     return "fault"
@@ -139,7 +142,10 @@ class ExecutionReport:
     """The outcome of :func:`execute`; ``to_dict()`` is JSON-ready.
 
     ``outcome`` (:data:`OUTCOMES`) and ``headline`` say what happened in one word and one
-    line; ``completed`` is true only when every sample was sent. ``skipped`` counts the
+    line; ``completed`` is true only when every sample was sent and the arm came to rest in
+    position (``out_of_position`` lists the joints that did not,
+    :mod:`robodcn.stream.in_position`; ``goal_ticks`` is the goal they are measured from,
+    the plan's last sample, and ``in_position_ticks`` each joint's tolerance). ``skipped`` counts the
     samples not sent before the loop ended: left out because their slot had passed
     (``skipped_late``) or because their write failed. ``samples_skipped`` is the same
     count under its older name. ``approach`` is the joint-space approach the streamer
@@ -216,15 +222,21 @@ class ExecutionReport:
     #: What stopped the stream, as data in SI units (e.g. a tracking-error stop: quantity,
     #: joint, sample, value, ticks, limit, unit), or None.
     stop_detail: dict[str, Any] | None = None
+    #: The goal a completed move is measured from (the plan's last sample, ticks), each
+    #: joint's in-position tolerance (ticks) and the joints that rested beyond it
+    #: (:class:`~robodcn.stream.in_position.PositionMiss`); None / () when not measured.
+    goal_ticks: tuple[int, ...] | None = None
+    in_position_ticks: tuple[int, ...] | None = None
+    out_of_position: tuple[PositionMiss, ...] = ()
     trace: ExecutionTrace | None = field(default=None, repr=False, compare=False)
 
     @property
     def outcome(self) -> str:
-        return outcome_of(self.stop_reason, self.skipped)
+        return outcome_of(self.stop_reason, self.skipped, bool(self.out_of_position))
 
     @property
     def completed(self) -> bool:
-        """True only when the run ended normally with every sample sent."""
+        """True only when the run ended normally with every sample sent, in position."""
         return self.outcome == "done"
 
     @property
@@ -239,7 +251,12 @@ class ExecutionReport:
         if self.outcome == "done":
             return f"completed: all {total} samples sent"
         if self.outcome == "degraded":
-            return f"completed with {self.skipped} of {total} samples skipped"
+            parts = []
+            if self.skipped:
+                parts.append(f"with {self.skipped} of {total} samples skipped")
+            if self.out_of_position:
+                parts.append("out of position: " + misses_text(self.out_of_position))
+            return "completed " + "; ".join(parts)
         return f"{self.outcome} after {self.samples_sent} of {total} samples: {self.message}"
 
     def to_dict(self, *, trace: bool = False) -> dict[str, Any]:
@@ -253,6 +270,7 @@ class ExecutionReport:
         data["warnings"] = [dict(w) for w in self.warnings]
         data["recovered"] = [dict(r) for r in self.recovered]
         data["near_limits"] = [dict(n) for n in self.near_limits]
+        data["out_of_position"] = [m.to_dict() for m in self.out_of_position]
         for key, value in data.items():
             if isinstance(value, tuple):
                 data[key] = list(value)

@@ -29,8 +29,10 @@ Stops (``stop_reason``)
     after the bus's own retries; at once when the serial device is lost), "hardware_alert"
     (Alert bit, non-zero Hardware Error Status or an expired Bus Watchdog),
     "tracking_error" (|error| above ``tracking_limit`` rad on any joint), "collision", else
-    "completed". ``ExecutionReport.outcome`` sums it up: "done" (every sample sent),
-    "degraded" (completed with samples skipped), "stopped", "fault", "collision". On every
+    "completed". ``ExecutionReport.outcome`` sums it up: "done" (every sample sent and
+    the arm at rest within its in-position tolerance of the goal,
+    :mod:`robodcn.stream.in_position`), "degraded" (completed with samples skipped or out
+    of position), "stopped", "fault", "collision". On every
     stop the arm holds (:mod:`robodcn.stream.finish`).
 
 Bus Watchdog
@@ -61,7 +63,8 @@ from numpy.typing import ArrayLike
 from robodcn.bus import ServoBus
 from robodcn.planner import Trajectory
 from robodcn.stream.feedback import CommFailures, Feedback
-from robodcn.stream.finish import CATCH_UP_SETTLE_S, finish
+from robodcn.stream.finish import CATCH_UP_SETTLE_S, IN_POSITION_SETTLE_S, finish
+from robodcn.stream.in_position import tolerance_ticks
 from robodcn.stream.loop import PROGRESS_INTERVAL_S, Stream
 from robodcn.stream.options import ExecutionOptions
 from robodcn.stream.preflight import arm_watchdog, check_arguments, preflight
@@ -113,7 +116,8 @@ def execute(trajectory: Trajectory, bus: ServoBus, options: ExecutionOptions | N
             return finish(bus, opts.clock, hold=hold, release=opts.release, settle=settle,
                           last_goal=stream.last_goal, last_present=feedback.last_present,
                           hardware=(feedback.hardware if opts.recover
-                                    and stream.ending.reason == "hardware_alert" else None))
+                                    and stream.ending.reason == "hardware_alert" else None),
+                          tolerance=1 if hold else tolerance_ticks(bus.servos, feedback.arm))
 
         try:
             with timer_slack(), realtime_priority(opts.realtime) as stream.realtime:
@@ -125,8 +129,11 @@ def execute(trajectory: Trajectory, bus: ServoBus, options: ExecutionOptions | N
         except BaseException:
             end(hold=True, settle=0.0)
             raise
+        completed = stream.ending.reason == "completed"
         settle = max(opts.settle, CATCH_UP_SETTLE_S) if stream.caught_up else opts.settle
-        done = end(hold=stream.ending.reason != "completed", settle=settle)
+        if completed:   # where the arm comes to rest is what the in-position check reads
+            settle = max(settle, IN_POSITION_SETTLE_S)
+        done = end(hold=not completed, settle=settle)
         report = build_report(stream, feedback, done, prepared.approach, issued)
         log.info("%s", report.headline)
         return report

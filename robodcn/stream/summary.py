@@ -11,6 +11,7 @@ from numpy.typing import NDArray
 
 from robodcn.stream.feedback import Feedback
 from robodcn.stream.finish import Finished
+from robodcn.stream.in_position import PositionMiss, position_misses, tolerance_ticks
 from robodcn.stream.loop import Stream
 from robodcn.stream.report import Approach, ExecutionReport, near_limits
 from robodcn.stream.trace import ExecutionTrace
@@ -59,6 +60,21 @@ def _trace(fb: Feedback, current_limits: tuple[float, ...] | None) -> ExecutionT
                           predicted_current_a=fb.predicted)
 
 
+def _in_position(stream: Stream, fb: Feedback, done: Finished
+                 ) -> tuple[tuple[int, ...] | None, tuple[int, ...] | None,
+                            tuple[PositionMiss, ...]]:
+    """(goal ticks, tolerance ticks, misses) of a completed stream: the final read against
+    the source's last goal (the plan's last sample, :mod:`robodcn.stream.in_position`);
+    (None, None, ()) for a stream that stopped or whose final read failed."""
+    if stream.ending.reason != "completed" or done.final is None or stream.n < 1:
+        return None, None, ()
+    bus = stream.bus
+    goal = np.asarray(stream.source.goal(stream.n - 1), dtype=np.int64)
+    tolerance = tolerance_ticks(bus.servos, fb.arm)
+    misses = position_misses(done.final, goal, tolerance, bus.servos, fb.joint_names)
+    return (tuple(int(v) for v in goal), tuple(int(v) for v in tolerance), misses)
+
+
 def build_report(stream: Stream, fb: Feedback, done: Finished, approach: Approach | None,
                  issued: tuple[dict[str, Any], ...]) -> ExecutionReport:
     """The report of a finished stream (``issued``: the warnings of its set-up)."""
@@ -86,6 +102,7 @@ def build_report(stream: Stream, fb: Feedback, done: Finished, approach: Approac
     if ending.reason == "completed" and skipped:
         message = (f"completed with {skipped} of {stream.n} samples skipped "
                    f"({stream.skipped_late} late, {stream.failed_writes} failed writes)")
+    goal, tolerance, misses = _in_position(stream, fb, done)
 
     def peak(rows: list[NDArray[np.float64]]) -> tuple[float, ...] | None:
         return None if not rows else tuple(float(v) for v in np.max(rows, axis=0))
@@ -123,7 +140,8 @@ def build_report(stream: Stream, fb: Feedback, done: Finished, approach: Approac
         collision_threshold_a=_thresholds(fb),
         collision=fb.collision, recovered=tuple(done.recovered),
         compensation=stream.source.compensated, tracking_limit_rad=fb.tracking_limit,
-        near_limits=_near_limits(stream, fb), trace=_trace(fb, bus.current_limits))
+        near_limits=_near_limits(stream, fb), goal_ticks=goal, in_position_ticks=tolerance,
+        out_of_position=misses, trace=_trace(fb, bus.current_limits))
 
 
 __all__ = ["build_report"]
