@@ -2,9 +2,10 @@
 
 ``report_text`` never says more than happened: the headline comes from the run's outcome
 ("done" | "degraded" | "stopped" | "fault" | "collision"), so a run that skipped samples says
-how many, and one that came to rest off its goal names each joint's error in degrees. Per joint it gives the tracking error (max, RMS) and, with the servos' feedback
-block, the peak velocity and current against the current limit, the plan's predicted current
-and the collision-stop threshold; then where a limit came within 10 %.
+how many, and one that came to rest off its goal names each joint's error in degrees. Per
+joint it gives the tracking error (max, RMS) and, with the servos' feedback block, the peak
+velocity and current against the current limit, the plan's predicted current and the
+collision-stop threshold; then where a limit came within 10 %.
 """
 
 from __future__ import annotations

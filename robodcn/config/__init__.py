@@ -65,7 +65,8 @@ from robodcn.config._specs import (
 )
 
 __all__ = [
-    "BAUD_RATES", "ELBOWS", "IN_POSITION_TICKS", "LINK_RANGE", "MAX_JERK", "MAX_SERVO_ID", "PLANAR_POSE", "PLANES",
+    "BAUD_RATES", "ELBOWS", "IN_POSITION_TICKS", "LINK_RANGE", "MAX_JERK", "MAX_SERVO_ID",
+    "PLANAR_POSE", "PLANES",
     "RATE_RANGE", "SERVO_MODELS", "SERVO_SPECS", "YAWED_POSE", "Arm", "BusSpec",
     "GripperSpec", "JointSpec", "MassProperties", "ServoModel", "ServoSpec", "arm_from_dict",
     "load_arm", "rigid_chain", "rotor_inertias",

@@ -10,8 +10,8 @@ final reads), ``summary`` (the report of a finished stream), ``report`` (:class:
 ``source`` (the loop's sample source), ``rate`` (the bus-capacity warning), ``realtime``
 (timer slack, SCHED_FIFO), ``servo_model`` (arm inverse dynamics and the DC-motor model),
 ``compensation`` (the goals that make a servo follow the plan), ``collision`` (predicted
-currents, collision thresholds), ``trace`` (every feedback read, :class:`ExecutionTrace`), ``in_position`` (the final
-position against the goal, :class:`PositionMiss`),
+currents, collision thresholds), ``trace`` (every feedback read, :class:`ExecutionTrace`),
+``in_position`` (the final position against the goal, :class:`PositionMiss`),
 ``online`` (operations on a running stream: :func:`start`, :class:`Execution`) and
 ``online_path`` (its path maths). Every public name is importable from ``robodcn.stream``.
 """
@@ -56,7 +56,6 @@ logging.getLogger("robodcn.stream").addHandler(logging.NullHandler())
 
 __all__ = [
     "OUTCOMES",
-    "PositionMiss",
     "PROGRESS_INTERVAL_S",
     "REALTIME_PRIORITY",
     "REAL_CLOCK",
@@ -74,6 +73,7 @@ __all__ = [
     "OnlineSamples",
     "PlannedSamples",
     "PlanningTimes",
+    "PositionMiss",
     "Progress",
     "RateCheck",
     "RateWarning",

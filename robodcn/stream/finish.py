@@ -169,4 +169,5 @@ def _final(bus: ServoBus, clock: Clock, settle: float, target: NDArray[np.int64]
         clock.sleep(SETTLE_POLL_S)
 
 
-__all__ = ["CATCH_UP_SETTLE_S", "IN_POSITION_SETTLE_S", "OVERLOAD_BIT", "REST_S", "Finished", "finish", "held_goals"]
+__all__ = ["CATCH_UP_SETTLE_S", "IN_POSITION_REST_S", "IN_POSITION_SETTLE_S", "OVERLOAD_BIT",
+           "REST_S", "Finished", "finish", "held_goals"]

@@ -145,8 +145,8 @@ class ExecutionReport:
     line; ``completed`` is true only when every sample was sent and the arm came to rest in
     position (``out_of_position`` lists the joints that did not,
     :mod:`robodcn.stream.in_position`; ``goal_ticks`` is the goal they are measured from,
-    the plan's last sample, and ``in_position_ticks`` each joint's tolerance). ``skipped`` counts the
-    samples not sent before the loop ended: left out because their slot had passed
+    the plan's last sample, and ``in_position_ticks`` each joint's tolerance). ``skipped``
+    counts the samples not sent before the loop ended: left out because their slot had passed
     (``skipped_late``) or because their write failed. ``samples_skipped`` is the same
     count under its older name. ``approach`` is the joint-space approach the streamer
     inserted (None when it streamed the trajectory as given). ``warnings`` are the
