@@ -44,7 +44,7 @@ def test_a_scheduled_move_starts_at_start_at(arm_server: Any):
     status, _, move = call(server, "POST", "/v1/moves", {**BODY, "start_at": start_at})
     assert status == 202, move
     done = poll_move(server, move["id"], lambda m: m["status"] not in ("queued", "running"))
-    assert done["status"] == "done", done
+    assert done["status"] in ("done", "degraded"), done  # degraded: a loaded host skipped
     records = server.controller.move(move["id"]).execution.stream.records
     first_write = time.time() - (time.perf_counter() - records.at[0])
     period = 1 / BODY["rate_hz"]
