@@ -19,6 +19,7 @@ The classes map onto CLI exit codes and HTTP statuses through ``exit_code`` and
     │   ├── AccelerationLimitError
     │   ├── JerkLimitError
     │   ├── TorqueLimitError
+    │   ├── ToolLimitError                          tool speed / orientation rate / acceleration
     │   └── TickLimitError
     ├── BusError                      exit 4   503  servo or bus fault
     │   ├── CommError                               no/garbled status packet
@@ -39,8 +40,10 @@ from typing import Any, Literal
 #: What a :class:`Violation` exceeds, and its SI unit.
 QUANTITY_UNITS = {"reach": "m", "position": "rad", "velocity": "rad/s",
                   "acceleration": "rad/s^2", "jerk": "rad/s^3", "ticks": "tick",
-                  "torque": "N*m"}
-Quantity = Literal["reach", "position", "velocity", "acceleration", "jerk", "ticks", "torque"]
+                  "torque": "N*m", "tool_speed": "m/s", "tool_angular_speed": "rad/s",
+                  "tool_acceleration": "m/s^2"}
+Quantity = Literal["reach", "position", "velocity", "acceleration", "jerk", "ticks", "torque",
+                   "tool_speed", "tool_angular_speed", "tool_acceleration"]
 
 
 @dataclass(frozen=True)
@@ -64,7 +67,9 @@ class Violation:
     value: float = _field(metadata={
         "description": "The value needed (reach: wrist distance from the base, m; position: "
                        "joint angle, rad; velocity rad/s; acceleration rad/s²; jerk rad/s³; "
-                       "ticks: goal position; torque: joint torque, N·m)."})
+                       "ticks: goal position; torque: joint torque, N·m; tool_speed: the tool "
+                       "point's speed, m/s; tool_angular_speed: its orientation rate, rad/s; "
+                       "tool_acceleration: its acceleration along the path, m/s²)."})
     limit: float = _field(metadata={
         "description": "The bound it passes (the nearer workspace radius for reach, the "
                        "crossed joint or tick limit for position and ticks)."})
@@ -81,7 +86,8 @@ class Violation:
         "description": "For position and tick limits: whether the other elbow branch would "
                        "pass this check along the whole plan (null: not asked)."})
     field: str = _field(default="duration", metadata={
-        "description": "The request field to change (waypoints[i], duration, start_joints)."})
+        "description": "The request field to change (waypoints[i], duration, start_joints; "
+                       "a tool limit's own field: tool_speed …)."})
 
     def to_dict(self) -> dict[str, Any]:
         return {"sample": self.sample, "t": self.t, "pose": list(self.pose),
@@ -275,10 +281,18 @@ class TorqueLimitError(PlanError):
 
 
 #: The PlanError class of each violated quantity.
+class ToolLimitError(PlanError):
+    """A sample moves the tool point faster (or turns or accelerates it more along its path)
+    than the request's ``tool_speed`` (``tool_angular_speed``, ``tool_acceleration``)."""
+
+    code = "tool_limit"
+
+
 VIOLATION_ERRORS: dict[str, type[PlanError]] = {
     "reach": UnreachableError, "position": JointLimitError, "velocity": VelocityLimitError,
     "acceleration": AccelerationLimitError, "jerk": JerkLimitError, "ticks": TickLimitError,
-    "torque": TorqueLimitError}
+    "torque": TorqueLimitError, "tool_speed": ToolLimitError,
+    "tool_angular_speed": ToolLimitError, "tool_acceleration": ToolLimitError}
 
 
 class BusError(RobodcnError):

@@ -25,9 +25,14 @@ Units = Literal["cli", "si"]
 #: (CLI unit, factor from SI) per SI unit.
 _CLI_UNITS = {"rad": ("°", 180.0 / math.pi), "rad/s": ("deg/s", 180.0 / math.pi),
               "rad/s^2": ("deg/s²", 180.0 / math.pi), "rad/s^3": ("deg/s³", 180.0 / math.pi),
-              "m": ("m", 1.0), "tick": ("", 1.0), "N*m": ("N·m", 1.0)}
+              "m": ("m", 1.0), "tick": ("", 1.0), "N*m": ("N·m", 1.0),
+              "m/s": ("m/s", 1.0), "m/s^2": ("m/s²", 1.0)}
 _SI_UNITS = {"rad": " rad", "rad/s": " rad/s", "rad/s^2": " rad/s²", "rad/s^3": " rad/s³",
-             "m": " m", "tick": "", "N*m": " N·m"}
+             "m": " m", "tick": "", "N*m": " N·m", "m/s": " m/s", "m/s^2": " m/s²"}
+#: What a tool quantity is, in words.
+_TOOL_WHAT = {"tool_speed": "the tool point moves at",
+              "tool_angular_speed": "the tool turns at",
+              "tool_acceleration": "the tool point accelerates along its path at"}
 _WHAT = {"velocity": "velocity", "acceleration": "acceleration", "jerk": "jerk",
          "torque": "torque"}
 
@@ -124,6 +129,10 @@ def describe_violation(v: Violation, units: Units = "si",
                 f"{quantity(v.limit, v.unit, units)}")
     elif v.quantity == "ticks":
         text = f"{head}: {who}needs tick {v.value:.0f}, outside its tick limit {v.limit:.0f}"
+    elif v.quantity in _TOOL_WHAT:
+        text = (f"{head}: {_TOOL_WHAT[v.quantity]} {quantity(v.value, v.unit, units)}, above "
+                f"{field_name(v.field, units)} {quantity(v.limit, v.unit, units)}: lengthen "
+                f"{field_name('duration', units)} (or raise {field_name(v.field, units)})")
     elif v.quantity == "torque" and v.field == "payload_kg":
         # gravity alone (links and payload) overloads the joint there: no timing helps
         text = (f"{head}: {who}needs {quantity(v.value, v.unit, units)} just to hold the "

@@ -30,6 +30,10 @@ one)::
     [gripper]  optional: the servo keys (id, model, …), open | open_deg, closed |
                closed_deg, open_width_m | open_width_mm, closed_width_m |
                closed_width_mm, grip_current_a
+    [tool]     optional: the tool point's default limits speed (m/s), angular_speed |
+               angular_speed_deg_s, acceleration (m/s², along the path) and the largest a
+               request may ask, max_speed, max_angular_speed | max_angular_speed_deg_s,
+               max_acceleration (absent: no tool limit, no ceiling)
 
 Two chain joints make a position-only arm (θ or pitch free), three a full-pose arm; a
 yawed arm has the yaw joint first (``[[joints]]`` in order: yaw, then the chain).
@@ -62,12 +66,14 @@ from robodcn.config._specs import (
     MassProperties,
     ServoModel,
     ServoSpec,
+    ToolSpec,
 )
 
 __all__ = [
     "BAUD_RATES", "ELBOWS", "IN_POSITION_TICKS", "LINK_RANGE", "MAX_JERK", "MAX_SERVO_ID",
     "PLANAR_POSE", "PLANES",
     "RATE_RANGE", "SERVO_MODELS", "SERVO_SPECS", "YAWED_POSE", "Arm", "BusSpec",
-    "GripperSpec", "JointSpec", "MassProperties", "ServoModel", "ServoSpec", "arm_from_dict",
+    "GripperSpec", "JointSpec", "MassProperties", "ServoModel", "ServoSpec", "ToolSpec",
+    "arm_from_dict",
     "load_arm", "rigid_chain", "rotor_inertias",
 ]

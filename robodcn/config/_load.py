@@ -15,6 +15,7 @@ from robodcn.config._geometry import geometry
 from robodcn.config._parts import bus, gripper, joint
 from robodcn.config._reader import Reader
 from robodcn.config._specs import Arm
+from robodcn.config._tool import tool
 from robodcn.errors import ConfigError
 
 
@@ -30,7 +31,7 @@ def arm_from_dict(data: Any, source: str = "<dict>") -> Arm:
         joint limits).
     """
     top = Reader(source, data, "")
-    top.only({"arm", "bus", "joints", "dynamics", "gripper"})
+    top.only({"arm", "bus", "joints", "dynamics", "gripper", "tool"})
     geo = geometry(top.sub("arm"))
     bus_spec = bus(top.sub("bus"))
     n_joints = len(geo.lengths) + (1 if geo.base_yaw else 0)
@@ -66,7 +67,8 @@ def arm_from_dict(data: Any, source: str = "<dict>") -> Arm:
     table, props = dynamics(top.sub("dynamics", {}), len(geo.lengths), n_joints, geo.base_yaw)
     arm = Arm(geo.name, geo.lengths, joints, geo.home, geo.elbow, bus_spec, source, table,
               base_yaw=geo.base_yaw, plane=geo.plane, shoulder_height=geo.shoulder_height,
-              link_vectors=geo.vectors, rest=geo.rest, gripper=grip, mass_properties=props)
+              link_vectors=geo.vectors, rest=geo.rest, gripper=grip, mass_properties=props,
+              tool=tool(top.sub("tool", {})))
     _check_pose(arm, "home", arm.home)
     if arm.rest is not None:
         _check_pose(arm, "rest", arm.rest)

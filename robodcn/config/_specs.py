@@ -200,6 +200,29 @@ class MassProperties:
 
 
 @dataclass(frozen=True)
+class ToolSpec:
+    """The ``[tool]`` table, SI: the tool point's default limits and the largest a request
+    may ask for (None: not set).
+
+    speed : default ``tool_speed`` (m/s); angular_speed : default ``tool_angular_speed``
+        (rad/s: θ's rate, the omx's pitch and yaw rates); acceleration : default
+        ``tool_acceleration`` (m/s², along the path); max_speed, max_angular_speed,
+        max_acceleration : the ceilings a request (or a default) may not pass.
+    """
+
+    speed: float | None = None
+    angular_speed: float | None = None
+    acceleration: float | None = None
+    max_speed: float | None = None
+    max_angular_speed: float | None = None
+    max_acceleration: float | None = None
+
+    def to_dict(self) -> dict[str, float]:
+        """The ``[tool]`` table in SI keys (the keys that are set)."""
+        return {k: v for k, v in vars(self).items() if v is not None}
+
+
+@dataclass(frozen=True)
 class Arm:
     """A serial arm: a planar chain of 2 (position only) or 3 (full pose) revolute joints,
     optionally turned about the vertical by a base yaw joint (joint 0).
@@ -231,6 +254,8 @@ class Arm:
     rest: tuple[float, ...] | None = None
     gripper: GripperSpec | None = None
     mass_properties: MassProperties = field(default_factory=MassProperties)
+    #: The ``[tool]`` table: default tool-point limits and their ceilings.
+    tool: ToolSpec = field(default_factory=ToolSpec)
 
     @property
     def dof(self) -> int:
@@ -325,4 +350,5 @@ class Arm:
                 for j in self.joints],
             **({"dynamics": dict(self.dynamics)} if self.dynamics else {}),
             **({"gripper": self.gripper.to_dict()} if self.gripper is not None else {}),
+            **({"tool": self.tool.to_dict()} if self.tool.to_dict() else {}),
         }

@@ -30,6 +30,7 @@ from robodcn.contract.fields import (
     FIELDS,
     MAX_SAMPLES,
     MAX_WAYPOINTS,
+    TOOL_FIELDS,
     field,
     waypoints_field,
 )
@@ -346,6 +347,8 @@ def check_field(name: str, value: Any) -> Any:
     f = field(name)
     if name in ("rate_hz", "payload_kg"):
         return check_number(name, value, f.schema, f.unit)
+    if name in TOOL_FIELDS:
+        return None if value is None else check_number(name, value, f.schema, f.unit)
     if name == "profile":
         return check_choice(name, value, f.choices)
     if name == "elbow":
@@ -355,6 +358,23 @@ def check_field(name: str, value: Any) -> Any:
             raise fail(name, f"must be true or false, got {_show(value)}", value)
         return bool(value)
     raise KeyError(name)
+
+
+#: The ``[tool]`` ceiling of each tool field, and its key in the arm file.
+_TOOL_CEILINGS = {"tool_speed": "max_speed", "tool_angular_speed": "max_angular_speed",
+                  "tool_acceleration": "max_acceleration"}
+
+
+def check_tool_ceiling(name: str, value: float | None, arm: Arm) -> float | None:
+    """``value`` (a checked tool field, SI) when within the arm's ``[tool]`` ceiling (none
+    there: any); the error names the field, the value and the ceiling."""
+    key = _TOOL_CEILINGS[name]
+    top = getattr(arm.tool, key)
+    if value is not None and top is not None and value > top * (1 + 1e-12):
+        unit = field(name).unit
+        raise fail(name, f"must be at most the arm's [tool] {key} {top:.6g} {unit}, got "
+                   f"{value:.6g} {unit}", value)
+    return value
 
 
 def check_body(body: object, omit: Iterable[str] = ()) -> dict[str, Any]:

@@ -39,6 +39,13 @@ MAX_COORDINATE = 1e3
 MAX_ANGLE = 1e3
 #: Largest payload (kg) accepted: far beyond any Dynamixel arm, keeps torques finite.
 MAX_PAYLOAD = 1e3
+#: Largest tool speed (m/s), angular speed (rad/s) and acceleration (m/s²) accepted: far
+#: beyond any Dynamixel arm (an arm file's ``[tool]`` ceilings are lower).
+MAX_TOOL_SPEED = 100.0
+MAX_TOOL_ANGULAR_SPEED = 1e3
+MAX_TOOL_ACCELERATION = 1e4
+#: The tool-limit fields (their defaults: the arm's ``[tool]`` table; none: no limit).
+TOOL_FIELDS = ("tool_speed", "tool_angular_speed", "tool_acceleration")
 
 
 @dataclass(frozen=True)
@@ -47,7 +54,9 @@ class Defaults:
 
     ``rate_hz`` None is the arm's ``[bus] rate_hz``; ``elbow`` None the arm's configured
     branch; ``start_joints``/``start_state`` None: start at the first waypoint;
-    ``payload_kg`` None the arm's ``[dynamics] payload_kg``.
+    ``payload_kg`` None the arm's ``[dynamics] payload_kg``; ``tool_speed``,
+    ``tool_angular_speed``, ``tool_acceleration`` None the arm's ``[tool]`` ``speed``,
+    ``angular_speed``, ``acceleration`` (none there: no tool limit).
     """
 
     method: str = "sclerp"
@@ -61,6 +70,9 @@ class Defaults:
     elbow: str | None = None
     start_state: None = None
     payload_kg: float | None = None
+    tool_speed: float | None = None
+    tool_angular_speed: float | None = None
+    tool_acceleration: float | None = None
 
 
 #: The defaults of the request fields (:class:`Defaults`).
@@ -195,6 +207,29 @@ FIELDS: tuple[Field, ...] = (
           "Mass carried at the tool point, for the torque limits the timing keeps "
           "(max_torque_nm). Default: the arm's [dynamics] payload_kg.",
           default=DEFAULTS.payload_kg, unit="kg", cli_option="--payload"),
+    Field("tool_speed",
+          {"type": ["number", "null"], "exclusiveMinimum": 0.0, "maximum": MAX_TOOL_SPEED},
+          "The tool point's largest linear speed along the whole path (UR's movel v, ABB's "
+          "v_tcp), kept with every joint limit; a straight line (seplerp, or kenlerp with "
+          "beta 0) then runs at exactly this speed where the joints allow. At most the "
+          "arm's [tool] max_speed. Default: the arm's [tool] speed (none: no limit).",
+          default=DEFAULTS.tool_speed, unit="m/s", cli_option="--tool-speed"),
+    Field("tool_angular_speed",
+          {"type": ["number", "null"], "exclusiveMinimum": 0.0,
+           "maximum": MAX_TOOL_ANGULAR_SPEED},
+          "The largest rate of the tool's orientation: of θ, or of pitch and of yaw on an arm "
+          "with a base yaw (ABB's v_ori). At most the arm's [tool] max_angular_speed. "
+          "Default: the arm's [tool] angular_speed (none: no limit).",
+          default=DEFAULTS.tool_angular_speed, unit="rad/s", cli_option="--tool-angular-speed",
+          cli_unit="deg/s"),
+    Field("tool_acceleration",
+          {"type": ["number", "null"], "exclusiveMinimum": 0.0,
+           "maximum": MAX_TOOL_ACCELERATION},
+          "The tool point's largest acceleration along its path (d²σ/dt², σ its arc "
+          "length: UR's movel a), at both ends of a straight line and wherever the speed "
+          "changes. At most the arm's [tool] max_acceleration. Default: the arm's [tool] "
+          "acceleration (none: no limit).",
+          default=DEFAULTS.tool_acceleration, unit="m/s²", cli_option="--tool-acceleration"),
 )
 _BY_NAME = {f.name: f for f in FIELDS}
 

@@ -117,6 +117,10 @@ class PlanRequest:
         start_joints). A dict {"joints": …, "velocities": …, "accelerations": …} is accepted.
     payload_kg : mass (kg, ≥ 0) at the tool point, for the torque limits the timing keeps;
         None (the default) is the arm's ``[dynamics] payload_kg`` (a float once constructed)
+    tool_speed, tool_angular_speed, tool_acceleration : the tool point's largest linear
+        speed (m/s), orientation rate (rad/s: θ's, or pitch's and yaw's) and acceleration
+        along its path (m/s²), each > 0 and at most the arm's ``[tool]`` ceiling; None (the
+        default) is the arm's ``[tool]`` default (None there too: no such limit)
 
     Defaults: :data:`robodcn.contract.DEFAULTS`. Lists given for method, beta, turn,
     waypoints and start_joints are stored as tuples.
@@ -135,6 +139,9 @@ class PlanRequest:
     elbow: str | None = DEFAULTS.elbow
     start_state: StartState | None = DEFAULTS.start_state
     payload_kg: float | None = DEFAULTS.payload_kg
+    tool_speed: float | None = DEFAULTS.tool_speed
+    tool_angular_speed: float | None = DEFAULTS.tool_angular_speed
+    tool_acceleration: float | None = DEFAULTS.tool_acceleration
 
     def __post_init__(self) -> None:
         # frozen: the checked values go straight into the instance dict (what
@@ -156,6 +163,13 @@ class PlanRequest:
             values["payload_kg"] = self.arm.payload_kg
         for name in ("profile", "rate_hz", "blend", "elbow", "payload_kg"):
             values[name] = checks.check_field(name, values[name])
+        tool = self.arm.tool
+        for name, default in (("tool_speed", tool.speed),
+                              ("tool_angular_speed", tool.angular_speed),
+                              ("tool_acceleration", tool.acceleration)):
+            value = checks.check_field(name, values[name])
+            values[name] = checks.check_tool_ceiling(name, value, self.arm) \
+                if value is not None else default
         values["duration"] = checks.check_duration(self.duration, self.rate_hz, segments)
         values["start_joints"] = checks.check_start_joints(self.start_joints, self.arm)
         state = checks.check_start_state(self.start_state, self.arm)
@@ -195,6 +209,12 @@ class PlanRequest:
             return
         warnings.warn(BetaIgnoredWarning(text, method=self.method, segments=tuple(ignored)),
                       stacklevel=4)
+
+    @property
+    def tool_limited(self) -> bool:
+        """Whether any tool limit (speed, angular speed, acceleration) applies."""
+        return (self.tool_speed is not None or self.tool_angular_speed is not None
+                or self.tool_acceleration is not None)
 
     @property
     def waypoints_array(self) -> NDArray[np.float64]:
@@ -237,7 +257,9 @@ class PlanRequest:
                 "start_joints": None if self.start_joints is None else list(self.start_joints),
                 "elbow": self.elbow,
                 "start_state": None if self.start_state is None else self.start_state.to_dict(),
-                "payload_kg": self.payload_kg}
+                "payload_kg": self.payload_kg, "tool_speed": self.tool_speed,
+                "tool_angular_speed": self.tool_angular_speed,
+                "tool_acceleration": self.tool_acceleration}
 
     @classmethod
     def from_dict(cls, data: dict[str, Any], arm: Arm | None = None) -> PlanRequest:

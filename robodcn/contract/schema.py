@@ -11,7 +11,7 @@ from collections.abc import Iterable
 from typing import Any
 
 from robodcn.config import Arm
-from robodcn.contract.fields import FIELDS, waypoints_field
+from robodcn.contract.fields import FIELDS, TOOL_FIELDS, waypoints_field
 
 
 def request_schema(arm: Arm | None = None, omit: Iterable[str] = ()) -> dict[str, Any]:
@@ -39,6 +39,8 @@ def request_schema(arm: Arm | None = None, omit: Iterable[str] = ()) -> dict[str
             default = arm.bus.rate_hz
         elif f.name == "payload_kg" and arm is not None:
             default = arm.payload_kg
+        elif f.name in TOOL_FIELDS and arm is not None:
+            default = getattr(arm.tool, f.name.removeprefix("tool_"))
         if default is not None or f.name in ("start_joints", "elbow"):
             schema["default"] = default
         properties[f.name] = schema
@@ -56,7 +58,11 @@ def _copy(schema: Any) -> Any:
 
 
 def _specialise(name: str, schema: dict[str, Any], arm: Arm) -> None:
-    if name == "waypoints":
+    if name in TOOL_FIELDS:
+        top = getattr(arm.tool, "max_" + name.removeprefix("tool_"))
+        if top is not None:
+            schema["maximum"] = top
+    elif name == "waypoints":
         items = schema["items"]
         if arm.yawed:
             items["minItems"] = 3 if len(arm.chain_joints) == 2 else 4

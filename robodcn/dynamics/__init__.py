@@ -24,10 +24,11 @@ from robodcn.dynamics._inverse import (
     inverse_dynamics,
     kinetic_potential,
     mass_matrix,
+    tool_motion,
     tool_point,
 )
 from robodcn.dynamics._path import path_torque_coefficients
 
 __all__ = ["GRAVITY_DOWN", "STANDARD_GRAVITY", "Link", "RigidChain", "Sense", "Yaw",
            "gravity_torque", "holding_torque_box", "inverse_dynamics", "kinetic_potential",
-           "mass_matrix", "path_torque_coefficients", "tool_point"]
+           "mass_matrix", "path_torque_coefficients", "tool_motion", "tool_point"]

@@ -105,5 +105,19 @@ def tool_point(chain: RigidChain, q: ArrayLike) -> Array:
     return _shape(single, forward(chain, q_arr, zero, zero).tool)
 
 
+def tool_motion(chain: RigidChain, q: ArrayLike, qd: ArrayLike, qdd: ArrayLike
+                ) -> tuple[Array, Array, Array]:
+    """The tool point's position, velocity and acceleration (each (n, 3), base frame, m,
+    m/s, m/s²) of the motion (q, q̇, q̈): the forward pass of :mod:`._rnea`, ṗ = J q̇ and
+    p̈ = J q̈ + J̇ q̇. Along a path q(s) pass (q, q′, q″) to get (p, p′, p″) = (p, dp/ds,
+    d²p/ds²): the chain rule is the same."""
+    q_arr, single = joint_array(chain, "q", q)
+    qd_arr, _ = joint_array(chain, "qd", qd)
+    qdd_arr, _ = joint_array(chain, "qdd", qdd)
+    motion = forward(chain, q_arr, qd_arr, qdd_arr)
+    return (_shape(single, motion.tool), _shape(single, motion.tool_velocity),
+            _shape(single, motion.tool_acceleration))
+
+
 __all__ = ["gravity_torque", "inverse_dynamics", "kinetic_potential", "mass_matrix",
-           "tool_point"]
+           "tool_motion", "tool_point"]

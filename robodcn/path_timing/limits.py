@@ -7,7 +7,8 @@ the planner, the path timing, the validation and the online operations all read 
 :class:`JointLimits`.
 
 A speed scale k maps a law q(s(t)) onto q(s(k t)): joint velocity scales by k, acceleration
-by k² and jerk by k³ (:meth:`JointLimits.scaled`; torque is physical and stays: the path
+by k² and jerk by k³ (:meth:`JointLimits.scaled`; the tool's speed by k and its
+acceleration by k²; torque is physical and stays: the path
 timing applies the scale to its dynamic part, :mod:`robodcn.path_timing.torque`); a margin
 scales every limit alike (:meth:`JointLimits.shrunk`).
 """
@@ -21,6 +22,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from robodcn.config import Arm
+from robodcn.path_timing.tool import ToolLimits
 from robodcn.path_timing.torque import TorqueLimits
 
 __all__ = ["JointLimits"]
@@ -32,13 +34,16 @@ class JointLimits:
 
     v : velocity (rad/s); a : acceleration (rad/s²); j : jerk (rad/s³), ``inf`` for a joint
     without one, or None when no joint sets a jerk limit; torque : the torque limits with
-    the arm's dynamics and payload, None when no joint sets ``max_torque_nm``.
+    the arm's dynamics and payload, None when no joint sets ``max_torque_nm``; tool : the
+    tool point's speed, orientation rate and acceleration along the path (a request's
+    ``tool_*`` fields: :mod:`robodcn.path_timing.tool`), None when none is set.
     """
 
     v: NDArray[np.float64]
     a: NDArray[np.float64]
     j: NDArray[np.float64] | None = None
     torque: TorqueLimits | None = None
+    tool: ToolLimits | None = None
 
     @classmethod
     def of(cls, arm: Arm, payload_kg: float | None = None, *, torque: bool = True
@@ -68,10 +73,12 @@ class JointLimits:
     def scaled(self, k: float) -> JointLimits:
         """Speed scaling k: v·k, a·k², j·k³."""
         return JointLimits(self.v * k, self.a * (k * k),
-                           None if self.j is None else self.j * k ** 3, self.torque)
+                           None if self.j is None else self.j * k ** 3, self.torque,
+                           None if self.tool is None else self.tool.scaled(k))
 
     def shrunk(self, share: float) -> JointLimits:
         """Every limit times ``share`` (a margin, not a speed scale)."""
         return JointLimits(self.v * share, self.a * share,
                            None if self.j is None else self.j * share,
-                           None if self.torque is None else self.torque.shrunk(share))
+                           None if self.torque is None else self.torque.shrunk(share),
+                           None if self.tool is None else self.tool.shrunk(share))

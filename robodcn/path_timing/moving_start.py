@@ -169,7 +169,8 @@ def path_limits(limits: JointLimits, scale: float = 1.0, v_room: NDArray | None 
                                                                1e-9 * limits.v) * m
     return JointLimits(v, limits.a * (scale * m) ** 2,
                        None if limits.j is None else limits.j * (scale * m) ** 3,
-                       None if limits.torque is None else limits.torque.shrunk(m))
+                       None if limits.torque is None else limits.torque.shrunk(m),
+                       None if limits.tool is None else limits.tool.scaled(scale * m))
 
 
 def timed(q: NDArray, s: NDArray, limits: JointLimits, rate_hz: float, *,
@@ -182,7 +183,7 @@ def timed(q: NDArray, s: NDArray, limits: JointLimits, rate_hz: float, *,
         return None
     lim = path_limits(limits, scale, v_room)
     return time_optimal(q, s, lim.v, lim.a, lim.j, sd_start=sd_start, sdd_start=sdd_start,
-                        rate_hz=rate_hz, smooth=True, torque=lim.torque)
+                        rate_hz=rate_hz, smooth=True, torque=lim.torque, tool=lim.tool)
 
 
 def _moves(q: NDArray) -> bool:
@@ -219,7 +220,7 @@ def _projection(state: JointState, q: NDArray, s: NDArray, limits: JointLimits,
     if norm2 > 0:
         lim = path_limits(limits, scale, v_room)
         sd0 = max(0.0, float(d1 @ qd0) / norm2)
-        fastest = max_start_speed(q, s, lim.v, lim.a, torque=lim.torque)
+        fastest = max_start_speed(q, s, lim.v, lim.a, torque=lim.torque, tool=lim.tool)
         sd0 = min(sd0, (START_SPEED_SHARE if lim.j is None else START_SPEED_SHARE_JERK)
                   * fastest)
         sdd0 = float(d1 @ (qdd0 - d2 * sd0 ** 2)) / norm2
@@ -320,7 +321,9 @@ def windowed(state: JointState, q: NDArray, s: NDArray, law: PathTiming | None, 
     try:
         law = time_optimal(q, s, v_s, a_s, sd_start=sd0, rate_hz=rate_hz, smooth=True,
                            torque=None if limits.torque is None
-                           else limits.torque.shrunk(MOVING_SCALE * m))
+                           else limits.torque.shrunk(MOVING_SCALE * m),
+                           tool=None if limits.tool is None
+                           else limits.tool.shrunk(MOVING_SCALE * m))
     except InputError:
         return None
     return law, BlendOut(rv, np.zeros_like(rv), tb)

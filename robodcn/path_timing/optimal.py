@@ -62,6 +62,7 @@ from robodcn.path_timing.topp import (
     solve,
     timed_stages,
 )
+from robodcn.path_timing.tool import ToolLimits
 from robodcn.path_timing.torque import TorqueLimits, TorqueRows
 
 #: stream rate the jerk pass checks at when the caller gives none, Hz
@@ -79,7 +80,8 @@ def time_optimal(q: ArrayLike, s: ArrayLike, v_max: ArrayLike, a_max: ArrayLike,
                  rate_hz: float | None = None, scale: float = 1.0,
                  max_stages: int = MAX_STAGES, accel_share: float = 0.95,
                  smooth: bool = False, sd_cap: ArrayLike | None = None,
-                 torque: TorqueLimits | None = None) -> PathTiming:
+                 torque: TorqueLimits | None = None, tool: ToolLimits | None = None
+                 ) -> PathTiming:
     """Least-duration time law s(t) along the joint path q(s) under per-joint limits.
 
     Parameters
@@ -109,6 +111,10 @@ def time_optimal(q: ArrayLike, s: ArrayLike, v_max: ArrayLike, a_max: ArrayLike,
         (:class:`~robodcn.path_timing.torque.TorqueLimits`): |τ(q, q̇, q̈)| ≤ τ_max on every
         joint as the linear rows of τ = a s̈ + b ṡ² + c (the scale applies to a s̈ + b ṡ²);
         None = no torque limit
+    tool : the tool point's limits (:class:`~robodcn.path_timing.tool.ToolLimits`): its
+        speed and orientation rate as caps on ṡ² (|p′| ṡ ≤ v_tool), its acceleration along
+        the path as a row −a ≤ σ′ s̈ + σ″ ṡ² ≤ a beside the torque rows (the scale applies:
+        k, k²); None = none. Tool derivatives are computed only when given
 
     Returns
     -------
@@ -177,6 +183,8 @@ def time_optimal(q: ArrayLike, s: ArrayLike, v_max: ArrayLike, a_max: ArrayLike,
     if stop_idx.size:
         cap[np.searchsorted(grid, stop_idx)] = 0.0
     rows = torque_rows(torque, q if every else q[grid], dq, ddq, scale)
+    if tool is not None:
+        cap, rows = tool_constraints(tool, q if every else q[grid], dq, ddq, scale, cap, rows)
     if not jerk:
         if not every:
             v, a = (lim[grid] if lim.ndim == 2 else lim for lim in (v, a))
@@ -196,7 +204,7 @@ def time_optimal(q: ArrayLike, s: ArrayLike, v_max: ArrayLike, a_max: ArrayLike,
     return jerk_limited(s, derivs, grid, cap, v, a, j, sd_start=sd_start, sdd_start=sdd_start,
                         stop_idx=stop_idx, rate_hz=rate_hz or CHECK_RATE_HZ,
                         accel_share=accel_share, smooth=smooth, rows=rows,
-                        speed_capped=sd_cap is not None)
+                        speed_capped=sd_cap is not None or tool is not None)
 
 
 def torque_rows(torque: TorqueLimits | None, q: NDArray, dq: NDArray, ddq: NDArray,
@@ -210,10 +218,24 @@ def torque_rows(torque: TorqueLimits | None, q: NDArray, dq: NDArray, ddq: NDArr
     return torque.rows(q, dq, ddq, scale)
 
 
+def tool_constraints(tool: ToolLimits, q: NDArray, dq: NDArray, ddq: NDArray, scale: float,
+                     cap: NDArray | None, rows: TorqueRows | None
+                     ) -> tuple[NDArray | None, TorqueRows | None]:
+    """The x cap and rows with the tool's (:meth:`ToolLimits.constraints`) added: the caps
+    by the smaller, the rows side by side."""
+    tool_cap, tool_rows = tool.constraints(q, dq, ddq, scale)
+    if tool_cap is not None:
+        cap = tool_cap if cap is None else np.minimum(cap, tool_cap)
+    if tool_rows is not None:
+        rows = tool_rows if rows is None else tuple(  # type: ignore[assignment]
+            np.concatenate([m, t], axis=1) for m, t in zip(rows, tool_rows, strict=True))
+    return cap, rows
+
+
 def max_start_speed(q: ArrayLike, s: ArrayLike, v_max: ArrayLike, a_max: ArrayLike, *,
                     stops: Sequence[float] = (), scale: float = 1.0,
-                    max_stages: int = MAX_STAGES, torque: TorqueLimits | None = None
-                    ) -> float:
+                    max_stages: int = MAX_STAGES, torque: TorqueLimits | None = None,
+                    tool: ToolLimits | None = None) -> float:
     """The fastest ṡ at s[0] from which the path can still be followed within the velocity
     and acceleration limits and brought to rest by the end (or the first stop): √x_max,0 of
     the TOPP-RA controllable set. Without a jerk limit any ``sd_start`` up to it is accepted
@@ -230,12 +252,17 @@ def max_start_speed(q: ArrayLike, s: ArrayLike, v_max: ArrayLike, a_max: ArrayLi
     grid = grid_of(q.shape[0], stop_idx, max(1, int(max_stages)))
     dq, ddq = dq[grid], ddq[grid]
     rows = torque_rows(torque, q[grid], dq, ddq, scale)
+    cap = None
+    if tool is not None:
+        cap, rows = tool_constraints(tool, q[grid], dq, ddq, scale, None, rows)
     v, a = (lim[grid] if lim.ndim == 2 else lim for lim in (v, a))
     if INTERPOLATED:  # the same discretisation as time_optimal's
         dq, ddq, v, a = interpolated(s[grid], dq, ddq, v, a)
         if rows is not None:
             rows = interpolated_rows(s[grid], rows)
     p_lo, _, r, x_cap = reachability.stage_constraints(dq, ddq, v, a, rows)
+    if cap is not None:
+        x_cap = np.minimum(x_cap, cap)
     x_cap[np.searchsorted(grid, stop_idx)] = 0.0
     x_max = reachability.controllable(np.diff(s[grid]), p_lo, r, x_cap, 0.0)
     return math.sqrt(float(x_max[0]))

@@ -24,6 +24,7 @@ from robodcn.errors import (
     AccelerationLimitError,
     BranchSwitchWarning,
     JerkLimitError,
+    ToolLimitError,
     TorqueLimitError,
     VelocityLimitError,
     Violation,
@@ -37,7 +38,8 @@ from robodcn.planner.trajectory import Trajectory, planned
 from robodcn.planner.uniform import UniformTiming
 
 #: what a law's samples past a dynamic limit raise (validate.raise_for)
-_LIMIT_ERRORS = (VelocityLimitError, AccelerationLimitError, JerkLimitError, TorqueLimitError)
+_LIMIT_ERRORS = (VelocityLimitError, AccelerationLimitError, JerkLimitError, TorqueLimitError,
+                 ToolLimitError)
 
 
 def warn_switches(samples: tuple[int, ...], rate: float) -> None:
@@ -162,7 +164,10 @@ def plan(arm: Arm, waypoints: ArrayLike, *, method: str | Sequence[str] = DEFAUL
          blend: bool = DEFAULTS.blend, start_joints: ArrayLike | None = DEFAULTS.start_joints,
          elbow: str | None = DEFAULTS.elbow,
          start_state: StartState | None = DEFAULTS.start_state,
-         payload_kg: float | None = DEFAULTS.payload_kg) -> Trajectory:
+         payload_kg: float | None = DEFAULTS.payload_kg,
+         tool_speed: float | None = DEFAULTS.tool_speed,
+         tool_angular_speed: float | None = DEFAULTS.tool_angular_speed,
+         tool_acceleration: float | None = DEFAULTS.tool_acceleration) -> Trajectory:
     """Plan a validated trajectory through ``waypoints`` for ``arm``.
 
     Parameters
@@ -185,13 +190,16 @@ def plan(arm: Arm, waypoints: ArrayLike, *, method: str | Sequence[str] = DEFAUL
     start_state : a moving :class:`StartState` (joints, velocities, accelerations) to plan
         from (a retarget); the path runs from the pose FK(joints) (PlanRequest docstring)
     payload_kg : mass (kg) at the tool point for the torque limits; None: the arm's
+    tool_speed, tool_angular_speed, tool_acceleration : the tool point's largest speed
+        (m/s), orientation rate (rad/s) and acceleration along its path (m/s²), kept with
+        every joint limit (robodcn.path_timing.tool); None: the arm's ``[tool]`` defaults
 
     Raises
     ------
     InputError
         Bad arguments (naming the field); TooLargeError past the caps.
     UnreachableError, JointLimitError, TickLimitError, VelocityLimitError,
-    AccelerationLimitError, JerkLimitError
+    AccelerationLimitError, JerkLimitError, ToolLimitError
         The first failing sample, with its :class:`~robodcn.errors.Violation`.
     """
     if isinstance(method, list):
@@ -203,5 +211,7 @@ def plan(arm: Arm, waypoints: ArrayLike, *, method: str | Sequence[str] = DEFAUL
     req = PlanRequest(arm=arm, waypoints=waypoints, method=method, beta=beta, turn=turn,
                       duration=duration, profile=profile, rate_hz=rate_hz, blend=blend,
                       start_joints=start_joints, elbow=elbow, start_state=start_state,
-                      payload_kg=payload_kg)
+                      payload_kg=payload_kg, tool_speed=tool_speed,
+                      tool_angular_speed=tool_angular_speed,
+                      tool_acceleration=tool_acceleration)
     return plan_request(req)

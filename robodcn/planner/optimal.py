@@ -143,6 +143,11 @@ def stretch_factors(req: PlanRequest, joints: NDArray, history: NDArray | None) 
             need = np.where(np.abs(tau) > torque.tau,
                             np.sqrt(np.abs(tau - grav) / np.where(room > 0, room, np.inf)), 1.0)
         ratios.append((2, np.nan_to_num(need, nan=1.0).max(axis=1)))
+    tool = validate.tool_limits(req)
+    if tool is not None and joints.shape[0] > 1:
+        for quantity, r in validate.tool_ratios(tool, joints, rate, history).items():
+            order = validate.ORDER[quantity]
+            ratios.append((order, r ** (1.0 / order)))
     for order, r in ratios:
         for back in range(order + 1):  # every sample the difference spans
             f[:f.shape[0] - back] = np.maximum(f[:f.shape[0] - back], r[back:])
@@ -190,8 +195,12 @@ class OptimalTiming:
     def __init__(self, req: PlanRequest, pieces: list[DensePiece], fine: bool = False
                  ) -> None:
         self.req = req
-        # built once per arm and payload (planner.arm_arrays)
+        # built once per arm and payload (planner.arm_arrays); the request's tool limits,
+        # when it sets any, join them (their derivatives are computed only then)
         self.limits = arm_arrays.limits_of(req.arm, getattr(req, "payload_kg", None))
+        tool = validate.tool_limits(req)
+        if tool is not None:
+            self.limits = dataclasses.replace(self.limits, tool=tool)
         state = req.start_state
         self.start_state = state
         self.state = None if state is None else JointState(*state.arrays())

@@ -101,6 +101,10 @@ def _counts(req: PlanRequest, pieces: list[Piece], start: NDArray | None,
     return counts
 
 
+#: the tool quantities of a Violation (robodcn.planner.validate)
+_TOOL = ("tool_speed", "tool_angular_speed", "tool_acceleration")
+
+
 class UniformTiming:
     """A uniform law per piece (module doc), for the pipeline's loop."""
 
@@ -219,6 +223,14 @@ class UniformTiming:
         (uniform time scaling). False when that changes nothing."""
         ratio = max(1.0, violation.value / violation.limit)
         factor = ratio ** (1.0 / validate.ORDER[violation.quantity]) * (1.0 + 1e-6)
+        tool = validate.tool_limits(self.req) if violation.quantity in _TOOL else None
+        if tool is not None and sampled is not None:
+            # a tool limit binds where the tool is fastest, not where it first fails: the
+            # whole plan's largest ratio at once (uniform scaling: speed 1/T, accel 1/T²)
+            for quantity, r in validate.tool_ratios(tool, sampled.joints,
+                                                    self.req.rate_hz).items():
+                order = validate.ORDER[quantity]
+                factor = max(factor, float(r.max()) ** (1.0 / order) * (1.0 + 1e-6))
         scaled = [math.ceil(c * factor) if p.path is not None else c
                   for c, p in zip(self.counts, self.pieces, strict=True)]
         if scaled == self.counts:

@@ -14,6 +14,14 @@ at the tool point, gravity, rotor inertia) of each sample q_i with the central d
 q̇ = (q_{i+1} − q_{i−1})·rate/2 and q̈ = (q_{i+1} − 2q_i + q_{i−1})·rate², charged like the
 acceleration to sample i + 1; the payload is the request's ``payload_kg`` (default the
 arm's).
+
+Tool limits (a request's ``tool_speed``, ``tool_angular_speed``, ``tool_acceleration``):
+the tool point p_i of each sample (the plan's own FK, :func:`robodcn.dynamics.tool_point`)
+gives the speed |p_i − p_{i−1}|·rate and the orientation rate max|W (q_i − q_{i−1})|·rate
+(:func:`robodcn.path_timing.tool.orientation_rates`), charged to sample i like a joint's
+velocity, and the acceleration along the path (|p_i − p_{i−1}| − |p_{i−1} − p_{i−2}|)·rate²
+(the second difference of the arc length σ), charged to sample i like a joint's
+acceleration (:func:`tool_violation`).
 """
 
 from __future__ import annotations
@@ -28,8 +36,10 @@ from numpy.typing import NDArray
 from robodcn import kinematics, servo_units
 from robodcn.config import Arm
 from robodcn.contract.request import PlanRequest
+from robodcn.dynamics import tool_point
 from robodcn.errors import QUANTITY_UNITS, VIOLATION_ERRORS, UnreachableError, Violation
 from robodcn.messages import describe_violation
+from robodcn.path_timing.tool import ToolLimits
 from robodcn.path_timing.torque import TorqueLimits
 from robodcn.planner import arm_arrays
 
@@ -40,7 +50,8 @@ LIMIT_SLACK = 1e-9
 ANGLE_SLACK = arm_arrays.ANGLE_SLACK
 #: The finite-difference order of each dynamic quantity (what a uniform stretch λ divides by
 #: λ^order).
-ORDER = {"velocity": 1, "acceleration": 2, "jerk": 3, "torque": 2}
+ORDER = {"velocity": 1, "acceleration": 2, "jerk": 3, "torque": 2, "tool_speed": 1,
+         "tool_angular_speed": 1, "tool_acceleration": 2}
 
 
 def fmt_pose(pose: Sequence[float]) -> str:
@@ -316,7 +327,7 @@ def check(req: PlanRequest, poses: NDArray, joints: NDArray, *, dynamics: bool =
             joints, ticks, b_lo, b_hi, b_tmin, b_tmax, (b_v, b_a, b_jk) if dynamics else None,
             rate, slack, columns) \
             and (tau is None or (np.abs(tau) <= torque.tau * slack).all()):
-        return ticks, None
+        return ticks, _tools(req, poses, joints, history, segment_of, dynamics)
     rates = []
     if dynamics:
         for order, limit, quantity in ((1, v, "velocity"), (2, a, "acceleration"),
@@ -342,7 +353,7 @@ def check(req: PlanRequest, poses: NDArray, joints: NDArray, *, dynamics: bool =
             if i < first:
                 first, chosen = i, (quantity, bad, score, values)
     if chosen is None:
-        return ticks, None
+        return ticks, _tools(req, poses, joints, history, segment_of, dynamics)
     quantity, bad, score, values = chosen
     i = first
     j = int(np.argmax(np.where(bad[i], score[i], -np.inf)))
@@ -377,6 +388,87 @@ def check(req: PlanRequest, poses: NDArray, joints: NDArray, *, dynamics: bool =
                             quantity=quantity, value=value, limit=limit,
                             unit=QUANTITY_UNITS[quantity], joint=spec.name, joint_index=j,
                             segment=segment, waypoint=waypoint, field=field)
+
+
+def tool_limits(req: PlanRequest) -> ToolLimits | None:
+    """The request's tool limits (:class:`~robodcn.path_timing.tool.ToolLimits`), None when
+    it sets none."""
+    if not req.tool_limited:
+        return None
+    return ToolLimits.of(req.arm, req.tool_speed, req.tool_angular_speed,
+                         req.tool_acceleration)
+
+
+def tool_samples(tool: ToolLimits, joints: NDArray, rate: float,
+                 history: NDArray | None = None) -> dict[str, NDArray[np.float64]]:
+    """Per tool quantity its value at every sample (n,), SI (module doc): ``tool_speed``
+    (m/s), ``tool_angular_speed`` (rad/s), ``tool_acceleration`` (m/s², |d²σ/dt²|), at rest
+    before t = 0 (or after ``history``) and after the end; only the limited ones."""
+    pre = np.repeat(joints[:1], 2, axis=0) if history is None else history[-2:]
+    padded = np.concatenate([pre, joints, joints[-1:]])
+    n = joints.shape[0]
+    out: dict[str, NDArray[np.float64]] = {}
+    if math.isfinite(tool.speed) or math.isfinite(tool.acceleration):
+        p = tool_point(tool.chain, padded)
+        step = np.sqrt(np.einsum("ni,ni->n", np.diff(p, axis=0), np.diff(p, axis=0)))
+        if math.isfinite(tool.speed):  # step m + 1 is q_m − q_{m−1}
+            out["tool_speed"] = step[1:n + 1] * rate
+        if math.isfinite(tool.acceleration):
+            acc = np.abs(np.diff(step)) * (rate * rate)  # row r: sample r (the last: max)
+            out["tool_acceleration"] = np.concatenate([acc[:n - 1], [acc[n - 1:].max()]])
+    if math.isfinite(tool.angular_speed):
+        turn = np.abs(np.diff(padded[1:n + 2], axis=0) @ tool.rates.T).max(axis=1)
+        out["tool_angular_speed"] = turn[:n] * rate
+    return out
+
+
+def _tool_limit(tool: ToolLimits, quantity: str) -> float:
+    return {"tool_speed": tool.speed, "tool_angular_speed": tool.angular_speed,
+            "tool_acceleration": tool.acceleration}[quantity]
+
+
+def tool_ratios(tool: ToolLimits, joints: NDArray, rate: float,
+                history: NDArray | None = None) -> dict[str, NDArray[np.float64]]:
+    """Per limited tool quantity value / limit at every sample (n,) (:func:`tool_samples`)."""
+    return {q: x / _tool_limit(tool, q)
+            for q, x in tool_samples(tool, joints, rate, history).items()}
+
+
+def tool_violation(req: PlanRequest, poses: NDArray, joints: NDArray,
+                   history: NDArray | None = None, segment_of: NDArray | None = None
+                   ) -> Violation | None:
+    """The first sample past a tool limit (module doc) as a Violation naming the tool field
+    (``tool_speed`` …), the value it needs and the limit; None when every sample keeps them
+    (or the request sets none)."""
+    tool = tool_limits(req)
+    if tool is None or joints.shape[0] < 2:
+        return None
+    slack = 1.0 + LIMIT_SLACK
+    first, chosen = joints.shape[0], None
+    for quantity, ratio in tool_ratios(tool, joints, req.rate_hz, history).items():
+        bad = ratio > slack
+        if bad.any() and int(np.argmax(bad)) < first:
+            first, chosen = int(np.argmax(bad)), (quantity, ratio)
+    if chosen is None:
+        return None
+    quantity, ratio = chosen
+    i = first
+    limit = _tool_limit(tool, quantity)
+    segment = None
+    if segment_of is not None and segment_of[i] >= 0:
+        segment = (int(segment_of[i]), int(segment_of[i]) + 1)
+    return Violation(sample=i, t=i / req.rate_hz, pose=tuple(float(x) for x in poses[i]),
+                     quantity=quantity, value=float(ratio[i] * limit),  # type: ignore[arg-type]
+                     limit=float(limit), unit=QUANTITY_UNITS[quantity], segment=segment,
+                     field=quantity)
+
+
+def _tools(req: PlanRequest, poses: NDArray, joints: NDArray, history: NDArray | None,
+           segment_of: NDArray | None, dynamics: bool) -> Violation | None:
+    """:func:`tool_violation` when the dynamic checks run and the request sets a tool limit."""
+    if not dynamics or not req.tool_limited:
+        return None
+    return tool_violation(req, poses, joints, history, segment_of)
 
 
 def elbow_branches(joints: NDArray) -> tuple[str | None, tuple[int, ...]]:
