@@ -49,6 +49,7 @@ from robodcn.errors import InputError
 from robodcn.path_timing import reachability
 from robodcn.path_timing.jerk import jerk_limited
 from robodcn.path_timing.law import PathTiming
+from robodcn.path_timing.tool import ToolLimits
 from robodcn.path_timing.topp import (
     INTERPOLATED,
     MAX_STAGES,
@@ -62,7 +63,6 @@ from robodcn.path_timing.topp import (
     solve,
     timed_stages,
 )
-from robodcn.path_timing.tool import ToolLimits
 from robodcn.path_timing.torque import TorqueLimits, TorqueRows
 
 #: stream rate the jerk pass checks at when the caller gives none, Hz
