@@ -377,7 +377,8 @@ def test_openapi_body_schema_is_what_the_parser_accepts(planner_server: Any) -> 
     # Every documented field is accepted (a valid value of each, all at once).
     body = {"waypoints": [HOME, TARGET], "method": "seplerp", "beta": 1.0, "turn": "ccw",
             "duration": 1.5, "profile": "trapezoid", "rate_hz": 50, "blend": False,
-            "start_joints": None, "elbow": None, "start_state": None, "payload_kg": 0.2}
+            "start_joints": None, "elbow": None, "start_state": None, "payload_kg": 0.2,
+            "tool_speed": 2.0, "tool_angular_speed": 20.0, "tool_acceleration": 50.0}
     assert set(body) == set(props)
     status, _, data = call(planner_server, "POST", "/v1/trajectories", body)
     assert status == 200, data

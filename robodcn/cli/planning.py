@@ -56,6 +56,48 @@ def add_motion_options(p: argparse.ArgumentParser, *, start_help: str) -> None:
     g.add_argument("--radians", action="store_true",
                    help="θ (or pitch) in radians, not degrees")
     add_payload_option(g)
+    add_tool_options(g)
+
+
+def add_tool_options(g, *, hands_on: bool = False) -> None:
+    """``--tool-speed``, ``--tool-angular-speed``, ``--tool-acceleration``: the tool limits
+    of the contract's fields (``hands_on``: jog and teach, whose default is the reduced
+    speed :data:`robodcn.contract.HANDS_ON_SPEED`)."""
+    default = (f"default {contract.HANDS_ON_SPEED:g} m/s, the reduced speed for hands-on "
+               "work" if hands_on else "default: the arm's [tool] speed, else none")
+    g.add_argument("--tool-speed", type=options.positive_float, metavar="M/S",
+                   help=f"the tool point's largest speed, m/s, kept along the whole path with "
+                        f"every joint limit; a straight line (seplerp, or kenlerp --beta 0) "
+                        f"runs at exactly this speed where the joints allow ({default})")
+    if hands_on:
+        return
+    g.add_argument("--tool-angular-speed", type=options.positive_float, metavar="DEG/S",
+                   help="the largest rate of θ (of pitch and of yaw on the omx), deg/s "
+                        "(default: the arm's [tool] angular_speed, else none)")
+    g.add_argument("--tool-acceleration", type=options.positive_float, metavar="M/S²",
+                   help="the tool point's largest acceleration along its path, m/s²: the "
+                        "ramps at both ends of a straight line (default: the arm's [tool] "
+                        "acceleration, else none)")
+
+
+def tool_keywords(args: argparse.Namespace, arm) -> dict[str, float]:
+    """The tool limits given as options, SI (``tool_speed`` …), each checked against the
+    arm's ``[tool]`` ceiling in the units typed; {} for none (the arm's defaults)."""
+    out: dict[str, float] = {}
+    for name, key, factor, unit in (("tool_speed", "max_speed", 1.0, "m/s"),
+                                    ("tool_angular_speed", "max_angular_speed",
+                                     math.pi / 180.0, "deg/s"),
+                                    ("tool_acceleration", "max_acceleration", 1.0, "m/s²")):
+        given = getattr(args, name, None)
+        if given is None:
+            continue
+        top = getattr(arm.tool, key)
+        if top is not None and given * factor > top * (1 + 1e-12):
+            option = contract.cli_option(name)
+            raise InputError(f"{option} {given:g} {unit} is above the arm's [tool] {key}, "
+                             f"{top / factor:.6g} {unit}", field=option, value=given)
+        out[name] = given * factor
+    return out
 
 
 def add_payload_option(g) -> None:
@@ -119,7 +161,7 @@ def motion_request(args: argparse.Namespace, arm) -> MotionRequest:
     keywords: dict[str, Any] = dict(
         method=method, beta=beta, turn=turn,
         duration=args.duration, profile=args.profile, rate_hz=rate, blend=args.blend,
-        **payload_keywords(args))
+        **payload_keywords(args), **tool_keywords(args, arm))
     if args.elbow is not None:
         keywords["elbow"] = args.elbow
     return MotionRequest(vias=vias, end=end, start=start, keywords=keywords)
@@ -157,5 +199,5 @@ def _cli_terms(request: MotionRequest) -> Iterator[None]:
 
 
 __all__ = ["ELBOWS", "MotionRequest", "add_motion_options", "add_payload_option",
-           "motion_request", "payload_keywords",
+           "add_tool_options", "motion_request", "payload_keywords", "tool_keywords",
            "plan_from_present", "plan_motion"]

@@ -44,6 +44,9 @@ MAX_PAYLOAD = 1e3
 MAX_TOOL_SPEED = 100.0
 MAX_TOOL_ANGULAR_SPEED = 1e3
 MAX_TOOL_ACCELERATION = 1e4
+#: The reduced tool speed (m/s) of hands-on work (jog, teach, the console's live drag): ISO
+#: 10218-1's 250 mm/s at the tool.
+HANDS_ON_SPEED = 0.25
 #: The tool-limit fields (their defaults: the arm's ``[tool]`` table; none: no limit).
 TOOL_FIELDS = ("tool_speed", "tool_angular_speed", "tool_acceleration")
 

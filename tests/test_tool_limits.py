@@ -1,0 +1,259 @@
+"""Tool-space limits (issue 30): tool_speed, tool_angular_speed, tool_acceleration.
+
+Each plan is checked by the finite differences of its own poses (the FK of its joints) at
+the stream rate, as a user measuring the tool would: the speed |Δp|·rate, the rate of θ (of
+pitch and yaw on the omx) and the acceleration along the path (the second difference of the
+arc length), at rest before and after. The oracle is toppra on the same joint path with the
+tool's arc length as an extra coordinate (bench/bench_tool.py).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pytest
+from conftest import ARM2R, ARM3R, CONFIGS
+from http_helpers import call, error_of
+from workflow_helpers import ARM3R as ARM3R_PATH
+from workflow_helpers import run_cli
+
+from robodcn.config import arm_from_dict, load_arm
+from robodcn.errors import ConfigError, InputError, ToolLimitError
+from robodcn.planner import Trajectory, plan
+
+pytest_plugins = ["http_helpers"]     # fixtures: planner_server
+
+OMX = load_arm(CONFIGS / "omx.toml")
+ARMS = {"arm2r": ARM2R, "arm3r": ARM3R, "omx": OMX}
+#: three waypoints per arm (one via: a stop, or a blend)
+PATHS = {
+    "arm3r": [(0.25, 0.10, 0.0), (0.20, 0.20, 0.6), (0.12, 0.24, 1.0)],
+    "arm2r": [(0.22, 0.10), (0.18, 0.15), (0.10, 0.22)],
+    "omx": [(0.25, 0.0, 0.10, 0.0), (0.18, 0.12, 0.15, 0.0), (0.05, 0.22, 0.10, -0.2)],
+}
+METHODS = ("sclerp", "kenlerp", "seplerp", "dlb")
+SPEED, TURN, ACCEL = 0.1, 1.0, 0.8
+#: float noise of the finite differences (m/s, rad/s, m/s²)
+NOISE = 1e-9
+
+
+def positions(traj: Trajectory) -> np.ndarray:
+    """The tool point of every sample: (x, y), or (x, y, z) on the omx."""
+    return traj.poses[:, :3] if len(traj.pose_keys) == 4 else traj.poses[:, :2]
+
+
+def measured(traj: Trajectory) -> dict[str, np.ndarray]:
+    """Speed, orientation rate and acceleration along the path, by finite differences of the
+    plan's poses at its rate (at rest before t = 0 and after the end)."""
+    rate = traj.rate_hz
+    p = positions(traj)
+    p = np.concatenate([p[:1], p, p[-1:]])
+    step = np.linalg.norm(np.diff(p, axis=0), axis=1)
+    if len(traj.pose_keys) == 4:  # pitch, and the yaw of (x, y)
+        angles = np.column_stack([traj.poses[:, 3],
+                                  np.arctan2(traj.poses[:, 1], traj.poses[:, 0])])
+    else:
+        angles = traj.poses[:, 2:3]
+    turn = np.abs(np.diff(np.unwrap(angles, axis=0), axis=0)).max(axis=1) * rate
+    return {"speed": step * rate, "accel": np.abs(np.diff(step)) * rate * rate, "turn": turn}
+
+
+def cases() -> list[Any]:
+    out = []
+    for name in ARMS:
+        for method in METHODS:
+            out.append(pytest.param(name, method, False, "optimal", id=f"{name}-{method}"))
+        for method in ("sclerp", "seplerp"):
+            out.append(pytest.param(name, method, True, "optimal",
+                                    id=f"{name}-{method}-blend"))
+    for name, profile in (("arm3r", "quintic"), ("arm3r", "trapezoid"), ("omx", "quintic"),
+                          ("arm2r", "trapezoid")):
+        out.append(pytest.param(name, "sclerp", False, profile, id=f"{name}-{profile}"))
+    return out
+
+
+@pytest.mark.parametrize(("name", "method", "blend", "profile"), cases())
+def test_the_tool_stays_within_its_limits(name: str, method: str, blend: bool,
+                                          profile: str) -> None:
+    arm = ARMS[name]
+    angular = None if arm.dof == 2 else TURN  # a position-only arm: θ is free
+    traj = plan(arm, PATHS[name], method=method, beta=0.5 if method == "kenlerp" else 1.0,
+                blend=blend, profile=profile,
+                tool_speed=SPEED, tool_angular_speed=angular, tool_acceleration=ACCEL)
+    got = measured(traj)
+    assert got["speed"].max() <= SPEED + NOISE
+    assert got["accel"].max() <= ACCEL + NOISE
+    if angular is not None:
+        assert got["turn"].max() <= angular + NOISE
+    # the limit binds: the tool reaches most of the speed it is allowed somewhere
+    assert got["speed"].max() >= 0.5 * SPEED
+    assert traj.request.tool_speed == SPEED
+
+
+def jerky(arm):
+    """``arm`` with a jerk limit of 20 a on every joint (the bench's)."""
+    return dataclasses.replace(arm, joints=tuple(
+        dataclasses.replace(j, max_jerk=20.0 * j.max_acceleration) for j in arm.joints))
+
+
+@pytest.mark.parametrize("name", ["arm3r", "omx"])
+def test_jerk_limited_timing_keeps_the_tool_limits(name: str) -> None:
+    arm = jerky(ARMS[name])
+    traj = plan(arm, PATHS[name], method="seplerp", tool_speed=SPEED, tool_acceleration=ACCEL)
+    got = measured(traj)
+    assert got["speed"].max() <= SPEED + NOISE
+    assert got["accel"].max() <= ACCEL + NOISE
+
+
+@pytest.mark.parametrize(("method", "beta"), [("seplerp", 1.0), ("kenlerp", 0.0)])
+def test_a_straight_line_runs_at_the_commanded_speed(method: str, beta: float) -> None:
+    from bench.bench_tool import line_cruise
+
+    start, end = (0.25, 0.10, 0.0), (0.15, 0.20, 0.0)
+    traj = plan(ARM3R, [start, end], method=method, beta=beta, tool_speed=0.05,
+                tool_acceleration=0.5)
+    # a straight chord: every sample on the line from start to end
+    p = positions(traj) - start[:2]
+    d = np.subtract(end[:2], start[:2])
+    cross = p[:, 0] * d[1] - p[:, 1] * d[0]
+    assert np.abs(cross).max() / np.linalg.norm(d) < 1e-6
+    cruise = line_cruise(traj, 0.05, 0.5)
+    assert cruise.shape[0] > 0.8 * traj.t.shape[0]
+    assert np.abs(cruise / 0.05 - 1.0).max() <= 0.005
+    # ramps at the commanded acceleration at both ends (UR's movel): the ramp's time is v/a
+    got = measured(traj)
+    assert 0.9 * 0.5 <= got["accel"].max() <= 0.5 + NOISE
+    length = float(np.linalg.norm(d))
+    assert traj.duration == pytest.approx(length / 0.05 + 0.05 / 0.5, abs=0.03)
+
+
+def test_the_optimal_tool_timing_matches_toppra() -> None:
+    pytest.importorskip("toppra")
+    from bench.bench_tool import CASES, arm_named, joint_path, ours, toppra_tool_timing
+
+    for arm_name, _, waypoints, method, speed, accel in CASES:
+        arm = arm_named(arm_name)
+        s, q = joint_path(arm, waypoints, method)
+        theirs, _ = toppra_tool_timing(arm, s, q, speed, accel)
+        assert ours(arm, s, q, speed, accel) <= 1.02 * theirs
+        traj = plan(arm, waypoints, method=method, beta=0.0 if method == "kenlerp" else 1.0,
+                    rate_hz=100.0, tool_speed=speed, tool_acceleration=accel)
+        assert traj.duration <= 1.02 * theirs + 1.0 / traj.rate_hz
+
+
+def test_without_a_tool_limit_nothing_changes() -> None:
+    a = plan(ARM3R, PATHS["arm3r"])
+    b = plan(ARM3R, PATHS["arm3r"], tool_speed=None)
+    assert a.request.tool_speed is None and not a.request.tool_limited
+    np.testing.assert_array_equal(a.joints, b.joints)
+    # a limit far above the plan's own speed changes nothing either
+    fast = plan(ARM3R, PATHS["arm3r"], tool_speed=50.0)
+    assert fast.t.shape == a.t.shape
+
+
+def test_a_fixed_duration_too_short_names_the_field_the_sample_and_the_speed() -> None:
+    with pytest.raises(ToolLimitError) as exc:
+        plan(ARM3R, PATHS["arm3r"][:2], method="seplerp", duration=2.0, tool_speed=0.05)
+    v = exc.value.violation
+    assert v is not None and v.quantity == "tool_speed" and v.field == "tool_speed"
+    assert v.value > 0.05 and v.limit == 0.05 and v.unit == "m/s"
+    assert f"sample {v.sample}" in str(exc.value) and "tool_speed 0.05 m/s" in str(exc.value)
+    # the uniform profiles too; and a duration that is long enough passes
+    with pytest.raises(ToolLimitError):
+        plan(ARM3R, PATHS["arm3r"][:2], profile="quintic", duration=2.0, tool_speed=0.05)
+    assert plan(ARM3R, PATHS["arm3r"][:2], method="seplerp", duration=4.0,
+                tool_speed=0.05).duration == pytest.approx(4.0)
+
+
+@pytest.mark.parametrize(("field", "value"), [("tool_speed", -0.1), ("tool_speed", 0.0),
+                                               ("tool_speed", math.nan),
+                                               ("tool_acceleration", 0.0),
+                                               ("tool_angular_speed", -1.0)])
+def test_bad_values_are_refused_naming_the_field(field: str, value: float) -> None:
+    with pytest.raises(InputError) as exc:
+        plan(ARM3R, PATHS["arm3r"], **{field: value})
+    assert exc.value.field == field
+
+
+def tool_arm(tmp_path: Path, table: str) -> Path:
+    """arm3r's file with a ``[tool]`` table appended."""
+    path = tmp_path / "arm3r_tool.toml"
+    path.write_text(Path(ARM3R_PATH).read_text() + "\n[tool]\n" + table)
+    return path
+
+
+def test_the_arm_file_sets_defaults_and_ceilings(tmp_path: Path) -> None:
+    arm = load_arm(tool_arm(tmp_path, "speed = 0.05\nmax_speed = 0.5\n"
+                                      "angular_speed_deg_s = 90\nmax_acceleration = 2.0\n"))
+    assert arm.tool.speed == 0.05 and arm.tool.angular_speed == pytest.approx(math.pi / 2)
+    traj = plan(arm, PATHS["arm3r"][:2], method="seplerp")
+    assert traj.request.tool_speed == 0.05
+    assert measured(traj)["speed"].max() <= 0.05 + NOISE
+    assert plan(arm, PATHS["arm3r"][:2], tool_speed=0.4).request.tool_speed == 0.4
+    with pytest.raises(InputError) as exc:
+        plan(arm, PATHS["arm3r"][:2], tool_speed=0.8)
+    assert exc.value.field == "tool_speed" and "max_speed 0.5" in str(exc.value)
+    with pytest.raises(InputError) as exc:
+        plan(arm, PATHS["arm3r"][:2], tool_acceleration=3.0)
+    assert exc.value.field == "tool_acceleration"
+    # the arm round-trips through its dict (a trajectory's embedded arm)
+    assert arm_from_dict(arm.to_dict()).tool == arm.tool
+    for bad in ("speed = 0.0\n", "speed = 0.6\nmax_speed = 0.5\n", "spead = 0.1\n"):
+        with pytest.raises(ConfigError):
+            load_arm(tool_arm(tmp_path, bad))
+
+
+PLAN = ("plan", "--arm", ARM3R_PATH, "--to", "0.12,0.24,60", "--method", "seplerp", "-q")
+
+
+@pytest.mark.parametrize("args", [["--tool-speed", "-1"], ["--tool-speed", "0"],
+                                  ["--tool-speed", "nan"], ["--tool-acceleration", "0"],
+                                  ["--tool-angular-speed", "-5"]])
+def test_cli_refuses_bad_values_naming_the_option(monkeypatch, capsys, args) -> None:
+    with pytest.raises(SystemExit) as exc:
+        run_cli(monkeypatch, [*PLAN, *args])
+    assert exc.value.code == 2
+    assert args[0] in capsys.readouterr().err
+
+
+def test_cli_plans_and_refuses_above_the_arms_ceiling(monkeypatch, capsys,
+                                                      tmp_path: Path) -> None:
+    assert run_cli(monkeypatch, [*PLAN, "--tool-speed", "0.05", "--format", "json"]) == 0
+    out = capsys.readouterr().out
+    assert '"tool_speed": 0.05' in out
+    path = str(tool_arm(tmp_path, "max_speed = 0.2\nmax_angular_speed_deg_s = 90\n"))
+    argv = ["plan", "--arm", path, "--to", "0.12,0.24,60", "-q"]
+    assert run_cli(monkeypatch, [*argv, "--tool-speed", "0.3"]) == 2
+    err = capsys.readouterr().err
+    assert "--tool-speed 0.3 m/s is above the arm's [tool] max_speed, 0.2 m/s" in err
+    assert run_cli(monkeypatch, [*argv, "--tool-angular-speed", "120"]) == 2
+    assert "90 deg/s" in capsys.readouterr().err
+    # a fixed duration the tool limit cannot keep: exit 3, naming the option
+    assert run_cli(monkeypatch, [*PLAN, "--tool-speed", "0.05", "--duration", "2"]) == 3
+    err = capsys.readouterr().err
+    assert "--tool-speed 0.05 m/s" in err and "sample" in err
+
+
+def test_http_takes_the_fields_and_refuses_bad_ones(planner_server: Any) -> None:
+    body = {"waypoints": [list(w) for w in PATHS["arm3r"][:2]], "method": "seplerp",
+            "tool_speed": 0.05, "tool_acceleration": 0.5, "tool_angular_speed": 1.0}
+    status, _, data = call(planner_server, "POST", "/v1/trajectories", body)
+    assert status == 200, data
+    assert data["request"]["tool_speed"] == 0.05
+    traj = Trajectory.from_json(__import__("json").dumps(data))
+    assert measured(traj)["speed"].max() <= 0.05 + NOISE
+    for field, value in (("tool_speed", 0), ("tool_speed", -1.0), ("tool_acceleration", 1e9),
+                         ("tool_angular_speed", "fast")):
+        status, _, data = call(planner_server, "POST", "/v1/trajectories",
+                               {**body, field: value})
+        assert status == 422, (field, value, data)
+        assert error_of(data)["field"] == field
+    status, _, data = call(planner_server, "POST", "/v1/trajectories",
+                           {**body, "duration": 2.0, "tool_acceleration": None})
+    assert status == 422
+    err = error_of(data)
+    assert err["code"] == "tool_limit" and "above tool_speed 0.05 m/s" in err["message"]
