@@ -199,5 +199,5 @@ def _cli_terms(request: MotionRequest) -> Iterator[None]:
 
 
 __all__ = ["ELBOWS", "MotionRequest", "add_motion_options", "add_payload_option",
-           "add_tool_options", "motion_request", "payload_keywords", "tool_keywords",
-           "plan_from_present", "plan_motion"]
+           "add_tool_options", "motion_request", "payload_keywords", "plan_from_present",
+           "plan_motion", "tool_keywords"]
