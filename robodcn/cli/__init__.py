@@ -42,7 +42,7 @@ COMMANDS: tuple[str, ...] = ("robodcn.cli.plan_cmd", "robodcn.cli.motion_cmd",
                              "robodcn.cli.calibrate_cmd", "robodcn.cli.teach_cmd",
                              "robodcn.cli.run_cmd", "robodcn.cli.gripper_cmd",
                              "robodcn.cli.admin_cmd",
-                             "robodcn.cli.config_cmd")
+                             "robodcn.cli.config_cmd", "robodcn.cli.fleet_cmd")
 
 
 def build_parser() -> argparse.ArgumentParser:

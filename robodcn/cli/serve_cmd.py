@@ -78,7 +78,72 @@ def register(subparsers: argparse._SubParsersAction) -> None:
                         "up to the cores; limits hold per process")
     p.add_argument("--baud", type=options.baud, help="baud rate (default: the arm's [bus] baud)")
     add_streaming_options(p)
+    add_zenoh_options(p)
     p.set_defaults(func=_cmd_serve, log_default="INFO")  # the request log
+
+
+def add_zenoh_options(p: argparse.ArgumentParser) -> None:
+    """``--zenoh`` and its options (the Zenoh face, :mod:`robodcn.zenoh`)."""
+    g = p.add_argument_group("Zenoh face (pip install 'robodcn[zenoh]'; README \"Many arms "
+                             "over Zenoh\", \"ROS 2 without ROS\")")
+    g.add_argument("--zenoh", action="store_true",
+                   help="also serve the arm on Zenoh: robodcn/<name>/{state,op/*,follow/"
+                        "target} and a liveliness token (peer mode, loopback only unless "
+                        "--zenoh-config authenticates)")
+    g.add_argument("--zenoh-connect", action="append", default=[], metavar="ENDPOINT",
+                   help="connect to a router or peer, e.g. tcp/192.168.1.7:7447 "
+                        "(repeatable; default: this host's router, tcp/127.0.0.1:7447, "
+                        "unless --zenoh-config is given)")
+    g.add_argument("--zenoh-listen", action="append", default=[], metavar="ENDPOINT",
+                   help="listen on ENDPOINT (repeatable; default tcp/127.0.0.1:0); off "
+                        "loopback only with --zenoh-config giving TLS or user/password")
+    g.add_argument("--zenoh-config", metavar="FILE",
+                   help="a Zenoh JSON5 configuration (TLS, user/password, routers)")
+    g.add_argument("--zenoh-scout", action="store_true",
+                   help="multicast scouting on (off by default, as rmw_zenoh)")
+    g.add_argument("--name", help="the arm's name in the key space (default: its [arm] name)")
+    g.add_argument("--ros2", action="store_true",
+                   help="also a ROS 2 node on rmw_zenoh's wire (implies --zenoh): "
+                        "/joint_states, /<controller>/joint_trajectory and the "
+                        "FollowJointTrajectory action (Jazzy interfaces)")
+    g.add_argument("--ros-domain-id", type=int, default=None,
+                   help="ROS domain (default $ROS_DOMAIN_ID, else 0)")
+    g.add_argument("--ros-controller", default="arm_controller",
+                   help="controller name of the ROS topics and action (default "
+                        "arm_controller)")
+
+
+def connect_endpoints(args: argparse.Namespace) -> tuple[str, ...]:
+    """``--zenoh-connect``'s endpoints; none given and no ``--zenoh-config``: this host's
+    router (:data:`robodcn.zenoh.options.DEFAULT_ROUTER`), as rmw_zenoh connects."""
+    from robodcn.zenoh.options import DEFAULT_ROUTER
+
+    if args.zenoh_connect or args.zenoh_config:
+        return tuple(args.zenoh_connect)
+    return (DEFAULT_ROUTER,)
+
+
+def zenoh_options(args: argparse.Namespace) -> Any:
+    """The :class:`~robodcn.zenoh.ZenohOptions` of ``serve``'s arguments, or None without
+    ``--zenoh``/``--ros2`` (a Zenoh option alone is a usage error naming it)."""
+    from robodcn.zenoh.options import ZenohOptions
+
+    if not (args.zenoh or args.ros2):
+        given = [name for name, value in (
+            ("--zenoh-connect", args.zenoh_connect), ("--zenoh-listen", args.zenoh_listen),
+            ("--zenoh-config", args.zenoh_config), ("--zenoh-scout", args.zenoh_scout),
+            ("--name", args.name), ("--ros-domain-id", args.ros_domain_id)) if value]
+        if given:
+            raise InputError(f"{given[0]} is an option of the Zenoh face: add --zenoh",
+                             field=given[0], value=None)
+        return None
+    if args.processes > 1:
+        raise InputError("--zenoh serves from one process: drop --processes",
+                         field="--processes", value=args.processes)
+    return ZenohOptions(connect=connect_endpoints(args), listen=tuple(args.zenoh_listen),
+                        config_file=args.zenoh_config, scout=args.zenoh_scout,
+                        name=args.name, ros2=args.ros2, ros_domain=args.ros_domain_id,
+                        ros_controller=args.ros_controller)
 
 
 def _cmd_serve(args: argparse.Namespace) -> int:
@@ -93,10 +158,20 @@ def _cmd_serve(args: argparse.Namespace) -> int:
     if args.plan_only and args.baud is not None:
         raise InputError("--baud is for a device; --plan-only opens none", field="--baud",
                          value=args.baud)
+    zenoh = zenoh_options(args)
     arm = options.load_arm(args)
+    faces = []
+    if zenoh is not None:
+        from robodcn.zenoh import face
+
+        faces.append(lambda server: face(server, zenoh, url=server.url))
+        name = zenoh.name or arm.name
+        print(f"robodcn: on Zenoh as robodcn/{name}"
+              + (f" and ROS 2 node robodcn_{name} (domain {zenoh.domain})" if zenoh.ros2
+                 else ""), flush=True)
     serve(arm, host=args.host, port=args.port, token=args.token,
           allow_hosts=tuple(args.allow_host), sim=args.sim,
           device=args.device, baud=args.baud, execution=execution_options(args),
-          plan_only=args.plan_only, processes=args.processes,
+          plan_only=args.plan_only, processes=args.processes, faces=faces,
           ready=lambda url: print(f"robodcn: serving {arm.name!r} on {url}", flush=True))
     return 0

@@ -44,11 +44,24 @@ def reply_of(route: Route, payload: Any) -> Reply:
 def answer(server: Service, operation: Operation, route: Route, request: Request,
            params: dict[str, str]) -> tuple[int, Reply]:
     """Authorize (the token, :mod:`robodcn.http.auth`), require a JSON body of a changing
-    method (:func:`~robodcn.http.jsonbody.require_json`) and run ``operation``; every
-    failure becomes its JSON error, never a traceback."""
-    try:
+    method (:func:`~robodcn.http.jsonbody.require_json`) and run ``operation``
+    (:func:`run`); every failure becomes its JSON error, never a traceback."""
+
+    def checked(server: Service, request: Request, params: dict[str, str]
+                ) -> tuple[int, Any]:
         authorize(server.token, request)
         require_json(request)
+        return operation(server, request, params)
+
+    return run(server, checked, route, request, params)
+
+
+def run(server: Service, operation: Operation, route: Route, request: Request,
+        params: dict[str, str]) -> tuple[int, Reply]:
+    """Run ``operation``; every failure becomes its JSON error, never a traceback. The
+    surface-neutral part of :func:`answer`: a surface with its own authentication (the
+    Zenoh face, :mod:`robodcn.zenoh`) calls this with a request it framed itself."""
+    try:
         status, payload = operation(server, request, params)
         return status, reply_of(route, payload)
     except HTTPError as exc:

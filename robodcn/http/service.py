@@ -8,7 +8,7 @@ import logging
 import os
 import signal
 import threading
-from collections.abc import Callable, Iterator
+from collections.abc import Callable, Iterator, Sequence
 from typing import Any
 
 from robodcn.config import Arm
@@ -76,7 +76,9 @@ def serve(arm: Arm, *, host: str = "127.0.0.1", port: int = 8080, token: str | N
           sim: bool = False, device: str | None = None, baud: int | None = None,
           ready: Callable[[str], None] | None = None,
           execution: ExecutionOptions | dict[str, Any] | None = None,
-          plan_only: bool = False, processes: int = 1) -> None:
+          plan_only: bool = False, processes: int = 1,
+          faces: Sequence[Callable[[RobodcnHTTPServer], contextlib.AbstractContextManager[Any]]]
+          = ()) -> None:
     """Run the service until SIGINT/SIGTERM or ``server.shutdown()``, then clean up.
 
     With ``sim=True`` the arm is :func:`robodcn.simulated.simulated_arm` in realistic
@@ -94,6 +96,10 @@ def serve(arm: Arm, *, host: str = "127.0.0.1", port: int = 8080, token: str | N
     (:class:`~robodcn.http.prefork.PreforkServer` above 1; WorkerExitError, exit 6, when
     one ends by itself). ``processes`` above 1 without ``plan_only`` is an InputError
     naming ``processes``, raised before anything opens.
+
+    ``faces``: other surfaces of the same service (e.g. :func:`robodcn.zenoh.face`), each
+    a context manager made from the server object (its arm, controller and operations),
+    entered once the socket listens and left before it closes (single-process only).
     """
     if token is None:
         token = os.environ.get(TOKEN_ENV) or None
@@ -111,6 +117,8 @@ def serve(arm: Arm, *, host: str = "127.0.0.1", port: int = 8080, token: str | N
             with contextlib.ExitStack() as stack:
                 if processes == 1:
                     stack.enter_context(signals_stop(server))
+                    for make_face in faces:
+                        stack.enter_context(make_face(server))
                 if ready is not None:
                     ready(server.url)
                 server.serve_forever(poll_interval=0.2)
@@ -130,6 +138,8 @@ def serve(arm: Arm, *, host: str = "127.0.0.1", port: int = 8080, token: str | N
                              allow_hosts=allow_hosts)
         stack.callback(server.server_close)
         stack.enter_context(signals_stop(server, controller))
+        for make_face in faces:
+            stack.enter_context(make_face(server))
         if ready is not None:
             ready(server.url)
         server.serve_forever(poll_interval=0.2)
