@@ -14,7 +14,7 @@ limit says whether the other elbow branch would pass.
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from typing import Any, Literal
 
 from robodcn import contract, kinematics
@@ -76,12 +76,17 @@ def _reach_text(v: Violation, units: Units) -> str:
 
 
 def field_name(path: str | None, units: Units,
-               waypoint_names: Sequence[str] | None = None) -> str | None:
+               waypoint_names: Sequence[str] | None = None,
+               field_names: Mapping[str, str] | None = None) -> str | None:
     """The name the user knows a request field by: the CLI option or the JSON path.
 
     On the CLI a waypoint is named by the option that gave it when ``waypoint_names``
-    (one per waypoint, e.g. ``["--from", "--via #1", "--to"]``) is passed.
+    (one per waypoint, e.g. ``["--from", "--via #1", "--to"]``) is passed. ``field_names``
+    names fields the caller knows better (a waypoints file's ``waypoints[4].payload_kg``:
+    "waypoint 4 (payload_kg = 0.9 in the file)"), in either units.
     """
+    if field_names is not None and path in field_names:
+        return field_names[path]
     if path is None or units == "si":
         return path
     if path.startswith("waypoints["):
@@ -109,8 +114,10 @@ def _waypoint(i: int, units: Units, names: Sequence[str] | None) -> str:
 
 
 def describe_violation(v: Violation, units: Units = "si",
-                       waypoint_names: Sequence[str] | None = None) -> str:
-    """One line naming sample, time, pose, segment (or waypoint), joint, value and limit."""
+                       waypoint_names: Sequence[str] | None = None,
+                       field_names: Mapping[str, str] | None = None) -> str:
+    """One line naming sample, time, pose, segment (or waypoint), joint, value and limit;
+    the field to change is ``v.field`` in the user's terms (:func:`field_name`)."""
     where = [f"sample {v.sample}"]
     if v.waypoint is not None:
         where.append(_waypoint(v.waypoint, units, waypoint_names))
@@ -133,13 +140,14 @@ def describe_violation(v: Violation, units: Units = "si",
         text = (f"{head}: {_TOOL_WHAT[v.quantity]} {quantity(v.value, v.unit, units)}, above "
                 f"{field_name(v.field, units)} {quantity(v.limit, v.unit, units)}: lengthen "
                 f"{field_name('duration', units)} (or raise {field_name(v.field, units)})")
-    elif v.quantity == "torque" and v.field == "payload_kg":
-        # gravity alone (links and payload) overloads the joint there: no timing helps
+    elif v.quantity == "torque" and v.field.rsplit(".", 1)[-1] == "payload_kg":
+        # gravity alone (links and payload) overloads the joint there: no timing helps (the
+        # field is the request's payload_kg, or a file's waypoints[4].payload_kg)
         text = (f"{head}: {who}needs {quantity(v.value, v.unit, units)} just to hold the "
                 f"arm, limit {quantity(v.limit, v.unit, units)} (torque): lighten "
-                f"{field_name('payload_kg', units)} or avoid that pose")
+                f"{field_name(v.field, units, field_names=field_names)} or avoid that pose")
     else:
-        option = field_name("duration", units)
+        option = field_name(v.field, units, field_names=field_names)
         text = (f"{head}: {who}needs {quantity(v.value, v.unit, units)}, limit "
                 f"{quantity(v.limit, v.unit, units)} ({_WHAT[v.quantity]}): lengthen "
                 f"{option}")
@@ -167,7 +175,8 @@ def _range_in_units(item: Any, units: Units) -> str | None:
 
 
 def describe(item: RobodcnError | Violation | Warning, units: Units = "si",
-             waypoint_names: Sequence[str] | None = None) -> str:
+             waypoint_names: Sequence[str] | None = None,
+             field_names: Mapping[str, str] | None = None) -> str:
     """``item`` in the user's terms (module docstring); errors from data, not text.
 
     For an InputError raised by :mod:`robodcn.contract` the field path is swapped for the
@@ -175,13 +184,13 @@ def describe(item: RobodcnError | Violation | Warning, units: Units = "si",
     :class:`Violation` is reworded from it; anything else keeps its own message.
     """
     if isinstance(item, Violation):
-        return describe_violation(item, units, waypoint_names)
+        return describe_violation(item, units, waypoint_names, field_names)
     if isinstance(item, PlanError) and item.violation is not None:
-        return describe_violation(item.violation, units, waypoint_names)
+        return describe_violation(item.violation, units, waypoint_names, field_names)
     reason = getattr(item, "reason", None)
     path = getattr(item, "field", None)
     if reason is not None and path is not None:
-        name = field_name(path, units, waypoint_names)
+        name = field_name(path, units, waypoint_names, field_names)
         restated = _range_in_units(item, units)
         return f"{name} {restated or reason}"
     if isinstance(item, PlanError) and item.waypoint is not None and units == "cli" \

@@ -259,7 +259,7 @@ def test_planner_errors_are_described_by_robodcn_messages(capsys, monkeypatch):
 
     calls = []
 
-    def describe(err, units="si", waypoint_names=None):
+    def describe(err, units="si", waypoint_names=None, field_names=None):
         calls.append(waypoint_names)
         return f"described in {units} units: {type(err).__name__}"
 

@@ -8,6 +8,7 @@ error's data (``field``), never by reading its text.
 from __future__ import annotations
 
 import re
+from collections.abc import Mapping
 
 from robodcn import messages
 from robodcn.errors import RobodcnError
@@ -37,11 +38,13 @@ def option_for(field: str | None, vias: int) -> str | None:
     return OPTION_BY_FIELD.get(field.split("[", 1)[0])
 
 
-def describe(exc: RobodcnError | Warning, waypoint_names: list[str] | None = None) -> str:
+def describe(exc: RobodcnError | Warning, waypoint_names: list[str] | None = None,
+             field_names: Mapping[str, str] | None = None) -> str:
     """The error (or warning) in CLI units: :func:`robodcn.messages.describe` with
-    ``units="cli"`` (degrees, deg/s, the options as typed, ``--via 2`` for waypoints[2])."""
-    return messages.describe(exc, units="cli", waypoint_names=waypoint_names) \
-        or type(exc).__name__
+    ``units="cli"`` (degrees, deg/s, the options as typed, ``--via 2`` for waypoints[2];
+    ``field_names`` for fields a file gave)."""
+    return messages.describe(exc, units="cli", waypoint_names=waypoint_names,
+                             field_names=field_names) or type(exc).__name__
 
 
 def one_line(text: str) -> str:

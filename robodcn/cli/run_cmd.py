@@ -6,31 +6,40 @@ The file and every option are checked before the bus opens (:func:`load_run_file
 plan options take the same types and choices as ``plan``'s (:mod:`robodcn.contract`) and
 override a waypoints file's ``[plan]``.
 
+A waypoints file runs on the arm its ``arm`` line names (``teach`` writes it) when neither
+``--arm`` nor ``$ROBODCN_ARM`` is given; a different ``--arm`` is warned about.
+
 A waypoints file whose waypoints act (``gripper``, ``payload_kg``) plays leg by leg
-(:func:`robodcn.workflow.run.legs`): each leg is planned from where the arm is with its
-payload, streamed, the arm comes to rest, the gripper acts (:mod:`robodcn.workflow.gripper`)
-and the next leg starts; a leg that does not complete, or jaws that do not come to rest,
-end the run there. The report is each leg's (``--json``: the last leg's fields and
-``legs``; ``--plot FILE.png`` draws one ``FILE-legN.png`` a leg).
+(:func:`robodcn.workflow.run.legs`). Every leg is planned with its payload and checked
+before anything moves (:func:`robodcn.workflow.run.plan_legs`: the first from where the arm
+is, each next from where the one before ends); an error names the file's waypoints and the
+file's field that set the payload or duration. Then each leg is streamed, the arm comes to
+rest, the gripper acts (:mod:`robodcn.workflow.gripper`) and the next leg starts; a leg that
+does not complete, or jaws that do not come to rest, end the run there. The report is each
+leg's (``--json``: the last leg's fields and ``legs``; ``--plot FILE.png`` draws one
+``FILE-legN.png`` a leg).
 """
 
 from __future__ import annotations
 
 import argparse
 import json
+import os
+import warnings
 from collections.abc import Iterator
 from contextlib import contextmanager
 from pathlib import Path
 from typing import Any
 
 from robodcn import contract
-from robodcn.cli import motion_cmd, options, planning
+from robodcn.cli import motion_cmd, options, planning, releasing
 from robodcn.cli.dialogue import say
+from robodcn.cli.error_text import describe, one_line, shorten
 from robodcn.cli.exit_codes import Exit, exit_for_report
 from robodcn.cli.output import emit
 from robodcn.cli.servo_session import add_bus_options, open_bus
 from robodcn.config import Arm
-from robodcn.errors import InputError
+from robodcn.errors import InputError, RobodcnError, RobodcnWarning
 
 #: The plan options of ``run`` → the PlanOverrides field each sets.
 PLAN_OPTIONS = {"--method": "method", "--beta": "beta", "--turn": "turn",
@@ -114,7 +123,8 @@ def load_run_file(args: argparse.Namespace, arm: Arm) -> tuple[str, Any]:
     kind, text = files.file_kind(args.file)
     if kind == "waypoints":
         wp = files.load_waypoints(args.file, arm)
-        return kind, waypoints_fields(wp, arm, overrides(args, len(wp.waypoints) - 1))
+        with _file_terms(args.file, wp):
+            return kind, waypoints_fields(wp, arm, overrides(args, len(wp.waypoints) - 1))
     given = [option for option, dest in PLAN_OPTIONS.items()
              if getattr(args, dest) is not None]
     if given:
@@ -131,6 +141,75 @@ def load_run_file(args: argparse.Namespace, arm: Arm) -> tuple[str, Any]:
     return kind, files.load_joint_trajectory(args.file, arm, rate, text=text)
 
 
+def run_arm(args: argparse.Namespace) -> Arm:
+    """The arm ``run`` drives: ``--arm`` (else ``$ROBODCN_ARM``); without either, the arm a
+    waypoints file names (its ``arm`` line: a config file beside it or here, or an example
+    name), else the default. A file that names another arm than the one given is warned
+    about (RobodcnWarning, field "arm")."""
+    from robodcn.config import load_arm
+    from robodcn.workflow import files
+    from robodcn.workflow.examples import resolve_arm_path
+
+    named = None
+    if files.file_kind(args.file)[0] == "waypoints":
+        named = files.waypoints_arm(args.file)
+    given = "--arm" if args.arm else "$ROBODCN_ARM" if os.environ.get("ROBODCN_ARM") else None
+    if named is None or given is not None:
+        arm = options.load_arm(args)
+        if named is not None and named not in (arm.name, arm.source):
+            warnings.warn(RobodcnWarning(
+                f"{args.file} was taught on arm {named!r}; running on arm {arm.name!r} "
+                f"({given})", field="arm"), stacklevel=2)
+        return arm
+    beside = Path(args.file).parent / named
+    return load_arm(beside if beside.is_file()
+                    else resolve_arm_path(named, option=f"{args.file}: arm"))
+
+
+def file_field_names(wp: Any) -> dict[str, str]:
+    """The words for the waypoints file's fields an error may name
+    (:func:`robodcn.workflow.run.in_file_terms`): ``waypoints[4].payload_kg`` is "waypoint 4
+    (payload_kg = 0.9 in the file)"."""
+    names = {f"waypoints[{i}].payload_kg": f"waypoint {i} (payload_kg = "
+                                            f"{a['payload_kg']:g} in the file)"
+             for i, a in enumerate(wp.actions) if "payload_kg" in a}
+    if "payload_kg" in wp.options:
+        names["plan.payload_kg"] = (f"[plan] payload_kg ({wp.options['payload_kg']:g} kg in "
+                                    "the file)")
+    if "duration" in wp.options:
+        duration = wp.options["duration"]
+        text = f"{duration:g} s" if isinstance(duration, int | float) else repr(duration)
+        names["plan.duration"] = f"[plan] duration ({text} in the file)"
+    return names
+
+
+def plan_file(args: argparse.Namespace, arm: Arm, bus, wp: Any, leg_list: list[Any]):
+    """Every leg of the waypoints file ``wp`` planned from the present joints read on
+    ``bus``, before anything moves (:func:`robodcn.workflow.run.plan_legs`); a planner
+    error leaves with ``cli_text`` naming the file's waypoints and fields."""
+    from robodcn.present import present_joints
+    from robodcn.workflow.run import plan_legs
+
+    present = present_joints(arm, bus)     # a bus error is not the file's
+    with _file_terms(args.file, wp):
+        return plan_legs(arm, leg_list, present, source=args.file)
+
+
+@contextmanager
+def _file_terms(path: str, wp: Any) -> Iterator[None]:
+    """An error of a waypoints file's leg (:func:`robodcn.workflow.run.in_file_terms`)
+    leaves with ``cli_text``: the file, the leg, and the file's fields in words."""
+    from robodcn.workflow.run import leg_context
+
+    try:
+        yield
+    except RobodcnError as exc:
+        where = ": ".join(p for p in (path, leg_context(exc)) if p)
+        text = describe(exc, field_names=file_field_names(wp))
+        exc.cli_text = shorten(one_line(text if text.startswith(where) else f"{where}: {text}"))
+        raise
+
+
 def plan_run(args: argparse.Namespace, arm: Arm, bus, kind: str, loaded: Any):
     """The trajectory ``run`` streams, from the present joints read on ``bus``
     (:func:`robodcn.workflow.run.trajectory_to_run`)."""
@@ -142,26 +221,24 @@ def plan_run(args: argparse.Namespace, arm: Arm, bus, kind: str, loaded: Any):
 
 
 def run(args: argparse.Namespace) -> int:
-    arm = options.load_arm(args)
+    arm = run_arm(args)
     motion_cmd.check_plot(args.plot)
     kind, loaded = load_run_file(args, arm)
+    wp = leg_list = None
     if kind == "waypoints":
         from robodcn.workflow import files
         from robodcn.workflow.run import legs
 
         wp = files.load_waypoints(args.file, arm)
+        leg_list = legs(wp, loaded, arm)
         if wp.has_actions:
-            return run_legs(args, arm, legs(wp, loaded, arm))
-    if args.sim:
-        from robodcn.simulated import simulated_arm
-
-        with simulated_arm(arm, timing="fast") as sim:
-            traj = plan_run(args, arm, sim.bus, kind, loaded)
-            report, live, released = motion_cmd.stream_and_release(args, traj, arm, sim.bus)
-    else:
-        with open_bus(args, arm) as bus:
+            return run_legs(args, arm, leg_list, wp)
+    with _bus(args, arm) as bus:
+        if wp is not None:
+            (traj,) = plan_file(args, arm, bus, wp, leg_list)
+        else:
             traj = plan_run(args, arm, bus, kind, loaded)
-            report, live, released = motion_cmd.stream_and_release(args, traj, arm, bus)
+        report, live, released = motion_cmd.stream_and_release(args, traj, arm, bus)
     return motion_cmd.finish(args, arm, traj, report, live,
                              waypoints=loaded["waypoints"] if kind == "waypoints" else None,
                              released=released)
@@ -186,23 +263,23 @@ def _leg_plot(path: str | None, k: int) -> str | None:
     return str(p.with_name(f"{p.stem}-leg{k}{p.suffix}"))
 
 
-def run_legs(args: argparse.Namespace, arm: Arm, plan_legs: list[Any]) -> int:
-    """Play ``plan_legs`` (module docstring): plan each from the present joints, stream it,
-    act at its end; returns the exit code of the first leg that did not complete, else
-    degraded (5) if any leg was, else 0."""
+def run_legs(args: argparse.Namespace, arm: Arm, plan_legs: list[Any], wp: Any) -> int:
+    """Play ``plan_legs`` of the waypoints file ``wp`` (module docstring): every leg planned
+    first (:func:`plan_file`), then each streamed and acted on at its end; returns the exit
+    code of the first leg that did not complete, else degraded (5) if any leg was, else 0."""
     from robodcn.cli.gripper_cmd import result_line
     from robodcn.cli.report_text import approach_seconds, report_dict, report_text
-    from robodcn.present import present_joints
     from robodcn.workflow.gripper import actuate
-    from robodcn.workflow.run import plan_leg
 
     held = argparse.Namespace(**{**vars(args), "release": False})
     done: list[dict[str, Any]] = []
     code, last, released = Exit.DONE, None, None
     with _bus(args, arm) as bus:
-        for k, leg in enumerate(plan_legs, start=1):
+        trajectories = plan_file(args, arm, bus, wp, plan_legs)
+        if getattr(args, "release", False) and releasing.falls(arm):
+            releasing.confirm_release(arm, trajectories[-1].joints[-1], args.yes)
+        for k, (leg, traj) in enumerate(zip(plan_legs, trajectories, strict=True), start=1):
             final = k == len(plan_legs)
-            traj = plan_leg(arm, leg, present_joints(arm, bus), source=args.file)
             say(f"leg {k}/{len(plan_legs)}: waypoints {leg.first}..{leg.last}, payload "
                 f"{leg.payload_kg:g} kg{f', then gripper {leg.gripper}' if leg.gripper else ''}")
             if final:
@@ -238,4 +315,5 @@ def run_legs(args: argparse.Namespace, arm: Arm, plan_legs: list[Any]) -> int:
     return code
 
 
-__all__ = ["load_run_file", "overrides", "plan_run", "register", "run", "run_legs"]
+__all__ = ["file_field_names", "load_run_file", "overrides", "plan_file", "plan_run",
+           "register", "run", "run_arm", "run_legs"]

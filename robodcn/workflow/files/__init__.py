@@ -7,7 +7,8 @@
   ``gripper = "open" | "close"`` and ``payload_kg`` acted on there; a ``[plan]`` table with
   ``method``, ``beta``, ``turn`` (the defaults of segments whose waypoint gives none),
   ``duration`` (seconds or "auto"), ``profile``, ``rate_hz``, ``blend``, ``payload_kg``; an
-  optional ``arm`` name (informational). :func:`load_waypoints` → :class:`WaypointsPlan`,
+  optional ``arm`` (the example name or config file it was taught on, :func:`waypoints_arm`).
+  :func:`load_waypoints` → :class:`WaypointsPlan`,
   whose :meth:`~WaypointsPlan.plan_fields` are :class:`robodcn.planner.PlanRequest` fields
   (:mod:`._waypoints`).
 - **Trajectory JSON** (``robodcn plan --format json``): :meth:`robodcn.planner.Trajectory.from_json`
@@ -50,9 +51,10 @@ from robodcn.workflow.files._waypoints import (
     SEGMENT_DEFAULTS,
     WaypointsPlan,
     load_waypoints,
+    waypoints_arm,
 )
 
 __all__ = ["ACTION_KEYS", "GRIPPER_ACTIONS", "PLAN_KEYS", "SEGMENT_DEFAULTS", "WaypointsPlan",
            "check_joint_samples", "estimate_velocities", "file_kind", "hermite",
            "joint_trajectory", "load_joint_trajectory", "load_trajectory", "load_waypoints",
-           "trajectory_from_data", "with_approach"]
+           "trajectory_from_data", "waypoints_arm", "with_approach"]

@@ -7,7 +7,9 @@
 the arm at rest) and ``payload_kg`` (the mass at the tool point from that waypoint on).
 ``[plan]`` holds ``method``, ``beta``, ``turn`` (the defaults of segments whose waypoint gives
 none), ``duration``, ``profile``, ``rate_hz``, ``blend`` and ``payload_kg`` (the payload at
-the start); an optional ``arm`` name is informational.
+the start); ``arm`` names the arm the file was taught on (``teach`` writes it): an example
+name or an arm config file, which ``run`` uses when no ``--arm`` is given
+(:func:`waypoints_arm`).
 """
 
 from __future__ import annotations
@@ -48,6 +50,9 @@ class WaypointsPlan:
     options: dict[str, Any]
     keys: tuple[str, ...] = PLANAR_POSE
     actions: tuple[Mapping[str, Any], ...] = field(default=())
+
+    #: The file's ``arm`` (None: it names none).
+    arm: str | None = None
 
     def plan_fields(self, **overrides: Any) -> dict[str, Any]:
         """PlanRequest keyword fields: the file's options, then ``overrides`` not None."""
@@ -135,6 +140,24 @@ def _actions(source: str, where: str, row: dict[str, Any]) -> dict[str, Any]:
     return out
 
 
+def _arm_name(source: str, data: dict[str, Any]) -> str | None:
+    value = data.get("arm")
+    if value is not None and (not isinstance(value, str) or not value.strip()):
+        raise fail(source, "arm", "must be an arm name or config file (a string), got "
+                   f"{value!r}", value)
+    return value
+
+
+def waypoints_arm(path: str | Path) -> str | None:
+    """The ``arm`` a waypoints TOML names (None: none, or the file is not TOML: loading it
+    says why); InputError when it is not a string."""
+    try:
+        data = tomllib.loads(read(path))
+    except tomllib.TOMLDecodeError:
+        return None
+    return _arm_name(str(path), data)
+
+
 def load_waypoints(path: str | Path, arm: Arm | None = None) -> WaypointsPlan:
     """Read a waypoints TOML (module docstring) for ``arm`` (its pose keys; without an arm
     the keys the file uses); InputError naming the file, the waypoint and the key otherwise."""
@@ -188,8 +211,9 @@ def load_waypoints(path: str | Path, arm: Arm | None = None) -> WaypointsPlan:
         if any(v is not None for v in values):
             default = options.get(key, SEGMENT_DEFAULTS[key])
             options[key] = tuple(v if v is not None else default for v in values)
-    return WaypointsPlan(source, poses, options, keys, tuple(actions))
+    return WaypointsPlan(source, poses, options, keys, tuple(actions),
+                         _arm_name(source, data))
 
 
 __all__ = ["ACTION_KEYS", "GRIPPER_ACTIONS", "PLAN_KEYS", "SEGMENT_DEFAULTS", "WaypointsPlan",
-           "load_waypoints"]
+           "load_waypoints", "waypoints_arm"]
