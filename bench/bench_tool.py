@@ -31,6 +31,7 @@ from robodcn.path_timing import JointLimits, time_optimal
 from robodcn.path_timing.tool import ToolLimits
 from robodcn.planner.arc import by_arc_length
 from robodcn.planner.pieces import build_pieces
+from robodcn.planner.tool_peak import tool_speeds
 
 ROOT = Path(__file__).resolve().parent.parent
 RATIO_TARGET = 1.02
@@ -99,16 +100,10 @@ def toppra_tool_timing(arm: robodcn.Arm, s: np.ndarray, q: np.ndarray, speed: fl
     return duration, time.perf_counter() - start
 
 
-def tool_speeds(traj: robodcn.Trajectory) -> np.ndarray:
-    """The tool point's speed between samples (n − 1,), m/s, from the plan's poses."""
-    k = 3 if len(traj.pose_keys) == 4 else 2
-    return np.linalg.norm(np.diff(traj.poses[:, :k], axis=0), axis=1) * traj.rate_hz
-
-
 def line_cruise(traj: robodcn.Trajectory, speed: float, accel: float) -> np.ndarray:
-    """The tool speeds of the cruise: past each ramp (v/a) and one period of rounding."""
-    v = tool_speeds(traj)
-    t = traj.t[1:]
+    """The tool speeds of the cruise: past each ramp (v/a) and two periods of rounding."""
+    v = tool_speeds(traj)[0]
+    t = traj.t
     ramp = speed / accel + 2.0 / traj.rate_hz
     return v[(t > ramp) & (t < traj.t[-1] - ramp)]
 
@@ -147,7 +142,7 @@ def run() -> str:
         rows.append(
             f"| {arm_name} | {move} | {method} | {speed:g} m/s, {accel:g} m/s² | {mine:.4f} | "
             f"{theirs:.4f} | {ratio:.4f} {ok(ratio <= RATIO_TARGET)} | {bare:.4f} | "
-            f"{traj.duration:.2f} s, {tool_speeds(traj).max():.4f} m/s, {t_plan * 1e3:.1f} ms "
+            f"{traj.duration:.2f} s, {tool_speeds(traj)[0].max():.4f} m/s, {t_plan * 1e3:.1f} ms "
             f"| {t_ours * 1e3:.1f} / {t_theirs * 1e3:.1f} |")
     arm = arm_named("arm3r")
     line = robodcn.plan(arm, CASES[0][2], method="seplerp", tool_speed=0.05,

@@ -18,6 +18,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from robodcn.planner import Trajectory
+from robodcn.planner.tool_peak import tool_peak
 from robodcn.results import ApproachInfo, ErrorDetail, MoveStatus, to_json
 from robodcn.stream import ExecutionReport, Progress, StopSignal
 
@@ -93,6 +94,8 @@ class MoveRecord:
     #: Present Position read when the move was admitted (robodcn.admission), for the
     #: executor not to read it again; None: the executor reads it.
     present_ticks: tuple[int, ...] | None = field(default=None, repr=False)
+    #: :meth:`tool`, once found
+    _tool: dict[str, Any] | None = field(default=None, repr=False)
 
     @property
     def active(self) -> bool:
@@ -118,7 +121,14 @@ class MoveRecord:
             approach=self.approach(), created=self.created, started=self.started,
             finished=self.finished, report=report,
             error=None if self.error is None else ErrorDetail.of(self.error),
-            paused=self.paused, speed_scale=self.speed_scale)
+            paused=self.paused, speed_scale=self.speed_scale, tool=self.tool())
+
+    def tool(self) -> dict[str, Any]:
+        """The trajectory's :func:`~robodcn.planner.tool_peak.tool_peak` as JSON, found once
+        (a status is asked for many times while the move runs)."""
+        if self._tool is None:
+            self._tool = tool_peak(self.trajectory).to_dict()
+        return self._tool
 
     def to_dict(self) -> dict[str, Any]:
         """:meth:`snapshot` as JSON (``GET /v1/moves/{id}``)."""

@@ -102,6 +102,12 @@ class MoveStatus:
     speed_scale: float = field(default=1.0, metadata=_doc(
         "speed scale k of the limits (PUT /v1/speed)", type="number", exclusiveMinimum=0,
         maximum=1))
+    tool: dict[str, Any] | None = field(default=None, metadata=_doc(
+        "the tool point's peak speed along the planned trajectory and where a tool limit "
+        "binds (robodcn.planner.tool_peak.ToolPeak.to_dict(): peak_speed m/s, t s, sample, "
+        "pose, peak_acceleration m/s², speed_limit and acceleration_limit (the request's "
+        "tool_speed and tool_acceleration, or null), binds_from and binds_to s, "
+        "binding_share)"))
 
 
 @dataclass

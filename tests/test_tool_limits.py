@@ -257,3 +257,55 @@ def test_http_takes_the_fields_and_refuses_bad_ones(planner_server: Any) -> None
     assert status == 422
     err = error_of(data)
     assert err["code"] == "tool_limit" and "above tool_speed 0.05 m/s" in err["message"]
+
+
+# -- where it is reported: the plan summary, --plot, GET /v1/moves/{id} -----------------------
+
+def test_the_plan_summary_names_the_peak_tool_speed_and_where_it_binds(monkeypatch,
+                                                                        capsys) -> None:
+    argv = ["plan", "--arm", ARM3R_PATH, "--from", "0.25,0.10,0", "--to", "0.15,0.20,0",
+            "--method", "seplerp", "--format", "json"]
+    assert run_cli(monkeypatch, [*argv, "--tool-speed", "0.05"]) == 0
+    err = capsys.readouterr().err
+    line = next(x for x in err.splitlines() if x.strip().startswith("tool"))
+    assert "peak 0.0500 m/s" in line and "100% of --tool-speed 0.05 m/s" in line
+    assert "binds 0." in line
+    # without a limit: the peak alone (the tool is far faster than 0.05 m/s)
+    assert run_cli(monkeypatch, argv) == 0
+    line = next(x for x in capsys.readouterr().err.splitlines()
+                if x.strip().startswith("tool"))
+    assert "of --tool-speed" not in line
+    assert float(line.split("peak ")[1].split(" m/s")[0]) > 0.2
+
+
+def test_plot_draws_the_tool_speed_against_its_limit(tmp_path: Path, monkeypatch) -> None:
+    import matplotlib.pyplot as plt
+
+    from robodcn.plots import plot_motion
+
+    figures: list[Any] = []
+    monkeypatch.setattr(plt, "close", figures.append)
+    traj = plan(ARM3R, PATHS["arm3r"][:2], method="seplerp", tool_speed=0.05,
+                tool_acceleration=0.5)
+    plot_motion(str(tmp_path / "tool.png"), ARM3R, traj)
+    by_label = {ax.get_ylabel(): ax for ax in figures[0].axes}
+    panel = by_label["tool speed [m/s]"]
+    speed = panel.lines[0].get_ydata()
+    assert np.max(speed) == pytest.approx(0.05, rel=0.002)
+    levels = [line.get_ydata()[0] for line in panel.lines if line.get_linestyle() == ":"]
+    assert 0.05 in levels
+    assert (tmp_path / "tool.png").stat().st_size > 0
+
+
+def test_a_moves_status_names_its_peak_tool_speed(arm_server) -> None:
+    from http_helpers import run_move
+
+    server, _ = arm_server
+    done = run_move(server, {"waypoints": [[0.2, 0.15, 0.0]], "method": "seplerp",
+                             "tool_speed": 0.2, "tool_acceleration": 2.0})
+    tool = done["tool"]
+    assert tool["speed_limit"] == 0.2 and tool["acceleration_limit"] == 2.0
+    assert tool["peak_speed"] <= 0.2 + NOISE and tool["peak_acceleration"] <= 2.0 + NOISE
+    assert tool["binds_from"] is not None and 0.0 < tool["binding_share"] <= 1.0
+    status, _, again = call(server, "GET", f"/v1/moves/{done['id']}")
+    assert status == 200 and again["tool"] == tool

@@ -162,7 +162,26 @@ def plan_summary(traj: Any, arm: Any, approach_s: float = 0.0) -> str:
             f"   {math.degrees(j['peak_acceleration']):9.1f} deg/s² of "
             f"{math.degrees(spec.max_acceleration):7.1f}"
             f" ({100 * j['acceleration_fraction']:3.0f}%)")
+    lines.append(tool_line(s["tool"], getattr(traj, "pose_keys", None)))
     return "\n".join(lines)
+
+
+def tool_line(tool: dict[str, Any], keys: Any = None) -> str:
+    """The tool point's peak speed, when and where, and — with a ``--tool-speed`` — the
+    share of its limit and the span where it binds (a summary's ``tool``)."""
+    where = pose_text(keys, tool["pose"]) if keys else ""
+    text = (f"  tool       peak {tool['peak_speed']:.4f} m/s at t={tool['t']:.3f} s"
+            + (f" ({where})" if where else ""))
+    limit = tool["speed_limit"]
+    if limit is not None:
+        text += f", {100 * tool['peak_speed'] / limit:.0f}% of --tool-speed {limit:g} m/s"
+        if tool["binds_from"] is not None:
+            text += (f"; binds {tool['binds_from']:.3f}..{tool['binds_to']:.3f} s "
+                     f"({100 * tool['binding_share']:.0f}% of the samples)")
+    if tool["acceleration_limit"] is not None:
+        text += (f"; peak acceleration {tool['peak_acceleration']:.3g} m/s² of "
+                 f"{tool['acceleration_limit']:g}")
+    return text
 
 
 def _pose_columns(traj: Any) -> tuple[str, ...]:
@@ -224,4 +243,4 @@ def pose_text(keys: Any, pose: Any, *, signed: bool = False) -> str:
 
 
 __all__ = ["approach_seconds", "headline", "near_limit_line", "plan_csv", "plan_summary",
-           "plan_table", "pose_text", "report_dict", "report_text"]
+           "plan_table", "pose_text", "report_dict", "report_text", "tool_line"]

@@ -167,9 +167,11 @@ class PlanRequest:
         for name, default in (("tool_speed", tool.speed),
                               ("tool_angular_speed", tool.angular_speed),
                               ("tool_acceleration", tool.acceleration)):
+            if values[name] is None:  # the usual case: the arm's default (none: no limit)
+                values[name] = default
+                continue
             value = checks.check_field(name, values[name])
-            values[name] = checks.check_tool_ceiling(name, value, self.arm) \
-                if value is not None else default
+            values[name] = checks.check_tool_ceiling(name, value, self.arm)
         values["duration"] = checks.check_duration(self.duration, self.rate_hz, segments)
         values["start_joints"] = checks.check_start_joints(self.start_joints, self.arm)
         state = checks.check_start_state(self.start_state, self.arm)

@@ -6,7 +6,9 @@ waypoints marked, orientation ticks along the tool path, the approach segment da
 measured path, where a stop happened and where a limit came within 10 % (the report's
 ``near_limits``); on the right the joint velocities and accelerations
 (finite differences at the sample rate, as the planner checks them) against ±their limits,
-marked where the plan came within 10 % of them. Given an execution's trace
+marked where the plan came within 10 % of them; a plan with a tool limit (``tool_speed``,
+``tool_acceleration``) gets a panel of the tool point's speed against its limit, the span where
+it binds shaded (:mod:`robodcn.planner.tool_peak`). Given an execution's trace
 (:class:`robodcn.stream.ExecutionTrace`) two more panels on the same time axis show each
 joint's measured |tracking error| (degrees, symlog: linear below one encoder tick) against
 the tracking limit and its |current| (A) with the plan's predicted current, the current limit
@@ -113,31 +115,38 @@ def plot_motion(path: str, arm: Arm, traj, *,
     width = len(arm.pose_keys)
     wp = None if waypoints is None else np.asarray(waypoints, dtype=np.float64).reshape(-1,
                                                                                        width)
-    rows = 2 if trace is None else (3 if trace.current_a is None else 4)
+    request = getattr(traj, "request", None)
+    tool = 1 if request is not None and request.tool_limited else 0
+    rows = 2 + tool + (0 if trace is None else (1 if trace.current_a is None else 2))
     fig = plt.figure(figsize=(13, 6) if rows == 2 else (14, 2.5 * rows + 0.8))
     grid = fig.add_gridspec(rows, 2, width_ratios=(1.1, 1))
     # The path keeps the height of the velocity and acceleration panels; below it, the
     # per-joint peaks against their limits.
+    tall = 2 if trace is not None else rows  # without a trace's table, the whole height
     if arm.yawed:
         from robodcn.plots._yawed import draw_yawed_path
 
-        left = grid[:2, 0].subgridspec(1, 2, width_ratios=(1.4, 1))
+        left = grid[:tall, 0].subgridspec(1, 2, width_ratios=(1.4, 1))
         draw_yawed_path(fig.add_subplot(left[0, 0]), fig.add_subplot(left[0, 1]), arm, traj,
                         wp, samples, stop, near_limits, title)
     else:
-        _draw_path(fig.add_subplot(grid[:2, 0]), arm, traj, wp, samples, stop, near_limits,
+        _draw_path(fig.add_subplot(grid[:tall, 0]), arm, traj, wp, samples, stop, near_limits,
                    title)
     ax_v = fig.add_subplot(grid[0, 1])
     right = [ax_v] + [fig.add_subplot(grid[r, 1], sharex=ax_v) for r in range(1, rows)]
     panels: dict[str, Any] = {}
-    if rows > 2:
-        panels["tracking_error"] = right[2]
-    if rows > 3:
-        panels["current"] = panels["collision_current"] = right[3]
+    if tool:
+        panels["tool_speed"] = right[2]
+    if trace is not None:
+        panels["tracking_error"] = right[2 + tool]
+        if trace.current_a is not None:
+            panels["current"] = panels["collision_current"] = right[3 + tool]
 
     first = approach_end(traj)
     names = [spec.name for spec in arm.joints]
     colors = _draw_kinematics(right[0], right[1], arm, traj)
+    if tool:
+        _draw_tool_speed(panels["tool_speed"], traj)
     if trace is not None:
         _draw_tracking(panels["tracking_error"], trace, colors, arm)
         if trace.current_a is not None:
@@ -242,6 +251,36 @@ def _draw_kinematics(ax_v, ax_a, arm: Arm, traj) -> list[str]:
     ax_a.set(ylabel="acceleration [°/s²]")
     ax_v.legend(fontsize="small", loc="upper right", title="joint", title_fontsize="small")
     return colors
+
+
+def _draw_tool_speed(ax, traj) -> None:
+    """The tool point's planned speed (m/s) against the request's ``tool_speed`` (and its
+    acceleration along the path against ``tool_acceleration`` on a second axis), the span
+    where the speed limit binds shaded."""
+    from robodcn.planner.tool_peak import tool_peak, tool_speeds
+
+    speed, accel = tool_speeds(traj)
+    peak = tool_peak(traj)
+    ax.plot(traj.t, speed, color="tab:purple", label="tool speed")
+    if peak.speed_limit is not None:
+        ax.axhline(peak.speed_limit, color="tab:purple", ls=":", lw=1.2)
+        ax.annotate(f"tool_speed {peak.speed_limit:g} m/s", (0.0, peak.speed_limit),
+                    xycoords=("axes fraction", "data"), xytext=(4, -11),
+                    textcoords="offset points", fontsize="small")
+        if peak.binds_from is not None:
+            ax.axvspan(peak.binds_from, peak.binds_to, color="tab:purple", alpha=0.08, lw=0,
+                       label="speed limit binds")
+    ax.plot(peak.t, peak.peak_speed, "v", color="tab:purple", ms=7,
+            label=f"peak {peak.peak_speed:.4g} m/s")
+    ax.set_ylim(0.0, 1.15 * max(peak.peak_speed, peak.speed_limit or 0.0, 1e-9))
+    ax.set(ylabel="tool speed [m/s]", title="planned tool point speed (dotted: limit)")
+    if peak.acceleration_limit is not None:
+        twin = ax.twinx()
+        twin.plot(traj.t, accel, color="tab:brown", lw=0.8, alpha=0.6)
+        twin.axhline(peak.acceleration_limit, color="tab:brown", ls=":", lw=1)
+        twin.set_ylim(0.0, 1.15 * max(float(accel.max()), peak.acceleration_limit))
+        twin.set_ylabel("along-path accel. [m/s²]", color="tab:brown")
+    ax.legend(fontsize="small", loc="upper right")
 
 
 def _draw_tracking(ax, trace, colors: Sequence[str], arm: Arm) -> None:
