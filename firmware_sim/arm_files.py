@@ -2,7 +2,7 @@
 
 A name (no directory part, no ``.toml``) is looked up, in order, as
 ``configs/<name>.toml`` of the checkout firmware_sim sits in, then as the packaged copy
-``robodcn/workflow/data/<name>.toml`` beside the firmware_sim package directory. Both are
+``robodcn/config/data/<name>.toml`` beside the firmware_sim package directory. Both are
 found by path: firmware_sim never imports robodcn.
 """
 
@@ -14,7 +14,7 @@ from pathlib import Path
 #: The directory holding the firmware_sim package (the checkout's root, or site-packages).
 _BESIDE = Path(__file__).resolve().parent.parent
 #: Where names are looked up, in order.
-SEARCH_DIRS = (_BESIDE / "configs", _BESIDE / "robodcn" / "workflow" / "data")
+SEARCH_DIRS = (_BESIDE / "configs", _BESIDE / "robodcn" / "config" / "data")
 
 
 def is_name(source: str | os.PathLike[str]) -> bool:

@@ -233,7 +233,7 @@ def test_jerk_limit_is_optional_and_si() -> None:
 # -- issue 18/19: the OpenMANIPULATOR-X, a yawed arm with a gripper ----------------------------
 
 OMX = CONFIGS / "omx.toml"
-PACKAGED = Path(__file__).resolve().parent.parent / "robodcn" / "workflow" / "data"
+PACKAGED = Path(__file__).resolve().parent.parent / "robodcn" / "config" / "data"
 
 
 def test_shipped_omx() -> None:
@@ -388,3 +388,32 @@ def test_servo_torque_speed_line() -> None:
     assert xm.available_torque(xm.rated_speed / 2) == pytest.approx(2.05)
     assert xm.available_torque(-2 * xm.rated_speed) == 0.0
     assert xm.rated_speed == pytest.approx(4.817, abs=1e-3)
+
+
+# -- issue 27 §4: example names in the library, as --arm takes them -----------------------------
+
+def test_load_arm_takes_an_example_name_from_any_directory(tmp_path, monkeypatch):
+    import robodcn
+    from robodcn.config import EXAMPLES
+    from robodcn.workflow.examples import resolve_arm_path
+
+    monkeypatch.chdir(tmp_path)                       # no configs/ here
+    for name in EXAMPLES:
+        arm = robodcn.load_arm(name)
+        assert arm.name == name
+        assert Path(arm.source) == resolve_arm_path(name) == PACKAGED / f"{name}.toml"
+        assert arm.to_dict() == load_arm(CONFIGS / f"{name}.toml").to_dict()
+
+
+def test_a_file_named_like_an_example_is_the_file(tmp_path, monkeypatch):
+    monkeypatch.chdir(tmp_path)
+    (tmp_path / "omx").write_text((CONFIGS / "arm2r.toml").read_text())
+    assert load_arm("omx").name == "arm2r"
+
+
+def test_a_name_that_is_neither_file_nor_example_says_so(tmp_path, monkeypatch):
+    monkeypatch.chdir(tmp_path)
+    with pytest.raises(ConfigError) as caught:
+        load_arm("omx2")
+    assert caught.value.message == ("omx2: cannot read arm config: No such file or directory "
+                                    "(nor an example arm: arm3r, arm2r, omx)")

@@ -84,6 +84,39 @@ def test_library_example_runs(monkeypatch):
         exec(compile(code, "README.md", "exec"), {})
 
 
+def test_omx_library_example_streams_to_the_target_on_firmware_sim(monkeypatch):
+    """The OM-X block: loaded by its example name, planned, streamed on the simulated servos
+    to the target it names (issue 27 §4)."""
+    import contextlib
+
+    import numpy as np
+
+    from robodcn import kinematics, servo_units, simulated
+
+    (code,) = [b for b in re.findall(r"```python\n(.*?)```", README, flags=re.S)
+               if 'load_arm("omx")' in b]
+    monkeypatch.chdir(ROOT / "tests")                # no configs/ here: the packaged example
+    seen: dict = {}
+    real = simulated.simulated_arm
+
+    @contextlib.contextmanager
+    def recording(arm, **kw):
+        """simulated_arm, keeping where the servos are at the end of the block."""
+        with real(arm, **kw) as sim:
+            yield sim
+            seen["ticks"] = [sim.sim.servo(i).present_position for i in arm.servo_ids]
+
+    monkeypatch.setattr(simulated, "simulated_arm", recording)
+    ns: dict = {}
+    exec(compile(code, "README.md", "exec"), ns)
+    arm, report = ns["omx"], ns["report"]
+    assert report.stop_reason == "completed", report.headline
+    assert ns["traj"].poses[-1] == pytest.approx(ns["target"])
+    q = servo_units.ticks_to_radians(np.array(seen["ticks"]), arm.servos)
+    pose = kinematics.fk_yawed(arm.chain, q[None])[0]
+    assert np.allclose(pose[:3], ns["target"][:3], atol=0.004)
+
+
 def _table_after(heading: str) -> list[list[str]]:
     """Rows (cells stripped, backticks dropped) of the first Markdown table after ``heading``."""
     text = README[README.index(heading):]

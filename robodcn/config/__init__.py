@@ -41,9 +41,11 @@ yawed arm has the yaw joint first (``[[joints]]`` in order: yaw, then the chain)
 Values are checked against the servo model (:data:`SERVO_SPECS`: ticks a turn, no-load
 speed, largest profile acceleration, stall torque and current) and physical sense (link
 lengths in :data:`LINK_RANGE`, joint limits within one turn, the home pose reachable);
-messages stay one short line.
+messages stay one short line. :func:`load_arm` takes a path, or the name of a packaged
+example (:data:`EXAMPLES`: ``"arm3r"``, ``"arm2r"``, ``"omx"``; :mod:`._examples`).
 """
 
+from robodcn.config._examples import EXAMPLES, example_path
 from robodcn.config._load import arm_from_dict, load_arm
 from robodcn.config._rigid import rigid_chain, rotor_inertias
 from robodcn.config._specs import (
@@ -70,10 +72,11 @@ from robodcn.config._specs import (
 )
 
 __all__ = [
-    "BAUD_RATES", "ELBOWS", "IN_POSITION_TICKS", "LINK_RANGE", "MAX_JERK", "MAX_SERVO_ID",
+    "BAUD_RATES", "ELBOWS", "EXAMPLES", "IN_POSITION_TICKS", "LINK_RANGE", "MAX_JERK",
+    "MAX_SERVO_ID",
     "PLANAR_POSE", "PLANES",
     "RATE_RANGE", "SERVO_MODELS", "SERVO_SPECS", "YAWED_POSE", "Arm", "BusSpec",
     "GripperSpec", "JointSpec", "MassProperties", "ServoModel", "ServoSpec", "ToolSpec",
-    "arm_from_dict",
+    "arm_from_dict", "example_path",
     "load_arm", "rigid_chain", "rotor_inertias",
 ]

@@ -11,6 +11,7 @@ import numpy as np
 
 from robodcn import kinematics
 from robodcn.config._dynamics import dynamics
+from robodcn.config._examples import EXAMPLES, arm_path
 from robodcn.config._geometry import geometry
 from robodcn.config._parts import bus, gripper, joint
 from robodcn.config._reader import Reader
@@ -106,7 +107,9 @@ def _check_pose(arm: Arm, which: str, pose: tuple[float, ...]) -> None:
 
 
 def load_arm(path: str | Path) -> Arm:
-    """Read and validate an arm TOML file (see the module docstring for its layout).
+    """Read and validate an arm TOML file (see the module docstring for its layout), or the
+    packaged example a name gives (``"arm3r"``, ``"arm2r"``, ``"omx"``: :data:`EXAMPLES`)
+    when no file of that name exists, as ``--arm`` takes them.
 
     Raises
     ------
@@ -114,13 +117,15 @@ def load_arm(path: str | Path) -> Arm:
         The file is missing, not valid TOML, or any key is unknown, missing or impossible;
         the message names the file, key and value.
     """
-    path = Path(path)
+    path = arm_path(path)
     source = str(path)
     try:
         text = path.read_bytes().decode("utf-8")
     except OSError as exc:
-        raise ConfigError(f"cannot read arm config: {exc.strerror}", file=source, key=None,
-                          value=source) from exc
+        examples = (f" (nor an example arm: {', '.join(EXAMPLES)})"
+                    if isinstance(exc, FileNotFoundError) else "")
+        raise ConfigError(f"cannot read arm config: {exc.strerror}{examples}", file=source,
+                          key=None, value=source) from exc
     except UnicodeDecodeError as exc:
         raise ConfigError(f"arm config is not UTF-8 text: {exc}", file=source, key=None,
                           value=source) from exc
