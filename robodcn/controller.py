@@ -52,10 +52,10 @@ from robodcn.config import Arm
 from robodcn.errors import BusError, BusyError, InputError, NoMoveError, RobodcnError
 from robodcn.moves import RECORD_SAMPLES, MoveRecord, move_status
 from robodcn.planner import Trajectory
-from robodcn.results import MoveStatus, State, StopAnswer
-from robodcn.stream import STOP_MODES, ExecutionOptions, ExecutionReport, Progress
+from robodcn.results import MoveStatus, RebootAnswer, State, StopAnswer, TorqueAnswer
+from robodcn.stream import STOP_MODES, ExecutionOptions, ExecutionReport, Progress, StopSignal
 from robodcn.stream.online import Execution, PlanningTimes, SwitchMissed, Turns, prepare
-from robodcn.workflow import admin, poses
+from robodcn.workflow import poses
 from robodcn.workflow.gripper import GripperResult
 
 log = logging.getLogger("robodcn.controller")
@@ -118,6 +118,8 @@ class ArmController:
         self._current: MoveRecord | None = None
         #: Thread holding :meth:`admitting` (reading the pose and planning a move), or None.
         self._admitting: int | None = None
+        #: The stop signal of the lowering a torque off or a reboot runs first, or None.
+        self._lowering: StopSignal | None = None
         #: Replacements take turns, from the request to the switch (robodcn.admission).
         self.replacements = Turns(REPLACE_WAIT, "another replacement is being planned")
         self._ids = itertools.count(1)
@@ -233,9 +235,11 @@ class ArmController:
 
     def request_stop(self, reason: str = "stop requested") -> None:
         """Signal the current move to stop, without a lock or a wait (signal handlers)."""
-        record = self._current
+        record, lowering = self._current, self._lowering
         if record is not None:
             record.stop_signal.request(reason)
+        if lowering is not None:
+            lowering.request(reason)
 
     def stop(self, *, wait: float = 1.0) -> StopAnswer:
         """Stop the current move, if any; the streamer holds the arm where it is.
@@ -245,8 +249,11 @@ class ArmController:
         """
         with self._lock:
             record = self._current
+            lowering = self._lowering
         if record is None:
-            return StopAnswer(stopped=False, move=None, status=None)
+            if lowering is not None:       # a torque off or a reboot lowering the arm first
+                lowering.request("stop requested")
+            return StopAnswer(stopped=lowering is not None, move=None, status=None)
         record.stop_signal.request("stop requested")
         record.done.wait(wait)
         with self._lock:
@@ -551,17 +558,38 @@ class ArmController:
         return self._worker.call(job, what, timeout)
 
     def set_torque(self, on: bool, joint: str | None = None, *,
-                   confirm: bool = False) -> tuple[int, ...]:
+                   confirm: bool = False) -> TorqueAnswer:
         """Torque on (holding where the arm is) or off, for ``joint`` or every joint
         (:func:`robodcn.servo_admin.set_torque`: torque off on an arm under gravity needs
-        ``confirm``, GravityReleaseError 409 otherwise); returns the servo ids written.
+        ``confirm``, GravityReleaseError 409 otherwise, and lowers the arm to its rest pose
+        first).
 
         Raises InputError for an unknown joint or a non-boolean ``on``/``confirm``,
-        BusyError while a move runs, BusError."""
+        BusyError while a move runs, BusError (a lowering that ended in a fault: torque
+        stays on)."""
         servo_admin.check_torque(self.arm, on, joint, confirm)  # refused before the bus
-        return self._admin(lambda: servo_admin.set_torque(self.bus, self.arm, on, joint,
-                                                          confirm=confirm),
-                           "switching torque")
+        return self._releasing(lambda: servo_admin.set_torque(
+            self.bus, self.arm, on, joint, confirm=confirm,
+            execute_options=self._release_options()))
+
+    def _release_options(self) -> dict[str, Any]:
+        """The execute options of a lowering before torque off: the service's clock,
+        compensation and tracking limit, and a stop signal :meth:`stop` requests."""
+        signal = StopSignal()
+        with self._lock:
+            self._lowering = signal
+        options = self.execute_options
+        return {"compensation": options.compensation, "tracking_limit": options.tracking_limit,
+                "clock": options.clock, "stop": signal}
+
+    def _releasing(self, job: Any) -> Any:
+        """``job`` (a guarded torque off or reboot, which may lower the arm first) on the
+        worker thread; :meth:`stop` stops its lowering meanwhile."""
+        try:
+            return self._admin(job, "releasing the arm", timeout=servo_admin.RELEASE_TIMEOUT)
+        finally:
+            with self._lock:
+                self._lowering = None
 
     def gripper(self, command: str | None = None, *,
                 width_m: float | None = None) -> GripperResult:
@@ -574,12 +602,14 @@ class ArmController:
         return self._admin(lambda: servo_admin.gripper(self.bus, self.arm, command, width_m),
                            "driving the gripper", timeout=servo_admin.GRIPPER_TIMEOUT)
 
-    def reboot(self, joint: str | None = None) -> tuple[int, ...]:
+    def reboot(self, joint: str | None = None, *, confirm: bool = False) -> RebootAnswer:
         """Reboot ``joint``'s servo, or every servo (clears hardware errors; torque is off
-        afterwards, :func:`robodcn.workflow.admin.reboot`); returns the ids rebooted."""
-        admin.joint_ids(self.arm, joint)
-        return self._admin(lambda: admin.reboot(self.bus, self.arm, joint),
-                           "rebooting the servos")
+        afterwards, so on an arm under gravity it needs ``confirm`` and lowers the arm to
+        its rest pose first: :func:`robodcn.servo_admin.reboot`)."""
+        servo_admin.check_torque(self.arm, False, joint, confirm)  # refused before the bus
+        return self._releasing(lambda: servo_admin.reboot(
+            self.bus, self.arm, joint, confirm=confirm,
+            execute_options=self._release_options()))
 
     def _read_ticks(self) -> NDArray[np.int64]:
         ticks = self.bus.read_positions()

@@ -201,21 +201,34 @@ class ArmInfo:
         "what every move the service starts executes with, or null (no arm attached)"))
 
 
+#: What a released arm was told, shared by TorqueAnswer and RebootAnswer.
+_LOWERED = ("the arm was lowered to its rest pose ([arm.rest]) before torque went off (an "
+            "arm under gravity, confirmed)")
+_HOLD = ("why an arm under gravity could not be lowered first (no rest pose, a lowering "
+         "refused): the user was to hold it; null when it was lowered or does not fall")
+
+
 @dataclass
 class TorqueAnswer:
-    """Torque switched: on or off, for which joint (None: every joint), on which servos."""
+    """Torque switched: on or off, for which joint (None: every joint), on which servos;
+    off on an arm under gravity: whether it was lowered to its rest pose first."""
 
     on: bool
     joint: str | None
     servo_ids: list[int]
+    lowered: bool = field(default=False, metadata=_doc(_LOWERED))
+    hold: str | None = field(default=None, metadata=_doc(_HOLD))
 
 
 @dataclass
 class RebootAnswer:
-    """Servos rebooted (hardware errors cleared; torque is off afterwards)."""
+    """Servos rebooted (hardware errors cleared; torque is off afterwards): on an arm under
+    gravity after lowering it to its rest pose (confirmed)."""
 
     joint: str | None
     servo_ids: list[int]
+    lowered: bool = field(default=False, metadata=_doc(_LOWERED))
+    hold: str | None = field(default=None, metadata=_doc(_HOLD))
 
 
 @dataclass

@@ -1,14 +1,15 @@
 """Servo admin jobs the service runs on its bus worker (:meth:`robodcn.controller.
-ArmController.set_torque`, :meth:`~robodcn.controller.ArmController.gripper`): torque off
-that would drop an arm under gravity needs confirmation, and the gripper.
+ArmController.set_torque`, :meth:`~robodcn.controller.ArmController.reboot`,
+:meth:`~robodcn.controller.ArmController.gripper`).
 
-* :func:`set_torque`: :func:`robodcn.workflow.admin.set_torque`, but torque off on an arm
-  under gravity (a chain in a vertical plane, g ≠ 0) is refused without ``confirm`` —
-  GravityReleaseError (409; CLI ``--yes``, HTTP ``"confirm": true``) naming the joints
-  gravity loads and the torque each holds at the present pose
-  (:func:`robodcn.workflow.release.check_release`) — unless the one joint switched is not
-  loaded (an OM-X's base yaw). Confirmed, torque goes off where the arm is: lowering to a
-  rest pose first is a release's (:func:`robodcn.workflow.release.release`).
+* :func:`set_torque`: on holds where the arm is (:func:`robodcn.workflow.admin.set_torque`);
+  off, and :func:`reboot` (a servo comes back from a REBOOT with torque off), go through the
+  gravity guard :func:`robodcn.workflow.release.release`: on an arm under gravity (a chain
+  in a vertical plane, g ≠ 0) refused without ``confirm`` — GravityReleaseError (409; CLI
+  ``--yes``, HTTP ``"confirm": true``) naming the joints gravity loads and the torque each
+  holds at the present pose — unless the joints switched are not loaded (an OM-X's base
+  yaw, a joint whose torque is off already). Confirmed, the arm is lowered to its rest pose
+  first where it can be, and the user told to hold it where it cannot.
 * :func:`gripper`: :func:`robodcn.workflow.gripper.actuate` on the arm's ``[gripper]``.
 
 Each ``check_*``/``*_goal`` function refuses bad arguments before the bus is touched.
@@ -16,18 +17,22 @@ Each ``check_*``/``*_goal`` function refuses bad arguments before the bus is tou
 
 from __future__ import annotations
 
-from robodcn import servo_units
+from typing import Any
+
 from robodcn.bus import ServoBus
 from robodcn.config import Arm, GripperSpec
-from robodcn.errors import GravityReleaseError, InputError
+from robodcn.errors import BusError, InputError, StoppedError
+from robodcn.results import RebootAnswer, TorqueAnswer
 from robodcn.workflow import admin
 from robodcn.workflow import gripper as grip
-from robodcn.workflow.float_teach import has_gravity
-from robodcn.workflow.release import ReleaseCheck, check_release
+from robodcn.workflow.release import ReleaseResult, release
 
 #: Seconds a gripper command may take on the worker thread: the jaws' own settling timeout
 #: (:func:`robodcn.workflow.gripper.actuate`, 3 s) and the reads around it.
 GRIPPER_TIMEOUT = 5.0
+#: Seconds a torque off or a reboot may take on the worker thread: the lowering to the rest
+#: pose first (a few seconds at the arm's limits) and the reboot's own wait.
+RELEASE_TIMEOUT = 60.0
 
 
 def check_torque(arm: Arm, on: object, joint: str | None, confirm: object) -> None:
@@ -39,34 +44,47 @@ def check_torque(arm: Arm, on: object, joint: str | None, confirm: object) -> No
     admin.joint_ids(arm, joint)
 
 
-def refuse_falling(check: ReleaseCheck, joint: str | None) -> None:
-    """GravityReleaseError when torque off on ``joint`` (None: every joint) drops the arm:
-    it falls (``check.falls``) and ``joint`` is one gravity loads (or every joint goes)."""
-    if not check.falls or (joint is not None and joint not in check.joints):
-        return
-    which = check.joints if joint is None else (joint,)
-    if check.holding_torque_nm is None:
-        held = "gravity loads " + ", ".join(which)
-    else:
-        torque = dict(zip(check.joint_names, check.holding_torque_nm, strict=True))
-        held = "holding " + ", ".join(f"{name} {abs(torque[name]):.2f} N·m" for name in which)
-    on = f"on {joint} " if joint is not None else ""
-    raise GravityReleaseError(
-        f"torque off {on}lets arm {check.arm!r} fall under gravity ({held}); confirm to "
-        "switch it off where it is", arm=check.arm, joints=which,
-        holding_torque_nm=check.holding_torque_nm, rest=check.rest)
+def _done(result: ReleaseResult, what: str) -> ReleaseResult:
+    """``result`` when torque went off; else (a lowering that stopped short: torque stays
+    on) StoppedError for a stop request, BusError for a fault or a collision."""
+    if result.released:
+        return result
+    outcome = result.lowering.outcome if result.lowering is not None else "?"
+    error = StoppedError if outcome == "stopped" else BusError
+    raise error(f"{what} not done: the lowering to the rest pose ended {outcome}; torque "
+                "stays on", field="confirm", value=outcome)
 
 
 def set_torque(bus: ServoBus, arm: Arm, on: bool, joint: str | None = None, *,
-               confirm: bool = False) -> tuple[int, ...]:
-    """Torque on or off for ``joint`` (default every joint), refusing a torque off that
-    drops the arm unless ``confirm`` (module docstring); returns the ids written."""
+               confirm: bool = False, execute_options: dict[str, Any] | None = None
+               ) -> TorqueAnswer:
+    """Torque on (holding where the arm is) or off for ``joint`` (default every joint).
+
+    Off goes through the gravity guard (module docstring): GravityReleaseError without
+    ``confirm`` when it drops the arm; confirmed, lowered to the rest pose first.
+    ``execute_options`` go to the lowering's :func:`robodcn.execute`."""
     check_torque(arm, on, joint, confirm)
-    if not on and not confirm and has_gravity(arm):
-        ticks = bus.read_positions()
-        q = servo_units.ticks_to_radians(ticks[None, :], arm.servos)[0]
-        refuse_falling(check_release(arm, q), joint)
-    return admin.set_torque(bus, arm, on, joint)
+    if on:
+        return TorqueAnswer(on=True, joint=joint,
+                            servo_ids=list(admin.set_torque(bus, arm, True, joint)))
+    result = _done(release(bus, arm, confirm=confirm, ids=admin.joint_ids(arm, joint),
+                           verify=False, execute_options=execute_options,
+                           switch_off=lambda: admin.set_torque(bus, arm, False, joint)),
+                   "torque off")
+    return TorqueAnswer(on=False, joint=joint, servo_ids=list(result.released_ids),
+                        lowered=result.lowered, hold=result.hold)
+
+
+def reboot(bus: ServoBus, arm: Arm, joint: str | None = None, *, confirm: bool = False,
+           execute_options: dict[str, Any] | None = None) -> RebootAnswer:
+    """REBOOT ``joint``'s servo (default every joint's): it comes back with torque off, so
+    it goes through the gravity guard like a torque off (:func:`set_torque`)."""
+    check_torque(arm, False, joint, confirm)
+    result = _done(release(bus, arm, confirm=confirm, ids=admin.joint_ids(arm, joint),
+                           verify=False, what="reboot", execute_options=execute_options,
+                           switch_off=lambda: admin.reboot(bus, arm, joint)), "reboot")
+    return RebootAnswer(joint=joint, servo_ids=list(result.released_ids),
+                        lowered=result.lowered, hold=result.hold)
 
 
 def _spec(arm: Arm) -> GripperSpec:
@@ -88,5 +106,5 @@ def gripper(bus: ServoBus, arm: Arm, command: str | None = None,
     return grip.actuate(bus, _spec(arm), command, width_m=width_m)
 
 
-__all__ = ["GRIPPER_TIMEOUT", "check_torque", "gripper", "gripper_goal", "refuse_falling",
-           "set_torque"]
+__all__ = ["GRIPPER_TIMEOUT", "RELEASE_TIMEOUT", "check_torque", "gripper", "gripper_goal",
+           "reboot", "set_torque"]

@@ -34,6 +34,8 @@ class FakeBus:
         self.limit_a = limit_a
         self.calls = []
         self.fail_writes = 0
+        self.modes = dict.fromkeys(self.ids, 3)
+        self.torque = dict.fromkeys(self.ids, False)        # freshly powered
 
     def read_positions(self):
         pose = self.poses.pop(0) if len(self.poses) > 1 else self.poses[0]
@@ -51,6 +53,16 @@ class FakeBus:
 
     def set_operating_mode(self, mode, servos, *, goal_current_a=None, torque=None):
         self.calls.append(("mode", mode, tuple(servos), goal_current_a))
+        for i in servos:
+            self.modes[i] = mode
+            if torque is not None:
+                self.torque[i] = torque
+
+    def operating_modes(self, servos):
+        return {i: self.modes[i] for i in servos}
+
+    def torque_enabled(self):
+        return dict(self.torque)
 
     @contextlib.contextmanager
     def claim(self):

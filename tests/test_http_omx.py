@@ -333,8 +333,8 @@ def test_torque_off_on_the_omx_needs_confirm() -> None:
         status, _, body = call(server, "POST", "/v1/torque", {"on": False, "joint": "yaw"})
         assert status == 200 and body["servo_ids"] == [OMX.servo_ids[0]], body
         status, _, body = call(server, "POST", "/v1/torque", {"on": False, "confirm": True})
-        assert status == 200 and body == {"on": False, "joint": None,
-                                          "servo_ids": list(OMX.servo_ids)}, body
+        assert status == 200 and body == {"on": False, "joint": None, "lowered": True,
+                                          "hold": None, "servo_ids": list(OMX.servo_ids)}, body
         assert not any(_torque_on(sa))
         status, _, body = call(server, "POST", "/v1/torque", {"on": True})
         assert status == 200 and all(_torque_on(sa))

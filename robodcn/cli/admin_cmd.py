@@ -13,7 +13,7 @@ import math
 import time
 
 from robodcn.cli import options, releasing
-from robodcn.cli.dialogue import confirm
+from robodcn.cli.dialogue import confirm, say
 from robodcn.cli.exit_codes import Exit
 from robodcn.cli.report_text import pose_text
 from robodcn.cli.servo_session import (
@@ -85,10 +85,10 @@ def _add_torque(sub) -> None:
     p = sub.add_parser("torque", help="switch servo torque on or off",
                        description="Torque Enable on or off, on every joint or one (--joint). "
                                    "Off releases the arm: an arm under gravity falls, so "
-                                   "off needs --yes there (exit 2 without it, nothing "
-                                   "changes) and, on every joint, first lowers the arm to "
-                                   "its [arm.rest] pose when it has one. On holds the "
-                                   "present position.")
+                                   "off on a joint gravity loads needs --yes there (exit 2 "
+                                   "without it, nothing changes) and first lowers the arm "
+                                   "to its [arm.rest] pose (where it cannot, hold it). On "
+                                   "holds the present position.")
     p.add_argument("state", choices=("on", "off"), help="on or off")
     p.add_argument("--joint", metavar="NAME", help="only this joint (default: every joint)")
     releasing.add_yes_option(p, what="torque off")
@@ -104,28 +104,12 @@ def run_torque(args: argparse.Namespace) -> int:
     ids = joint_ids(arm, args.joint)
     with open_bus(args, arm) as bus:
         check_models(bus, arm)
-        if args.state == "off" and releasing.falls(arm):
-            return _torque_off_under_gravity(args, arm, bus)
-        set_torque(bus, arm, args.state == "on", args.joint)
-    print(f"torque {args.state}: servo(s) {', '.join(map(str, ids))}")
-    return Exit.DONE
-
-
-def _torque_off_under_gravity(args: argparse.Namespace, arm, bus) -> int:
-    """``torque off`` on an arm that falls: refused without --yes (GravityReleaseError,
-    nothing written); confirmed, one joint goes off where it is, every joint after the
-    lowering to the rest pose (:func:`robodcn.workflow.release.release`)."""
-    from robodcn.present import present_joints
-    from robodcn.workflow.admin import set_torque
-    from robodcn.workflow.release import release
-
-    if releasing.confirm_release(arm, present_joints(arm, bus), args.yes, joint=args.joint):
-        releasing.warn_falling(arm, lowering=args.joint is None)
-    if args.joint is not None:
-        ids = set_torque(bus, arm, False, args.joint)
-        print(f"torque off: servo(s) {', '.join(map(str, ids))}")
-        return Exit.DONE
-    result = release(bus, arm, confirm=True)
+        if args.state == "on":
+            set_torque(bus, arm, True, args.joint)
+            print(f"torque on: servo(s) {', '.join(map(str, ids))}")
+            return Exit.DONE
+        result = releasing.guarded(args, arm, bus, ids=ids, verify=False,   # models: warned
+                                   switch_off=lambda: set_torque(bus, arm, False, args.joint))
     print(releasing.release_line(result).removeprefix("robodcn: "))
     return Exit.DONE if result.released else Exit.FAULT
 
@@ -134,8 +118,12 @@ def _add_reboot(sub) -> None:
     p = sub.add_parser("reboot", help="reboot servos (clears a hardware error)",
                        description="REBOOT every servo or one joint's (--joint) and wait until "
                                    "it answers. Clears Hardware Error Status (overload, "
-                                   "overheating); the servo comes back with torque off.")
+                                   "overheating); the servo comes back with torque off, so "
+                                   "on an arm under gravity it needs --yes (exit 2 without "
+                                   "it, nothing changes) and first lowers the arm to its "
+                                   "[arm.rest] pose.")
     p.add_argument("--joint", metavar="NAME", help="only this joint (default: every joint)")
+    releasing.add_yes_option(p, what="the reboot")
     options.add_arm_option(p)
     add_bus_options(p)
     p.set_defaults(func=run_reboot)
@@ -145,11 +133,40 @@ def run_reboot(args: argparse.Namespace) -> int:
     from robodcn.workflow.admin import joint_ids, reboot
 
     arm = options.load_arm(args)
-    joint_ids(arm, args.joint)
+    ids = joint_ids(arm, args.joint)
     with open_bus(args, arm) as bus:
-        ids = reboot(bus, arm, args.joint)
-    print(f"rebooted servo(s) {', '.join(map(str, ids))} (torque is off)")
+        result = releasing.guarded(args, arm, bus, ids=ids, what="reboot", verify=False,
+                                   switch_off=lambda: reboot(bus, arm, args.joint))
+    if not result.released:
+        say(releasing.release_line(result, "reboot"))
+        return Exit.FAULT
+    lowered = ", the arm lowered to its rest pose first" if result.lowered else ""
+    print(f"rebooted servo(s) {', '.join(map(str, ids))} (torque is off{lowered})")
     return Exit.DONE
+
+
+def _guard_servos(args: argparse.Namespace, arm: Arm, ids, what: str) -> None:
+    """The gravity guard before ``servo set-id``/``set-baud`` switch torque off on ``ids``
+    (:func:`robodcn.cli.releasing.guarded` on the arm's bus, closed again before the
+    change). When the arm's servos cannot all be read, a joint of ``ids`` on an arm under
+    gravity still needs --yes, and the user holds the arm."""
+    from robodcn.errors import BusError
+    from robodcn.workflow.release import ReleaseCheck, refusal
+
+    joints = tuple(j.name for j in arm.chain_joints if j.servo.id in ids)
+    if not joints or not releasing.falls(arm):
+        return
+    try:
+        with open_bus(args, arm) as bus:
+            releasing.guarded(args, arm, bus, ids=ids, what=what, verify=False)
+        return
+    except BusError as exc:
+        hold = f"the arm's servos cannot be read ({exc.message})"
+    if not args.yes:
+        check = ReleaseCheck(arm.name, True, joints, arm.joint_names, None, arm.rest)
+        raise releasing.asks(refusal(check, what=what, hold=hold))
+    releasing.warning(f"{what} may let arm {arm.name!r} fall under gravity and it cannot "
+                      f"be lowered first ({hold}): hold it")
 
 
 # -- servo ---------------------------------------------------------------------------------------
@@ -173,7 +190,9 @@ def _add_servo(sub) -> None:
     sid.add_argument("new", type=options.servo_id, metavar="NEW", help="new id, 0..252, free")
     options.add_arm_option(sid)
     add_bus_options(sid)
-    sid.add_argument("--yes", action="store_true", help="do not ask for confirmation")
+    sid.add_argument("--yes", action="store_true", help="do not ask for confirmation (also "
+                     "confirms torque off on a joint under gravity: the arm is lowered to "
+                     "its [arm.rest] pose first)")
     sid.set_defaults(func=run_servo_set_id)
     sb = ssub.add_parser("set-baud", help="change the baud rate of the arm's servos",
                          description="Switch every servo of the arm from --baud to BAUD. "
@@ -182,7 +201,9 @@ def _add_servo(sub) -> None:
     sb.add_argument("new_baud", type=options.baud, metavar="BAUD", help="new baud rate")
     options.add_arm_option(sb)
     add_bus_options(sb)
-    sb.add_argument("--yes", action="store_true", help="do not ask for confirmation")
+    sb.add_argument("--yes", action="store_true", help="do not ask for confirmation (also "
+                    "confirms torque off on an arm under gravity: it is lowered to its "
+                    "[arm.rest] pose first)")
     sb.set_defaults(func=run_servo_set_baud)
 
 
@@ -225,6 +246,7 @@ def run_servo_set_id(args: argparse.Namespace) -> int:
         raise InputError(f"NEW must differ from OLD, both are {args.old}", field="new",
                          value=args.new)
     device, baud = device_of(args, arm), baud_of(args, arm)
+    _guard_servos(args, arm, (args.old,), f"servo set-id {args.old} {args.new}")
     if not confirm(f"change servo id {args.old} to {args.new} on {device}?", yes=args.yes):
         raise StoppedError("not changed", field="yes")
     set_id(device, baud, args.old, args.new)
@@ -240,6 +262,7 @@ def run_servo_set_baud(args: argparse.Namespace) -> int:
     if args.new_baud == baud:
         raise InputError(f"BAUD {baud} is the present baud rate already", field="baud",
                          value=baud)
+    _guard_servos(args, arm, arm.servo_ids, f"servo set-baud {args.new_baud}")
     if not confirm(f"switch servo(s) {list(arm.servo_ids)} on {device} from {baud} to "
                    f"{args.new_baud} baud?", yes=args.yes):
         raise StoppedError("not changed", field="yes")

@@ -12,7 +12,7 @@ from __future__ import annotations
 import argparse
 import sys
 
-from robodcn.cli import options
+from robodcn.cli import options, releasing
 from robodcn.cli.dialogue import confirm, say, stdin_prompt
 from robodcn.cli.output import save_work
 from robodcn.cli.servo_session import add_bus_options, open_bus
@@ -25,8 +25,10 @@ SKIP_ANSWERS = ("s", "skip")
 def register(subparsers: argparse._SubParsersAction) -> None:
     p = subparsers.add_parser(
         "calibrate", help="find zero offsets, directions and ranges by moving the arm by hand",
-        description="Torque off; put the arm in its reference pose (every joint angle 0) and "
-                    "press Enter: each servo's tick becomes its zero_offset. Then, per joint, "
+        description="Torque off (on an arm under gravity asked first, or --yes: it is "
+                    "lowered to its [arm.rest] pose, then you hold it; however calibration "
+                    "ends it then holds where it is, torque on); put the arm in its "
+                    "reference pose (every joint angle 0) and press Enter: each servo's tick becomes its zero_offset. Then, per joint, "
                     "turn it in its positive direction (sets direction) and, unless "
                     "--no-ranges, through its whole range (sets min_tick/max_tick with "
                     "--margin and the joint limits inside them). Writes --out, a copy of the "
@@ -36,7 +38,8 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     add_bus_options(p)
     p.add_argument("--out", required=True, metavar="NEW.toml", help="calibrated arm TOML")
     p.add_argument("--force", action="store_true", help="overwrite --out if it exists")
-    p.add_argument("--yes", action="store_true", help="write without asking")
+    p.add_argument("--yes", action="store_true", help="write without asking; on an arm "
+                   "under gravity also confirms torque off (lowered to [arm.rest] first)")
     p.add_argument("--no-ranges", dest="ranges", action="store_false",
                    help="skip the whole-range step (keep tick ranges and joint limits)")
     p.add_argument("--margin", type=options.positive_float, default=2.0, metavar="DEG",
@@ -56,8 +59,9 @@ def dialogue(calibrator, *, ranges: bool):
     """Drive ``calibrator`` (a :class:`~robodcn.workflow.calibrate.Calibrator`) through
     its steps; returns its :class:`~robodcn.workflow.calibrate.Calibration`."""
     arm = calibrator.arm
-    _ask("Torque is off. Put the arm in its reference pose (every joint angle 0) and press "
-         "Enter")
+    held = "; hold it, gravity loads it" if releasing.falls(arm) else ""
+    _ask(f"Torque is off{held}. Put the arm in its reference pose (every joint angle 0) and "
+         "press Enter")
     calibrator.read_reference()
     for j, spec in enumerate(arm.joints):
         _ask(f"Turn joint {spec.name!r} (servo {spec.servo.id}) a little in its positive "
@@ -83,6 +87,20 @@ def dialogue(calibrator, *, ranges: bool):
     return calibrator.result()
 
 
+def _start(calibrator, yes: bool) -> None:
+    """Torque off (:meth:`~robodcn.workflow.calibrate.Calibrator.start`): on an arm that
+    would fall, asked first (``--yes`` answers), refused (exit 2, naming the joints and the
+    flag) unless answered y."""
+    from robodcn.errors import GravityReleaseError
+
+    try:
+        calibrator.start(confirm=yes, warn=releasing.warning)
+    except GravityReleaseError as refusal:
+        if not confirm(f"{refusal.message}. Go on, holding the arm when it is let go?"):
+            raise releasing.asks(refusal) from None
+        calibrator.start(confirm=True, warn=releasing.warning)
+
+
 def run(args: argparse.Namespace) -> int:
     from robodcn.workflow.calibrate import Calibrator, diff, updated_toml
     from robodcn.workflow.examples import resolve_arm_path
@@ -91,8 +109,14 @@ def run(args: argparse.Namespace) -> int:
     arm = options.load_arm(args)
     out = options.check_output_path(args.out, "--out", overwrite=args.force)
     text = source.read_text(encoding="utf-8")
-    with open_bus(args, arm) as bus:
-        result = dialogue(Calibrator(bus, arm, margin_deg=args.margin), ranges=args.ranges)
+    with open_bus(args, arm) as bus, Calibrator(bus, arm, margin_deg=args.margin) as cal:
+        _start(cal, args.yes)
+        try:
+            result = dialogue(cal, ranges=args.ranges)
+        finally:
+            cal.close(failed=sys.exc_info()[0] is not None)     # held before it is said
+            if cal.held:
+                say("calibration: the arm holds where it is (torque on, position mode)")
     new = updated_toml(text, result, source=str(out))
     for note in result.notes:
         say(f"note: {note}")
@@ -102,5 +126,5 @@ def run(args: argparse.Namespace) -> int:
     if not confirm(f"write {out}?", yes=args.yes):
         raise StoppedError(f"{out} not written", field="out", value=str(out))
     save_work(out, new, what="the calibrated config")
-    say(f"wrote {out} (torque stays off)")
+    say(f"wrote {out}" + ("" if cal.held else " (torque stays off)"))
     return 0

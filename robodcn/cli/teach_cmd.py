@@ -5,12 +5,14 @@ The dialogue over :class:`robodcn.workflow.teach.Teaching`: Enter records the pr
 "close"``), ``u`` undoes the last one, ``q`` (or end of input) finishes; the file is
 :func:`robodcn.workflow.teach.waypoints_toml`, for ``robodcn run``.
 
-Torque goes off so a hand moves the arm — on an arm under gravity only with ``--yes`` (it
-falls). ``--float`` holds a vertical arm in float mode instead
-(:class:`robodcn.workflow.teach.FloatSession`: current control with the present pose's
-gravity currents, refreshed on its own thread while the prompt waits): it stays where the
-hand leaves it, and at the end holds there in position mode; ``--release`` then lets it go
-(``--yes``; lowered to ``[arm.rest]`` first).
+Torque goes off so a hand moves the arm — on an arm under gravity only with ``--yes``
+(:mod:`robodcn.cli.releasing`: it is lowered to its rest pose first), and however the
+session ends it holds where it is (torque on, position mode). ``--float`` holds a vertical
+arm in float mode instead (:class:`robodcn.workflow.teach.FloatSession`: current control
+with torque on and the present pose's gravity currents, refreshed on its own thread while
+the prompt waits): it stays where the hand leaves it — said once the servos read back
+current control with torque on — and at the end holds there in position mode (read back
+too); ``--release`` then lets it go (``--yes``; lowered to ``[arm.rest]`` first).
 """
 
 from __future__ import annotations
@@ -117,7 +119,8 @@ def _check_segments(method, turn, count: int, out, text: str) -> None:
 
 
 def _teach(args: argparse.Namespace, arm, bus):
-    """The dialogue on ``bus``: floating (--float) or with torque off; the Teaching."""
+    """The dialogue on ``bus``: floating (--float) or with torque off; the Teaching. However
+    it ends, an arm under gravity is left holding where it is (torque on, position mode)."""
     from robodcn.present import present_joints
     from robodcn.workflow.teach import FloatSession, Teaching
 
@@ -126,37 +129,49 @@ def _teach(args: argparse.Namespace, arm, bus):
         if args.release and gravity:
             releasing.confirm_release(arm, present_joints(arm, bus), args.yes)
         with FloatSession(bus, arm, joints=arm.joint_names) as session:   # the yaw too
-            say(f"float: joints {', '.join(session.float.joint_names)} hold against gravity; "
-                "move the arm by hand, it stays where you leave it")
+            say(_floating_line(session.float))
             teaching = Teaching(bus, arm, torque_off=False, run=session.call)
             record(teaching)
-        report = session.report
-        if report is not None:
-            clipped = (f"; above the current limit (sagged): {', '.join(report.clipped)}"
-                       if report.clipped else "")
-            say(f"float off: {report.cycles} refreshes at {report.rate_hz:.0f} Hz{clipped}; "
-                "the arm holds where it was left (position mode)")
+        _float_end(session.report)
         if args.release:
             _release_at_end(args, arm, bus)
         return teaching
     if gravity and not args.yes:
         say("robodcn: teach --float holds a vertical arm while a hand moves it")
-        releasing.confirm_release(arm, present_joints(arm, bus), args.yes)
-    if gravity:
-        releasing.warn_falling(arm, lowering=False)
-    teaching = Teaching(bus, arm)
-    record(teaching)
+        releasing.confirm_release(arm, present_joints(arm, bus), args.yes, what="teach")
+    with Teaching(bus, arm, confirm=args.yes, warn=releasing.warning) as teaching:
+        record(teaching)
+    if teaching.held:
+        say("teach: the arm holds where it is (torque on, position mode)")
     return teaching
 
 
-def _release_at_end(args: argparse.Namespace, arm, bus) -> None:
-    from robodcn.present import present_joints
-    from robodcn.workflow.release import release
+def _floating_line(float_teach) -> str:
+    """What the float does, once it reads back current control with torque on: the joints
+    whose gravity current is above their Current Limit sag, the others stay."""
+    latest = float_teach.latest
+    over = float_teach.report().clipped if latest is not None else ()
+    stays = ("it stays where you leave it" if not over else
+             f"it stays where you leave it, except {', '.join(over)} (above the current "
+             "limit: it sags)")
+    return (f"float: joints {', '.join(float_teach.joint_names)} hold against gravity "
+            f"(current control, torque on); move the arm by hand, {stays}")
 
-    releasing.confirm_release(arm, present_joints(arm, bus), args.yes)
-    if releasing.falls(arm):
-        releasing.warn_falling(arm)
-    say(releasing.release_line(release(bus, arm, confirm=True)))
+
+def _float_end(report) -> None:
+    """The float's last line: what it did and, read back, whether the arm holds."""
+    if report is None:
+        return
+    clipped = (f"; above the current limit (sagged): {', '.join(report.clipped)}"
+               if report.clipped else "")
+    held = ("the arm holds where it was left (position mode)" if report.held else
+            "robodcn: warning: position mode with torque on could not be read back on "
+            "every joint: hold the arm")
+    say(f"float off: {report.cycles} refreshes at {report.rate_hz:.0f} Hz{clipped}; {held}")
+
+
+def _release_at_end(args: argparse.Namespace, arm, bus) -> None:
+    say(releasing.release_line(releasing.guarded(args, arm, bus)))
 
 
 def run(args: argparse.Namespace) -> int:

@@ -40,8 +40,11 @@ def schemas(arm: Arm | None = None) -> dict[str, dict[str, Any]]:
                                                   "description": CONFIRM}}},
         "GripperBody": gripper_body_schema(arm),
         "RebootBody": {"type": "object", "additionalProperties": False,
-                       "properties": {"joint": _joint(arm)},
-                       "description": "{} reboots every servo."},
+                       "properties": {"joint": _joint(arm),
+                                      "confirm": {"type": "boolean", "default": False,
+                                                  "description": CONFIRM}},
+                       "description": "{} reboots every servo. A servo comes back from a "
+                                      "reboot with torque off."},
         "Events": events_schema(),
         "Page": {"type": "string"},
         "Trajectory": schema_of(Trajectory),
@@ -57,11 +60,14 @@ def schemas(arm: Arm | None = None) -> dict[str, dict[str, Any]]:
     }
 
 
-#: What ``confirm`` of a torque body means.
-CONFIRM = ("Torque off on an arm under gravity (a chain in a vertical plane) lets it fall: "
-           "without confirm true it is refused, 409 gravity_release naming the joints gravity "
-           "loads and the torque each holds (a joint gravity does not load, e.g. a base yaw, "
-           "needs none). Confirmed, torque goes off where the arm is (no lowering).")
+#: What ``confirm`` of a torque off or a reboot body means.
+CONFIRM = ("Torque off (or a reboot, which leaves torque off) on an arm under gravity (a "
+           "chain in a vertical plane) lets it fall: without confirm true it is refused, 409 "
+           "gravity_release naming the joints gravity loads and the torque each holds (a "
+           "joint gravity does not load, e.g. a base yaw, or whose torque is off already, "
+           "needs none). Confirmed, the arm is first lowered to its rest pose ([arm.rest]; "
+           "POST /v1/stop stops that, and torque stays on); where it cannot be, the answer's "
+           "hold says why and torque goes off where the arm is.")
 
 
 def gripper_body_schema(arm: Arm | None = None) -> dict[str, Any]:

@@ -30,7 +30,7 @@ from robodcn.http.planbody import (
 )
 from robodcn.http.planning import check_response_size, planning_lane
 from robodcn.planner import Trajectory, plan_request
-from robodcn.results import ArmInfo, ExecutionInfo, Health, RebootAnswer, TorqueAnswer
+from robodcn.results import ArmInfo, ExecutionInfo, Health
 from robodcn.web import assets, events
 from robodcn.workflow import files, record
 
@@ -150,9 +150,8 @@ def op_torque(server: Service, request: Request, params: dict[str, str]
     if not isinstance(body.get("on"), bool):
         raise InputError(f"on must be true or false, got {body.get('on')!r}"
                          if "on" in body else "on is missing: true or false", field="on")
-    ids = controller.set_torque(body["on"], body.get("joint"),
-                                confirm=body.get("confirm", False))
-    return 200, TorqueAnswer(on=body["on"], joint=body.get("joint"), servo_ids=list(ids))
+    return 200, controller.set_torque(body["on"], body.get("joint"),
+                                      confirm=body.get("confirm", False))
 
 
 def op_gripper(server: Service, request: Request, params: dict[str, str]
@@ -169,9 +168,8 @@ def op_gripper(server: Service, request: Request, params: dict[str, str]
 def op_reboot(server: Service, request: Request, params: dict[str, str]
               ) -> tuple[int, Any]:
     controller = controller_of(server)
-    body = _admin_body(server, read_json(request), ("joint",), "reboot")
-    ids = controller.reboot(body.get("joint"))
-    return 200, RebootAnswer(joint=body.get("joint"), servo_ids=list(ids))
+    body = _admin_body(server, read_json(request), ("joint", "confirm"), "reboot")
+    return 200, controller.reboot(body.get("joint"), confirm=body.get("confirm", False))
 
 
 def op_events(server: Service, request: Request, params: dict[str, str]

@@ -99,13 +99,15 @@ ROUTES: tuple[Route, ...] = (
           "Record", None, (404,), pool="read", alt_media=("text/csv",)),
     Route("POST", "/v1/torque", "torque", "Switch torque on (holding where the arm is) or "
           "off, for one joint or all (off on an arm under gravity needs \"confirm\": true, "
-          "409 otherwise)", 200, "Torque", "TorqueBody", (*BODY_ERRORS, 409)),
+          "409 otherwise, and lowers the arm to its rest pose first)", 200, "Torque",
+          "TorqueBody", (*BODY_ERRORS, 409)),
     Route("POST", "/v1/gripper", "gripper", "Open or close the gripper, or set its jaw "
           "width (current-based position mode: an object is held with the grip current)",
           200, "Gripper", "GripperBody", (*BODY_ERRORS, 404, 409)),
     Route("POST", "/v1/reboot", "reboot", "Reboot one servo or all (clears hardware "
-          "errors; torque is off afterwards)", 200, "Reboot", "RebootBody",
-          (*BODY_ERRORS, 409)),
+          "errors; torque is off afterwards: on an arm under gravity it needs \"confirm\": "
+          "true, 409 otherwise, and lowers the arm to its rest pose first)", 200, "Reboot",
+          "RebootBody", (*BODY_ERRORS, 409)),
     Route("GET", "/v1/events", "events", "Server-Sent Events: state (≥ 20 Hz while moving, "
           "≥ 1 Hz at rest), move status changes, alerts", 200, "Events", None, (503,),
           pool="stream", media="text/event-stream"),

@@ -3,7 +3,9 @@
 The procedure (issue 12 §1), one :class:`Calibrator` method per step so that a surface
 (``robodcn calibrate``: a terminal, a script on stdin, a test) drives the dialogue:
 
-1. torque off on every servo (the arm can be moved by hand);
+1. torque off on every servo (the arm can be moved by hand) — on an arm under gravity only
+   when confirmed, after lowering it to its rest pose (:meth:`Calibrator.start`, the
+   gravity guard), and however the calibration ends the arm then holds where it is;
 2. the user puts the arm in the reference pose — every joint angle 0 as the config defines
    it — and confirms: each servo's Present Position becomes its ``zero_offset``;
 3. per joint, the user turns it a little in its positive direction and confirms: the sign
@@ -28,7 +30,10 @@ import logging
 import math
 import threading
 import tomllib
+from collections.abc import Callable
 from dataclasses import dataclass, field
+from types import TracebackType
+from typing import Self
 
 import numpy as np
 from numpy.typing import NDArray
@@ -37,6 +42,8 @@ from robodcn._checks import is_finite_real
 from robodcn.bus import ServoBus
 from robodcn.config import Arm, arm_from_dict
 from robodcn.errors import InputError
+from robodcn.workflow.float_teach import has_gravity
+from robodcn.workflow.release import ReleaseResult, hold, release
 
 log = logging.getLogger(__name__)
 
@@ -150,7 +157,13 @@ class Calibrator:
     min_motion_deg : least motion that counts as "moved in the positive direction"
     sample_period_s : Present Position sampling period during a range step
 
-    Nothing is written to any servo but Torque Enable = 0 (when the session starts).
+    A context manager. :meth:`start` switches torque off so a hand moves the arm, through
+    the gravity guard (:func:`robodcn.workflow.release.release`): on an arm under gravity
+    only when confirmed, after lowering it to its rest pose. Leaving, an arm under gravity
+    holds where it is (:func:`robodcn.workflow.release.hold`: torque on, position mode,
+    Goal Position = Present Position) however the calibration ended — finished, aborted
+    (Ctrl-C, end of input) or failed — and any arm does after an abort or a failure.
+    Nothing else is written to the servos.
     """
 
     def __init__(self, bus: ServoBus, arm: Arm, *, margin_deg: float = 2.0,
@@ -169,7 +182,41 @@ class Calibrator:
         self._joints: dict[int, JointCalibration] = {}
         self._notes: list[str] = []
         self._skipped: set[int] = set()
-        bus.torque(False)
+        #: What :meth:`start`'s release did (None before it); whether leaving held the arm.
+        self.released: ReleaseResult | None = None
+        self.held = False
+
+    def start(self, *, confirm: bool = False, warn: Callable[[str], None] | None = None
+              ) -> ReleaseResult:
+        """Torque off so a hand moves the arm (class docstring): GravityReleaseError without
+        ``confirm`` when that drops it (nothing changed); ``warn`` is told what happens."""
+        self.released = release(self.bus, self.arm, confirm=confirm, what="calibration",
+                                warn=warn)
+        return self.released
+
+    def __enter__(self) -> Self:
+        return self
+
+    def __exit__(self, exc_type: type[BaseException] | None, exc: BaseException | None,
+                 tb: TracebackType | None) -> None:
+        self.close(failed=exc is not None)
+
+    def close(self, *, failed: bool = False) -> None:
+        """The end (class docstring): hold the arm where it is if :meth:`start` let it go
+        and it is under gravity or the calibration ``failed``; idempotent. A failure to hold
+        is raised, or logged when the calibration failed already."""
+        if self.held or self.released is None or not self.released.released:
+            return
+        if not failed and not has_gravity(self.arm):
+            return                                  # a horizontal arm stays free
+        try:
+            hold(self.bus)
+        except Exception as error:
+            if not failed:
+                raise
+            log.warning("calibration: the arm could not be held: %s", error)
+            return
+        self.held = True
 
     def read_reference(self) -> NDArray[np.int64]:
         """Present Position of every servo at the reference pose: the zero offsets.

@@ -16,11 +16,14 @@ little force and it stays where it is let go. A current above a servo's Current 
 clipped to it (the joint would sag; the report names it).
 
 :class:`FloatTeach` is a context manager: entering switches the joints to mode 0 with the
-present pose's currents as the first goal (servo by servo, each without torque only for its
-switch, :meth:`ServoBus.set_operating_mode`); :meth:`FloatTeach.run` refreshes the goals
-until :meth:`FloatTeach.stop` (from any thread) or a duration; leaving switches back to
-position mode (3) with Goal Position := Present Position, so nothing jumps. The clock and
-the sleep are injectable (tests run the loop on a fake clock).
+present pose's currents as the first goal and torque on — a freshly powered servo has it
+off, and a float without torque lets the arm fall — (servo by servo, each without torque
+only for its switch, :meth:`ServoBus.set_operating_mode`), then reads mode and torque back
+(CommError, the arm held in position mode, when a joint did not take them);
+:meth:`FloatTeach.run` refreshes the goals until :meth:`FloatTeach.stop` (from any thread)
+or a duration; leaving switches back to position mode (3) with torque on and Goal Position
+:= Present Position, so nothing jumps, and reads that back too (:attr:`FloatTeach.held`).
+The clock and the sleep are injectable (tests run the loop on a fake clock).
 
 Intended surfaces: ``robodcn teach --float`` (record poses while floating; Enter records,
 ``q`` ends) and a console "Float" toggle (HTTP ``POST /v1/float`` {"on": true|false}) that
@@ -44,7 +47,7 @@ from robodcn import _checks, dynamics, servo_units
 from robodcn.bus import OPERATING_MODE_CURRENT, OPERATING_MODE_POSITION, ServoBus
 from robodcn.config import SERVO_SPECS, Arm, JointSpec, rigid_chain
 from robodcn.dynamics import RigidChain
-from robodcn.errors import InputError
+from robodcn.errors import CommError, InputError
 
 log = logging.getLogger("robodcn.workflow")
 
@@ -112,7 +115,8 @@ class FloatSample:
 class FloatReport:
     """What a float did: cycles run, duration_s, rate_hz (achieved mean), worst_period_s,
     late_cycles (periods longer than 1/MIN_RATE_HZ), clipped (joints whose gravity current
-    was above the Current Limit at some cycle), the last sample."""
+    was above the Current Limit at some cycle), the last sample, held (after leaving: every
+    floating joint read back in position mode with torque on; None while floating)."""
 
     joints: tuple[str, ...]
     cycles: int
@@ -122,12 +126,13 @@ class FloatReport:
     late_cycles: int
     clipped: tuple[str, ...]
     last: FloatSample | None
+    held: bool | None = None
 
     def to_dict(self) -> dict[str, Any]:
         return {"joints": list(self.joints), "cycles": self.cycles,
                 "duration_s": self.duration_s, "rate_hz": self.rate_hz,
                 "worst_period_s": self.worst_period_s, "late_cycles": self.late_cycles,
-                "clipped": list(self.clipped),
+                "clipped": list(self.clipped), "held": self.held,
                 "last": None if self.last is None else {
                     "t": self.last.t, "joints": list(self.last.joints),
                     "ticks": list(self.last.ticks),
@@ -193,6 +198,8 @@ class FloatTeach:
         self._limits: NDArray[np.float64] | None = None
         #: The last refresh (None before the first); safe to read from another thread.
         self.latest: FloatSample | None = None
+        #: After leaving: every floating joint read back in position mode with torque on.
+        self.held: bool | None = None
 
     # -- one refresh ----------------------------------------------------------------------------
 
@@ -238,13 +245,30 @@ class FloatTeach:
 
     # -- lifecycle ------------------------------------------------------------------------------
 
+    def _not_engaged(self, mode: int) -> tuple[str, ...]:
+        """The floating joints that do not read back Operating Mode ``mode`` with torque
+        on (one read of each item per servo)."""
+        modes = self.bus.operating_modes(self._ids)
+        torque = self.bus.torque_enabled()
+        return tuple(name for name, i in zip(self.joint_names, self._ids, strict=True)
+                     if modes.get(i) != mode or not torque.get(i))
+
     def __enter__(self) -> Self:
-        """Switch the floating joints to current control with the present pose's currents."""
+        """Switch the floating joints to current control with the present pose's currents,
+        torque on (a freshly powered servo has it off), and read both back: CommError when
+        a joint is not floating (the joints are then held in position mode)."""
         ticks, q = self._read()
         amps = self.currents(q)
         self._start = self.clock()
         self.bus.set_operating_mode(OPERATING_MODE_CURRENT, self._ids,
-                                    goal_current_a=amps.tolist())
+                                    goal_current_a=amps.tolist(), torque=True)
+        off = self._not_engaged(OPERATING_MODE_CURRENT)
+        if off:
+            self.bus.set_operating_mode(OPERATING_MODE_POSITION, self._ids, torque=True)
+            raise CommError(f"float: joint(s) {', '.join(off)} did not read back current "
+                            "control with torque on; the arm is held in position mode",
+                            field="joints", value=list(off))
+        self.held = None
         self._active = True
         self._stop.clear()
         self._sample(ticks, q, amps)
@@ -256,7 +280,8 @@ class FloatTeach:
         self.close(raising=exc is None)
 
     def close(self, *, raising: bool = True) -> None:
-        """Position mode (3) again, Goal Position := Present Position (no jump); idempotent.
+        """Position mode (3) again with torque on, Goal Position := Present Position (no
+        jump), read back into :attr:`held`; idempotent.
 
         With ``raising`` False a failure is logged, not raised (leaving on another error).
         """
@@ -264,14 +289,21 @@ class FloatTeach:
             return
         self._active = False
         self._stop.set()
+        self.held = False
         try:
-            self.bus.set_operating_mode(OPERATING_MODE_POSITION, self._ids)
+            self.bus.set_operating_mode(OPERATING_MODE_POSITION, self._ids, torque=True)
+            off = self._not_engaged(OPERATING_MODE_POSITION)
         except Exception as error:
             if raising:
                 raise
             log.warning("float: position mode could not be restored: %s", error)
             return
-        log.info("float off: position mode, holding where the arm was left")
+        self.held = not off
+        if off:
+            log.warning("float off: joint(s) %s do not read back position mode with torque "
+                        "on", ", ".join(off))
+        else:
+            log.info("float off: position mode, holding where the arm was left")
 
     def stop(self) -> None:
         """End :meth:`run` after its present cycle (from any thread)."""
@@ -319,7 +351,7 @@ class FloatTeach:
         rate = self._cycles / duration if duration > 0 else 0.0
         return FloatReport(self.joint_names, self._cycles, duration, rate, self._worst,
                            self._late, tuple(n for n in self.joint_names if n in self._clipped),
-                           self.latest)
+                           self.latest, self.held)
 
 
 __all__ = ["MAX_RATE_HZ", "MIN_RATE_HZ", "FloatReport", "FloatSample", "FloatTeach",

@@ -1,34 +1,59 @@
-"""Releasing an arm: torque off, which drops an arm under gravity unless it is lowered first.
+"""The gravity guard: every path that switches torque off on an arm under gravity.
 
 Switching torque off leaves a vertical arm (the OpenMANIPULATOR-X) to fall — the classic
-end-of-run drop its users report (shared/omx.md). So on an arm with gravity (a chain in a
-vertical plane, ``[dynamics]`` g ≠ 0) :func:`release` refuses without confirmation: a
-:class:`~robodcn.errors.GravityReleaseError` carrying the joints gravity loads and the
-torque each holds at the present pose (:func:`check_release`; surfaces ask ``--yes`` /
-``"confirm": true``). Confirmed, and when the arm has a rest pose (``[arm.rest]``), the arm
-is first lowered there — planned from the present joints (:func:`robodcn.plan`) and
-streamed (:func:`robodcn.execute`) — and torque goes off only once it has arrived; if the
-lowering stops short (a collision, a fault, a stop request), torque stays on and the result
-says so. An arm without gravity (a horizontal planar arm) is released at once.
+end-of-run drop its users report (shared/omx.md). Torque goes off in many ways: ``torque
+off``, a servo REBOOT (the servo comes back with torque off), the start of a calibration or
+of a teach session without float (a hand moves the arm), the EEPROM writes of ``servo
+set-id``/``set-baud`` (the servo refuses them while torque is on). Every one of them goes
+through :func:`release`, with the action itself as ``switch_off``:
 
-Intended surfaces: ``robodcn torque off [--yes]``, ``robodcn move … --release [--yes]``,
-the end of ``teach``, HTTP ``POST /v1/torque`` {"on": false, "confirm": true} — each maps
-GravityReleaseError to its warning (exit 2 / HTTP 409) and shows :class:`ReleaseResult`.
+1. :func:`check_release`: whether the action drops the arm — gravity (a chain in a vertical
+   plane, ``[dynamics]`` g ≠ 0) loads one of the joints whose torque goes off (one holding
+   at least :data:`LOADED_NM` at the present pose; a joint whose torque is off already, the
+   base yaw, a gripper or a horizontal arm drop nothing);
+2. without confirmation (``--yes`` / ``"confirm": true``) a
+   :class:`~robodcn.errors.GravityReleaseError` (:func:`refusal`: exit 2 / HTTP 409
+   ``gravity_release``) naming those joints, the torque each holds, and whether the arm is
+   lowered first or must be held — before anything moves or torque changes;
+3. confirmed, the arm is first lowered to its rest pose (``[arm.rest]``), planned from the
+   present joints (:func:`robodcn.plan`) and streamed (:func:`robodcn.execute`), and torque
+   goes off only once it has arrived; a lowering that stops short (a collision, a fault, a
+   stop request) leaves torque on and the result says so. Where it cannot be lowered (no
+   rest pose, a lowering the planner or the streamer refuses, e.g. from outside the joint
+   limits or with a servo in alert) the user is told to hold it (``warn``) and torque goes
+   off: a confirmed release always releases.
+
+:func:`hold` is the way back: torque on in position mode with Goal Position = Present
+Position, where the arm is — how a calibration or a teach session ends on an arm under
+gravity, finished, aborted or failed.
+
+Surfaces: ``robodcn torque off|reboot|calibrate|teach|servo set-id|set-baud`` and
+``--release`` (:mod:`robodcn.cli.releasing`), HTTP ``POST /v1/torque`` and ``POST
+/v1/reboot`` (:mod:`robodcn.servo_admin`) — each maps GravityReleaseError to its warning
+and shows :class:`ReleaseResult`.
 """
 
 from __future__ import annotations
 
 import logging
+from collections.abc import Callable, Collection
 from dataclasses import dataclass
 from typing import Any
 
-from numpy.typing import ArrayLike
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
 
 from robodcn import _checks
-from robodcn.bus import ServoBus
+from robodcn.bus import OPERATING_MODE_POSITION, ServoBus
 from robodcn.config import Arm
-from robodcn.errors import GravityReleaseError, InputError
-from robodcn.planner import plan
+from robodcn.errors import (
+    GravityReleaseError,
+    HardwareAlertError,
+    InputError,
+    PlanError,
+    StartMismatchError,
+)
+from robodcn.planner import Trajectory, plan
 from robodcn.present import present_joints
 from robodcn.stream import ExecutionReport, execute
 from robodcn.workflow.float_teach import gravity_torques, has_gravity
@@ -72,58 +97,105 @@ class ReleaseCheck:
 class ReleaseResult:
     """What :func:`release` did: check (before anything moved); lowered (the arm was
     lowered to its rest pose first); lowering (that move's report, None if none);
-    released (torque went off); released_ids."""
+    released (torque went off); released_ids; hold (why an arm that falls could not be
+    lowered first, so the user had to hold it; None otherwise)."""
 
     check: ReleaseCheck
     lowered: bool
     lowering: ExecutionReport | None
     released: bool
     released_ids: tuple[int, ...]
+    hold: str | None = None
 
     def to_dict(self) -> dict[str, Any]:
         return {"check": self.check.to_dict(), "lowered": self.lowered,
                 "lowering": None if self.lowering is None else self.lowering.to_dict(),
-                "released": self.released, "released_ids": list(self.released_ids)}
+                "released": self.released, "released_ids": list(self.released_ids),
+                "hold": self.hold}
 
 
-def check_release(arm: Arm, joints: ArrayLike) -> ReleaseCheck:
-    """Whether torque off would drop ``arm`` at ``joints`` (rad, joint order), and why."""
+def _released_joints(arm: Arm, ids: Collection[int] | None) -> tuple[str, ...]:
+    """The arm's joints whose servos are among ``ids`` (None: every joint)."""
+    if ids is None:
+        return arm.joint_names
+    chosen = set(ids)
+    return tuple(j.name for j in arm.joints if j.servo.id in chosen)
+
+
+def check_release(arm: Arm, joints: ArrayLike, ids: Collection[int] | None = None
+                  ) -> ReleaseCheck:
+    """Whether torque off on the servos ``ids`` (None: every joint's) drops ``arm`` at
+    ``joints`` (rad, joint order), and why: it falls when gravity loads one of those
+    joints (one holding at least :data:`LOADED_NM`, or any chain joint when the arm has
+    no masses to tell). Servos that are no joint of the arm (a gripper) load nothing."""
     q = _checks.as_float_array("joints", joints)
     if q.shape != (arm.dof,):
         raise InputError(f"joints must have shape ({arm.dof},), got {q.shape}",
                          field="joints", value=q)
-    chain = tuple(j.name for j in arm.chain_joints)
-    if not has_gravity(arm):
+    released = _released_joints(arm, ids)
+    chain = tuple(j.name for j in arm.chain_joints if j.name in released)
+    if not has_gravity(arm) or not released:
         return ReleaseCheck(arm.name, False, (), arm.joint_names, None, arm.rest)
     try:
         torques = tuple(float(t) for t in gravity_torques(arm, q))
     except InputError:                 # no masses: it falls, by how much is unknown
-        return ReleaseCheck(arm.name, True, chain, arm.joint_names, None, arm.rest)
+        return ReleaseCheck(arm.name, bool(chain), chain, arm.joint_names, None, arm.rest)
     loaded = tuple(name for name, t in zip(arm.joint_names, torques, strict=True)
-                   if abs(t) >= LOADED_NM)
-    return ReleaseCheck(arm.name, True, loaded or chain, arm.joint_names, torques, arm.rest)
+                   if abs(t) >= LOADED_NM and name in released)
+    if not loaded and set(released) == set(arm.joint_names):
+        loaded = chain                 # a balanced pose is unstable: the whole chain falls
+    return ReleaseCheck(arm.name, bool(loaded), loaded, arm.joint_names, torques, arm.rest)
 
 
-def refusal(check: ReleaseCheck) -> GravityReleaseError:
-    """The error that asks for confirmation, naming what holds how much."""
+def _lowering_plan(arm: Arm, q: NDArray[np.float64], check: ReleaseCheck, lower: bool,
+                   plan_options: dict[str, Any] | None) -> tuple[Trajectory | None, str | None]:
+    """The lowering to the rest pose from ``q`` (None when none is due) and, when the arm
+    falls but cannot be lowered, why (the user must hold it)."""
+    if not check.falls:
+        return None, None
+    if not lower:
+        return None, "the lowering was not asked for"
+    if arm.rest is None:
+        return None, "it has no rest pose ([arm.rest]) to be lowered to"
+    try:
+        return plan(arm, [tool_pose(arm, q), arm.rest], start_joints=q,
+                    **(plan_options or {})), None
+    except (InputError, PlanError) as exc:
+        return None, f"the lowering to its rest pose cannot be planned: {exc.message}"
+
+
+def refusal(check: ReleaseCheck, *, what: str = "torque off", hold: str | None = None
+            ) -> GravityReleaseError:
+    """The error that asks for confirmation of ``what`` (an action that switches torque
+    off), naming what holds how much and whether the arm is lowered first (``hold``: why it
+    cannot be, so the user must hold it)."""
     if check.holding_torque_nm is None:
         held = "gravity loads " + ", ".join(check.joints)
     else:
         torque = dict(zip(check.joint_names, check.holding_torque_nm, strict=True))
         held = "holding " + ", ".join(f"{name} {abs(torque[name]):.2f} N·m"
                                       for name in check.joints)
-    then = ("it is lowered to its rest pose first" if check.rest is not None
-            else "it has no rest pose ([arm.rest]) to be lowered to first")
+    then = "it is lowered to its rest pose first" if hold is None else f"{hold}: hold it"
     return GravityReleaseError(
-        f"torque off lets arm {check.arm!r} fall under gravity ({held}); confirm to release "
-        f"it ({then})", arm=check.arm, joints=check.joints,
-        holding_torque_nm=check.holding_torque_nm, rest=check.rest)
+        f"{what} switches torque off and lets arm {check.arm!r} fall under gravity "
+        f"({held}); confirm to go on ({then})",
+        arm=check.arm, joints=check.joints, holding_torque_nm=check.holding_torque_nm,
+        rest=check.rest)
+
+
+def _torque_off(bus: ServoBus, ids: Collection[int] | None) -> None:
+    bus.torque(False, None if ids is None else tuple(ids))
 
 
 def release(bus: ServoBus, arm: Arm, *, confirm: bool = False, lower: bool = True,
-            verify: bool = True, plan_options: dict[str, Any] | None = None,
+            ids: Collection[int] | None = None, what: str = "torque off",
+            switch_off: Callable[[], Any] | None = None, verify: bool = True,
+            warn: Callable[[str], None] | None = None,
+            plan_options: dict[str, Any] | None = None,
             execute_options: dict[str, Any] | None = None) -> ReleaseResult:
-    """Torque off on ``arm``'s servos, lowering it to its rest pose first (module docstring).
+    """The gravity guard: switch torque off on ``ids`` (``switch_off``: a torque off, a
+    reboot, a calibration's start …), lowering the arm to its rest pose first when it would
+    fall (module docstring). Every path that switches torque off calls this.
 
     Parameters
     ----------
@@ -131,36 +203,66 @@ def release(bus: ServoBus, arm: Arm, *, confirm: bool = False, lower: bool = Tru
     arm : the arm
     confirm : the user accepts that an arm under gravity is let go
     lower : lower a confirmed arm to ``arm.rest`` (when it has one) before torque off
+    ids : the servos whose torque goes off (default every servo of the bus); a servo whose
+        torque is off already drops nothing
+    what : the action, as the refusal names it ("reboot", "calibration" …)
+    switch_off : what switches torque off (default Torque Enable = 0 on ``ids``); its
+        result is ignored
     verify : check the servos before reading the present joints (:func:`present_joints`)
+    warn : told, when a confirmed action drops the arm, before anything moves: that it is
+        lowered to its rest pose first, or why it cannot be (hold it) before torque goes
+        off; default a log warning
     plan_options, execute_options : keyword options of :func:`robodcn.plan` and
         :func:`robodcn.execute` for the lowering (e.g. ``duration``, ``stop``)
 
     Raises
     ------
     GravityReleaseError (nothing moved, torque stays on) when the arm would fall and
-    ``confirm`` is False; whatever planning the lowering raises (nothing moved either).
+    ``confirm`` is False.
     """
     if not isinstance(confirm, bool) or not isinstance(lower, bool):
         bad, value = ("confirm", confirm) if not isinstance(confirm, bool) else ("lower", lower)
         raise InputError(f"{bad} must be true or false, got {value!r}", field=bad, value=value)
     q = present_joints(arm, bus, verify=verify)
-    check = check_release(arm, q)
+    enabled = bus.torque_enabled()
+    check = check_release(arm, q, [i for i in (bus.ids if ids is None else ids)
+                                   if enabled.get(i, True)])    # off already: nothing drops
+    trajectory, hold = _lowering_plan(arm, q, check, lower, plan_options)
     if check.falls and not confirm:
-        raise refusal(check)
+        raise refusal(check, what=what, hold=hold)
+    tell = warn or log.warning
     lowering = None
-    if check.falls and lower and arm.rest is not None:
-        trajectory = plan(arm, [tool_pose(arm, q), arm.rest], start_joints=q,
-                          **(plan_options or {}))
-        lowering = execute(trajectory, bus, **(execute_options or {}))
-        if lowering.outcome not in ARRIVED:
-            log.warning("release: the lowering to the rest pose ended %s; torque stays on",
+    if trajectory is not None:
+        tell(f"{what} lets arm {arm.name!r} fall under gravity (confirmed): lowering it to "
+             "its rest pose first")
+        try:
+            lowering = execute(trajectory, bus, **(execute_options or {}))
+        except (InputError, PlanError, HardwareAlertError, StartMismatchError) as exc:
+            hold = f"the lowering to its rest pose was refused: {exc.message}"
+        if lowering is not None and lowering.outcome not in ARRIVED:
+            log.warning("%s: the lowering to the rest pose ended %s; torque stays on", what,
                         lowering.outcome)
-            return ReleaseResult(check, False, lowering, False, ())
-    bus.torque(False)
-    log.info("release: torque off on %s%s", ", ".join(map(str, bus.ids)),
+            return ReleaseResult(check, False, lowering, False, (), None)
+    if check.falls and hold is not None:
+        tell(f"{what} lets arm {arm.name!r} fall under gravity (confirmed) and it cannot be "
+             f"lowered first ({hold}): hold it, torque goes off on {', '.join(check.joints)}")
+    (switch_off or (lambda: _torque_off(bus, ids)))()
+    released = tuple(bus.ids) if ids is None else tuple(ids)
+    log.info("%s: torque off on %s%s", what, ", ".join(map(str, released)),
              " after lowering to the rest pose" if lowering is not None else "")
-    return ReleaseResult(check, lowering is not None, lowering, True, tuple(bus.ids))
+    return ReleaseResult(check, lowering is not None, lowering, True, released,
+                         hold if check.falls else None)
 
 
-__all__ = ["ARRIVED", "LOADED_NM", "ReleaseCheck", "ReleaseResult", "check_release", "refusal",
-           "release"]
+def hold(bus: ServoBus, ids: Collection[int] | None = None) -> None:
+    """Torque on in position mode with Goal Position = Present Position on ``ids`` (default
+    every servo): the arm holds where it is (the way a calibration or a teach session ends,
+    however it ends, on an arm under gravity)."""
+    bus.set_operating_mode(OPERATING_MODE_POSITION, None if ids is None else tuple(ids),
+                           torque=True)
+    log.info("holding where the arm is: torque on, position mode, on %s",
+             ", ".join(map(str, bus.ids if ids is None else ids)))
+
+
+__all__ = ["ARRIVED", "LOADED_NM", "ReleaseCheck", "ReleaseResult", "check_release", "hold",
+           "refusal", "release"]

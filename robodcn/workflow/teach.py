@@ -34,10 +34,11 @@ from robodcn.bus import ServoBus
 from robodcn.config import PLANAR_POSE, Arm
 from robodcn.errors import InputError
 from robodcn.workflow.admin import present_state
-from robodcn.workflow.float_teach import FloatReport, FloatSample, FloatTeach
+from robodcn.workflow.float_teach import FloatReport, FloatSample, FloatTeach, has_gravity
 from robodcn.workflow.gripper import COMMANDS as GRIPPER_ACTIONS
 from robodcn.workflow.gripper import GripperResult, actuate
 from robodcn.workflow.poses import file_key, pose_table
+from robodcn.workflow.release import ReleaseResult, hold, release
 
 log = logging.getLogger(__name__)
 
@@ -55,23 +56,56 @@ def _direct(fn: Callable[[], T]) -> T:
 
 
 class Teaching:
-    """Poses taught by hand on an open ``bus``.
+    """Poses taught by hand on an open ``bus``; a context manager.
 
-    With ``torque_off`` (default) torque goes off when the session starts (the hand moves
-    the arm freely; an arm under gravity falls: the surfaces ask to confirm it); without,
-    the arm is held otherwise (float mode: pass the :class:`FloatSession`'s ``call`` as
-    ``run``, which every bus access goes through).
+    With ``torque_off`` (default) torque goes off when the session starts, so a hand moves
+    the arm freely — through the gravity guard (:func:`robodcn.workflow.release.release`):
+    on an arm under gravity only with ``confirm`` (GravityReleaseError otherwise), after
+    lowering it to its rest pose, ``warn`` told what happens. Without, the arm is held
+    otherwise (float mode: pass the :class:`FloatSession`'s ``call`` as ``run``, which every
+    bus access goes through). Leaving (finished, aborted or failed), an arm under gravity
+    whose torque the session switched off holds where it is
+    (:func:`robodcn.workflow.release.hold`: torque on, position mode, goal = present);
+    :attr:`held` says so.
     """
 
     def __init__(self, bus: ServoBus, arm: Arm, *, torque_off: bool = True,
+                 confirm: bool = False, warn: Callable[[str], None] | None = None,
                  run: Callable[[Callable[[], Any]], Any] = _direct) -> None:
         self.bus = bus
         self.arm = arm
         self._run = run
         self._poses: list[NDArray[np.float64]] = []
         self._actions: list[dict[str, Any]] = []
+        #: What the guard did when the session switched torque off (None: it did not).
+        self.released: ReleaseResult | None = None
+        #: Whether leaving put the arm on hold (torque on, position mode).
+        self.held = False
         if torque_off:
-            run(lambda: bus.torque(False))
+            self.released = run(lambda: release(bus, arm, confirm=confirm, what="teach",
+                                                warn=warn))
+
+    def __enter__(self) -> Self:
+        return self
+
+    def __exit__(self, exc_type: type[BaseException] | None, exc: BaseException | None,
+                 tb: TracebackType | None) -> None:
+        self.close(raising=exc is None)
+
+    def close(self, *, raising: bool = True) -> None:
+        """Hold an arm under gravity where it is if the session switched its torque off;
+        idempotent. With ``raising`` False a failure is logged (leaving on another error)."""
+        if self.released is None or not self.released.released or self.held \
+                or not has_gravity(self.arm):
+            return
+        try:
+            self._run(lambda: hold(self.bus))
+        except Exception as error:
+            if raising:
+                raise
+            log.warning("teach: the arm could not be held: %s", error)
+            return
+        self.held = True
 
     def present_pose(self) -> NDArray[np.float64]:
         """The present pose (the arm's pose keys), read on the bus."""
@@ -197,8 +231,7 @@ class FloatSession:
         if self._thread is not None:
             self._thread.join(timeout=CALL_TIMEOUT_S)
         self.float.__exit__(exc_type, exc, tb)
-        if self.report is None:
-            self.report = self.float.report()
+        self.report = self.float.report()        # with what leaving read back (held)
         if self._error is not None and exc is None:
             raise self._error
 

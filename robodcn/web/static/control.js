@@ -108,7 +108,7 @@ export async function torque(on) {
       showError(err);
       return null;
     }
-    if (!window.confirm(`${err.message}.\n\nThe arm will fall. Switch torque off?`)) {
+    if (!window.confirm(`${err.message}.\n\nSwitch torque off?`)) {
       showError({ message: "torque stays on (switching it off was not confirmed)" });
       return null;
     }
