@@ -3,13 +3,14 @@
 firmware_sim reads the arm file itself, so it solves the rest pose itself: a yawed arm's
 ``x, y, z, pitch_deg`` (base frame; pitch the tool axis's elevation) turns the chain's plane
 to yaw ψ = atan2(y, x) and asks the tool point at (r, z) = (√(x² + y²), z) in it; a planar
-arm's ``x, y`` with ``theta_deg`` (or ``pitch_deg``) is that point in its plane. For a chain
-of three links (tool axis given) the wrist is W = P − v₃·e^{iφ₃} with φ₃ = pitch − arg v₃;
-for two links W = P. The first two links reach W by the law of cosines (Spong, Hutchinson
-& Vidyasagar, *Robot Modeling and Control* §3.3), on the branch ``[arm] elbow`` names
-("up", the default: the elbow left of the line from the chain's origin to W, above it for
-an arm reaching forward; "down" the other). Link angles φ relate to joints by
-φ = σ·S·q (:mod:`firmware_sim.chain`).
+arm's ``x, y`` with ``theta_deg`` (or ``pitch_deg``) is that point in its plane; either
+angle may be given in radians instead, without ``_deg`` (``pitch``, ``theta``: how robodcn
+writes an arm back). For a chain of three links (tool axis given) the wrist is
+W = P − v₃·e^{iφ₃} with φ₃ = pitch − arg v₃; for two links W = P. The first two links
+reach W by the law of cosines (Spong, Hutchinson & Vidyasagar, *Robot Modeling and
+Control* §3.3), on the branch ``[arm] elbow`` names ("up", the default: the elbow left of
+the line from the chain's origin to W, above it for an arm reaching forward; "down" the
+other). Link angles φ relate to joints by φ = σ·S·q (:mod:`firmware_sim.chain`).
 
 Limits: ``[[joints]] min, max`` (rad) or ``min_deg, max_deg``.
 """
@@ -55,7 +56,7 @@ def rest_joints(rest: Mapping[str, Any], links: Sequence[Vec], base_yaw: bool,
     v = [complex(*link) for link in links]
     phi_last = None
     if n == 3:
-        pitch = math.radians(float(rest.get("pitch_deg", rest.get("theta_deg", 0.0))))
+        pitch = _angle(rest, "pitch", _angle(rest, "theta", 0.0))
         phi_last = pitch - cmath.phase(v[2])
         point -= v[2] * cmath.exp(1j * phi_last)
     d = point - complex(*origin)
@@ -77,6 +78,13 @@ def rest_joints(rest: Mapping[str, Any], links: Sequence[Vec], base_yaw: bool,
         phis.append(phi_last)
     q = [sign * _wrap(phis[0])] + [sign * _wrap(phis[k] - phis[k - 1]) for k in range(1, n)]
     return ((yaw,) if base_yaw else ()) + tuple(q)
+
+
+def _angle(table: Mapping[str, Any], key: str, default: float) -> float:
+    """``table``'s angle ``key`` (rad) or ``key_deg`` (degrees), else ``default`` (rad)."""
+    if f"{key}_deg" in table:
+        return math.radians(float(table[f"{key}_deg"]))
+    return float(table[key]) if key in table else default
 
 
 def _wrap(angle: float) -> float:
