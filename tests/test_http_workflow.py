@@ -41,8 +41,8 @@ def present_joints(sa: Any) -> np.ndarray:
 def test_torque_off_and_on_for_all_and_one_joint(arm_server: Any) -> None:
     server, sa = arm_server
     status, _, body = call(server, "POST", "/v1/torque", {"on": False})
-    assert status == 200 and body == {"on": False, "joint": None,
-                                      "servo_ids": list(ARM.servo_ids)}
+    assert status == 200 and body == {"on": False, "joint": None, "lowered": False,
+                                      "hold": None, "servo_ids": list(ARM.servo_ids)}
     assert torque_of(sa) == [False] * ARM.dof
     assert call(server, "GET", "/v1/state")[2]["torque"] is False
     joint = ARM.joint_names[1]
@@ -71,8 +71,8 @@ def test_reboot_clears_hardware_errors(arm_server: Any) -> None:
     alerts = call(server, "GET", "/v1/state")[2]["alerts"]
     assert str(ARM.servo_ids[0]) in alerts, alerts
     status, _, body = call(server, "POST", "/v1/reboot", {"joint": ARM.joint_names[0]})
-    assert status == 200 and body == {"joint": ARM.joint_names[0],
-                                      "servo_ids": [ARM.servo_ids[0]]}
+    assert status == 200 and body == {"joint": ARM.joint_names[0], "lowered": False,
+                                      "hold": None, "servo_ids": [ARM.servo_ids[0]]}
     assert servo.hardware_error == 0
     assert call(server, "GET", "/v1/state")[2]["alerts"] == {}
     status, _, body = call(server, "POST", "/v1/reboot", {})  # {}: every servo
