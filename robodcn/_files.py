@@ -14,6 +14,9 @@ fsync the data, rename, fsync the directory.
 file cannot be written it saves the content under a timestamped name in the current
 directory, else the temporary directory, and the error says where.
 
+A path that exists and is no regular file (``/dev/stdout``, a FIFO) is written to in place:
+there is nothing to keep, and renaming over it would replace the device node.
+
 A ``kill -9`` between the temporary file's creation and the rename leaves the temporary
 file (``.NAME.<pid>.<random>.tmp``) beside the target; the target itself is intact.
 """
@@ -74,9 +77,13 @@ def replace_file(path: str | os.PathLike[str], write: Callable[[BinaryIO], objec
     given = Path(path)
     target = Path(os.path.realpath(given))
     try:
-        old_mode: int | None = stat.S_IMODE(os.stat(target).st_mode)
+        old = os.stat(target)
     except OSError:                     # none (or its directory is gone): open says why
-        old_mode = None
+        old = None
+    if old is not None and not stat.S_ISREG(old.st_mode):
+        _write_in_place(given, target, write, field)
+        return given
+    old_mode = None if old is None else stat.S_IMODE(old.st_mode)
     tmp = target.with_name(f".{target.name}.{os.getpid()}.{secrets.token_hex(4)}.tmp")
     try:
         fd = os.open(tmp, os.O_WRONLY | os.O_CREAT | os.O_EXCL | getattr(os, "O_CLOEXEC", 0),
@@ -99,6 +106,21 @@ def replace_file(path: str | os.PathLike[str], write: Callable[[BinaryIO], objec
         raise
     _sync_directory(target.parent)
     return given
+
+
+def _write_in_place(given: Path, target: Path, write: Callable[[BinaryIO], object],
+                    field: str | None) -> None:
+    """A target that is no regular file (``/dev/stdout``, a FIFO, a terminal) is written to
+    as it is: it has no old content to keep, and a rename over it would replace the device
+    node itself with a file."""
+    try:
+        with open(target, "wb") as out:
+            write(out)
+    except OSError as exc:
+        reason = exc.strerror or str(exc)
+        where = f"{field} {given}" if field else str(given)
+        raise FileWriteError(f"{where}: cannot write ({reason})", path=str(given),
+                             strerror=reason, errno=exc.errno, field=field) from None
 
 
 def write_or_rescue(path: str | os.PathLike[str], data: str, *, field: str | None = None,
