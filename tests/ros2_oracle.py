@@ -82,3 +82,40 @@ def decode(type_name: str, payload: bytes) -> Any:
 
 def encode(msg: Any, type_name: str) -> bytes:
     return bytes(store().serialize_cdr(msg, type_name))
+
+
+_NUMPY = {"bool": np.bool_, "byte": np.uint8, "char": np.uint8, "int8": np.int8,
+          "uint8": np.uint8, "int16": np.int16, "uint16": np.uint16, "int32": np.int32,
+          "uint32": np.uint32, "int64": np.int64, "uint64": np.uint64,
+          "float32": np.float32, "float64": np.float64}
+_ZERO = {"string": "", "bool": False}
+
+
+def _value(desc: Any, value: Any) -> Any:
+    kind, detail = desc
+    if kind.name == "NAME":
+        return from_plain(detail, value or {})
+    if kind.name == "BASE":
+        base = detail[0]
+        return value if value is not None else _ZERO.get(base, 0)
+    (inner_kind, inner), size = detail
+    value = [] if value is None else value
+    if inner_kind.name == "BASE" and inner[0] in _NUMPY:
+        if isinstance(value, (bytes, bytearray)):
+            return np.frombuffer(bytes(value), dtype=np.uint8).copy()
+        return np.asarray(value if len(value) else [0] * size if kind.name == "ARRAY"
+                          else [], dtype=_NUMPY[inner[0]])
+    return [_value((inner_kind, inner), v) for v in value]
+
+
+def from_plain(type_name: str, value: dict[str, Any]) -> Any:
+    """A rosbags message of ``type_name`` from plain dicts (missing fields are zero)."""
+    ts = store()
+    _, fields = ts.fielddefs[type_name]
+    return ts.types[type_name](**{name: _value(desc, value.get(name))
+                                  for name, desc in fields})
+
+
+def encode_plain(type_name: str, value: dict[str, Any]) -> bytes:
+    """rosbags' CDR of a plain dict."""
+    return encode(from_plain(type_name, value), type_name)

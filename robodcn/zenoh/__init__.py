@@ -15,10 +15,14 @@ need it.
 from __future__ import annotations
 
 import contextlib
+import dataclasses
 from collections.abc import Iterator
 from typing import Any
 
 from robodcn.zenoh.options import ZenohOptions
+
+#: The state rate at rest with ``--ros2`` (Hz): /joint_states rides on it.
+ROS_IDLE_HZ = 10.0
 
 
 @contextlib.contextmanager
@@ -29,6 +33,8 @@ def face(server: Any, options: ZenohOptions, *, url: str | None = None) -> Itera
     from robodcn.zenoh.native import NativeFace
     from robodcn.zenoh.session import open_session
 
+    if options.ros2 and options.idle_hz < ROS_IDLE_HZ:
+        options = dataclasses.replace(options, idle_hz=ROS_IDLE_HZ)
     session = open_session(options)
     try:
         with contextlib.ExitStack() as stack:
@@ -36,7 +42,7 @@ def face(server: Any, options: ZenohOptions, *, url: str | None = None) -> Itera
             if options.ros2:
                 from robodcn.zenoh.ros2node import RosNode
 
-                stack.enter_context(RosNode(server, session, options))
+                native.ros = stack.enter_context(RosNode(server, session, options, native))
             yield native
     finally:
         session.close()

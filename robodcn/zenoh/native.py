@@ -24,6 +24,7 @@ import os
 import socket
 import threading
 import time
+from collections.abc import Callable
 from concurrent.futures import ThreadPoolExecutor
 from typing import Any
 
@@ -60,6 +61,10 @@ class NativeFace:
         self.url = url
         self.bad_puts = 0
         self.published = 0
+        #: The ROS 2 node beside this face (``--ros2``), or None.
+        self.ros: Any = None
+        #: Called with each state published (the ROS node's /joint_states rides on it).
+        self.listeners: list[Callable[[dict[str, Any]], None]] = []
         self._stop = threading.Event()
         self._pools = {kind: ThreadPoolExecutor(n, thread_name_prefix=f"robodcn-zenoh-{kind}")
                        for kind, n in POOL_SIZES.items()}
@@ -172,6 +177,11 @@ class NativeFace:
                     self.published += 1
                 except Exception as exc:  # a closing session: the loop ends with it
                     log.debug("state put failed: %s", exc)
+                for listener in list(self.listeners):
+                    try:
+                        listener(result["body"])
+                    except Exception:
+                        log.exception("a state listener failed")
             period = moving_period if busy or controller.busy else idle_period
             next_tick = max(next_tick + period, time.monotonic())
             # wake early when a move starts, so its first samples are not 0.5 s late

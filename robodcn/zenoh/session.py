@@ -50,6 +50,9 @@ def build_config(options: ZenohOptions, *, listen_default: tuple[str, ...] = DEF
     if _get(config, "mode") in (None, "peer"):
         config.insert_json5("mode", '"peer"')
     config.insert_json5("scouting/multicast/enabled", json.dumps(options.scout))
+    # timestamps on every sample: the transient-local publishers (zenoh-ext) need them, as
+    # rmw_zenoh's sessions have them
+    config.insert_json5("timestamping/enabled", "true")
     listen = options.listen
     if not listen:
         configured = _get(config, "listen/endpoints")
