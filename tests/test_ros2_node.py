@@ -86,6 +86,7 @@ def test_joint_states(ros: Any) -> None:
     assert abs(stamp_ns / 1e9 - time.time()) < 2
 
 
+@pytest.mark.serial  # rates and times on the real clock
 def test_joint_trajectory_topic_moves_the_arm(ros: Any) -> None:
     server, _, rp = ros
     q0 = list(server.controller.state().joints)
@@ -119,6 +120,7 @@ def test_bad_trajectories_move_nothing(ros: Any) -> None:
     assert server.controller.state().joints == pytest.approx(q0, abs=1e-9)
 
 
+@pytest.mark.serial  # rates and times on the real clock
 def test_action_succeeds_with_feedback(ros: Any) -> None:
     server, _, rp = ros
     q0 = list(server.controller.state().joints)
@@ -165,6 +167,7 @@ def test_action_refusals(ros: Any) -> None:
     assert server.controller.moves() == []
 
 
+@pytest.mark.serial  # rates and times on the real clock
 def test_cancel_and_preempt(ros: Any) -> None:
     server, _, rp = ros
     q0 = list(server.controller.state().joints)

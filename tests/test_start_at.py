@@ -38,6 +38,7 @@ def test_start_at_not_a_time_is_named(value):
     assert err.value.field == "start_at"
 
 
+@pytest.mark.serial  # rates and times on the real clock
 def test_a_scheduled_move_starts_at_start_at(arm_server: Any):
     server, _ = arm_server
     start_at = time.time() + 0.8

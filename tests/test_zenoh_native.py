@@ -98,6 +98,7 @@ def test_malformed_json_is_400(left: Any) -> None:
         assert got["body"]["error"]["code"] == "malformed_json"
 
 
+@pytest.mark.serial  # rates and times on the real clock
 def test_a_move_over_zenoh_and_its_state(left: Any) -> None:
     server, _native, session = left
     states: list[tuple[float, dict[str, Any]]] = []
