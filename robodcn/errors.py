@@ -20,7 +20,8 @@ The classes map onto CLI exit codes and HTTP statuses through ``exit_code`` and
     │   ├── JerkLimitError
     │   ├── TorqueLimitError
     │   ├── ToolLimitError                          tool speed / orientation rate / acceleration
-    │   └── TickLimitError
+    │   ├── TickLimitError
+    │   └── KeepOutError                            a point of the arm inside a keep-out zone
     ├── BusError                      exit 4   503  servo or bus fault
     │   ├── CommError                               no/garbled status packet
     │   ├── ServoMismatchError                      missing servo, wrong model
@@ -41,9 +42,9 @@ from typing import Any, Literal
 QUANTITY_UNITS = {"reach": "m", "position": "rad", "velocity": "rad/s",
                   "acceleration": "rad/s^2", "jerk": "rad/s^3", "ticks": "tick",
                   "torque": "N*m", "tool_speed": "m/s", "tool_angular_speed": "rad/s",
-                  "tool_acceleration": "m/s^2"}
+                  "tool_acceleration": "m/s^2", "keepout": "m"}
 Quantity = Literal["reach", "position", "velocity", "acceleration", "jerk", "ticks", "torque",
-                   "tool_speed", "tool_angular_speed", "tool_acceleration"]
+                   "tool_speed", "tool_angular_speed", "tool_acceleration", "keepout"]
 
 
 @dataclass(frozen=True)
@@ -69,10 +70,12 @@ class Violation:
                        "joint angle, rad; velocity rad/s; acceleration rad/s²; jerk rad/s³; "
                        "ticks: goal position; torque: joint torque, N·m; tool_speed: the tool "
                        "point's speed, m/s; tool_angular_speed: its orientation rate, rad/s; "
-                       "tool_acceleration: its acceleration along the path, m/s²)."})
+                       "tool_acceleration: its acceleration along the path, m/s²; keepout: "
+                       "how deep the point is inside the zone, m)."})
     limit: float = _field(metadata={
         "description": "The bound it passes (the nearer workspace radius for reach, the "
-                       "crossed joint or tick limit for position and ticks)."})
+                       "crossed joint or tick limit for position and ticks, 0 for keepout: "
+                       "the zone's surface)."})
     unit: str = _field(metadata={"description": "SI unit of value and limit."})
     joint: str | None = _field(default=None, metadata={"description": "Joint name, if one."})
     joint_index: int | None = _field(default=None,
@@ -88,6 +91,15 @@ class Violation:
     field: str = _field(default="duration", metadata={
         "description": "The request field to change (waypoints[i], duration, start_joints; "
                        "a tool limit's own field: tool_speed …)."})
+    point: str | None = _field(default=None, metadata={
+        "description": "For keepout: the point of the arm inside the zone (a joint's name "
+                       "for its centre, \"tool\", or \"<a>–<b> link\" along a link)."})
+    zone: str | None = _field(default=None, metadata={
+        "description": "For keepout: the zone entered (\"floor\", \"base\" or a "
+                       "[[workspace.keep_out]] box's name)."})
+    position: tuple[float, ...] | None = _field(default=None, metadata={
+        "description": "For keepout: the point's base-frame position [x, y, z] (m).",
+        "schema": {"type": ["array", "null"], "items": {"type": "number"}}})
 
     def to_dict(self) -> dict[str, Any]:
         return {"sample": self.sample, "t": self.t, "pose": list(self.pose),
@@ -95,7 +107,8 @@ class Violation:
                 "unit": self.unit, "joint": self.joint, "joint_index": self.joint_index,
                 "segment": None if self.segment is None else list(self.segment),
                 "waypoint": self.waypoint, "other_branch_ok": self.other_branch_ok,
-                "field": self.field}
+                "field": self.field, "point": self.point, "zone": self.zone,
+                "position": None if self.position is None else list(self.position)}
 
 
 class RobodcnError(Exception):
@@ -273,6 +286,35 @@ class TickLimitError(PlanError):
     code = "tick_limit"
 
 
+class KeepOutError(PlanError):
+    """A sample puts a point of the arm (a joint centre, the tool point, a point along a
+    link) inside a keep-out zone of its ``[workspace]``: the floor, the base, a box.
+
+    Its :class:`Violation` (quantity "keepout") names the sample, point, zone and depth;
+    a waypoint whose tool point lies in a zone is refused before any sampling, with
+    ``point``, ``zone``, ``depth`` (m) and ``position`` (the point's [x, y, z], m) given
+    here instead (also under ``"keepout"`` in :meth:`to_dict`).
+    """
+
+    code = "keep_out"
+
+    def __init__(self, message: str, *, point: str | None = None, zone: str | None = None,
+                 depth: float | None = None, position: Any = None, **kwargs: Any) -> None:
+        super().__init__(message, **kwargs)
+        v = self.violation
+        self.point = v.point if v is not None and point is None else point
+        self.zone = v.zone if v is not None and zone is None else zone
+        self.depth = v.value if v is not None and depth is None else depth
+        self.position = (list(v.position) if v is not None and position is None
+                         and v.position is not None else position)
+
+    def to_dict(self) -> dict[str, Any]:
+        body = super().to_dict()
+        body["keepout"] = {"point": self.point, "zone": self.zone, "depth_m": self.depth,
+                           "position": self.position}
+        return body
+
+
 class TorqueLimitError(PlanError):
     """A sample needs more joint torque (inverse dynamics with gravity, payload and rotor
     inertia) than the joint's ``max_torque_nm``."""
@@ -292,7 +334,8 @@ VIOLATION_ERRORS: dict[str, type[PlanError]] = {
     "reach": UnreachableError, "position": JointLimitError, "velocity": VelocityLimitError,
     "acceleration": AccelerationLimitError, "jerk": JerkLimitError, "ticks": TickLimitError,
     "torque": TorqueLimitError, "tool_speed": ToolLimitError,
-    "tool_angular_speed": ToolLimitError, "tool_acceleration": ToolLimitError}
+    "tool_angular_speed": ToolLimitError, "tool_acceleration": ToolLimitError,
+    "keepout": KeepOutError}
 
 
 class BusError(RobodcnError):

@@ -75,6 +75,25 @@ def _reach_text(v: Violation, units: Units) -> str:
             f"reaches to {v.limit:.4f} m")
 
 
+def depth_text(depth: float, units: Units) -> str:
+    """How deep (m) a point lies inside a zone: millimetres on the CLI ("100.0 mm"),
+    metres with the millimetres over HTTP ("0.1000 m (100.0 mm)")."""
+    mm = f"{depth * 1e3:.1f} mm"
+    return mm if units == "cli" else f"{depth:.4f} m ({mm})"
+
+
+def keepout_text(v: Violation, units: Units) -> str:
+    """Which point of the arm is inside which keep-out zone, how deep and where."""
+    where = ""
+    if v.position is not None:
+        x, y, z = v.position
+        where = f" at x={x:.4f} m, y={y:.4f} m, z={z:.4f} m"
+    point = "tool point" if v.point == "tool" else (
+        f"{v.point!r} joint" if v.joint is not None else f"{v.point}")
+    return (f"the {point}{where} is {depth_text(v.value, units)} inside the arm's keep-out "
+            f"zone {v.zone!r} ([workspace]): choose a pose or path clear of it")
+
+
 def field_name(path: str | None, units: Units,
                waypoint_names: Sequence[str] | None = None,
                field_names: Mapping[str, str] | None = None) -> str | None:
@@ -131,6 +150,12 @@ def describe_violation(v: Violation, units: Units = "si",
     who = f"joint {v.joint!r} " if v.joint else ""
     if v.quantity == "reach":
         return f"{head}: {_reach_text(v, units)}"
+    if v.quantity == "keepout":
+        text = f"{head}: {keepout_text(v, units)}"
+        if v.other_branch_ok:
+            flag = "--elbow" if units == "cli" else "elbow"
+            text += f"; the other elbow branch would pass ({flag})"
+        return text
     if v.quantity == "position":
         text = (f"{head}: {who}at {quantity(v.value, v.unit, units)} is outside its limit "
                 f"{quantity(v.limit, v.unit, units)}")

@@ -199,6 +199,13 @@ class ArmInfo:
         "the arm has a [gripper] (POST /v1/gripper drives it)"))
     execution: ExecutionInfo | None = field(default=None, metadata=_doc(
         "what every move the service starts executes with, or null (no arm attached)"))
+    keep_out: list[dict[str, Any]] = field(default_factory=list, metadata={
+        "description": "the keep-out zones no point of the arm may enter ([workspace]; a "
+                       "plan into one is refused, 422 keep_out), in metres: "
+                       "{name, kind: floor, axis, height} (nothing below height on axis), "
+                       "{name, kind: cylinder, radius, top} (about the yaw axis, up to top), "
+                       "{name, kind: box, min, max} (corners [x, y, z]; a planar arm's [x, y])",
+        "schema": {"type": "array", "items": {"type": "object"}}})
 
 
 #: What a released arm was told, shared by TorqueAnswer and RebootAnswer.

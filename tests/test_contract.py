@@ -86,7 +86,7 @@ def test_schema_of_a_result_dataclass() -> None:
     props = schema["properties"]
     assert props["quantity"]["enum"] == ["reach", "position", "velocity", "acceleration",
                                          "jerk", "ticks", "torque", "tool_speed",
-                                         "tool_angular_speed", "tool_acceleration"]
+                                         "tool_angular_speed", "tool_acceleration", "keepout"]
     # x, y, θ, or a yawed arm's x, y, z, pitch
     assert props["pose"]["items"] == {"type": "number"}
     assert (props["pose"]["minItems"], props["pose"]["maxItems"]) == (3, 4)

@@ -27,7 +27,7 @@ import numpy as np
 
 from robodcn.cli import keys, options, planning
 from robodcn.cli.exit_codes import Exit
-from robodcn.errors import BusError, InputError, RobodcnError
+from robodcn.errors import BusError, InputError, KeepOutError, RobodcnError
 from robodcn.workflow.poses import tool_pose
 
 #: key → (dx, dy, dθ) in steps
@@ -165,6 +165,10 @@ class Jogger:
         except RobodcnError as exc:
             self.target = before  # refused: the target stays where the arm can go
             self.message = exc.message
+            if isinstance(exc, KeepOutError) and exc.zone is not None:
+                # the status line shows 60 characters: the zone first
+                self.message = (f"refused: keep-out zone {exc.zone!r}, the {exc.point} "
+                                f"{(exc.depth or 0.0) * 1e3:.1f} mm inside")
 
     def stop(self, mode: str) -> None:
         self.quit = True

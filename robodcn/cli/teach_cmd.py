@@ -28,7 +28,7 @@ from robodcn.cli.dialogue import say, stdin_prompt
 from robodcn.cli.output import save_work
 from robodcn.cli.report_text import pose_text
 from robodcn.cli.servo_session import add_bus_options, open_bus
-from robodcn.errors import InputError
+from robodcn.errors import InputError, KeepOutError
 
 PROMPT = "Enter: record the present pose, u: undo the last one, q: finish"
 GRIPPER_PROMPT = ("Enter: record the present pose, o/c: open/close the gripper here, "
@@ -85,10 +85,17 @@ def record(teaching) -> None:
         except EOFError:
             return
         if answer == "":
-            pose = teaching.record()
+            try:
+                pose = teaching.record()
+            except KeepOutError as exc:
+                say(f"not recorded: {exc.message}")
+                continue
             say(f"waypoint {len(teaching) - 1}: {pose_text(teaching.arm.pose_keys, pose)}")
         elif answer in GRIPPER_KEYS and has_gripper:
-            _gripper(teaching, GRIPPER_KEYS[answer])
+            try:
+                _gripper(teaching, GRIPPER_KEYS[answer])
+            except KeepOutError as exc:
+                say(f"not recorded: {exc.message}")
         elif answer == "u":
             say(f"undone; {len(teaching)} recorded" if teaching.undo() else "nothing to undo")
         elif answer == "q":

@@ -27,6 +27,9 @@ one)::
     [dynamics] optional: link_masses, link_com, link_inertias, payload_kg,
                rotor_inertia_kg_m2; a planar arm gravity = [gx, gy]; a yawed arm
                gravity_m_s2 (along −z), yaw_body_mass, yaw_body_com, yaw_body_inertia
+    [workspace] optional keep-out zones (robodcn.config._workspace): floor_z | floor_y,
+               base_radius, base_height, [[workspace.keep_out]] name, min, max; a yawed
+               arm's defaults: the floor at z = 0 and a cylinder about the yaw axis
     [gripper]  optional: the servo keys (id, model, …), open | open_deg, closed |
                closed_deg, open_width_m | open_width_mm, closed_width_m |
                closed_width_mm, grip_current_a
@@ -45,6 +48,15 @@ messages stay one short line. :func:`load_arm` takes a path, or the name of a pa
 example (:data:`EXAMPLES`: ``"arm3r"``, ``"arm2r"``, ``"omx"``; :mod:`._examples`).
 """
 
+from robodcn.config._body import (
+    DEPTH_SLACK,
+    Body,
+    Intrusion,
+    body_of,
+    body_points,
+    clear_of_zones,
+    first_intrusion,
+)
 from robodcn.config._examples import EXAMPLES, example_path
 from robodcn.config._load import arm_from_dict, load_arm
 from robodcn.config._rigid import rigid_chain, rotor_inertias
@@ -70,13 +82,46 @@ from robodcn.config._specs import (
     ServoSpec,
     ToolSpec,
 )
+from robodcn.config._workspace import base_radius_of
+from robodcn.config._zones import BASE, FLOOR, KeepOutBox, Workspace
 
 __all__ = [
-    "BAUD_RATES", "ELBOWS", "EXAMPLES", "IN_POSITION_TICKS", "LINK_RANGE", "MAX_JERK",
+    "BASE",
+    "BAUD_RATES",
+    "DEPTH_SLACK",
+    "ELBOWS",
+    "EXAMPLES",
+    "FLOOR",
+    "IN_POSITION_TICKS",
+    "LINK_RANGE",
+    "MAX_JERK",
     "MAX_SERVO_ID",
-    "PLANAR_POSE", "PLANES",
-    "RATE_RANGE", "SERVO_MODELS", "SERVO_SPECS", "YAWED_POSE", "Arm", "BusSpec",
-    "GripperSpec", "JointSpec", "MassProperties", "ServoModel", "ServoSpec", "ToolSpec",
-    "arm_from_dict", "example_path",
-    "load_arm", "rigid_chain", "rotor_inertias",
+    "PLANAR_POSE",
+    "PLANES",
+    "RATE_RANGE",
+    "SERVO_MODELS",
+    "SERVO_SPECS",
+    "YAWED_POSE",
+    "Arm",
+    "Body",
+    "BusSpec",
+    "GripperSpec",
+    "Intrusion",
+    "JointSpec",
+    "KeepOutBox",
+    "MassProperties",
+    "ServoModel",
+    "ServoSpec",
+    "ToolSpec",
+    "Workspace",
+    "arm_from_dict",
+    "base_radius_of",
+    "body_of",
+    "body_points",
+    "clear_of_zones",
+    "example_path",
+    "first_intrusion",
+    "load_arm",
+    "rigid_chain",
+    "rotor_inertias",
 ]

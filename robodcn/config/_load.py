@@ -10,6 +10,7 @@ from typing import Any
 import numpy as np
 
 from robodcn import kinematics
+from robodcn.config._body import first_intrusion
 from robodcn.config._dynamics import dynamics
 from robodcn.config._examples import EXAMPLES, arm_path
 from robodcn.config._geometry import geometry
@@ -17,6 +18,7 @@ from robodcn.config._parts import bus, gripper, joint
 from robodcn.config._reader import Reader
 from robodcn.config._specs import Arm
 from robodcn.config._tool import tool
+from robodcn.config._workspace import workspace
 from robodcn.errors import ConfigError
 
 
@@ -32,7 +34,7 @@ def arm_from_dict(data: Any, source: str = "<dict>") -> Arm:
         joint limits).
     """
     top = Reader(source, data, "")
-    top.only({"arm", "bus", "joints", "dynamics", "gripper", "tool"})
+    top.only({"arm", "bus", "joints", "dynamics", "gripper", "tool", "workspace"})
     geo = geometry(top.sub("arm"))
     bus_spec = bus(top.sub("bus"))
     n_joints = len(geo.lengths) + (1 if geo.base_yaw else 0)
@@ -66,14 +68,39 @@ def arm_from_dict(data: Any, source: str = "<dict>") -> Arm:
                           f"joints[{seen_ids[grip.servo.id]}].servo.id's", file=source,
                           key="gripper.id", value=grip.servo.id)
     table, props = dynamics(top.sub("dynamics", {}), len(geo.lengths), n_joints, geo.base_yaw)
+    zones = workspace(top.sub("workspace", {}), base_yaw=geo.base_yaw, plane=geo.plane,
+                      shoulder_height=geo.shoulder_height,
+                      yaw_model=joints[0].servo.model if geo.base_yaw else None)
     arm = Arm(geo.name, geo.lengths, joints, geo.home, geo.elbow, bus_spec, source, table,
               base_yaw=geo.base_yaw, plane=geo.plane, shoulder_height=geo.shoulder_height,
               link_vectors=geo.vectors, rest=geo.rest, gripper=grip, mass_properties=props,
-              tool=tool(top.sub("tool", {})))
+              tool=tool(top.sub("tool", {})), workspace=zones)
     _check_pose(arm, "home", arm.home)
+    _check_clear(arm, "home", arm.home)
     if arm.rest is not None:
         _check_pose(arm, "rest", arm.rest)
+        _check_clear(arm, "rest", arm.rest)
     return arm
+
+
+def _check_clear(arm: Arm, which: str, pose: tuple[float, ...]) -> None:
+    """The arm at its home or rest pose (IK on its elbow branch) must be clear of every
+    keep-out zone: a zone that swallows it is a mistake in ``[workspace]``."""
+    if arm.workspace.empty:
+        return
+    if arm.base_yaw:
+        chain = arm.chain
+        assert chain is not None
+        q = kinematics.ik_yawed(chain, np.array([pose]), arm.elbow)
+    else:
+        q = kinematics.ik(arm.links, np.array([pose]), arm.elbow)
+    hit = first_intrusion(arm, q)
+    if hit is None:
+        return
+    raise ConfigError(f"key 'workspace' = a table: at its {which} pose the arm's {hit.point} "
+                      f"is {hit.depth * 1e3:.1f} mm inside keep-out zone "
+                      f"{arm.workspace.describe(hit.zone)}", file=arm.source, key="workspace",
+                      value=hit.zone)
 
 
 def _check_pose(arm: Arm, which: str, pose: tuple[float, ...]) -> None:

@@ -10,6 +10,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from robodcn import kinematics
+from robodcn.config._zones import Workspace
 
 
 @dataclass(frozen=True)
@@ -24,6 +25,11 @@ class ServoModel:
     stall_torque : stall torque at 12 V (N·m)
     stall_current : stall current at 12 V (A): the largest goal current worth asking
     rated_speed : no-load speed at 12 V (rad/s), the other end of the torque–speed line
+    body : the case's width × length × height (m), the height along the horn axis (an
+        X-series XM430 / XL430: 28.5 × 46.5 × 34 mm, ROBOTIS e-manual "Dimensions")
+    axis_from_end : how far the horn axis lies from the near end of the case's length (m;
+        11.25 mm: ROBOTIS's OpenMANIPULATOR-X base link frame, at the yaw servo's centre,
+        sits 12 mm behind the yaw axis, 46.5/2 − 12; shared/omx.md)
     """
 
     ticks_per_turn: int
@@ -32,6 +38,8 @@ class ServoModel:
     stall_torque: float
     stall_current: float
     rated_speed: float
+    body: tuple[float, float, float] = (0.0285, 0.0465, 0.034)
+    axis_from_end: float = 0.01125
 
     def available_torque(self, velocity: float) -> float:
         """Torque (N·m) the servo delivers at ``velocity`` (rad/s) on its 12 V torque–speed
@@ -256,6 +264,9 @@ class Arm:
     mass_properties: MassProperties = field(default_factory=MassProperties)
     #: The ``[tool]`` table: default tool-point limits and their ceilings.
     tool: ToolSpec = field(default_factory=ToolSpec)
+    #: The keep-out zones (``[workspace]``; :mod:`robodcn.config._workspace`): none unless
+    #: loaded from a file (whose defaults give a yawed arm a floor and a base cylinder).
+    workspace: Workspace = field(default_factory=Workspace)
 
     @property
     def dof(self) -> int:
@@ -351,4 +362,5 @@ class Arm:
             **({"dynamics": dict(self.dynamics)} if self.dynamics else {}),
             **({"gripper": self.gripper.to_dict()} if self.gripper is not None else {}),
             **({"tool": self.tool.to_dict()} if self.tool.to_dict() else {}),
+            "workspace": self.workspace.to_dict(planar=not self.base_yaw),
         }

@@ -49,7 +49,8 @@ def op_arm(server: Service, request: Request, params: dict[str, str]
     return 200, ArmInfo(name=arm.name, dof=arm.dof, joint_names=list(arm.joint_names),
                         servo_ids=list(arm.servo_ids), source=arm.source, config=arm.to_dict(),
                         pose_axes=list(arm.pose_keys), payload_kg=arm.payload_kg,
-                        gripper=arm.gripper is not None, execution=execution)
+                        gripper=arm.gripper is not None, execution=execution,
+                        keep_out=arm.workspace.zone_list(planar=not arm.yawed))
 
 
 def op_plan(server: Service, request: Request, params: dict[str, str]

@@ -32,6 +32,7 @@ from robodcn.kinematics._planar import (
     wrist_points,
     wrist_radius,
 )
+from robodcn.kinematics._points import planar_points, yawed_points
 from robodcn.kinematics._yawed import (
     AXIS_TOLERANCE,
     MAX_PITCH,
@@ -74,6 +75,7 @@ __all__ = [
     "jacobian",
     "manipulability",
     "near_singular",
+    "planar_points",
     "plane_fk",
     "reachable",
     "reachable_yawed",
@@ -88,4 +90,5 @@ __all__ = [
     "wrist_points",
     "wrist_radius",
     "wrist_radius_yawed",
+    "yawed_points",
 ]

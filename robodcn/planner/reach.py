@@ -35,11 +35,14 @@ def fmt_pose(pose: Sequence[float]) -> str:
 
 def check_waypoints(req: PlanRequest) -> None:
     """Every waypoint reachable, else UnreachableError naming it (``waypoints[j]``) and why
-    (behind the base, on the yaw axis, out of the annulus); a lone waypoint's path starts at
-    the start's pose, which must be reachable too (:func:`check_start`)."""
+    (behind the base, on the yaw axis, out of the annulus), and its tool point outside the
+    keep-out zones (KeepOutError: :func:`robodcn.planner.validate.check_waypoint_zones`);
+    a lone waypoint's path starts at the start's pose, which must be reachable too
+    (:func:`check_start`)."""
     arm = req.arm
     if not arm.yawed:
         validate.check_waypoints(req)
+        validate.check_waypoint_zones(req, fmt_pose)
         check_start(req)
         return
     chain = arm.chain
@@ -47,6 +50,7 @@ def check_waypoints(req: PlanRequest) -> None:
     wp = req.waypoints_array
     ok = kinematics.reachable_yawed(chain, wp)
     if ok.all():
+        validate.check_waypoint_zones(req, fmt_pose)
         check_start(req)
         return
     j = int(np.argmin(ok))

@@ -243,14 +243,16 @@ class UniformTiming:
         return False
 
     def annotate(self, violation: Violation) -> Violation:
-        """A position or tick violation says whether the other elbow branch would pass."""
-        if violation.quantity not in ("position", "ticks"):
+        """A position, tick or keep-out violation says whether the other elbow branch would
+        pass."""
+        if violation.quantity not in ("position", "ticks", "keepout"):
             return violation
         return dataclasses.replace(violation, other_branch_ok=self._other_branch_ok())
 
     def _other_branch_ok(self) -> bool:
         """Whether the same request on the other elbow branch passes position and tick limits
-        (sampled as the failed plan was: timing plays no part in these checks)."""
+        and keeps out of the keep-out zones (sampled as the failed plan was: timing plays
+        no part in these checks)."""
         req = self.req
         other = "down" if req.branch == "up" else "up"
         with warnings.catch_warnings():

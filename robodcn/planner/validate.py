@@ -27,17 +27,23 @@ acceleration (:func:`tool_violation`).
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from typing import NoReturn
 
 import numpy as np
 from numpy.typing import NDArray
 
 from robodcn import kinematics, servo_units
-from robodcn.config import Arm
+from robodcn.config import DEPTH_SLACK, Arm, Intrusion, first_intrusion
 from robodcn.contract.request import PlanRequest
 from robodcn.dynamics import tool_point
-from robodcn.errors import QUANTITY_UNITS, VIOLATION_ERRORS, UnreachableError, Violation
+from robodcn.errors import (
+    QUANTITY_UNITS,
+    VIOLATION_ERRORS,
+    KeepOutError,
+    UnreachableError,
+    Violation,
+)
 from robodcn.messages import describe_violation
 from robodcn.path_timing.tool import ToolLimits
 from robodcn.path_timing.torque import TorqueLimits
@@ -100,6 +106,32 @@ def check_waypoints(req: PlanRequest) -> None:
                            f"point is {r:.4f} m from the base, the arm reaches "
                            f"{inner:.4f}..{outer:.4f} m", field=f"waypoints[{j}]",
                            value=wp[j].tolist(), pose=wp[j].tolist(), waypoint=j)
+
+
+def check_waypoint_zones(req: PlanRequest, fmt: Callable[[Sequence[float]], str]) -> None:
+    """Every waypoint's tool point outside the arm's keep-out zones, else KeepOutError
+    naming the first such waypoint, the zone and how deep (before any sampling: the tool
+    point of a waypoint is the waypoint itself, whatever the branch). ``fmt`` words a
+    waypoint (reach.fmt_pose)."""
+    zones = req.arm.workspace
+    if zones.empty:
+        return
+    wp = req.waypoints_array
+    tool = np.zeros((wp.shape[0], 3))
+    width = 3 if req.arm.yawed else 2
+    tool[:, :width] = wp[:, :width]
+    depth = zones.depths(tool)
+    inside = depth > DEPTH_SLACK
+    if not inside.any():
+        return
+    j = int(np.argmax(inside.any(axis=1)))
+    z = int(np.argmax(np.where(inside[j], depth[j], -np.inf)))
+    zone, d = zones.zones[z], float(depth[j, z])
+    raise KeepOutError(f"waypoints[{j}] ({fmt(wp[j])}) puts the tool point {d * 1e3:.1f} mm "
+                       f"inside the arm's keep-out zone {zones.describe(zone)}: choose a pose "
+                       "clear of it", field=f"waypoints[{j}]",
+                       value=wp[j].tolist(), pose=wp[j].tolist(), waypoint=j, point="tool",
+                       zone=zone, depth=d, position=tool[j].tolist())
 
 
 def dynamic_limits(arm: Arm) -> tuple[NDArray, NDArray, NDArray]:
@@ -321,9 +353,11 @@ def check(req: PlanRequest, poses: NDArray, joints: NDArray, *, dynamics: bool =
     if torque is not None:
         # the gravity torques only name a torque violation's field (below): not asked here
         tau, _ = sample_torques(torque, joints, rate, history, gravity=False)
+    # every point of the arm against its keep-out zones (nothing to do without zones)
+    hit = first_intrusion(arm, joints)
     # the fast path compares per-joint extremes in plain floats: the limits as lists
     b_lo, b_hi, b_tmin, b_tmax, b_v, b_a, b_jk = consts.bounds
-    if (history is None or not dynamics) and _fine(
+    if hit is None and (history is None or not dynamics) and _fine(
             joints, ticks, b_lo, b_hi, b_tmin, b_tmax, (b_v, b_a, b_jk) if dynamics else None,
             rate, slack, columns) \
             and (tau is None or (np.abs(tau) <= torque.tau * slack).all()):
@@ -352,6 +386,9 @@ def check(req: PlanRequest, poses: NDArray, joints: NDArray, *, dynamics: bool =
             i = int(np.argmax(rows))
             if i < first:
                 first, chosen = i, (quantity, bad, score, values)
+    if hit is not None and (chosen is None or hit.sample < first or (
+            hit.sample == first and chosen[0] not in ("position", "ticks"))):
+        return ticks, keepout_violation(req, hit, poses, marks, segment_of)
     if chosen is None:
         return ticks, _tools(req, poses, joints, history, segment_of, dynamics)
     quantity, bad, score, values = chosen
@@ -469,6 +506,30 @@ def _tools(req: PlanRequest, poses: NDArray, joints: NDArray, history: NDArray |
     if not dynamics or not req.tool_limited:
         return None
     return tool_violation(req, poses, joints, history, segment_of)
+
+
+def keepout_violation(req: PlanRequest, hit: Intrusion, poses: NDArray,
+                      marks: dict[int, int] | None = None,
+                      segment_of: NDArray | None = None) -> Violation:
+    """The "keepout" Violation of a sample with a point inside a keep-out zone: value the
+    depth (m), limit 0 (the zone's surface), the point, zone and the point's position; the
+    field a waypoint sampled there (``waypoints[i]``), the approach's ``start_joints``, or
+    the path (``waypoints``)."""
+    i = hit.sample
+    waypoint = (marks or {}).get(i)
+    segment = None
+    if segment_of is not None and segment_of[i] >= 0:
+        segment = (int(segment_of[i]), int(segment_of[i]) + 1)
+    field = f"waypoints[{waypoint}]" if waypoint is not None else "waypoints"
+    if waypoint is None and segment is None and segment_of is not None \
+            and req.start_joints is not None:
+        field = "start_joints"
+    j = hit.joint
+    return Violation(sample=i, t=i / req.rate_hz, pose=tuple(float(x) for x in poses[i]),
+                     quantity="keepout", value=hit.depth, limit=0.0, unit="m",
+                     joint=None if j is None else req.arm.joints[j].name, joint_index=j,
+                     segment=segment, waypoint=waypoint, field=field, point=hit.point,
+                     zone=hit.zone, position=hit.position)
 
 
 def elbow_branches(joints: NDArray) -> tuple[str | None, tuple[int, ...]]:

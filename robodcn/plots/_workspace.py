@@ -1,4 +1,5 @@
-"""The workspace ``check-config --plot`` draws: the tool points inside the joint limits."""
+"""The workspace ``check-config --plot`` draws: the tool points inside the joint limits and
+clear of the keep-out zones, and the zones."""
 
 from __future__ import annotations
 
@@ -9,6 +10,7 @@ from robodcn import kinematics
 from robodcn.config import Arm
 from robodcn.plots._motion import _draw_arm, _pyplot, save_figure
 from robodcn.plots._yawed import plot_plane_workspace
+from robodcn.plots._zones import draw_zones
 
 
 def plot_workspace(path: str, arm: Arm, points: NDArray[np.float64]) -> None:
@@ -23,8 +25,9 @@ def plot_workspace(path: str, arm: Arm, points: NDArray[np.float64]) -> None:
         _finish(fig, ax, plt, path)
         return
     ax.plot(points[:, 0], points[:, 1], ".", ms=1, color="tab:blue", alpha=0.3,
-            label="tool points inside the joint limits")
+            label="tool points inside the joint limits, clear of the keep-out zones")
     inner, outer = kinematics.workspace(arm.links)
+    draw_zones(ax, arm, (-sum(arm.links), sum(arm.links), -sum(arm.links)))
     circle = np.linspace(0, 2 * np.pi, 361)
     for radius, name in ((outer, "wrist reach"), (inner, None)):
         if radius > 0:

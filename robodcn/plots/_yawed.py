@@ -18,6 +18,7 @@ from numpy.typing import ArrayLike, NDArray
 from robodcn import kinematics, servo_units
 from robodcn.config import Arm
 from robodcn.plots._marks import approach_end, waypoint_samples
+from robodcn.plots._zones import draw_zones
 
 #: Tool-axis ticks drawn along the path in the side view.
 PITCH_TICKS = 16
@@ -112,10 +113,15 @@ def plot_plane_workspace(ax, arm: Arm, points: NDArray[np.float64]) -> None:
     """A yawed arm's workspace in its vertical plane: the tool points (n, 3) (r, z, pitch)
     reachable inside the chain's joint limits (:func:`robodcn.workflow.check.
     workspace_samples`), the wrist annulus about the shoulder and the arm at home and at
-    rest. Points at r < 0 lie over the top, behind the yaw axis (refused by the IK)."""
+    rest, and the keep-out zones (:func:`robodcn.plots._zones.draw_zones`; the points
+    keep the arm out of them). Points at r < 0 lie over the top, behind the yaw axis
+    (refused by the IK)."""
     chain = arm.chain
     ax.plot(points[:, 0], points[:, 1], ".", ms=1, color="tab:blue", alpha=0.3,
-            label="tool points inside the joint limits")
+            label="tool points inside the joint limits, clear of the keep-out zones")
+    reach = sum(chain.lengths)
+    floor = arm.workspace.floor
+    draw_zones(ax, arm, (-reach, reach, (0.0 if floor is None else floor) - 0.05))
     inner, outer = chain.workspace()
     circle = np.linspace(0, 2 * np.pi, 361)
     for radius, name in ((outer, "wrist reach"), (inner, None)):

@@ -15,7 +15,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from robodcn import kinematics, servo_units
-from robodcn.config import SERVO_SPECS, Arm, rigid_chain
+from robodcn.config import SERVO_SPECS, Arm, clear_of_zones, rigid_chain
 from robodcn.dynamics import holding_torque_box
 
 
@@ -118,11 +118,14 @@ def workspace_samples(arm: Arm, per_joint: int = 41) -> NDArray[np.float64]:
     (the chain's joints only: the yaw turns that plane).
 
     The reachable workspace inside the joint limits (not just the annulus): FK of every
-    combination, vectorised.
+    combination, vectorised; only the combinations that keep every point of the arm out of
+    its keep-out zones (:func:`robodcn.config.clear_of_zones`; a yawed arm's at yaw 0, the
+    plane drawn), so nothing a plan would refuse is shown as reachable.
     """
     joints = arm.chain_joints
     axes = [np.linspace(j.min_angle, j.max_angle, per_joint) for j in joints]
     grid = np.stack(np.meshgrid(*axes, indexing="ij"), axis=-1).reshape(-1, len(joints))
     if arm.yawed:
-        return kinematics.plane_fk(arm.chain, grid)
-    return kinematics.fk(arm.links, grid)
+        full = np.column_stack([np.zeros(len(grid)), grid])
+        return kinematics.plane_fk(arm.chain, grid[clear_of_zones(arm, full)])
+    return kinematics.fk(arm.links, grid[clear_of_zones(arm, grid)])

@@ -33,6 +33,7 @@ from numpy.typing import NDArray
 from robodcn.bus import ServoBus
 from robodcn.config import PLANAR_POSE, Arm
 from robodcn.errors import InputError
+from robodcn.planner import keepout
 from robodcn.workflow.admin import present_state
 from robodcn.workflow.float_teach import FloatReport, FloatSample, FloatTeach, has_gravity
 from robodcn.workflow.gripper import COMMANDS as GRIPPER_ACTIONS
@@ -113,9 +114,13 @@ class Teaching:
 
     def record(self, pose: NDArray[np.float64] | None = None) -> NDArray[np.float64]:
         """Record the present pose (or ``pose``; the arm's pose keys: x, y, θ or x, y, z,
-        pitch) as the next waypoint and return it."""
+        pitch) as the next waypoint and return it. The present pose is refused
+        (KeepOutError, nothing recorded) when a point of the arm lies inside a keep-out
+        zone: no plan could go there."""
         if pose is None:
-            pose = self.present_pose()
+            state = self._run(lambda: present_state(self.bus, self.arm))
+            keepout.check_pose(self.arm, state.joints)
+            pose = state.pose
         self._poses.append(np.asarray(pose, dtype=np.float64))
         self._actions.append({})
         log.info("waypoint %d: %s", len(self._poses) - 1, pose)
@@ -133,7 +138,9 @@ class Teaching:
             raise InputError(f"arm {self.arm.name!r} has no [gripper] table", field="gripper",
                              value=self.arm.name)
         gripper = self.arm.gripper
-        pose = self.present_pose()
+        state = self._run(lambda: present_state(self.bus, self.arm))
+        keepout.check_pose(self.arm, state.joints)
+        pose = state.pose
         result = self._run(lambda: actuate(self.bus, gripper, command, **options))
         if not self._poses or not self._same_pose(self._poses[-1], pose):
             self.record(pose)

@@ -40,7 +40,7 @@ from robodcn.bus import ServoBus
 from robodcn.config import Arm
 from robodcn.errors import InputError, RobodcnError
 from robodcn.path_timing import JointLimits
-from robodcn.planner import PlanRequest, Trajectory
+from robodcn.planner import PlanRequest, Trajectory, keepout
 from robodcn.planner.path import user_pose
 from robodcn.stream.online.counts import report_from
 from robodcn.stream.online.planning_times import RETARGET_TO_DURATION, PlanningTimes
@@ -445,6 +445,9 @@ class Execution:
         assert self.arm is not None
         retargeting = Retargeting(self.arm, self._laws(), self._stream.source, self.speed)
         segments = retargeting.tail(state, target, plan_options)
+        if segments:  # the moving start's blend or brake leaves the planned path: keep out
+            keepout.check_joints(self.arm, np.vstack([seg[0] for seg in segments]),
+                                 retargeting.timing.rate)
         self._told = retargeting.timing if retargeting.timing is not self._timing else None
         return segments
 

@@ -3,7 +3,8 @@
 // the failing sample of an infeasible plan, the arm at its present joints with each joint's
 // limits, and the target tool frame.
 import { S, $, COLORS, NAMES } from "./state.js";
-import { chainPoints, toPlane } from "./geometry.js";
+import { chainPoints, toPlane, yawOf, poseYaw } from "./geometry.js";
+import { sideRects, paintRects } from "./zones.js";
 import { toCanvas, armView, handlePoint, targetPlane, HANDLE_PX } from "./canvas.js";
 
 function polyline(ctx, pts) {
@@ -71,6 +72,10 @@ function drawWorkspace(ctx, canvas, k) {
   // Reachable workspace of the tool point (any angle): Σl outside, max(0, 2·max l − Σl) inside.
   ctx.fillStyle = "rgba(36, 87, 197, 0.06)";
   annulus(ctx, 0, h, Math.max(0, 2 * Math.max(...L) - R), R, k); ctx.fill("evenodd");
+  // The keep-out zones over it: only the allowed workspace stays shaded (a yawed arm's
+  // boxes cut by the plane the arm or its target is in).
+  const yaw = S.target ? poseYaw(m, S.target, 0) : S.state ? yawOf(m, S.state.joints) : 0;
+  paintRects(ctx, sideRects(m, yaw, 2 * R + h), toCanvas);
   if (L.length >= 3 && S.target) {
     const w = L.slice(0, -1), ws = w.reduce((a, b) => a + b, 0), last = L[L.length - 1];
     const a = targetPlane()[2];
@@ -82,6 +87,7 @@ function drawWorkspace(ctx, canvas, k) {
   ctx.fillStyle = "#66707c"; ctx.font = "11px system-ui";
   // The legend, as much of it as fits the canvas's width.
   const parts = [m.yawed ? "side view (r, z)" : "", "grid 5 cm", `shaded: reach ${R.toFixed(2)} m (any ${a})`,
+    m.zones.length ? "red: keep-out zones" : "",
     `dashed ring: reach at the target's ${a}`, "black: measured tool path"].filter(Boolean);
   while (parts.length > 1 && ctx.measureText(parts.join(" · ")).width > canvas.width - 16) parts.pop();
   ctx.fillText(parts.join(" · "), 8, canvas.height - 8);

@@ -32,6 +32,8 @@ export function loadArm(arm) {
     height: yawed ? Number(cfg.shoulder_height || 0) : 0,
     reach: lengths.reduce((a, b) => a + b, 0) || 0.5,
     home: axes.map((k) => Number(home[k] ?? 0) || 0),
+    // keep-out zones (zones.js), as GET /v1/arm lists them
+    zones: Array.isArray(arm.keep_out) ? arm.keep_out : [],
   };
 }
 

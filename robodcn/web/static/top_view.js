@@ -3,6 +3,7 @@
 // only for a yawed arm (beside the side view of its vertical plane).
 import { S, $, COLORS } from "./state.js";
 import { chainPoints, topView, yawOf } from "./geometry.js";
+import { paintTop } from "./zones.js";
 
 /** Canvas pixels of base-frame (x, y) on the top view. */
 export function topToCanvas(x, y) {
@@ -35,6 +36,7 @@ export function drawTop() {
   line(ctx, [[-R * 1.1, 0], [R * 1.1, 0]]); line(ctx, [[0, -R * 1.1], [0, R * 1.1]]);
   ctx.fillStyle = "rgba(36, 87, 197, 0.06)";
   ctx.beginPath(); ctx.arc(ox, oy, R * k, 0, 2 * Math.PI); ctx.fill();
+  paintTop(ctx, m, topToCanvas, k);
   if (S.limits.length) {               // the yaw's allowed range
     const [lo, hi] = S.limits[0];
     ctx.fillStyle = "rgba(31, 122, 58, 0.10)";

@@ -8,10 +8,11 @@ import numpy as np
 from numpy.typing import NDArray
 
 from robodcn import servo_units
-from robodcn.config import Arm
+from robodcn.config import Arm, first_intrusion
 from robodcn.errors import (
     AccelerationLimitError,
     JointLimitError,
+    KeepOutError,
     TickLimitError,
     VelocityLimitError,
 )
@@ -24,11 +25,13 @@ def check_joint_samples(arm: Arm, joints: NDArray[np.float64], rate_hz: float, *
                         source: str, point_of_sample: NDArray[np.int64]) -> NDArray[np.int64]:
     """Ticks (n, k) of joint samples at ``rate_hz`` after checking them against ``arm``.
 
-    Checks joint limits, tick limits, velocity (q_i − q_{i−1})·rate and acceleration
-    (q_{i+1} − 2q_i + q_{i−1})·rate² with the arm at rest before the first and after the
-    last sample (robodcn.planner's rules). The first failing sample raises the matching
-    PlanError naming ``source``, ``points[point_of_sample[i]]``, the time and the joint,
-    in degrees.
+    Checks joint limits, tick limits, the arm's keep-out zones (every joint centre, the
+    tool point and points along the links: :func:`robodcn.config.first_intrusion`),
+    velocity (q_i − q_{i−1})·rate and acceleration (q_{i+1} − 2q_i + q_{i−1})·rate² with
+    the arm at rest before the first and after the last sample (robodcn.planner's rules).
+    The first failing sample raises the matching PlanError naming ``source``,
+    ``points[point_of_sample[i]]``, the time and the joint, in degrees (a keep-out zone:
+    the point, the zone and how deep, in mm).
     """
     n = joints.shape[0]
     lo = np.array([j.min_angle for j in arm.joints]) - SLACK
@@ -54,6 +57,22 @@ def check_joint_samples(arm: Arm, joints: NDArray[np.float64], rate_hz: float, *
             i = int(np.argmax(rows))
             if first is None or i < first[0]:
                 first = (i, int(np.argmax(bad[i])), cls, what)
+    hit = first_intrusion(arm, joints)
+    if hit is not None and (first is None or hit.sample < first[0] or (
+            hit.sample == first[0] and first[3] not in ("position", "ticks"))):
+        point = int(point_of_sample[hit.sample])
+        x, y, z = hit.position
+        name = "tool point" if hit.point == "tool" else (
+            f"{hit.point!r} joint" if hit.joint is not None else hit.point)
+        raise KeepOutError(
+            f"{source}: points[{point}] (sample {hit.sample}, t={hit.sample / rate_hz:.3f} s): "
+            f"the {name} at x={x:.4f} m, y={y:.4f} m, z={z:.4f} m is "
+            f"{hit.depth * 1e3:.1f} mm inside the arm's keep-out zone "
+            f"{arm.workspace.describe(hit.zone)}",
+            field=f"points[{point}]", value=hit.depth, sample=hit.sample,
+            t=hit.sample / rate_hz, point=hit.point, zone=hit.zone, depth=hit.depth,
+            position=list(hit.position),
+            joint=None if hit.joint is None else arm.joints[hit.joint].name)
     if first is None:
         return ticks
     i, j, cls, what = first

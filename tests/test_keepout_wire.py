@@ -1,0 +1,230 @@
+"""Keep-out zones as the user meets them (issue 26 §3), on firmware_sim through the real
+dynamixel-sdk: the issue's reproductions on the command line (``sim``, ``move``) exit 3
+naming the zone and the depth with no goal sent to any servo; over HTTP a plan, a move and
+a replacement into a zone are 422 ``keep_out`` and ``GET /v1/arm`` lists the zones; a jog
+key that would go through the table is refused; ``teach`` does not record a pose inside a
+zone."""
+
+from __future__ import annotations
+
+import contextlib
+import io
+import math
+import tomllib
+from collections.abc import Iterator
+from typing import Any
+
+import numpy as np
+import pytest
+from conftest import ARM3R, CONFIGS, open_bus, settled
+from http_helpers import call, error_of, poll_move, serving_arm, start_move
+from omx_helpers import OMX
+from test_cli_jog import Script
+from workflow_helpers import backdrive, run_cli
+
+from firmware_sim.bus import SimBus
+from robodcn import kinematics, servo_units, simulated
+from robodcn.cli.jog_cmd import Jogger
+from robodcn.errors import KeepOutError
+from robodcn.workflow.teach import Teaching
+
+pytest_plugins = ["omx_helpers", "workflow_fixtures"]     # fixtures: held_omx, sim
+
+DEG = math.pi / 180.0
+BELOW_PLATE = "0.2,0,-0.1,-90"          # the issue's: 10 cm below the mounting plate
+IN_BASE = "0.03,0,0.03,-90"             # 3 cm from the yaw axis, inside the base servo
+
+
+def goals_and_positions(sim: SimBus, ids) -> dict[int, tuple[int, int]]:
+    """Per servo (goals accepted so far, present position)."""
+    return {i: (len(sim.goal_history(i)), sim.servo(i).present_position) for i in ids}
+
+
+def unmoved(before: dict, after: dict) -> bool:
+    """No goal accepted in between, every servo within 3 ticks of where it was (a held
+    joint droops a tick or two under gravity)."""
+    return all(after[i][0] == before[i][0] and abs(after[i][1] - before[i][1]) <= 3
+               for i in before)
+
+
+@contextlib.contextmanager
+def watched_sims(monkeypatch) -> Iterator[list[tuple[dict, dict]]]:
+    """``robodcn.simulated.simulated_arm`` (what ``robodcn sim`` runs) wrapped so the test
+    sees each simulator's servos when the command opened it and when it closed it."""
+    seen: list[tuple[dict, dict]] = []
+    real = simulated.simulated_arm
+
+    @contextlib.contextmanager
+    def watched(arm, **kw):
+        with real(arm, **kw) as sa:
+            before = goals_and_positions(sa.sim, arm.servo_ids)
+            try:
+                yield sa
+            finally:
+                seen.append((before, goals_and_positions(sa.sim, arm.servo_ids)))
+
+    monkeypatch.setattr(simulated, "simulated_arm", watched)
+    yield seen
+
+
+# -- the command line -----------------------------------------------------------------------------
+
+@pytest.mark.parametrize("target, zone, depth", [(BELOW_PLATE, "'floor'", "100.0 mm"),
+                                                 (IN_BASE, "'base'", "8.0 mm")])
+def test_sim_refuses_the_issues_targets_and_no_servo_moves(monkeypatch, capsys, target, zone,
+                                                           depth) -> None:
+    with watched_sims(monkeypatch) as seen:
+        code = run_cli(monkeypatch, ["sim", "--arm", "omx", "--to", target, "--timing",
+                                     "fast"])
+    err = capsys.readouterr().err
+    assert code == 3, err
+    assert f"{depth} inside the arm's keep-out zone {zone}" in err and "(--to)" in err
+    assert len(seen) == 1 and unmoved(*seen[0])
+
+
+def test_move_on_the_wire_refuses_and_sends_no_goal(held_omx, monkeypatch, capsys) -> None:
+    before = goals_and_positions(held_omx, OMX.servo_ids)
+    code = run_cli(monkeypatch, ["move", "--arm", "omx", "--device", held_omx.port_path,
+                                 "--to", BELOW_PLATE])
+    err = capsys.readouterr().err
+    assert code == 3 and "keep-out zone 'floor'" in err, err
+    assert unmoved(before, goals_and_positions(held_omx, OMX.servo_ids))
+    assert all(held_omx.servo(i).torque_enabled for i in OMX.servo_ids)    # still held
+
+
+# -- HTTP -----------------------------------------------------------------------------------------
+
+@pytest.fixture(scope="module")
+def omx_server() -> Iterator[tuple[Any, Any]]:
+    with serving_arm(OMX, request_timeout=10.0) as pair:
+        yield pair
+
+
+def test_http_lists_the_zones_and_answers_422_for_a_plan_into_one(omx_server) -> None:
+    server, sa = omx_server
+    status, _, arm = call(server, "GET", "/v1/arm")
+    assert status == 200
+    floor, base = arm["keep_out"]
+    assert floor == {"name": "floor", "kind": "floor", "axis": "z", "height": 0.0}
+    assert base["kind"] == "cylinder" and base["radius"] == OMX.workspace.base_radius
+    assert base["top"] == OMX.shoulder_height
+    assert arm["config"]["workspace"]["floor_z"] == 0.0
+    below = [0.2, 0.0, -0.1, -math.pi / 2]
+    status, _, body = call(server, "POST", "/v1/trajectories",
+                           {"waypoints": [list(OMX.home), below]})
+    error = error_of(body)
+    assert status == 422 and error["code"] == "keep_out" and error["field"] == "waypoints[1]"
+    assert error["keepout"]["zone"] == "floor" and error["keepout"]["point"] == "tool"
+    assert error["keepout"]["depth_m"] == pytest.approx(0.1)
+    before = goals_and_positions(sa.sim, OMX.servo_ids)
+    status, _, body = call(server, "POST", "/v1/moves", {"waypoints": [below]})
+    assert status == 422 and error_of(body)["code"] == "keep_out"
+    assert unmoved(before, goals_and_positions(sa.sim, OMX.servo_ids))
+
+
+def test_http_a_joint_under_the_plate_refuses_a_path_naming_sample_and_point(omx_server) -> None:
+    server, _ = omx_server
+    # the wrist 1.7 cm under the plate while the tool rests 5 mm above it
+    status, _, body = call(server, "POST", "/v1/trajectories",
+                           {"waypoints": [list(OMX.home), [0.27, 0.0, 0.005, 10 * DEG]]})
+    error = error_of(body)
+    assert status == 422 and error["code"] == "keep_out"
+    v = error["violation"]
+    assert v["quantity"] == "keepout" and v["zone"] == "floor" and v["point"] == "wrist"
+    assert v["value"] > 0 and v["position"][2] == pytest.approx(-v["value"])
+    assert isinstance(error["sample"], int) and error["sample"] == v["sample"]
+
+
+def test_http_a_replacement_into_a_zone_is_refused_and_the_move_goes_on(omx_server) -> None:
+    server, sa = omx_server
+    goal = [0.16, 0.06, 0.20, -0.2]
+    move = start_move(server, {"waypoints": [goal], "duration": 3.0}, 0.2)
+    status, _, body = call(server, "POST", "/v1/moves",
+                           {"waypoints": [[0.2, 0.0, -0.1, -math.pi / 2]], "replace": True})
+    assert status == 422 and error_of(body)["code"] == "keep_out", body
+    done = poll_move(server, move["id"], lambda m: m["status"] not in ("queued", "running"))
+    assert done["status"] in ("done", "degraded"), done
+    ticks = settled(lambda: [sa.sim.servo(i).present_position for i in OMX.servo_ids])
+    q = servo_units.ticks_to_radians(np.array([ticks]), OMX.servos)
+    assert np.allclose(kinematics.fk_yawed(OMX.chain, q)[0, :3], goal[:3], atol=4e-3)
+
+
+# -- jog and teach --------------------------------------------------------------------------------
+
+def test_a_jog_key_through_the_table_is_refused_and_the_arm_stays_above() -> None:
+    with simulated.simulated_arm(OMX, timing="fast") as sa:
+        out = io.StringIO()
+        jog = Jogger(OMX, sa.bus, step=0.1, step_rad=5 * DEG, method="sclerp", rate_hz=100.0,
+                     out=out)
+        start = jog.target.copy()
+        # out 10 cm, then down 10 cm three times: the third would put the tool 6 cm under
+        jog.run(Script([(0.0, "right"), (0.3, "s"), (0.3, "s"), (0.3, "s"), (3.0, "q")]))
+        assert "refused: keep-out zone 'floor', the tool" in out.getvalue()
+        want = start + np.array([0.1, 0.0, -0.2, 0.0])
+        assert np.allclose(jog.target, want, atol=1e-9)          # the refused step undone
+        end = kinematics.fk_yawed(OMX.chain, servo_units.ticks_to_radians(
+            np.array([[sa.sim.servo(i).present_position for i in OMX.servo_ids]]),
+            OMX.servos))[0]
+        assert end[2] == pytest.approx(want[2], abs=4e-3) and end[2] > 0.03
+
+
+def _arm3r_with_box(tmp_path, center) -> str:
+    text = (CONFIGS / "arm3r.toml").read_text()
+    lo = [c - 0.02 for c in center]
+    hi = [c + 0.02 for c in center]
+    text += f'\n[[workspace.keep_out]]\nname = "fixture"\nmin = {lo}\nmax = {hi}\n'
+    path = tmp_path / "arm.toml"
+    path.write_text(text)
+    return str(path)
+
+
+def test_teach_does_not_record_a_pose_inside_a_zone(sim, monkeypatch, capsys, tmp_path
+                                                    ) -> None:
+    inside, clear = (30.0, -60.0, 40.0), [(10.0, -60.0, 40.0), (70.0, -50.0, 0.0)]
+
+    def ticks_of(q_deg):
+        ticks = servo_units.radians_to_ticks(np.radians(q_deg), ARM3R.servos)
+        return dict(zip(ARM3R.servo_ids, (int(t) for t in ticks), strict=True))
+
+    def at(q_deg, line=""):
+        def step():
+            backdrive(sim, ticks_of(q_deg))
+            return line
+        return step
+
+    tool = kinematics.fk(ARM3R.links, np.radians([inside]))[0]
+    arm = _arm3r_with_box(tmp_path, tool[:2].tolist())
+    out = tmp_path / "poses.toml"
+    steps = [at(inside), at(clear[0]), at(clear[1]), "q"]
+    code = run_cli(monkeypatch, ["teach", "--arm", arm, "--device", sim.port_path, "--out",
+                                 str(out)], steps)
+    err = capsys.readouterr().err
+    assert code == 0, err
+    assert "not recorded: the arm's tool point" in err and "keep-out zone 'fixture'" in err
+    assert "mm inside" in err
+    data = tomllib.loads(out.read_text())
+    got = np.array([[w["x"], w["y"]] for w in data["waypoints"]])
+    want = kinematics.fk(ARM3R.links, np.radians(clear))[:, :2]
+    assert got.shape == (2, 2) and np.allclose(got, want, atol=2e-3)
+
+
+def test_teaching_the_omx_refuses_a_pose_under_the_plate() -> None:
+    # the issue's: a pose at z −0.09 m, backdriven on torque-off servos (kinematic sim)
+    with SimBus(OMX.servo_ids, timing="fast", log=False) as sim:
+        with open_bus(sim, OMX.servos) as bus:
+            teaching = Teaching(bus, OMX)
+            below = kinematics.ik_yawed(OMX.chain, np.array([[0.2, 0.0, -0.09, -90 * DEG]]),
+                                        OMX.elbow)[0]
+            ticks = servo_units.radians_to_ticks(below, OMX.servos)
+            backdrive(sim, dict(zip(OMX.servo_ids, (int(t) for t in ticks), strict=True)))
+            with pytest.raises(KeepOutError) as info:
+                teaching.record()
+            assert info.value.zone == "floor" and info.value.depth == pytest.approx(
+                0.09, abs=2e-3)
+            assert "keep-out zone 'floor'" in info.value.message and len(teaching) == 0
+            home = kinematics.ik_yawed(OMX.chain, np.array([OMX.home]), OMX.elbow)[0]
+            ticks = servo_units.radians_to_ticks(home, OMX.servos)
+            backdrive(sim, dict(zip(OMX.servo_ids, (int(t) for t in ticks), strict=True)))
+            pose = teaching.record()
+            assert len(teaching) == 1 and np.allclose(pose[:3], OMX.home[:3], atol=2e-3)
+        assert not sim.errors, sim.errors
