@@ -94,7 +94,7 @@ def test_the_omx_has_a_floor_and_a_base_by_default_and_its_file_writes_them_out(
     assert 0.03 < default.base_radius < 0.04            # the 3 cm target is inside
     assert OMX.workspace.zones == default.zones
     assert OMX.workspace.base_radius == pytest.approx(default.base_radius, abs=1e-4)
-    packaged = Path(__file__).resolve().parent.parent / "robodcn/workflow/data/omx.toml"
+    packaged = Path(__file__).resolve().parent.parent / "robodcn/config/data/omx.toml"
     assert packaged.read_text() == (CONFIGS / "omx.toml").read_text()
 
 
