@@ -123,3 +123,19 @@ def moving_state(arm: Arm, at: float = 0.4) -> tuple[Trajectory, int, robodcn.St
     state = robodcn.StartState(q[i], (q[i + 1] - q[i - 1]) * 500.0,
                                (q[i + 1] - 2 * q[i] + q[i - 1]) * 1e6)
     return run, i, state
+
+
+def distance_to_polyline(points: np.ndarray, line: np.ndarray) -> np.ndarray:
+    """Each point's distance to the polyline through ``line``'s rows: to the two segments
+    beside its nearest vertex (scipy's KD-tree), clamped to them."""
+    from scipy.spatial import cKDTree
+
+    _, nearest = cKDTree(line).query(points)
+    best = np.full(len(points), np.inf)
+    for lo in (nearest - 1, nearest):
+        i = np.clip(lo, 0, len(line) - 2)
+        a, ab = line[i], line[i + 1] - line[i]
+        t = np.clip(np.einsum("pk,pk->p", points - a, ab)
+                    / np.maximum(np.einsum("pk,pk->p", ab, ab), 1e-300), 0.0, 1.0)
+        best = np.minimum(best, np.linalg.norm(points - a - t[:, None] * ab, axis=1))
+    return best

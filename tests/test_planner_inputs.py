@@ -89,10 +89,10 @@ def test_waypoint_cap_is_checked_first_and_names_waypoints() -> None:
     from robodcn.errors import TooLargeError
 
     wps = np.tile(WAYPOINTS_3R[:2], (30_000, 1))
-    t0 = time.perf_counter()
+    t0 = time.process_time()         # this process's CPU: a busy machine does not count
     with pytest.raises(TooLargeError) as info:
         plan(ARM3R, wps)
-    assert time.perf_counter() - t0 < 1.0
+    assert time.process_time() - t0 < 1.0
     assert info.value.field == "waypoints" and str(MAX_WAYPOINTS) in str(info.value)
 
 

@@ -15,6 +15,7 @@ from planner_helpers import (
     WAYPOINTS_2R,
     WAYPOINTS_3R,
     check_trajectory,
+    distance_to_polyline,
     fd_ratio,
     with_jerk,
 )
@@ -161,27 +162,43 @@ def test_blend_is_never_slower_than_stopping_on_random_paths(method: str) -> Non
     assert planned >= 8
 
 
+#: The slowest a uniform blend may be against stopping, per law, on the DLB paths below (see
+#: the test's docstring: 1.26 and 1.14 measured, 1.0 for the linear law).
+UNIFORM_BLEND_SLACK = {"quintic": 1.3, "trapezoid": 1.2, "linear": 1.0}
+
+
 @pytest.mark.parametrize("profile", ["quintic", "trapezoid", "linear"])
-def test_uniform_blend_is_never_slower_than_stopping_on_random_dlb_paths(profile: str
-                                                                          ) -> None:
-    """Issue 17 §4 for the uniform laws: one law over the whole blended curve ran as slowly
-    as its hardest stretch (blend slower than stop on 12 of 13 of these DLB paths with the
-    quintic). Stopping at the vias is taken when it takes fewer periods; a blend that wins
-    stays blended (not every plan turns into stops)."""
+def test_uniform_blend_traces_the_optimal_blends_path_on_random_dlb_paths(profile: str
+                                                                            ) -> None:
+    """Issue 27 §1: a blend's path may not depend on the profile, so whether a blend stops
+    at its vias is the optimal law's decision (planner.blend_choice), and a uniform law
+    follows that path: one law over the blended curve, or a law per segment at rest at
+    the vias when that is faster. Issue 17 §4's "blend ≤ stop" holds for the optimal law
+    (the test above) and the linear law; one uniform quintic or trapezoid over a blended
+    curve the optimal law keeps can be slower than the same law with stops on the
+    segments (up to 1.26× here): that is the price of one path for every profile."""
     planned = blended = 0
     for wps in _multi_waypoints(120, seed=5):
         try:
             stop = plan(ARM3R, wps, method="dlb", profile=profile)
             blend = plan(ARM3R, wps, method="dlb", profile=profile, blend=True)
+            optimal = plan(ARM3R, wps, method="dlb", blend=True)
+            dense = plan(ARM3R, wps, method="dlb", blend=True, profile="quintic",
+                         duration=10.0, rate_hz=1000.0)    # the path, finely
         except PlanError:
             continue
         planned += 1
-        assert blend.duration <= stop.duration, wps
         check_trajectory(blend, ARM3R, wps)
+        reference = np.asarray(dense.poses)[:, :2]
+        for traj in (blend, optimal):
+            off = distance_to_polyline(np.asarray(traj.poses)[:, :2], reference)
+            # one curve, sampled apart (the reference's chords cut tight bends by < 0.1 mm;
+            # the two geometries a blend could take differ by millimetres)
+            assert off.max() < 1e-4, (wps, off.max())
+        assert blend.duration <= UNIFORM_BLEND_SLACK[profile] * stop.duration, wps
         blended += blend.duration < stop.duration
     assert planned >= 10
-    if profile == "linear":  # its velocity steps at stops cost more than a blend's detour
-        assert blended >= 1
+    assert blended >= 1                                  # a blend that wins stays blended
 
 
 @pytest.mark.parametrize("arm, waypoints, method, beta, blend", [

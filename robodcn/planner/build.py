@@ -30,6 +30,7 @@ from robodcn.errors import (
     Violation,
 )
 from robodcn.planner import arm_arrays, reach, validate
+from robodcn.planner.blend_choice import stops_beat_blend
 from robodcn.planner.optimal import OptimalTiming
 from robodcn.planner.path import to_user
 from robodcn.planner.pieces import build_pieces
@@ -113,23 +114,27 @@ def _unreachable_path(req: PlanRequest, pose: NDArray) -> NoReturn:
 def plan_request(req: PlanRequest) -> Trajectory:
     """Plan a validated :class:`PlanRequest` (package docstring); see :func:`plan`."""
     reach.check_waypoints(req)
+    # the geometry: a blend stops at its vias where that is faster under any time law,
+    # decided whatever this request's profile, duration and rate (planner.blend_choice)
+    geometry = dataclasses.replace(req, blend=False) if stops_beat_blend(req) else req
     if req.profile != "optimal":
-        return run(req, UniformTiming(req))
+        return run(req, UniformTiming(geometry))
     # an auto law from rest at a high rate nearly always needs the finer geometry
     # (pieces.DENSE_RATE_HZ): timed on it at once; a fixed duration's slower law seldom does,
     # and a moving start's (an online operation's, whose planning time counts) may not:
     # those are refined on a failure
     fine = req.duration == "auto" and req.start_state is None
-    pieces, bad_pose = build_pieces(req, fine=fine)
+    pieces, bad_pose = build_pieces(geometry, fine=fine)
     if pieces is None:
         assert bad_pose is not None
         _unreachable_path(req, bad_pose)
     if req.start_state is not None or not arm_arrays.arrays_of(req.arm).jerk_limited:
-        return run(req, OptimalTiming(req, pieces, fine=fine))
-    return _no_slower_than_quintic(req, pieces, fine)
+        return run(req, OptimalTiming(geometry, pieces, fine=fine))
+    return _no_slower_than_quintic(req, geometry, pieces, fine)
 
 
-def _no_slower_than_quintic(req: PlanRequest, pieces, fine: bool) -> Trajectory:
+def _no_slower_than_quintic(req: PlanRequest, geometry: PlanRequest, pieces, fine: bool
+                            ) -> Trajectory:
     """The optimal law from rest under a jerk limit, or the uniform quintic on the same
     geometry where that is faster (``auto``) or meets a ``duration`` the optimal law cannot.
 
@@ -137,10 +142,11 @@ def _no_slower_than_quintic(req: PlanRequest, pieces, fine: bool) -> Trajectory:
     (``path_timing.optimal``: about one window's overhead a piece, and validation slows what
     its model of the samples misjudged), which under a tight limit lost to the quintic by up
     to 1.5× (issue 17 §1: the default profile is never slower than quintic). The request
-    stays the caller's: only the time law along the path differs."""
-    quintic = UniformTiming(dataclasses.replace(req, profile="quintic"))
+    stays the caller's: only the time law along the path differs (``geometry`` is ``req``
+    with the blend decided, planner.blend_choice)."""
+    quintic = UniformTiming(dataclasses.replace(geometry, profile="quintic"))
     try:
-        best = run(req, OptimalTiming(req, pieces, fine=fine))
+        best = run(req, OptimalTiming(geometry, pieces, fine=fine))
     except _LIMIT_ERRORS as refused:
         if req.duration == "auto":
             raise

@@ -14,9 +14,9 @@ continuous IK); only the time law differs from the uniform profiles. The pipelin
   are the C² quintic-Hermite interpolant of the dense IK samples the law was timed on (their
   q′, q″ the law's own: :class:`~robodcn.path_timing.arclength.Smooth`) and the poses their
   FK, within interpolation error (~1e-8 m) of the path.
-* **Blend** never takes longer than stopping at the vias: when the same waypoints timed
-  with stops take fewer periods, the plan stops there (the blended curve departs from the
-  segments and can be longer or more curved than they are).
+* **Blend** never takes longer than stopping at the vias: :mod:`~robodcn.planner.
+  blend_choice` decides, from geometry and limits alone, whether the plan stops there (the
+  blended curve departs from the segments and can be longer or more curved than they are).
 * **Validation** stays sample by sample (planner.validate, jerk where set). The law is
   timed on a grid, so between grid points a limit can be passed by a little (curvature
   between stages); a piece whose samples fail is slowed by the failing ratio (a uniform
@@ -218,8 +218,9 @@ class OptimalTiming:
         self._time(pieces)
 
     def _time(self, pieces: list[DensePiece]) -> None:
-        """Each piece's optimal law (joined to a moving start; a blend that a stop beats
-        dropped; stretched to a fixed duration)."""
+        """Each piece's optimal law (joined to a moving start; stretched to a fixed
+        duration). Whether a blend stops at its vias was decided before (planner.
+        blend_choice)."""
         req = self.req
         self.pieces = by_arc_length(req, pieces)
         self.path = self.pieces[0]  # the first piece of the path itself (not a brake)
@@ -229,8 +230,6 @@ class OptimalTiming:
         else:
             for piece in self.pieces:
                 piece.law = moving_start.timed(piece.q, piece.s, self.limits, req.rate_hz)
-            if req.blend and req.segments > 1:
-                self._stop_if_faster()
         if req.duration != "auto":
             fit_duration(req, self.pieces)
 
@@ -250,31 +249,6 @@ class OptimalTiming:
         log.debug("optimal: timed again on finer dense samples")
         self._time(pieces)
         return True
-
-    def _periods(self, pieces: list[DensePiece]) -> int:
-        rate = self.req.rate_hz
-        return sum(math.ceil(p.law.duration * rate - 1e-9) for p in pieces
-                   if p.law is not None)
-
-    def _stop_if_faster(self) -> None:
-        """A blend never takes longer than stopping at the vias: the blended curve departs
-        from the segments (its Hermite corrections) and can be longer or more curved than
-        they are, so when the same waypoints timed with stops take fewer periods (and, for
-        a fixed duration, the blended law cannot meet it) the plan stops at the vias."""
-        req = self.req
-        blended = self._periods(self.pieces)
-        if req.duration != "auto" and blended <= intervals(req.duration, req.rate_hz):
-            return
-        stops, _ = build_pieces(dataclasses.replace(req, blend=False), fine=self.fine)
-        if stops is None:
-            return
-        for piece in by_arc_length(req, stops):
-            piece.law = moving_start.timed(piece.q, piece.s, self.limits, req.rate_hz)
-        if self._periods(stops) < blended:
-            log.debug("optimal: stopping at the vias (%d periods) beats the blend (%d)",
-                      self._periods(stops), blended)
-            self.pieces = stops
-            self.path = stops[0]
 
     @property
     def braking(self) -> bool:

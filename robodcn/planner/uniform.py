@@ -7,9 +7,10 @@ search (:mod:`~robodcn.planner.search`) or a numeric duration split over them; t
 which slows every path piece by a violation's ratio when their joins fail (uniform time
 scaling: v ∝ 1/T, a ∝ 1/T², jerk ∝ 1/T³).
 
-A blend never takes longer than stopping (the optimal law's rule,
-:mod:`~robodcn.planner.optimal`): with ``duration="auto"`` the same waypoints are also
-timed with stops at the vias, and when that takes fewer periods the plan stops there (a
+Whether a blend keeps its blended curve or stops at the vias is decided before, from
+geometry and limits alone (:mod:`~robodcn.planner.blend_choice`), so the profile never
+changes the path. On a blended curve with ``duration="auto"`` the curve is also timed with
+a law per segment, at rest at the vias, and that is taken when it takes fewer periods (a
 uniform law over the whole blended curve runs as slowly as its hardest stretch needs).
 """
 
@@ -43,11 +44,18 @@ from robodcn.planner.path import (
 from robodcn.planner.samples import Sampled
 
 
-def _pieces(req: PlanRequest) -> tuple[list[Piece], NDArray | None]:
+def _pieces(req: PlanRequest, pause_at_vias: bool = False
+            ) -> tuple[list[Piece], NDArray | None]:
     arm = req.arm
     start = None if req.start_joints is None else np.asarray(req.start_joints)
     segments = segments_of(req)
-    if req.blend:
+    if req.blend and pause_at_vias and len(segments) > 1:
+        # the blended curve, one piece per segment: the same geometry, at rest at the vias
+        curve = blended_path(req, segments, start)
+        assert curve.corrections is not None
+        paths = [Path([seg], np.array([0.0, 1.0]), [correction])
+                 for seg, correction in zip(segments, curve.corrections, strict=True)]
+    elif req.blend:
         paths = [blended_path(req, segments, start)]
     else:
         paths = [Path([seg], np.array([0.0, 1.0]), None) for seg in segments]
@@ -112,26 +120,28 @@ class UniformTiming:
     #: a uniform law starts from rest (a start state at rest is not carried on)
     start_state: StartState | None = None
 
-    def __init__(self, req: PlanRequest, counts: list[int] | None = None) -> None:
+    def __init__(self, req: PlanRequest, counts: list[int] | None = None, *,
+                 pause_at_vias: bool = False) -> None:
         self.req = req
-        self.pieces, self.reference = _pieces(req)
+        self.pieces, self.reference = _pieces(req, pause_at_vias)
         if counts is not None and len(counts) != len(self.pieces):
             counts = [COARSE] * len(self.pieces)  # an approach on one branch, not the other
         #: per piece the search's samples by count, and the reference they were taken from
         self._cache: list[tuple[NDArray | None, dict]] = []
         self.counts = _counts(req, self.pieces, self.reference, self._cache) \
             if counts is None else counts
-        if counts is None and req.blend and req.segments > 1 and req.duration == "auto":
-            self._stop_if_faster()
+        if counts is None and not pause_at_vias and req.blend and req.segments > 1 \
+                and req.duration == "auto":
+            self._pause_if_faster()
 
-    def _stop_if_faster(self) -> None:
-        """The same waypoints with stops at the vias, when they take fewer periods (module
-        doc); the law then plans that request (its pieces, counts and samples)."""
-        stops = UniformTiming(dataclasses.replace(self.req, blend=False))
-        if sum(stops.counts) < sum(self.counts):
-            self.req, self.pieces, self.reference = stops.req, stops.pieces, stops.reference
-            self.counts, self._cache = stops.counts, stops._cache
-
+    def _pause_if_faster(self) -> None:
+        """The blended curve with a law per segment, at rest at the vias, when that takes
+        fewer periods than one law over the whole curve (module doc): the geometry stays
+        the blend's; only the time law differs."""
+        paused = UniformTiming(self.req, pause_at_vias=True)
+        if sum(paused.counts) < sum(self.counts):
+            self.pieces, self.reference = paused.pieces, paused.reference
+            self.counts, self._cache = paused.counts, paused._cache
     def sample(self) -> Sampled | Violation:
         """Every piece sampled at its count; or the first sample out of reach (or an earlier
         sample's other violation)."""
