@@ -8,7 +8,9 @@ commanded pose and the tracking error. ``q`` or Ctrl-C stops smoothly along the 
 quits; a second Ctrl-C holds at once. On an arm with a base yaw (the OpenMANIPULATOR-X:
 poses x, y, z, pitch) the arrows step x and y in the base frame, ``w``/``s`` raise and
 lower z by ``--step``, and ``a``/``d`` tilt the pitch up/down by ``--step-deg``; the yaw
-follows from x, y. ``--sim`` jogs a simulated arm, else the servos on
+follows from x, y. The tool point moves at most 250 mm/s (ISO 10218-1's reduced speed for
+hands-on work; ``--tool-speed`` sets another, refused above the arm's ``[tool]``
+``max_speed``). ``--sim`` jogs a simulated arm, else the servos on
 ``--device``. It ends with one summary line (moves, retargets, where the arm was
 commanded) and exits 0 after ``q``, 130 after Ctrl-C (as ``sim`` and ``move``), 4 after a
 fault.
@@ -59,7 +61,8 @@ def register(subparsers: argparse._SubParsersAction) -> None:
                     "from where the arm is commanded to be, moving or not, so presses in "
                     "quick succession blend into one motion. Shows the target, the commanded "
                     "pose and the tracking error. q or Ctrl-C stops smoothly along the path "
-                    "and quits; a second Ctrl-C holds at once. --sim jogs a simulated arm.")
+                    "and quits; a second Ctrl-C holds at once. The tool point moves at most "
+                    "250 mm/s (--tool-speed). --sim jogs a simulated arm.")
     options.add_arm_option(p)
     g = p.add_argument_group("jog")
     g.add_argument("--step", type=options.positive_float, default=0.01, metavar="M",
@@ -74,6 +77,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     g.add_argument("--sim", action="store_true",
                    help="jog an in-process simulated arm (firmware_sim) instead of the servos")
     planning.add_payload_option(g)
+    planning.add_tool_options(g, hands_on=True)
     g.add_argument("--timing", choices=("realistic", "fast"), default="realistic",
                    help="simulated wire timing with --sim (default realistic)")
     options.add_device_options(p, default_help="default: the arm's [bus] port")
@@ -84,13 +88,18 @@ class Jogger:
     """The jog loop on an open bus: keys → targets → retargets (or new moves from rest)."""
 
     def __init__(self, arm: Any, bus: Any, *, step: float, step_rad: float, method: str,
-                 rate_hz: float, out: Any = None, payload_kg: float | None = None) -> None:
+                 rate_hz: float, out: Any = None, payload_kg: float | None = None,
+                 tool_speed: float | None = None) -> None:
         from robodcn.present import present_joints
         self.arm, self.bus = arm, bus
         self.keys = jog_keys(arm)
         self.step, self.step_rad, self.method, self.rate_hz = step, step_rad, method, rate_hz
-        #: the plan's payload (None: the arm's [dynamics] payload_kg)
-        self.plan_options = {} if payload_kg is None else {"payload_kg": payload_kg}
+        #: the plan's payload (None: the arm's [dynamics] payload_kg) and tool speed (None:
+        #: the arm's [tool] speed; the command gives the reduced speed of hands-on work)
+        self.plan_options: dict[str, float] = {} if payload_kg is None \
+            else {"payload_kg": payload_kg}
+        if tool_speed is not None:
+            self.plan_options["tool_speed"] = tool_speed
         self.out = out if out is not None else sys.stderr
         q = present_joints(arm, bus)
         self.target = np.array(tool_pose(arm, q))
@@ -131,7 +140,8 @@ class Jogger:
         goal = tuple(float(v) for v in self.target)
         if self.execution is not None:
             try:
-                self.execution.retarget([None, goal], method=self.method)
+                self.execution.retarget([None, goal], method=self.method,
+                                        **self.plan_options)
                 self.retargets += 1
                 return
             except RobodcnError as exc:
@@ -238,11 +248,12 @@ def run_jog(args: argparse.Namespace, read_key: Callable[[float], str | None] | 
     """The command; ``read_key`` replaces the terminal (tests)."""
     arm = options.load_arm(args)
     rate = args.rate or arm.bus.rate_hz
+    settings = {"step": args.step, "step_rad": math.radians(args.step_deg),
+                "method": args.method, "rate_hz": rate, "payload_kg": args.payload,
+                **planning.tool_keywords(args, arm, hands_on=True)}
     if read_key is None and not sys.stdin.isatty():
         raise InputError("jog needs a terminal on stdin (it reads single key presses)",
                          field="stdin", value=None)
-    settings = {"step": args.step, "step_rad": math.radians(args.step_deg),
-                "method": args.method, "rate_hz": rate, "payload_kg": args.payload}
     if args.sim:
         from robodcn.simulated import simulated_arm
         with simulated_arm(arm, timing=args.timing) as sim:

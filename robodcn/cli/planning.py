@@ -80,10 +80,14 @@ def add_tool_options(g, *, hands_on: bool = False) -> None:
                         "acceleration, else none)")
 
 
-def tool_keywords(args: argparse.Namespace, arm) -> dict[str, float]:
+def tool_keywords(args: argparse.Namespace, arm, *, hands_on: bool = False
+                  ) -> dict[str, float]:
     """The tool limits given as options, SI (``tool_speed`` …), each checked against the
-    arm's ``[tool]`` ceiling in the units typed; {} for none (the arm's defaults)."""
+    arm's ``[tool]`` ceiling in the units typed; {} for none (the arm's defaults). With
+    ``hands_on`` (jog) the tool speed defaults to :func:`hands_on_speed` instead."""
     out: dict[str, float] = {}
+    if hands_on and getattr(args, "tool_speed", None) is None:
+        out["tool_speed"] = hands_on_speed(arm)
     for name, key, factor, unit in (("tool_speed", "max_speed", 1.0, "m/s"),
                                     ("tool_angular_speed", "max_angular_speed",
                                      math.pi / 180.0, "deg/s"),
@@ -98,6 +102,14 @@ def tool_keywords(args: argparse.Namespace, arm) -> dict[str, float]:
                              f"{top / factor:.6g} {unit}", field=option, value=given)
         out[name] = given * factor
     return out
+
+
+def hands_on_speed(arm) -> float:
+    """The tool speed (m/s) of hands-on work on ``arm`` (jog): the reduced speed
+    :data:`robodcn.contract.HANDS_ON_SPEED` (ISO 10218-1's 250 mm/s), or the arm's
+    ``[tool]`` speed or ``max_speed`` where lower."""
+    return min(x for x in (contract.HANDS_ON_SPEED, arm.tool.speed, arm.tool.max_speed)
+               if x is not None)
 
 
 def add_payload_option(g) -> None:
@@ -199,5 +211,6 @@ def _cli_terms(request: MotionRequest) -> Iterator[None]:
 
 
 __all__ = ["ELBOWS", "MotionRequest", "add_motion_options", "add_payload_option",
-           "add_tool_options", "motion_request", "payload_keywords", "plan_from_present",
+           "add_tool_options", "hands_on_speed", "motion_request", "payload_keywords",
+           "plan_from_present",
            "plan_motion", "tool_keywords"]

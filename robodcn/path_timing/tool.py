@@ -23,7 +23,7 @@ bounds nothing and σ″ is taken as 0 (σ̈ is then |p″| ṡ², bounded by th
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, replace
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 from numpy.typing import NDArray
@@ -58,10 +58,12 @@ class ToolLimits:
     chain : the arm's :class:`~robodcn.dynamics.RigidChain` (its tool point is the plan's)
     rates : (m, k) orientation-rate rows W (:func:`orientation_rates`)
     speed : m/s; angular_speed : rad/s (each of W q̇); acceleration : m/s², along the path
+
+    Two are equal when their limits are (the chain and rates are the arm's).
     """
 
-    chain: RigidChain
-    rates: NDArray[np.float64]
+    chain: RigidChain = field(compare=False)
+    rates: NDArray[np.float64] = field(compare=False)
     speed: float = math.inf
     angular_speed: float = math.inf
     acceleration: float = math.inf

@@ -18,7 +18,8 @@ Three laws, all sampled at the stream rate:
   is exactly uₙΔt², so the joints' finite-difference accelerations on the wire are the
   ones the step allowed.
 * :func:`retime` — :func:`robodcn.path_timing.time_optimal` (TOPP-RA) on the rest of the
-  path from the present σ̇ (speed scaling: limits v·k, a·k², j·k³; the torque limits, which
+  path from the present σ̇ (speed scaling: limits v·k, a·k², j·k³; a move's tool limits
+  (``tool_speed`` …, :mod:`robodcn.path_timing.tool`) join its constraints; the torque limits, which
   are physical, unscaled).
 
 Every law is checked on the joints it sends (:func:`excess`: finite differences at the
@@ -55,7 +56,9 @@ from robodcn.path_timing import (
     path_derivatives,
     time_optimal,
 )
+from robodcn.path_timing.tool import ToolLimits
 from robodcn.path_timing.torque import TorqueLimits
+from robodcn.planner import validate
 
 log = logging.getLogger("robodcn.stream")
 
@@ -434,7 +437,7 @@ def controllable_speed(path: JointPath, sigma0: float, limits: JointLimits, *,
         return 0.0
     return max_start_speed(q, s, limits.v, limits.a, stops=stops,
                            max_stages=ONLINE_STAGES if max_stages is None else max_stages,
-                           **_torque_kw(limits.torque))
+                           **_torque_kw(limits.torque), **_tool_kw(limits.tool))
 
 
 def retime(path: JointPath, sigma0: float, sd0: float, limits: JointLimits, rate_hz: float,
@@ -463,8 +466,9 @@ def retime(path: JointPath, sigma0: float, sd0: float, limits: JointLimits, rate
         v, a = limits.v * share, limits.a * share
         j = None if limits.j is None else limits.j * share
         torque = None if limits.torque is None else limits.torque.shrunk(share)
+        tool = None if limits.tool is None else limits.tool.shrunk(share)
         law = _law(q, s, v, a, j, sd0, sdd0 if limits.j is not None else 0.0, stops,
-                   rate_hz, None if sd_cap is None else sd_cap(s), torque)
+                   rate_hz, None if sd_cap is None else sd_cap(s), torque, tool)
         out = law.sample(rate_hz).s[1:]
         # the final samples may sit at the end within rounding: keep one
         end = np.flatnonzero(out >= s[-1] - 1e-12)
@@ -496,16 +500,33 @@ def excess(joints: NDArray[np.float64], limits: JointLimits, rate_hz: float, *,
         worst = max(worst, (np.abs(np.diff(acc, axis=0)) * rate_hz / limits.j).max())
     if limits.torque is not None:
         worst = max(worst, torque_excess(joints, limits.torque, rate_hz, to_rest=to_rest))
+    if limits.tool is not None:
+        worst = max(worst, tool_excess(joints, limits.tool, rate_hz, to_rest=to_rest))
     return float(worst)
+
+
+def tool_excess(joints: NDArray[np.float64], tool: ToolLimits, rate_hz: float, *,
+                to_rest: bool = True) -> float:
+    """Largest ratio of the tool point's finite-difference speed, orientation rate or
+    acceleration along its path to its limit (:func:`robodcn.planner.validate.tool_ratios`,
+    after the first sample, which the ratios count from rest), ≤ 1 when every one holds;
+    with ``to_rest`` the arm holds the last sample after."""
+    q = np.vstack([joints, joints[-1:]]) if to_rest else joints
+    if q.shape[0] < 3:
+        return 0.0
+    ratios = validate.tool_ratios(tool, q, rate_hz)
+    return max((float(r[2:].max()) if r.shape[0] > 2 else 0.0 for r in ratios.values()),
+               default=0.0)
 
 
 def _law(q: NDArray, s: NDArray, v: NDArray, a: NDArray, j: NDArray | None, sd0: float,
          sdd0: float, stops: Sequence[float], rate_hz: float,
-         sd_cap: NDArray | None = None, torque: TorqueLimits | None = None) -> PathTiming:
-    """time_optimal from σ̇₀ (under ``torque`` too); a σ̇₀ over the controllable speed by
-    rounding only (1e-3) starts at that speed instead (a larger excess is raised: brake
-    first)."""
-    extra = _torque_kw(torque)
+         sd_cap: NDArray | None = None, torque: TorqueLimits | None = None,
+         tool: ToolLimits | None = None) -> PathTiming:
+    """time_optimal from σ̇₀ (under ``torque`` and ``tool`` too); a σ̇₀ over the
+    controllable speed by rounding only (1e-3) starts at that speed instead (a larger excess
+    is raised: brake first)."""
+    extra = {**_torque_kw(torque), **_tool_kw(tool)}
     try:
         return time_optimal(q, s, v, a, j, sd_start=sd0, sdd_start=sdd0, stops=stops,
                             rate_hz=rate_hz, max_stages=ONLINE_STAGES, sd_cap=sd_cap,
@@ -513,7 +534,7 @@ def _law(q: NDArray, s: NDArray, v: NDArray, a: NDArray, j: NDArray | None, sd0:
     except InputError:
         # (time_optimal refuses a σ̇₀ above the controllable speed before anything else:
         # within rounding of it, start at it)
-        top = controllable_at(q, s, v, a, stops, torque)
+        top = controllable_at(q, s, v, a, stops, torque, tool)
         if not top < sd0 <= top * 1.001:
             raise
         return time_optimal(q, s, v, a, j, sd_start=top, sdd_start=sdd0, stops=stops,
@@ -522,17 +543,23 @@ def _law(q: NDArray, s: NDArray, v: NDArray, a: NDArray, j: NDArray | None, sd0:
 
 
 def controllable_at(q: NDArray, s: NDArray, v: NDArray, a: NDArray,
-                    stops: Sequence[float], torque: TorqueLimits | None = None) -> float:
-    """max_start_speed of (q, s) under v, a and ``torque`` (the start speed time_optimal
-    accepts)."""
+                    stops: Sequence[float], torque: TorqueLimits | None = None,
+                    tool: ToolLimits | None = None) -> float:
+    """max_start_speed of (q, s) under v, a, ``torque`` and ``tool`` (the start speed
+    time_optimal accepts)."""
     return max_start_speed(q, s, v, a, stops=stops, max_stages=ONLINE_STAGES,
-                           **_torque_kw(torque))
+                           **_torque_kw(torque), **_tool_kw(tool))
 
 
 def _torque_kw(torque: TorqueLimits | None) -> dict[str, TorqueLimits]:
     """``torque=`` for the path timing when there are torque limits (none otherwise: an arm
     without them is timed by exactly the call it always was)."""
     return {} if torque is None else {"torque": torque}
+
+
+def _tool_kw(tool: ToolLimits | None) -> dict[str, ToolLimits]:
+    """``tool=`` for the path timing when the move has tool limits (none otherwise)."""
+    return {} if tool is None else {"tool": tool}
 
 
 def blend_start(q_new: NDArray[np.float64], direction: NDArray[np.float64],

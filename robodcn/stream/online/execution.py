@@ -40,8 +40,10 @@ from robodcn.bus import ServoBus
 from robodcn.config import Arm
 from robodcn.errors import InputError, RobodcnError
 from robodcn.path_timing import JointLimits
+from robodcn.path_timing.tool import ToolLimits
 from robodcn.planner import PlanRequest, Trajectory, keepout
 from robodcn.planner.path import user_pose
+from robodcn.planner.validate import tool_limits
 from robodcn.stream.online.counts import report_from
 from robodcn.stream.online.planning_times import RETARGET_TO_DURATION, PlanningTimes
 from robodcn.stream.online.retarget import Retargeting
@@ -176,8 +178,11 @@ class Execution:
         if self.arm is None and planned.trajectory.request is not None:
             self.arm = planned.trajectory.request.arm
         if self.arm is not None:
-            self._timing = Timing(JointLimits.of(self.arm, self._payload(planned.trajectory)),
-                                  root.rate_hz)
+            limits = JointLimits.of(self.arm, self._payload(planned.trajectory))
+            tool = self._tool(planned.trajectory)
+            if tool is not None:  # the move's tool_speed …: every online law keeps them
+                limits = dataclasses.replace(limits, tool=tool)
+            self._timing = Timing(limits, root.rate_hz)
             self._timing.register_law(root.path, root.sigma, 1.0)
             self._switcher = Switcher(stream, self.bus, self._timing, self.planning_times,
                                       self._done, self._lock)
@@ -191,6 +196,13 @@ class Execution:
         request = trajectory.request if trajectory.request is not None else (
             self.trajectory.request)
         return None if request is None else request.payload_kg
+
+    def _tool(self, trajectory: Trajectory) -> ToolLimits | None:
+        """The tool limits the online laws keep: the move's request's (None without a
+        request or without any)."""
+        request = trajectory.request if trajectory.request is not None else (
+            self.trajectory.request)
+        return None if request is None else tool_limits(request)
 
     def run(self) -> ExecutionReport | None:
         """Stream on the calling thread until the end (:func:`prepare`); the report, or

@@ -13,7 +13,9 @@ planner, ``duration`` by the time law (a number: the new motion takes that long 
 switch; "auto": as fast as the limits allow), ``profile`` "optimal" only (a uniform law
 starts from rest, the replacement starts moving), ``rate_hz`` the running stream's,
 ``start_joints`` / ``start_state`` none (the start is the commanded state), ``payload_kg`` by
-the torque limits of every law of the replacement (not told: the running move's payload).
+the torque limits of every law of the replacement (not told: the running move's payload),
+``tool_speed``, ``tool_angular_speed``, ``tool_acceleration`` likewise by every law's tool
+limits (not told: the running move's).
 """
 
 from __future__ import annotations
@@ -25,7 +27,8 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from robodcn.config import Arm
+from robodcn.config import Arm, ToolSpec
+from robodcn.contract import TOOL_FIELDS
 from robodcn.errors import InputError
 from robodcn.planner import PlanRequest, plan, plan_request
 
@@ -78,6 +81,16 @@ class Replacement:
                    options=opts)
 
     @property
+    def tool(self) -> tuple[bool, dict[str, float | None]]:
+        """(told, the tool fields): a request's ``tool_speed``, ``tool_angular_speed`` and
+        ``tool_acceleration`` (told: what it asks, None = no such limit); keywords: those
+        given (told when any is; the others None). Not told: the running move's stand."""
+        if self.request is not None:
+            return True, {f: getattr(self.request, f) for f in TOOL_FIELDS}
+        told = any(f in self.options for f in TOOL_FIELDS)
+        return told, {f: self.options.get(f) for f in TOOL_FIELDS}
+
+    @property
     def payload_kg(self) -> float | None:
         """The payload the replacement says it carries (the request's ``payload_kg``, or the
         ``payload_kg`` keyword), None when not told: the running move's stands."""
@@ -93,12 +106,17 @@ class Replacement:
         afterwards). Raises the planner's errors."""
         start = tuple(float(v) for v in q)
         waypoints = (tuple(here), *self.goals)
-        slow = {"profile": "quintic", "rate_hz": rate_hz, "duration": duration}
+        # geometry only: a tool limit is the time law's (the slow quintic need not keep it,
+        # nor the arm's [tool] defaults)
+        slow = {"profile": "quintic", "rate_hz": rate_hz, "duration": duration,
+                **dict.fromkeys(TOOL_FIELDS)}
+        arm = dataclasses.replace(self.arm, tool=ToolSpec()) if self.arm.tool.to_dict() \
+            else self.arm
         if self.request is not None:
-            request = dataclasses.replace(self.request, waypoints=waypoints,
+            request = dataclasses.replace(self.request, arm=arm, waypoints=waypoints,
                                           start_joints=start, start_state=None, **slow)
             return plan_request(request).joints
-        return plan(self.arm, list(waypoints), start_joints=start,
+        return plan(arm, list(waypoints), start_joints=start,
                     **{**self.options, **slow}).joints
 
 

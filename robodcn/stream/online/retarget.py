@@ -45,6 +45,7 @@ from robodcn.errors import (
 )
 from robodcn.path_timing import JointLimits, moving_start
 from robodcn.path_timing.moving_start import JointState, StartSegment
+from robodcn.path_timing.tool import ToolLimits
 from robodcn.path_timing.torque import TorqueLimits
 from robodcn.planner.path import user_pose
 from robodcn.stream.online.replacement import Replacement, Target
@@ -106,7 +107,8 @@ class Retargeting:
         """The new samples after ``state`` (segments on their paths). Raises the planner's
         errors and InputError for a field the replacement cannot honour (nothing
         changes). A replacement told another ``payload_kg`` (on an arm with torque limits)
-        is timed with it: ``self.timing`` is then that payload's (the execution keeps it
+        is timed with it, and one told tool limits with those: ``self.timing`` is then that
+        payload's and those tools' (the execution keeps it
         for the operations after the switch)."""
         rep = Replacement.of(self.arm, target, options, self.timing.rate)
         torque = self.timing.limits.torque
@@ -114,6 +116,12 @@ class Retargeting:
                 and rep.payload_kg != torque.payload_kg:
             # told another payload: every law of the replacement carries it
             self.timing = self.timing.with_torque(TorqueLimits.of(self.arm, rep.payload_kg))
+        told, fields = rep.tool
+        if told:
+            tool = ToolLimits.of(self.arm, fields["tool_speed"], fields["tool_angular_speed"],
+                                 fields["tool_acceleration"])
+            if tool != self.timing.limits.tool:
+                self.timing = self.timing.with_tool(tool)
         k = self.speed
         if self.timing.jerk:
             # from rest: the law under the limits × k λ lasts 1/λ × as long

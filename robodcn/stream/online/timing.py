@@ -1,7 +1,8 @@
 """The time laws an online operation puts on the present path, from a commanded state.
 
 A :class:`Timing` holds an execution's full limits (with the torque limits of its arm and
-payload when the arm sets ``max_torque_nm``: ``limits.torque``; every law below keeps them)
+payload when the arm sets ``max_torque_nm``: ``limits.torque``, and the move's tool limits:
+``limits.tool``; every law below keeps them)
 and stream rate and the first law each path was timed with (what a speed scale k must stay
 k × under):
 
@@ -29,6 +30,7 @@ from numpy.typing import NDArray
 
 from robodcn.errors import InputError
 from robodcn.path_timing import JointLimits
+from robodcn.path_timing.tool import ToolLimits
 from robodcn.path_timing.torque import TorqueLimits
 from robodcn.stream.online.samples import Segment
 from robodcn.stream.online.state import State
@@ -74,6 +76,13 @@ class Timing:
         """The same laws under other torque limits (another payload); the first laws of
         the paths (:meth:`register_law`) are shared."""
         other = Timing(dataclasses.replace(self.limits, torque=torque), self.rate)
+        other._laws = self._laws
+        return other
+
+    def with_tool(self, tool: ToolLimits | None) -> Timing:
+        """The same laws under other tool limits (a retarget told another ``tool_speed``
+        …); the first laws of the paths are shared."""
+        other = Timing(dataclasses.replace(self.limits, tool=tool), self.rate)
         other._laws = self._laws
         return other
 
