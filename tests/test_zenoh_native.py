@@ -182,3 +182,32 @@ def test_robodcn_imports_and_plans_without_zenoh() -> None:
                          timeout=60, env={"PYTHONPATH": str(ROOT)})
     assert out.returncode == 0, out.stderr
     assert "--zenoh" in out.stdout and "robodcn[zenoh]" in out.stdout
+
+
+@pytest.mark.serial  # start times on the real clock
+def test_two_arms_with_one_start_at_start_together() -> None:
+    """The bimanual primitive: one start_at to two arms over Zenoh; their first samples go
+    out within one bus period of each other (and of start_at)."""
+    with zenoh_arm("left") as a, zenoh_arm("right") as b, peer(a[2], b[2]) as session:
+        time.sleep(0.3)
+        start_at = time.time() + 1.0
+        ids = {}
+        for name in ("left", "right"):
+            answer = query(session, f"robodcn/{name}/op/start_move",
+                           {**BODY, "start_at": start_at})
+            assert answer["status"] == 202, answer
+            ids[name] = answer["body"]["id"]
+        firsts, dues = [], []
+        for (server, _, _), name in ((a, "left"), (b, "right")):
+            wait_for(lambda s=server: not s.controller.busy, 10, f"{name}'s move to end")
+            records = server.controller.move(ids[name]).execution.stream.records
+            firsts.append(records.at[0])
+            dues.append(records.due[0])
+        period = 1 / BODY["rate_hz"]
+        # the schedules agree to the clock's reading (both loops in this process) ...
+        assert abs(dues[0] - dues[1]) < 0.002, dues[0] - dues[1]
+        # ... and the writes within a period, plus what two streams sharing a loaded
+        # host's GIL add (5 ms: both threads wake for the same instant)
+        assert abs(firsts[0] - firsts[1]) <= period + 0.005, firsts[0] - firsts[1]
+        first_wall = time.time() - (time.perf_counter() - min(firsts))
+        assert start_at - 0.002 <= first_wall <= start_at + period + 0.03
