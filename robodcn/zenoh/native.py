@@ -2,7 +2,7 @@
 
 - liveliness token ``robodcn/<arm>`` while the service runs (Zenoh drops it when the
   process or its session dies);
-- ``robodcn/<arm>/state``: the ``GET /v1/state`` JSON, at ``state_hz`` (≥ 50 Hz) while a
+- ``robodcn/<arm>/state``: the ``GET /v1/state`` JSON, at ``state_hz`` (100 Hz) while a
   move is queued or running (from the streamer's feedback, no bus traffic) and ``idle_hz``
   (≥ 2 Hz) at rest (one bus read each);
 - queryable ``robodcn/<arm>/op/<operationId>`` for every operation of the OpenAPI document

@@ -2,7 +2,7 @@
 interfaces, rmw_zenoh's wire), without rclpy or a ROS installation.
 
 - ``/joint_states`` (``sensor_msgs/msg/JointState``): the arm's joint names and positions
-  (rad), with each state the Zenoh face publishes (≥ 50 Hz moving, 10 Hz at rest);
+  (rad), with each state the Zenoh face publishes (100 Hz moving, 10 Hz at rest);
 - ``/<controller>/joint_trajectory`` (``trajectory_msgs/msg/JointTrajectory``): played like
   the HTTP JointTrajectory body (``POST /v1/moves {"trajectory": …}``); a new one replaces
   the running one (that one stops smoothly first);
