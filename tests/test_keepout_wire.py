@@ -9,9 +9,13 @@ from __future__ import annotations
 
 import contextlib
 import io
+import json
 import math
+import shutil
+import subprocess
 import tomllib
 from collections.abc import Iterator
+from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -22,6 +26,7 @@ from omx_helpers import OMX
 from test_cli_jog import Script
 from workflow_helpers import backdrive, run_cli
 
+import robodcn.web
 from firmware_sim.bus import SimBus
 from robodcn import kinematics, servo_units, simulated
 from robodcn.cli.jog_cmd import Jogger
@@ -228,3 +233,56 @@ def test_teaching_the_omx_refuses_a_pose_under_the_plate() -> None:
             pose = teaching.record()
             assert len(teaching) == 1 and np.allclose(pose[:3], OMX.home[:3], atol=2e-3)
         assert not sim.errors, sim.errors
+
+
+# -- the console --------------------------------------------------------------------------------
+
+STATIC = Path(robodcn.web.__file__).resolve().parent / "static"
+NODE_SCRIPT = """
+import { sideRects, boxSection } from %s;
+let input = "";
+process.stdin.on("data", (d) => { input += d; });
+process.stdin.on("end", () => {
+  const { arm, yaws } = JSON.parse(input);
+  const model = { yawed: arm.pose_axes.length === 4, zones: arm.keep_out };
+  process.stdout.write(JSON.stringify(yaws.map((y) => sideRects(model, y, 1.0))));
+});
+"""
+
+
+@pytest.mark.skipif(shutil.which("node") is None, reason="needs node to run the page's module")
+def test_the_console_paints_exactly_the_zones_over_the_reach_shading(omx_server, tmp_path
+                                                                      ) -> None:
+    """What zones.js paints over the side view's reach shading (the page's own module, run
+    by node on GET /v1/arm's answer) covers a point of the arm's plane at a yaw exactly when
+    the zone geometry of robodcn.config says it lies inside a zone (a 2 mm grid)."""
+    server, _ = omx_server
+    _, _, arm = call(server, "GET", "/v1/arm")
+    ws = omx_with_box().workspace
+    # the service's answer, with a box as GET /v1/arm lists one on an arm that has it
+    assert ws.zone_list(planar=False)[:2] == arm["keep_out"]
+    arm["keep_out"] = ws.zone_list(planar=False)
+    script = tmp_path / "zones_probe.mjs"
+    script.write_text(NODE_SCRIPT % json.dumps((STATIC / "zones.js").as_uri()))
+    yaws = [0.0, math.radians(20), math.radians(90), math.pi]
+    out = subprocess.run(["node", str(script)], input=json.dumps({"arm": arm, "yaws": yaws}),
+                         capture_output=True, text=True, timeout=60, check=True)
+    per_yaw = json.loads(out.stdout)
+    u, v = np.meshgrid(np.arange(-0.3, 0.3, 0.002) + 0.001, np.arange(-0.2, 0.3, 0.002) + 0.001)
+    for yaw, rects in zip(yaws, per_yaw, strict=True):
+        painted = np.zeros(u.shape, dtype=bool)
+        for u0, v0, u1, v1 in rects:
+            painted |= (u > u0) & (u < u1) & (v > v0) & (v < v1)
+        points = np.stack([u * math.cos(yaw), u * math.sin(yaw), v], axis=-1)
+        inside = (ws.depths(points) > 0).any(axis=-1)
+        assert np.array_equal(painted, inside), yaw
+    # the box is cut by the plane at 0°, 20° and (behind the axis, r < 0) 180°, not at 90°
+    assert [len(rects) for rects in per_yaw] == [3, 3, 2, 3]
+
+
+def omx_with_box():
+    from robodcn.config import arm_from_dict
+    data = OMX.to_dict()
+    data["workspace"]["keep_out"] = [{"name": "pillar", "min": [0.1, -0.05, 0.0],
+                                      "max": [0.16, 0.05, 0.08]}]
+    return arm_from_dict(data, source="pillar.toml")
