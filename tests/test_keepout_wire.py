@@ -154,6 +154,27 @@ def test_http_a_replacement_into_a_zone_is_refused_and_the_move_goes_on(omx_serv
     assert np.allclose(kinematics.fk_yawed(OMX.chain, q)[0, :3], goal[:3], atol=4e-3)
 
 
+def test_http_a_joint_trajectory_through_the_plate_is_refused_before_moving(omx_server
+                                                                           ) -> None:
+    """A ROS-style JointTrajectory (what the ROS 2 node's FollowJointTrajectory sends as
+    the move body) from the present joints down through the plate: 422 keep_out naming
+    its point, nothing moves."""
+    server, sa = omx_server
+    _, _, state = call(server, "GET", "/v1/state")
+    below = kinematics.ik_yawed(OMX.chain, np.array([[0.2, 0.0, -0.1, -math.pi / 2]]),
+                                OMX.elbow)[0]
+    trajectory = {"joint_names": list(OMX.joint_names), "points": [
+        {"positions": list(state["joints"]), "time_from_start": {"sec": 0, "nanosec": 0}},
+        {"positions": below.tolist(), "time_from_start": {"sec": 4, "nanosec": 0}}]}
+    before = goals_and_positions(sa.sim, OMX.servo_ids)
+    status, _, body = call(server, "POST", "/v1/moves", {"trajectory": trajectory})
+    error = error_of(body)
+    assert status == 422 and error["code"] == "keep_out", error
+    assert error["field"].startswith("trajectory.points[") and "'floor'" in error["message"]
+    assert error["keepout"]["zone"] == "floor" and error["keepout"]["depth_m"] > 0
+    assert unmoved(before, goals_and_positions(sa.sim, OMX.servo_ids))
+
+
 # -- jog and teach --------------------------------------------------------------------------------
 
 def test_a_jog_key_through_the_table_is_refused_and_the_arm_stays_above() -> None:
