@@ -183,8 +183,18 @@ def test_a_jog_key_through_the_table_is_refused_and_the_arm_stays_above() -> Non
         jog = Jogger(OMX, sa.bus, step=0.1, step_rad=5 * DEG, method="sclerp", rate_hz=100.0,
                      out=out)
         start = jog.target.copy()
-        # out 10 cm, then down 10 cm three times: the third would put the tool 6 cm under
-        jog.run(Script([(0.0, "right"), (0.3, "s"), (0.3, "s"), (0.3, "s"), (3.0, "q")]))
+        # out 10 cm, then down 10 cm three times: the third would put the tool 6 cm under;
+        # q once the last move has ended (a loaded machine streams slower)
+        keys = Script([(0.0, "right"), (0.3, "s"), (0.3, "s"), (0.3, "s")])
+
+        def read_key(timeout: float) -> str | None:
+            key = keys(timeout)
+            if key is None and not keys.keys and (jog.execution is None
+                                                  or jog.execution.done):
+                return "q"
+            return key
+
+        jog.run(read_key)
         assert "refused: keep-out zone 'floor', the tool" in out.getvalue()
         want = start + np.array([0.1, 0.0, -0.2, 0.0])
         assert np.allclose(jog.target, want, atol=1e-9)          # the refused step undone
@@ -307,3 +317,14 @@ def omx_with_box():
     data["workspace"]["keep_out"] = [{"name": "pillar", "min": [0.1, -0.05, 0.0],
                                       "max": [0.16, 0.05, 0.08]}]
     return arm_from_dict(data, source="pillar.toml")
+
+
+def test_check_config_names_the_zones(monkeypatch, capsys) -> None:
+    assert run_cli(monkeypatch, ["check-config", "omx"]) == 0
+    out = capsys.readouterr().out
+    assert ("keep-out: 'floor' (z < 0.000 m); 'base' (the cylinder r < 0.038 m about the yaw "
+            "axis, up to z = 0.076 m)") in out
+    assert run_cli(monkeypatch, ["check-config", "omx", "--json"]) == 0
+    assert json.loads(capsys.readouterr().out)["keep_out"] == OMX.workspace.zone_list(False)
+    assert run_cli(monkeypatch, ["check-config", "arm3r"]) == 0
+    assert "keep-out" not in capsys.readouterr().out

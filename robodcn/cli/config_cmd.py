@@ -89,6 +89,9 @@ def summary_text(arm: Arm, payload_kg: float | None = None) -> str:
         lines.append(f"gripper: servo {g['id']} ({g['model']}), jaws "
                      f"{1e3 * g['closed_width_m']:.0f}..{1e3 * g['open_width_m']:.0f} mm, grip "
                      f"current {g['grip_current_a']:.2f} A")
+    if arm.workspace.zones:
+        lines.append("keep-out: " + "; ".join(arm.workspace.describe(z)
+                                              for z in arm.workspace.zones))
     return "\n".join(lines)
 
 

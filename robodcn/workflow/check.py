@@ -105,7 +105,8 @@ def summary(arm: Arm, payload_kg: float | None = None) -> dict[str, Any]:
                "id": arm.gripper.servo.id, "model": arm.gripper.servo.model,
                "open_width_m": arm.gripper.open_width,
                "closed_width_m": arm.gripper.closed_width,
-               "grip_current_a": arm.gripper.grip_current}}
+               "grip_current_a": arm.gripper.grip_current},
+           "keep_out": arm.workspace.zone_list(planar=not arm.yawed)}
     if arm.yawed:
         out["link_vectors"] = arm.chain_links.tolist()
     out["warnings"] = [f"joint {j['name']!r}: {w}" for j in joints for w in j["warnings"]]
