@@ -211,3 +211,32 @@ def test_two_arms_with_one_start_at_start_together() -> None:
         assert abs(firsts[0] - firsts[1]) <= period + 0.005, firsts[0] - firsts[1]
         first_wall = time.time() - (time.perf_counter() - min(firsts))
         assert start_at - 0.002 <= first_wall <= start_at + period + 0.03
+
+
+def test_oversized_body_is_413(left: Any) -> None:
+    from robodcn.http.limits import MAX_BODY
+
+    _, _, session = left
+    got = query(session, "robodcn/left/op/plan", raw=b" " * (MAX_BODY + 1))
+    assert got["status"] == 413 and got["body"]["error"]["field"] == "body"
+
+
+def test_reconnects_after_losing_its_router() -> None:
+    """A service whose Zenoh peer goes away keeps serving HTTP, and is found again once a
+    peer listens on the endpoint it connects to."""
+    from zenoh_helpers import free_port, peer_config
+
+    router = f"tcp/127.0.0.1:{free_port()}"
+    first = zenoh.open(peer_config(listen=[router]))
+    with zenoh_arm("left", connect=(router,)) as (server, _, _):
+        wait_for(lambda: fleet.live_names(first, timeout=1) == ["left"], 5, "the token")
+        first.close()
+        status, _, _ = http_call(server, "GET", "/healthz")
+        assert status == 200
+        second = zenoh.open(peer_config(listen=[router]))
+        try:
+            wait_for(lambda: fleet.live_names(second, timeout=1) == ["left"], 20,
+                     "the face to reconnect")
+            assert query(second, "robodcn/left/op/health")["status"] == 200
+        finally:
+            second.close()

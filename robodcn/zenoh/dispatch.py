@@ -18,6 +18,7 @@ from typing import Any
 from robodcn.http.answer import run
 from robodcn.http.context import Service
 from robodcn.http.framing import Request, error_body
+from robodcn.http.limits import MAX_BODY
 from robodcn.http.ops import OPERATIONS
 from robodcn.http.routes import ROUTES, Route
 
@@ -49,6 +50,9 @@ def call(server: Service, name: str, payload: bytes | None,
     for key in route.params:
         path = path.replace("{" + key + "}", params[key])
     body = payload or b""
+    if len(body) > MAX_BODY:
+        return _error(413, "too_large", f"the body has {len(body)} bytes, over the "
+                      f"{MAX_BODY} an operation takes", "body")
     headers = {"content-type": "application/json", "content-length": str(len(body)),
                "host": "zenoh"}
     request = Request(route.method, path, (1, 1), headers, body, client="zenoh")

@@ -37,6 +37,8 @@ log = logging.getLogger("robodcn.zenoh")
 
 #: Worker threads answering queries, by the route's pool kind (``stream`` is refused).
 POOL_SIZES = {"control": 2, "read": 4, "work": 2}
+#: Queries a pool holds (running and waiting) before it answers 503 at once.
+POOL_BACKLOG = 64
 #: The follow operation a ``follow/target`` put feeds (another surface's operation).
 FOLLOW_OPERATION = "follow_target"
 
@@ -68,6 +70,7 @@ class NativeFace:
         self._stop = threading.Event()
         self._pools = {kind: ThreadPoolExecutor(n, thread_name_prefix=f"robodcn-zenoh-{kind}")
                        for kind, n in POOL_SIZES.items()}
+        self._backlog = {kind: threading.BoundedSemaphore(POOL_BACKLOG) for kind in POOL_SIZES}
         self._declared: list[Any] = []
         self._thread: threading.Thread | None = None
 
@@ -112,14 +115,26 @@ class NativeFace:
     def _on_query(self, query: Any) -> None:
         name = str(query.key_expr).rsplit("/", 1)[-1]
         route = dispatch.BY_NAME.get(name)
-        kind = "read" if route is None else route.pool
-        pool = self._pools.get(kind, self._pools["read"])
+        kind = "read" if route is None or route.pool not in self._pools else route.pool
+        if not self._backlog[kind].acquire(blocking=False):
+            with query:
+                query.reply(query.key_expr, json.dumps({"status": 503, "body": {"error": {
+                    "code": "busy", "message": f"{POOL_BACKLOG} {kind} queries are waiting "
+                    "already: retry later", "field": None}}}).encode(),
+                    encoding="application/json")
+            return
         try:
-            pool.submit(self._answer, query, name)
+            self._pools[kind].submit(self._answer, query, name, self._backlog[kind])
         except RuntimeError:  # shut down
-            pass
+            self._backlog[kind].release()
 
-    def _answer(self, query: Any, name: str) -> None:
+    def _answer(self, query: Any, name: str, backlog: threading.BoundedSemaphore) -> None:
+        try:
+            self._reply(query, name)
+        finally:
+            backlog.release()
+
+    def _reply(self, query: Any, name: str) -> None:
         with query:
             try:
                 payload = query.payload.to_bytes() if query.payload is not None else b""
