@@ -320,3 +320,24 @@ def test_every_sample_of_an_accepted_plan_is_outside_every_zone(a, b, box) -> No
         return
     for q in traj.joints:
         assert max(deepest(arm, q).values()) <= 1e-9
+
+
+# -- samples the planner did not sample: a retarget's after its switch --------------------------
+
+def test_check_joints_names_the_first_sample_inside_with_the_users_pose() -> None:
+    from robodcn.planner.keepout import check_joints
+
+    below = kinematics.ik_yawed(OMX.chain, np.array([[0.2, 0.0, -0.05, -90 * DEG]]),
+                                OMX.elbow)[0]
+    home = kinematics.ik_yawed(OMX.chain, np.array([OMX.home]), OMX.elbow)[0]
+    joints = home + np.linspace(0.0, 1.0, 101)[:, None] * (below - home)
+    check_joints(OMX, joints[:10], 100.0)                    # the first samples are clear
+    with pytest.raises(KeepOutError) as info:
+        check_joints(OMX, joints, 100.0)
+    v = info.value.violation
+    assert v is not None and v.quantity == "keepout" and v.field == "waypoints"
+    assert v.t == pytest.approx(v.sample / 100.0)
+    for i in range(v.sample):
+        assert max(deepest(OMX, joints[i]).values()) <= 1e-9
+    assert deepest(OMX, joints[v.sample])[v.zone] == pytest.approx(v.value, abs=1e-9)
+    assert np.allclose(v.pose, kinematics.fk_yawed(OMX.chain, joints[v.sample][None])[0])

@@ -13,6 +13,7 @@ import json
 import math
 import shutil
 import subprocess
+import time
 import tomllib
 from collections.abc import Iterator
 from pathlib import Path
@@ -328,3 +329,43 @@ def test_check_config_names_the_zones(monkeypatch, capsys) -> None:
     assert json.loads(capsys.readouterr().out)["keep_out"] == OMX.workspace.zone_list(False)
     assert run_cli(monkeypatch, ["check-config", "arm3r"]) == 0
     assert "keep-out" not in capsys.readouterr().out
+
+
+def test_a_retarget_whose_samples_leave_for_a_zone_is_refused_and_the_move_goes_on(
+        monkeypatch, tmp_path) -> None:
+    """The samples a retarget sends after its switch (its moving start's blend may leave
+    the planned path) are checked too: here they are turned 0.4 rad about the base, into a
+    box the planned paths keep clear of; the retarget is refused, nothing changes, and the
+    move ends where it was going."""
+    from robodcn.config import load_arm
+    from robodcn.planner import plan
+    from robodcn.stream import start
+    from robodcn.stream.online.retarget import Retargeting
+
+    goal, other = (0.25, 0.10, 0.0), (0.2, 0.15, 0.3)
+    turn = np.array([0.4, 0.0, 0.0])                 # rad about the base, joint 0
+    q_other = kinematics.ik(ARM3R.links, np.array([other]), ARM3R.elbow)[0]
+    turned = kinematics.fk(ARM3R.links, (q_other + turn)[None])[0]
+    arm = load_arm(_arm3r_with_box(tmp_path, turned[:2].tolist()))
+    real = Retargeting.tail
+
+    def turned_tail(self, state, target, options):
+        segments = real(self, state, target, options)
+        joints, sigma, path = segments[-1]
+        return [*segments[:-1], (joints + turn, sigma, path)]
+
+    monkeypatch.setattr(Retargeting, "tail", turned_tail)
+    with simulated.simulated_arm(arm, timing="fast", dynamics=False) as sa:
+        q0 = servo_units.ticks_to_radians(sa.bus.read_positions()[None], arm.servos)[0]
+        start_pose = kinematics.fk(arm.links, q0[None])[0]
+        traj = plan(arm, [start_pose, goal], start_joints=q0, duration=2.0)
+        ex = start(traj, sa.bus, arm=arm, compensation=False)
+        while ex.sample < 40 and not ex.done:
+            time.sleep(0.01)
+        with pytest.raises(KeepOutError) as info:
+            ex.retarget([None, other])
+        assert info.value.zone == "fixture" and info.value.violation.quantity == "keepout"
+        report = ex.wait(30)
+        assert report is not None and report.outcome in ("done", "degraded")
+        q = servo_units.ticks_to_radians(sa.bus.read_positions()[None], arm.servos)
+        assert np.allclose(kinematics.fk(arm.links, q)[0, :2], goal[:2], atol=3e-3)
