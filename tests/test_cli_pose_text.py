@@ -93,3 +93,11 @@ def test_no_negative_zero_degrees() -> None:
 
     assert quantity(-1e-4, "rad", "cli") == "0.0°"
     assert quantity(-0.02, "rad", "cli") == "-1.1°"
+
+
+def test_options_are_never_abbreviated(capsys) -> None:
+    """--to is a prefix of --tool-speed: a prefix is a guess on a command that moves an arm."""
+    with pytest.raises(SystemExit):
+        cli.main(["plan", "--arm", "arm3r", "--to", "0.12,0.24,60", "--rat", "50"])
+    err = capsys.readouterr().err
+    assert "unrecognized arguments: --rat 50; did you mean --rate?" in err, err

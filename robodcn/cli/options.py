@@ -28,7 +28,16 @@ _NUMBER = re.compile(r"^[+-]?([0-9]+\.?[0-9]*|\.[0-9]+)([eE][+-]?[0-9]+)?$")
 
 
 class Parser(argparse.ArgumentParser):
-    """argparse, with usage errors as one line naming the option (exit code 2)."""
+    """argparse, with usage errors as one line naming the option (exit code 2).
+
+    Options are never abbreviated: on a command that moves an arm a prefix is a guess
+    (``--to`` is a prefix of ``--tool-speed``), so ``--too`` is an unknown option with its
+    "did you mean --to?" rather than one of several it could abbreviate.
+    """
+
+    def __init__(self, *args, **kwargs) -> None:
+        kwargs.setdefault("allow_abbrev", False)
+        super().__init__(*args, **kwargs)
 
     def error(self, message: str):  # type: ignore[override]
         from robodcn.cli.error_text import one_line
@@ -75,8 +84,14 @@ class Parser(argparse.ArgumentParser):
         known = [o for a in self._actions for o in a.option_strings if o.startswith("--")]
         for extra in extras:
             if extra.startswith("--"):
-                close = difflib.get_close_matches(extra.split("=", 1)[0], known, n=1,
-                                                  cutoff=0.6)
+                typed = extra.split("=", 1)[0]
+                typo = difflib.get_close_matches(typed, known, n=1, cutoff=0.85)
+                if typo:                      # one letter off (--too): that option
+                    return f"; did you mean {typo[0]}?"
+                longer = [o for o in known if o.startswith(typed)]
+                if len(longer) > 1:           # an abbreviation of several: name them all
+                    return f"; did you mean {', '.join(longer[:-1])} or {longer[-1]}?"
+                close = longer or difflib.get_close_matches(typed, known, n=1, cutoff=0.6)
                 if close:
                     return f"; did you mean {close[0]}?"
         return ""
