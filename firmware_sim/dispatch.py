@@ -127,7 +127,9 @@ class Dispatcher:
             length = int.from_bytes(pkt.params[2:], "little")
             code, data = s.read(address, length)
             if self.answers(s, pkt.instruction):
-                replies.append(self.status(s, pkt.instruction, code, data if not code else b""))
+                reply = self.status(s, pkt.instruction, code, data if not code else b"")
+                reply.span = (address, length)
+                replies.append(reply)
         return replies
 
     def _write_like(self, pkt: Packet, targets: list[Servo]) -> list[Reply]:

@@ -12,6 +12,9 @@ corrupt_crc        last CRC byte flipped: ``COMM_RX_CORRUPT``
 wrong_id           reply carries another ID: ``COMM_RX_TIMEOUT`` (SDK waits for its ID)
 truncate_fast      fast-read chain cut after ``keep`` blocks: ``COMM_RX_CORRUPT``
 split              reply written in pieces with gaps: tolerated while gaps < timeout
+stale              a late reply to an earlier read (of ``of_address``) goes out just
+                   before this one's: the SDK takes it for this read's answer (status
+                   packets carry no sequence number; a same-size straggler passes)
 trip               :meth:`Servo.trip`: hardware error bits, alert bit 0x80 in replies
 =================  =======================================================
 """
@@ -32,6 +35,7 @@ class FaultKind(StrEnum):
     WRONG_ID = "wrong_id"
     TRUNCATE_FAST = "truncate_fast"
     SPLIT = "split"
+    STALE = "stale"
 
 
 @dataclass
@@ -58,6 +62,11 @@ class Fault:
         TRUNCATE_FAST: blocks of the fast chain sent before it is cut.
     pieces, gap_s : int, float
         SPLIT: number of write() calls and the pause between them.
+    address : int or None
+        Only replies to reads that include this control-table address; None = any reply.
+    of_address : int
+        STALE: the address of the earlier read whose reply (the last one sent for it, by
+        the same servo or fast chain) is replayed as the straggler.
     fired : int
         How often it has fired so far.
     """
@@ -72,6 +81,8 @@ class Fault:
     keep: int = 0
     pieces: int = 2
     gap_s: float = 0.0
+    address: int | None = None
+    of_address: int = 0
     fired: int = 0
 
     def __post_init__(self) -> None:
@@ -157,6 +168,14 @@ class FaultInjector:
         return self._make(FaultKind.SPLIT, servo_id, times, probability, instructions,
                           pieces=int(pieces), gap_s=float(gap_s))
 
+    def stale(self, of_address: int, servo_id: int | None = None, *, address: int | None = None,
+              times: int | None = 1, probability: float = 1.0,
+              instructions: Iterable[int] | None = None) -> Fault:
+        """Before the reply to a read (that includes ``address``; None: any), send again
+        the last reply to a read at ``of_address`` — a straggler answering in its place."""
+        return self._make(FaultKind.STALE, servo_id, times, probability, instructions,
+                          address=address, of_address=int(of_address))
+
     def trip(self, servo_id: int | None = None, bits: int = 0x20) -> None:
         """Inject hardware error ``bits`` now (Servo.trip; default 0x20 overload).
 
@@ -178,11 +197,15 @@ class FaultInjector:
 
     # ---- consulted by the bus -----------------------------------------------------
     def take(self, kind: FaultKind, servo_id: int | None, instruction: int, *,
-             bus_wide: bool = True) -> Fault | None:
+             bus_wide: bool = True, span: tuple[int, int] | None = None,
+             accept: Callable[[Fault], bool] | None = None) -> Fault | None:
         """The first armed fault of ``kind`` hitting this reply, counting the firing.
 
         ``servo_id=None`` asks for bus-wide faults only (e.g. a whole fast reply); a
         servo's reply is hit by its own faults and, if ``bus_wide``, by bus-wide ones.
+        ``span``: the (address, length) the reply answers a read of (None: not a read); a
+        fault with an ``address`` hits only reads that include it. ``accept``: a further condition
+        a fault must meet to fire (a STALE fault: an earlier reply to replay is known).
         """
         with self._lock:
             for f in self._faults:
@@ -193,6 +216,11 @@ class FaultInjector:
                 if f.servo_id is not None and f.servo_id != servo_id:
                     continue
                 if f.instructions is not None and instruction not in f.instructions:
+                    continue
+                if f.address is not None and (
+                        span is None or not span[0] <= f.address < span[0] + span[1]):
+                    continue
+                if accept is not None and not accept(f):
                     continue
                 if f.probability < 1.0 and self._rng.random() >= f.probability:
                     continue

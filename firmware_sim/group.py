@@ -112,7 +112,9 @@ def group_read(d: Dispatcher, pkt: Packet, targets: list[Servo]) -> list[Reply]:
         if s is None or not d.answers(s, pkt.instruction):
             continue
         code, data = s.read(address, length)
-        replies.append(d.status(s, pkt.instruction, code, data if not code else b""))
+        reply = d.status(s, pkt.instruction, code, data if not code else b"")
+        reply.span = (address, length)
+        replies.append(reply)
     return replies
 
 
@@ -158,7 +160,8 @@ def _fast_chain(d: Dispatcher, pkt: Packet, requests: list[tuple[int, int, int]]
     if rdt is None:
         return []
     return [Reply(None, pkt.instruction, b"".join(chunks), rdt,
-                  note="fast: " + ",".join(ids), block_ends=ends)]
+                  note="fast: " + ",".join(ids), block_ends=ends,
+                  span=(requests[0][1], requests[0][2]))]
 
 
 def group_write(d: Dispatcher, pkt: Packet, targets: list[Servo]) -> list[Reply]:

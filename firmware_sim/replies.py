@@ -31,6 +31,7 @@ class Reply:
     status: tuple[int, int, bytes] | None = None   # (id, error, params) to rebuild on wrong_id
     note: str = ""
     block_ends: list[int] = field(default_factory=list)   # fast chain: end offset per block
+    span: tuple[int, int] | None = None   # a read's (address, length) (None: not a read)
 
 
 class ReplySender:
@@ -57,6 +58,9 @@ class ReplySender:
         self.pacer = pacer
         self.realistic = realistic
         self.turnaround_s = turnaround_s
+        #: The last reply sent to a read, by (servo id or None for a fast chain, address):
+        #: what a STALE fault replays.
+        self._last_read: dict[tuple[int | None, int], bytes] = {}
 
     def send(self, replies: list[Reply], wire_end: float, byte_s: float) -> None:
         """Send ``replies`` in order after an instruction whose last byte was on the wire at
@@ -69,6 +73,18 @@ class ReplySender:
             data = r.data
             note = r.note
             sid = r.servo_id
+            known = {a for s, a in self._last_read if s == sid}
+            stale = faults.take(FaultKind.STALE, sid, r.instruction, span=r.span,
+                                accept=lambda f, known=known: f.of_address in known)
+            if stale:
+                straggler = self._last_read[(sid, stale.of_address)]
+                self.log.add(LogEntry(time.perf_counter(), "tx", sid if sid is not None
+                                      else BROADCAST_ID, "STATUS", b"", None, straggler,
+                                      f"stale: the last reply to a read at {stale.of_address}"))
+                cursor = self.pacer.write(straggler, max(cursor, time.perf_counter()),
+                                          byte_s if self.realistic else 0.0)
+            if r.span is not None:
+                self._last_read[(sid, r.span[0])] = data
             if faults.take(FaultKind.DROP, sid, r.instruction):
                 self._log_tx(time.perf_counter(), r, data, _join(note, "dropped"))
                 continue

@@ -4,14 +4,15 @@ robodcn.bus is single-threaded by design: every port access of an
 :class:`~robodcn.controller.ArmController` runs as a job on a :class:`BusWorker` (a move's
 whole stream, an idle state read, a servo admin step). Losing the serial device
 (unplugged, firmware_sim killed) is a bus fault, never a crash: the job raises CommError
-(503), the worker marks the port suspect, and the next job reopens and re-verifies it first,
-so the service recovers by itself once the device is back.
+(503), the worker marks the port suspect (:attr:`BusWorker.fault` says why), and the next job
+reopens and re-verifies it first, so the service recovers by itself once the device is back.
 """
 
 from __future__ import annotations
 
 import logging
 import termios
+import threading
 from collections.abc import Callable
 from concurrent.futures import Future, ThreadPoolExecutor
 from concurrent.futures import TimeoutError as FutureTimeout
@@ -47,13 +48,53 @@ class BusWorker:
 
     def __init__(self, bus: ServoBus) -> None:
         self.bus = bus
-        #: The last bus operation failed: reopen and re-verify the port before the next.
-        self.suspect = False
+        #: Why the port is suspect (the last bus operation failed: reopen and re-verify it
+        #: before the next), or None while it is sound.
+        self.fault: str | None = None
         self._pool = ThreadPoolExecutor(max_workers=1, thread_name_prefix="robodcn-arm")
+        self._jobs = 0
+        self._jobs_lock = threading.Lock()
+
+    @property
+    def suspect(self) -> bool:
+        """The last bus operation failed (:attr:`fault` says how): reopen and re-verify the
+        port before the next."""
+        return self.fault is not None
+
+    @suspect.setter
+    def suspect(self, value: bool) -> None:
+        if not value:
+            self.fault = None
+        elif self.fault is None:
+            self.fault = f"a bus operation on {self.bus.port} failed"
+
+    def mark_fault(self, reason: str) -> None:
+        """The bus failed (``reason``): reopen and re-verify it before the next job."""
+        self.fault = reason
+
+    @property
+    def busy(self) -> bool:
+        """A job is queued or running."""
+        with self._jobs_lock:
+            return self._jobs > 0
 
     def submit(self, fn: Callable[..., Any], *args: Any) -> Future[Any]:
         """Queue ``fn(*args)`` (it calls :meth:`recover` itself when it touches the port)."""
-        return self._pool.submit(fn, *args)
+        def job() -> Any:
+            try:
+                return fn(*args)
+            finally:
+                with self._jobs_lock:
+                    self._jobs -= 1
+
+        with self._jobs_lock:
+            self._jobs += 1
+        try:
+            return self._pool.submit(job)
+        except BaseException:
+            with self._jobs_lock:
+                self._jobs -= 1
+            raise
 
     def recover(self) -> None:
         """After a bus fault: reopen and re-verify the port (on the worker thread only).
@@ -68,11 +109,13 @@ class BusWorker:
                 self.bus.verify()
             except (RobodcnError, *DEVICE_ERRORS) as exc:
                 message = exc.message if isinstance(exc, RobodcnError) else str(exc)
-                raise CommError(f"the servo bus on {self.bus.port} is unavailable ({message});"
-                                " the service retries on each request until it is back",
-                                field="bus", value=self.bus.port) from None
+                error = CommError(f"the servo bus on {self.bus.port} is unavailable "
+                                  f"({message}); the service retries on each request until "
+                                  "it is back", field="bus", value=self.bus.port)
+                self.fault = error.message
+                raise error from None
         log.info("servo bus on %s reopened", self.bus.port)
-        self.suspect = False
+        self.fault = None
 
     def call(self, fn: Callable[[], T], what: str, timeout: float | None = None) -> T:
         """Run ``fn`` on the worker thread (recovering the port first) and wait for it.
@@ -85,15 +128,16 @@ class BusWorker:
             self.recover()
             try:
                 return fn()
-            except BusError:
-                self.suspect = True
+            except BusError as exc:
+                self.mark_fault(exc.message)
                 raise
             except DEVICE_ERRORS as exc:
-                self.suspect = True
-                raise device_fault(self.bus, exc) from None
+                fault = device_fault(self.bus, exc)
+                self.mark_fault(fault.message)
+                raise fault from None
 
         wait = STATE_TIMEOUT if timeout is None else timeout
-        future = self._pool.submit(job)
+        future = self.submit(job)
         try:
             return future.result(wait)
         except FutureTimeout:

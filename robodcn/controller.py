@@ -49,7 +49,15 @@ from robodcn import servo_admin, servo_units
 from robodcn.bus import ServoBus, describe_hardware_error
 from robodcn.bus_worker import DEVICE_ERRORS, STATE_TIMEOUT, BusWorker, device_fault
 from robodcn.config import Arm
-from robodcn.errors import BusError, BusyError, InputError, NoMoveError, RobodcnError
+from robodcn.errors import (
+    BusError,
+    BusyError,
+    CommError,
+    HardwareAlertError,
+    InputError,
+    NoMoveError,
+    RobodcnError,
+)
 from robodcn.moves import RECORD_SAMPLES, MoveRecord, move_status
 from robodcn.planner import Trajectory
 from robodcn.results import MoveStatus, RebootAnswer, State, StopAnswer, TorqueAnswer
@@ -72,6 +80,9 @@ START_LEAD_S = 0.15
 #: Seconds a replacement waits for another being planned (then 409): a queue of them would
 #: hold each answer for the planning of all before it.
 REPLACE_WAIT = 0.2
+#: Seconds ``GET /healthz``'s check of an idle bus may take (:meth:`ArmController.
+#: check_bus`): a reopen and verify after a fault, or one read of the servos' alerts.
+HEALTH_TIMEOUT = 1.0
 #: Seconds an online operation may plan, its attempts and waits included (Execution.
 #: budget_s; then 409, nothing changed): with the waits above, answers within a second.
 OPERATION_BUDGET_S = 0.5
@@ -130,6 +141,8 @@ class ArmController:
         #: Where every move's online operations place their switches from (measured once
         #: for the service, not again per move).
         self._planning_times = PlanningTimes()
+        #: Admin actions under way or queued that a stop halts (the gripper's).
+        self._halts: set[servo_admin.Halt] = set()
 
     # -- moves --------------------------------------------------------------------------------
 
@@ -242,22 +255,54 @@ class ArmController:
             lowering.request(reason)
 
     def stop(self, *, wait: float = 1.0) -> StopAnswer:
-        """Stop the current move, if any; the streamer holds the arm where it is.
+        """Stop everything that moves: the current move, if any (the streamer holds the arm
+        where it is), a torque off's or a reboot's lowering, and a gripper action (its goal
+        := where the jaws are, within one poll of the action).
 
-        Thread-safe; sets the move's stop signal (acted on within one sample period) and
-        waits until the hold is written and the move has ended (at most ``wait`` seconds).
+        Thread-safe; sets the move's stop signal (acted on within one sample period) and the
+        gripper action's halt, and waits until both have ended (at most ``wait`` seconds in
+        all). ``stopped`` says what holds now: a gripper action was halted, or the move has
+        ended with its hold written. A move that has not ended within ``wait``, or whose
+        hold the servos did not take (a stalled or lost bus: ``hold_failed`` says why; the
+        move ends ``fault`` and only the servos' Bus Watchdog stops them), is not
+        ``stopped``.
         """
         with self._lock:
             record = self._current
             lowering = self._lowering
+            halts = list(self._halts)
+        for halt in halts:
+            halt.requested.set()
+        if lowering is not None:       # a torque off or a reboot lowering the arm first
+            lowering.request("stop requested")
+        if record is not None:
+            record.stop_signal.request("stop requested")
+        deadline = time.monotonic() + wait
+        gripper = False
+        for halt in halts:
+            halt.ended.wait(max(0.0, deadline - time.monotonic()))
+            gripper = gripper or halt.halted
         if record is None:
-            if lowering is not None:       # a torque off or a reboot lowering the arm first
-                lowering.request("stop requested")
-            return StopAnswer(stopped=lowering is not None, move=None, status=None)
-        record.stop_signal.request("stop requested")
-        record.done.wait(wait)
+            return StopAnswer(stopped=gripper or lowering is not None, move=None,
+                              status=None, gripper=gripper)
+        record.done.wait(max(0.0, deadline - time.monotonic()))
         with self._lock:
-            return StopAnswer(stopped=True, move=record.id, status=record.status)
+            held, failed = self._held(record)
+            return StopAnswer(stopped=held or gripper, move=record.id, status=record.status,
+                              gripper=gripper, hold_failed=failed)
+
+    @staticmethod
+    def _held(record: MoveRecord) -> tuple[bool, str | None]:
+        """Whether ``record`` has ended holding (its hold written, or it never moved), and
+        why not when its hold failed. Call with ``self._lock`` held."""
+        if not record.done.is_set():
+            return False, None
+        report = record.report
+        if report is not None:
+            return report.hold_failed is None, report.hold_failed
+        if record.status == "fault" and record.error is not None:
+            return False, f"the move ended before its hold: {record.error.get('message')}"
+        return record.status == "failed", None
 
     # -- online operations (robodcn.stream.online): stop modes, pause, speed, replace ------
 
@@ -412,12 +457,13 @@ class ArmController:
             record.prepared.set()
             report = execution.run()
         except RobodcnError as exc:
-            worker.suspect = worker.suspect or isinstance(exc, BusError)
+            if isinstance(exc, BusError):
+                worker.mark_fault(exc.message)
             log.info("move %s ended: %s", record.id, exc.message)
             self._finish(record, None, None, exc.to_dict())
         except DEVICE_ERRORS as exc:
-            worker.suspect = True
             fault = device_fault(self.bus, exc)
+            worker.mark_fault(fault.message)
             log.warning("move %s: %s", record.id, fault.message)
             self._finish(record, None, None, fault.to_dict())
         except Exception as exc:  # a bug: keep the service up, say what happened
@@ -426,7 +472,10 @@ class ArmController:
                 "code": "internal", "message": f"{type(exc).__name__}: {exc}", "field": None})
         else:
             status = move_status(report)
-            worker.suspect = status == "fault"
+            if status == "fault":
+                worker.mark_fault(f"move {record.id} ended in a fault: {report.message}")
+            else:
+                worker.fault = None
             error = None if status != "fault" else {
                 "code": report.stop_reason, "message": report.message, "field": None}
             self._finish(record, status, report, error)
@@ -521,6 +570,38 @@ class ArmController:
                                     record=record)
         return self._worker.call(self._read_state, "reading the arm's state")
 
+    def check_bus(self, timeout: float = HEALTH_TIMEOUT) -> None:
+        """Raise the BusError that makes the arm undrivable now, if any: the bus lost or
+        faulted, or a servo reporting a hardware error (``GET /healthz``'s 503).
+
+        While a move runs, the stream watches the bus: the last fault known, if any (none:
+        a fault ends the move). While an admin job runs, likewise. Otherwise one job on the
+        worker thread, of at most ``timeout`` seconds: after a fault it reopens and
+        re-verifies the port (CommError while the device is still gone), then reads every
+        servo's Hardware Error Status (HardwareAlertError naming the servos and bits).
+        """
+        with self._lock:
+            if self._closed:
+                raise InputError("the controller is closed", field="controller", value=None)
+            moving = self._current is not None
+        worker = self._worker
+        if moving or worker.busy:
+            if worker.fault is not None:
+                raise CommError(worker.fault, field="bus", value=self.bus.port)
+            return
+        alerts = worker.call(self._read_alerts, "checking the servo bus", timeout)
+        if alerts:
+            named = dict(zip(self.arm.servo_ids, self.arm.joint_names, strict=True))
+            which = "; ".join(f"servo {i} ({named.get(i, '?')}): {describe_hardware_error(e)}"
+                              for i, e in sorted(alerts.items()))
+            raise HardwareAlertError(f"hardware error on {which}: the servo has switched its "
+                                     "torque off; clear it with a reboot (POST /v1/reboot)",
+                                     field="bus", value={str(i): e for i, e in alerts.items()})
+
+    def _read_alerts(self) -> dict[int, int]:
+        with self.bus.claim():
+            return {i: e for i, e in self.bus.hardware_errors().items() if e}
+
     def present_ticks(self) -> NDArray[np.int64]:
         """The arm's Present Position (k,) ticks, read once on the worker thread.
 
@@ -599,8 +680,17 @@ class ArmController:
         Raises InputError (field "gripper": the arm has none; "command" or "width_m": a
         bad goal), all before the bus; BusyError while a move runs; BusError."""
         servo_admin.gripper_goal(self.arm, command, width_m)  # refused before the bus
-        return self._admin(lambda: servo_admin.gripper(self.bus, self.arm, command, width_m),
-                           "driving the gripper", timeout=servo_admin.GRIPPER_TIMEOUT)
+        halt = servo_admin.Halt()  # what a stop sets: the jaws halt where they are
+        with self._lock:
+            self._halts.add(halt)
+        try:
+            return self._admin(lambda: servo_admin.gripper(self.bus, self.arm, command,
+                                                           width_m, halt),
+                               "driving the gripper", timeout=servo_admin.GRIPPER_TIMEOUT)
+        finally:
+            with self._lock:
+                self._halts.discard(halt)
+            halt.ended.set()  # a job refused or failed before it ran: nothing to wait for
 
     def reboot(self, joint: str | None = None, *, confirm: bool = False) -> RebootAnswer:
         """Reboot ``joint``'s servo, or every servo (clears hardware errors; torque is off

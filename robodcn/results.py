@@ -131,11 +131,21 @@ class State:
 
 @dataclass
 class StopAnswer:
-    """Whether a running move was stopped, which, and its status after the stop."""
+    """Whether something moving was stopped (the move, which, and its status after the
+    stop; a gripper action), and why a hold was not written."""
 
-    stopped: bool
+    stopped: bool = field(metadata=_doc(
+        "something was stopped: a smooth stop's brake is in the stream, a hold's move has "
+        "ended with its hold written, or a gripper action was halted; false when nothing "
+        "moved, the move had not ended within a second, or its hold was not written "
+        "(hold_failed)"))
     move: str | None
     status: MoveState | None
+    gripper: bool = field(default=False, metadata=_doc(
+        "a gripper action was halted (its goal set to where the jaws were)"))
+    hold_failed: str | None = field(default=None, metadata=_doc(
+        "why the stop's hold was not written (a stalled or lost bus; the move ends fault "
+        "and only the servos' Bus Watchdog stops them), or null"))
 
 
 @dataclass

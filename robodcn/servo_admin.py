@@ -10,13 +10,16 @@ ArmController.set_torque`, :meth:`~robodcn.controller.ArmController.reboot`,
   holds at the present pose — unless the joints switched are not loaded (an OM-X's base
   yaw, a joint whose torque is off already). Confirmed, the arm is lowered to its rest pose
   first where it can be, and the user told to hold it where it cannot.
-* :func:`gripper`: :func:`robodcn.workflow.gripper.actuate` on the arm's ``[gripper]``.
+* :func:`gripper`: :func:`robodcn.workflow.gripper.actuate` on the arm's ``[gripper]``,
+  halted by a stop through its :class:`Halt` (the jaws' goal := where they are).
 
 Each ``check_*``/``*_goal`` function refuses bad arguments before the bus is touched.
 """
 
 from __future__ import annotations
 
+import threading
+from dataclasses import dataclass, field
 from typing import Any
 
 from robodcn.bus import ServoBus
@@ -100,11 +103,31 @@ def gripper_goal(arm: Arm, command: str | None, width_m: float | None) -> grip.G
     return grip.gripper_goal(_spec(arm), command, width_m=width_m)
 
 
+@dataclass(eq=False)
+class Halt:
+    """An admin action that a stop halts (the gripper's): a stop sets ``requested``; the
+    action, on the worker thread, halts at its next poll, sets ``halted`` when it did and
+    ``ended`` once it has returned (or failed)."""
+
+    requested: threading.Event = field(default_factory=threading.Event)
+    ended: threading.Event = field(default_factory=threading.Event)
+    halted: bool = False
+
+
 def gripper(bus: ServoBus, arm: Arm, command: str | None = None,
-            width_m: float | None = None) -> grip.GripperResult:
-    """Drive ``arm``'s gripper to ``command`` or ``width_m`` and wait until the jaws rest."""
-    return grip.actuate(bus, _spec(arm), command, width_m=width_m)
+            width_m: float | None = None, halt: Halt | None = None) -> grip.GripperResult:
+    """Drive ``arm``'s gripper to ``command`` or ``width_m`` and wait until the jaws rest;
+    ``halt.requested`` (a stop) halts them where they are."""
+    try:
+        result = grip.actuate(bus, _spec(arm), command, width_m=width_m,
+                              stop=None if halt is None else halt.requested.is_set)
+        if halt is not None:
+            halt.halted = result.stopped
+        return result
+    finally:
+        if halt is not None:
+            halt.ended.set()
 
 
-__all__ = ["GRIPPER_TIMEOUT", "RELEASE_TIMEOUT", "check_torque", "gripper", "gripper_goal",
-           "reboot", "set_torque"]
+__all__ = ["GRIPPER_TIMEOUT", "RELEASE_TIMEOUT", "Halt", "check_torque", "gripper",
+           "gripper_goal", "reboot", "set_torque"]

@@ -115,7 +115,8 @@ def test_stop_during_a_move_holds(arm_server: Any) -> None:
     status, _, stopped = call(server, "POST", "/v1/stop", {"mode": "hold"})
     at_stop = np.array(present(sa))
     assert status == 200
-    assert stopped == {"stopped": True, "move": body["id"], "status": "stopped"}
+    assert stopped == {"stopped": True, "move": body["id"], "status": "stopped",
+                       "gripper": False, "hold_failed": None}
     final = poll_move(server, body["id"], lambda b: b["status"] != "running")
     assert final["status"] == "stopped" and final["report"]["stop_reason"] == "stopped"
     assert final["progress"] < 1.0

@@ -130,7 +130,8 @@ def test_a_smooth_stop_answers_without_waiting_for_the_move_to_end(
     status, _, stop = call(server, "POST", "/v1/stop")  # a brake that takes its time
     took = time.monotonic() - started
     assert status == 200 and stop == {"stopped": True, "move": move["id"],
-                                      "status": "running"}, stop
+                                      "status": "running", "gripper": False,
+                                      "hold_failed": None}, stop
     assert took < 0.5, took
     monkeypatch.undo()
     assert call(server, "POST", "/v1/stop", {"mode": "hold"})[2]["status"] == "stopped"

@@ -6,6 +6,13 @@ otherwise. The SDK's fast-sync-read parser ignores the per-servo ERR byte, hidin
 bit (dynamixel-notes §1.7), so the blocks are decoded here
 (:func:`robodcn.bus.groups.fast_sync_read_blocks`); every servo's ERR byte and data length
 are checked before anything is decoded.
+
+Status packets carry no sequence number: a late reply to an earlier read of the same size
+passes every check of the SDK's and ours. So no two kinds of read share a size where a
+mix-up could stop the arm: Hardware Error Status is read as the 3 bytes from Status Return
+Level (68, 69, 70), whose first two bytes can only be 1–2 and 0–1, never as the 1 byte at 70
+that a Bus Watchdog poll's straggler (1 byte at 98: 13 for 250 ms) would answer in its place
+— the misread that once ended a move with "hardware error 13" on every servo.
 """
 
 from __future__ import annotations
@@ -20,6 +27,7 @@ from robodcn.bus.control_table import (
     ADDR_BUS_WATCHDOG,
     ADDR_HARDWARE_ERROR,
     ADDR_PRESENT_POSITION,
+    ADDR_STATUS_RETURN_LEVEL,
     ADDR_TORQUE_ENABLE,
 )
 from robodcn.bus.feedback import ADDR_FEEDBACK, FEEDBACK_LENGTH, Feedback, decode_feedback
@@ -127,9 +135,28 @@ class Reads(Transactions):
                                self._current_units)
 
     def hardware_errors(self) -> dict[int, int]:
-        """Hardware Error Status (address 70) per servo id; 0 means healthy."""
-        raw = self.sync_read(ADDR_HARDWARE_ERROR, 1)
-        return {servo_id: data[0] for servo_id, data in zip(self.ids, raw, strict=True)}
+        """Hardware Error Status (address 70) per servo id; 0 means healthy.
+
+        Read with Status Return Level and Registered Instruction before it (68..70, a size
+        no other read has: module notes), and a reply whose first two bytes are not a
+        level (1 or 2: a servo that answers reads) and a flag (0 or 1) is not this read's
+        (CommError: a straggler of another read, retried as any failed read)."""
+        what = f"hardware error read 3 byte(s) at {ADDR_STATUS_RETURN_LEVEL}"
+        raw = self._retry(what, None, lambda: self._hardware_once())
+        at = ADDR_HARDWARE_ERROR - ADDR_STATUS_RETURN_LEVEL
+        return {servo_id: data[at] for servo_id, data in zip(self.ids, raw, strict=True)}
+
+    def _hardware_once(self) -> list[bytes]:
+        with self.claim():
+            raw = self._sync_read_once(self._group(ADDR_STATUS_RETURN_LEVEL, 3, self.ids), 3,
+                                       self.ids)
+        for servo_id, data in zip(self.ids, raw, strict=True):
+            if data[0] not in (1, 2) or data[1] not in (0, 1):
+                raise CommError(f"servo {servo_id}: the hardware error read's reply starts "
+                                f"{data[0]}, {data[1]} (Status Return Level, Registered "
+                                "Instruction): a reply to another read",
+                                field=f"servo[{servo_id}]", value=list(data))
+        return raw
 
     def watchdog_status(self) -> dict[int, int]:
         """Bus Watchdog (address 98) per servo id, signed: -1 means it expired."""

@@ -37,7 +37,11 @@ from robodcn.workflow import files, record
 
 def op_health(server: Service, request: Request, params: dict[str, str]
               ) -> tuple[int, Any]:
+    """200 while the arm can be driven; 503 with the reason (the bus lost or faulted, a
+    servo's hardware error: :meth:`~robodcn.controller.ArmController.check_bus`)."""
     controller = server.controller
+    if controller is not None:
+        controller.check_bus()
     return 200, Health(status="ok", version=robodcn.__version__, arm=server.arm.name,
                        moving=bool(controller is not None and controller.busy))
 

@@ -71,8 +71,9 @@ TRANSPORT_ERRORS = (400, 403, 405, 408, 414, 431, 503)
 BODY_ERRORS = (400, 411, 413, 415, 422)
 
 ROUTES: tuple[Route, ...] = (
-    Route("GET", "/healthz", "health", "Liveness: arm name, whether a move runs", 200,
-          "Health", pool="read"),
+    Route("GET", "/healthz", "health", "Health: arm name, whether a move runs; 503 with the "
+          "reason while the servo bus is lost or faulted or a servo reports a hardware "
+          "error", 200, "Health", pool="read"),
     Route("GET", "/v1/arm", "arm", "The arm configuration (metres, radians, SI)", 200, "Arm"),
     Route("POST", "/v1/trajectories", "plan", "Plan a trajectory (no motion)", 200,
           "Trajectory", "PlanBody", BODY_ERRORS),

@@ -13,7 +13,9 @@ last present positions. With ``recover=True`` an overload alert reboots that ser
 it where it is and enables its torque again (the move stays stopped). Torque goes off only with
 ``release=True`` (also after a completed move). With the device lost, none of this can
 reach the servos: the Bus Watchdog stops them by themselves. Nothing here raises a
-BusError: with the link down each step is skipped.
+BusError: with the link down each step is skipped, and a hold that could not be written
+(the device lost, the write refused or unanswered) is said in :attr:`Finished.hold_failed`
+— the report's ``hold_failed``, which makes a stop a ``fault`` — never passed over.
 """
 
 from __future__ import annotations
@@ -54,10 +56,12 @@ IN_POSITION_SETTLE_S = 0.5
 
 @dataclass
 class Finished:
-    """What the end of an execution did: the hold goals written (None without a hold), the
+    """What the end of an execution did: the hold goals sent (None without a hold), why
+    the hold is not confirmed (None when every servo read it back, or none was asked), the
     final positions read, whether torque went off, the servos recovered."""
 
     hold_goals: NDArray[np.int64] | None = None
+    hold_failed: str | None = None
     final: NDArray[np.int64] | None = None
     released: bool = False
     recovered: list[dict[str, Any]] = field(default_factory=list)
@@ -77,17 +81,8 @@ def finish(bus: ServoBus, clock: Clock, *, hold: bool, release: bool, settle: fl
         pass  # a dead link cannot be disarmed; the hold below may still get through
     if hardware and not bus.lost:
         done.recovered = _recover(bus, hardware)
-    if hold and not bus.lost:
-        goals = held_goals(bus)
-        if goals is None:
-            goals = last_goal if last_goal is not None else last_present
-        if goals is not None and not bus.lost:
-            goals = np.clip(goals, bus.limits[:, 0], bus.limits[:, 1])
-            try:
-                bus.write_encoded(bus.encode_goals(goals[None, :])[0])
-                done.hold_goals = goals
-            except BusError:
-                pass
+    if hold:
+        done.hold_goals, done.hold_failed = _hold(bus, last_goal, last_present)
     if not bus.lost:
         done.final = _final(bus, clock, settle, done.hold_goals if hold else last_goal,
                             tolerance)
@@ -98,6 +93,41 @@ def finish(bus: ServoBus, clock: Clock, *, hold: bool, release: bool, settle: fl
         except BusError:
             pass
     return done
+
+
+def _hold(bus: ServoBus, last_goal: NDArray[np.int64] | None,
+          last_present: NDArray[np.int64] | None
+          ) -> tuple[NDArray[np.int64] | None, str | None]:
+    """Write the hold (the goals the servos hold, read back; else the last goal sent, else
+    the last present positions) and confirm it: (the goals sent, None when none went out;
+    why the hold is not confirmed, None when it is). A Sync Write has no reply (a stalled
+    bus takes its bytes as readily as a live one), so the servos' Goal Position is read
+    back: a hold is confirmed only when every servo answers with it."""
+    if bus.lost:
+        return None, "the serial device is lost"
+    goals = held_goals(bus)
+    if goals is None:
+        goals = last_goal if last_goal is not None else last_present
+    if goals is None:
+        return None, "no goal is known to hold (nothing was sent or read)"
+    goals = np.clip(goals, bus.limits[:, 0], bus.limits[:, 1])
+    try:
+        bus.write_encoded(bus.encode_goals(goals[None, :])[0])
+    except BusError as exc:
+        log.warning("the hold was not written: %s", exc.message)
+        return None, f"the hold write failed: {exc.message}"
+    if bus.lost:
+        return goals, "the serial device was lost while the hold was written"
+    held = held_goals(bus)
+    if held is None:
+        log.warning("the hold is not confirmed: Goal Position cannot be read back")
+        return goals, ("the servos did not answer the read-back of the hold (Goal "
+                       "Position): it is not confirmed")
+    if not np.array_equal(held, goals):
+        off = [f"servo {i} holds {h}, not {g}" for i, h, g in zip(bus.ids, held, goals,
+                                                                   strict=True) if h != g]
+        return goals, "the hold did not take: " + "; ".join(off)
+    return goals, None
 
 
 def held_goals(bus: ServoBus) -> NDArray[np.int64] | None:

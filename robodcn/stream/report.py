@@ -127,12 +127,14 @@ def near_limits(joint_names: tuple[str, ...], samples: NDArray[np.int64],
     return tuple(out)
 
 
-def outcome_of(stop_reason: str, skipped: int, out_of_position: bool = False) -> str:
+def outcome_of(stop_reason: str, skipped: int, out_of_position: bool = False,
+               hold_failed: bool = False) -> str:
     """``"done"``, ``"degraded"``, ``"stopped"`` or ``"fault"`` (see :data:`OUTCOMES`):
-    a completed stream is ``done`` only with no sample skipped and the arm in position."""
+    a completed stream is ``done`` only with no sample skipped and the arm in position; a
+    stop whose hold was not written (``hold_failed``) is a ``fault``, not ``stopped``."""
     if stop_reason == "completed":
         return "done" if skipped == 0 and not out_of_position else "degraded"
-    if stop_reason in ("stopped", "collision"):
+    if stop_reason in ("stopped", "collision") and not hold_failed:
         return stop_reason
     return "fault"
 
@@ -228,11 +230,16 @@ class ExecutionReport:
     goal_ticks: tuple[int, ...] | None = None
     in_position_ticks: tuple[int, ...] | None = None
     out_of_position: tuple[PositionMiss, ...] = ()
+    #: Why the hold of a stopped stream was not written (:mod:`robodcn.stream.finish`: the
+    #: device lost, the write failed or not confirmed by a read-back), or None: such a stop
+    #: is a ``fault`` (only the servos' Bus Watchdog stops them).
+    hold_failed: str | None = None
     trace: ExecutionTrace | None = field(default=None, repr=False, compare=False)
 
     @property
     def outcome(self) -> str:
-        return outcome_of(self.stop_reason, self.skipped, bool(self.out_of_position))
+        return outcome_of(self.stop_reason, self.skipped, bool(self.out_of_position),
+                          self.hold_failed is not None)
 
     @property
     def completed(self) -> bool:

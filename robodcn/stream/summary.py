@@ -102,6 +102,8 @@ def build_report(stream: Stream, fb: Feedback, done: Finished, approach: Approac
     if ending.reason == "completed" and skipped:
         message = (f"completed with {skipped} of {stream.n} samples skipped "
                    f"({stream.skipped_late} late, {stream.failed_writes} failed writes)")
+    if done.hold_failed is not None:
+        message += f"; the hold was not written ({done.hold_failed})"
     goal, tolerance, misses = _in_position(stream, fb, done)
 
     def peak(rows: list[NDArray[np.float64]]) -> tuple[float, ...] | None:
@@ -129,7 +131,7 @@ def build_report(stream: Stream, fb: Feedback, done: Finished, approach: Approac
         tracking_error_max_ticks=tuple(round(float(v)) for v in max_ticks),
         tracking_error_rms_ticks=tuple(float(v) for v in rms_ticks),
         final_positions=ints(done.final), final_error_ticks=final_error,
-        hold_goals=ints(done.hold_goals),
+        hold_goals=ints(done.hold_goals), hold_failed=done.hold_failed,
         hardware_errors=dict(fb.hardware), approach=approach, released=done.released,
         fast_read=bool(bus.fast_read), realtime=stream.realtime,
         stop_latency_s=stream.stop_latency, warnings=issued,

@@ -11,7 +11,8 @@ the jaws toward the goal, but never with more than that current. When an object 
 jaws short of the goal the servo keeps squeezing with ``grip_current`` — a hold, not a
 stall at full current, so no overload alert (the classic failure of a gripper squeezing in
 position mode, shared/omx.md). The result tells whether an object stopped the jaws: they
-came to rest farther than ``tolerance_ticks`` from the goal.
+came to rest farther than ``tolerance_ticks`` from the goal. A stop (``stop()`` true, e.g.
+``POST /v1/stop``) halts the jaws within one poll: the goal becomes where they are.
 
 Intended surfaces: ``robodcn gripper open|close|WIDTH_MM --arm … --device …`` and HTTP
 ``POST /v1/gripper`` ({"command": "open" | "close"} or {"width_m": w}) answer
@@ -62,7 +63,8 @@ class GripperResult:
     final_width_m (where they came to rest); present_current_a (signed, A, at rest);
     grip_current_a (the Goal Current they pushed with); blocked: an object stopped the jaws
     farther than ``tolerance_ticks`` short of the goal (it is held with grip_current_a);
-    settled: the jaws came to rest within the timeout; elapsed_s.
+    settled: the jaws came to rest within the timeout; stopped: a stop halted them (their
+    goal set to where they were, within one poll); elapsed_s.
     """
 
     command: Command
@@ -75,6 +77,7 @@ class GripperResult:
     blocked: bool
     settled: bool
     elapsed_s: float
+    stopped: bool = False
 
     def to_dict(self) -> dict[str, Any]:
         return asdict(self)
@@ -123,7 +126,8 @@ def actuate(bus: ServoBus, gripper: GripperSpec, command: str | None = None, *,
             width_m: float | None = None, timeout_s: float = 3.0, poll_s: float = 0.02,
             tolerance_ticks: int = TOLERANCE_TICKS,
             clock: Callable[[], float] = time.monotonic,
-            sleep: Callable[[float], None] = time.sleep) -> GripperResult:
+            sleep: Callable[[float], None] = time.sleep,
+            stop: Callable[[], bool] | None = None) -> GripperResult:
     """Send the jaws to ``command`` or ``width_m`` and wait until they come to rest.
 
     Parameters
@@ -136,6 +140,9 @@ def actuate(bus: ServoBus, gripper: GripperSpec, command: str | None = None, *,
         polls ``poll_s`` apart, or at the goal)
     tolerance_ticks : at rest farther than this from the goal: an object stopped them
     clock, sleep : time source and wait (injectable for tests)
+    stop : asked before the goal is written and at every poll: once true, the jaws are
+        halted where they are (Goal Position := Present Position) and the result says
+        ``stopped`` (a stop that comes before the goal is written moves nothing)
 
     Raises InputError (bad command or width, before anything is written), CommError.
     """
@@ -145,13 +152,20 @@ def actuate(bus: ServoBus, gripper: GripperSpec, command: str | None = None, *,
                          field="timeout_s", value=timeout_s)
     servo = gripper.servo
     start = clock()
-    bus.set_operating_mode(OPERATING_MODE_CURRENT_POSITION, [servo], torque=True,
-                           goal_current_a=gripper.grip_current)
-    bus.write_goal_position(servo, goal.tick)
+    stopped = stop is not None and stop()
+    if not stopped:
+        bus.set_operating_mode(OPERATING_MODE_CURRENT_POSITION, [servo], torque=True,
+                               goal_current_a=gripper.grip_current)
+        bus.write_goal_position(servo, goal.tick)
     last = bus.read_position(servo)
     still = 0
     settled = False
-    while True:
+    while not stopped:
+        if stop is not None and stop():
+            last = bus.read_position(servo)
+            bus.write_goal_position(servo, last)
+            stopped = True
+            break
         if abs(goal.tick - last) <= STILL_TICKS:
             settled = True
             break
@@ -169,8 +183,10 @@ def actuate(bus: ServoBus, gripper: GripperSpec, command: str | None = None, *,
     angle = servo_units.ticks_to_radians([last], [servo])[0]
     result = GripperResult(goal.command, goal.tick, goal.width_m, int(last),
                            float(gripper.width_of_angle(float(angle))), float(current),
-                           gripper.grip_current, blocked, settled, clock() - start)
-    if not settled:
+                           gripper.grip_current, blocked, settled, clock() - start, stopped)
+    if stopped:
+        log.info("gripper %d: stopped at tick %d (goal was %d)", servo.id, last, goal.tick)
+    elif not settled:
         log.warning("gripper %d: still moving after %.1f s (at tick %d, goal %d)", servo.id,
                     timeout_s, last, goal.tick)
     elif blocked:

@@ -1,0 +1,59 @@
+"""A hardware alert ends a move only when a second read confirms it (issue 26 §6).
+
+One move of 742 under load ended ``fault`` with the same alert value (13) on all four servos
+at once. 13 is the Bus Watchdog register of a 250 ms watchdog (20 ms units): a late reply to
+a Bus Watchdog poll — a Fast Sync Read of one byte from every servo — was taken for the
+answer of the next Hardware Error Status poll, one byte from every servo too (status
+packets carry no sequence number; a straggler of the same size passes every check), and the
+confirming read took another. firmware_sim's ``stale`` fault sends exactly that straggler
+before a read's own reply; the real dynamixel-sdk reads it over the pty.
+"""
+
+from __future__ import annotations
+
+import pytest
+from stream_helpers import IDS, LONG, execute, inject_at, open_bus, place
+
+from firmware_sim.protocol import Instruction
+from robodcn.bus import ADDR_HARDWARE_ERROR
+from robodcn.bus.control_table import ADDR_BUS_WATCHDOG
+
+#: The example of the issue: a 250 ms Bus Watchdog reads 13 (20 ms units).
+WATCHDOG_MS = 250
+
+
+@pytest.fixture
+def sim(sim3):
+    return sim3
+
+
+@pytest.mark.parametrize("times", [1, 2, 3])
+def test_a_stale_watchdog_reply_is_not_taken_for_a_hardware_alert(sim, times):
+    """The Bus Watchdog poll's reply arrives again before the next Hardware Error Status
+    reads' (``times`` of them: the poll, the confirming read, a retry): the move completes,
+    no alert."""
+    with open_bus(sim) as bus:
+        place(bus, LONG.ticks[0])
+        # armed now: it fires once a Bus Watchdog poll has been answered (the stream's
+        # health polls take turns: Hardware Error Status, then the watchdog, …)
+        fault = sim.faults.stale(ADDR_BUS_WATCHDOG, address=ADDR_HARDWARE_ERROR, times=times,
+                                 instructions={Instruction.FAST_SYNC_READ,
+                                               Instruction.SYNC_READ})
+        report = execute(LONG, bus, watchdog_ms=WATCHDOG_MS)
+    assert fault.fired == times, "the straggler was not sent as often as asked"
+    stale = [e for e in sim.packets("tx") if e.note.startswith("stale")]
+    assert len(stale) == times and stale[0].raw.count(bytes([13])) >= len(IDS)
+    assert report.stop_reason == "completed", report.message
+    assert not any(report.hardware_errors.values()), report.hardware_errors
+
+
+def test_a_persistent_alert_ends_the_move(sim):
+    """A servo that reports an overload on every read: the move ends hardware_alert, naming
+    it, after the confirming read."""
+    with open_bus(sim) as bus:
+        place(bus, LONG.ticks[0])
+        report = execute(LONG, bus, watchdog_ms=WATCHDOG_MS,
+                         progress=inject_at(20, lambda: sim.faults.trip(IDS[1])))
+    assert report.stop_reason == "hardware_alert", report.message
+    assert report.hardware_errors[IDS[1]] == 0x20 and "overload" in report.message
+    assert report.samples_sent < report.samples_total
