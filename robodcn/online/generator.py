@@ -31,6 +31,7 @@ from __future__ import annotations
 
 import math
 import threading
+from dataclasses import replace
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -52,6 +53,9 @@ TORQUE_SCALES = (1.0, 0.85, 0.7, 0.55, 0.4, 0.3, 0.2, 0.1)
 #: instants of a law whose torques :meth:`Generator.check` evaluates at most (evenly spaced,
 #: at most one period apart; one vectorised inverse dynamics)
 TORQUE_SAMPLES = 400
+#: a law with a minimum duration this many times longer than asked fell into a blocked
+#: interval (:meth:`Generator._unblocked`)
+BLOCKED_RATIO = 1.5
 #: Ruckig's results that carry a law
 _GOOD = (Result.Working, Result.Finished)
 
@@ -115,6 +119,17 @@ class Generator:
             v = np.clip(v, -down, up)
         return v
 
+    def _target_acceleration(self, inp: Input, scale: float,
+                             v: NDArray[np.float64]) -> NDArray[np.float64]:
+        """q̈* clamped to the scaled acceleration limit, zero where it cannot settle within
+        the velocity limit (:class:`~robodcn.online.state.Input`)."""
+        if inp.acceleration is None:
+            return np.zeros(self.k)
+        amax = self.limits.a * scale * scale * (1.0 - 1e-9)
+        a = np.clip(np.asarray(inp.acceleration, dtype=np.float64), -amax, amax)
+        settle = np.abs(v) + a * a / (2.0 * self._jerk * scale ** 3)
+        return np.where(settle < self.limits.v * scale * (1.0 - 1e-6), a, 0.0)
+
     def _apply(self, inp: Input, ip: InputParameter) -> None:
         """Write ``inp`` into Ruckig's input parameter ``ip`` (limits scaled by its k)."""
         if inp.mode not in MODES:
@@ -125,13 +140,16 @@ class Generator:
         ip.max_jerk = list(self._jerk * k ** 3)
         if inp.mode == "stop":
             ip.control_interface = ControlInterface.Velocity
+            ip.minimum_duration = None
             ip.target_velocity = [0.0] * self.k
             ip.target_acceleration = [0.0] * self.k
             return
         ip.control_interface = ControlInterface.Position
+        ip.minimum_duration = inp.duration
         ip.target_position = list(np.asarray(inp.target, dtype=np.float64))
-        ip.target_velocity = list(self._target_velocity(inp, k))
-        ip.target_acceleration = [0.0] * self.k
+        v = self._target_velocity(inp, k)
+        ip.target_velocity = list(v)
+        ip.target_acceleration = list(self._target_acceleration(inp, k, v))
 
     def _set_state(self, q: NDArray, qd: NDArray, qdd: NDArray) -> None:
         self._inp.current_position = list(q)
@@ -148,7 +166,7 @@ class Generator:
         input stands) when Ruckig refuses the input or finds no law."""
         if inp is not None and inp is not self.input:
             try:
-                self._apply(inp, self._inp)
+                self._apply(self._unblocked(inp), self._inp)
             except (ValueError, TypeError) as exc:
                 self._apply(self.input, self._inp)
                 return Infeasible("input", str(exc))
@@ -175,6 +193,30 @@ class Generator:
         reached = result == Result.Finished
         remaining = 0.0 if reached else max(0.0, out.trajectory.duration - out.time)
         return Sample(q, qd, qdd, reached, remaining, float(self.input.scale))
+
+    def _unblocked(self, inp: Input) -> Input:
+        """``inp``, or ``inp`` with a shorter minimum duration where its own falls in a
+        blocked interval of Ruckig's time synchronisation: every joint could arrive sooner,
+        but not in about that time (a profile that long would have to overshoot and
+        return), and the synchronised law jumps to several times it (over
+        :data:`BLOCKED_RATIO`). Tried in turn: the asked duration, one to three periods
+        less, none (as soon as the limits allow); the first that is not blocked, else the
+        one closest to the asked duration. The target state is then reached a little
+        early (a follow session goes on past it at its velocity until the next target)."""
+        if inp.duration is None or inp.mode != "target":
+            return inp
+        best, gap = inp, math.inf
+        shorter = [replace(inp, duration=inp.duration - m * self.period) for m in (1, 2, 3)
+                   if inp.duration - m * self.period > 0]
+        for tried in (inp, *shorter, replace(inp, duration=None)):
+            law = self.law(tried)
+            if isinstance(law, Infeasible):
+                continue
+            if law.duration <= BLOCKED_RATIO * inp.duration:
+                return tried
+            if abs(law.duration - inp.duration) < gap:
+                best, gap = tried, abs(law.duration - inp.duration)
+        return best
 
     def reset(self, q: ArrayLike, qd: ArrayLike | None = None,
               qdd: ArrayLike | None = None) -> None:
@@ -224,7 +266,7 @@ class Generator:
         state = self.state
         worst: tuple[int, float, float] | None = None
         for share in TORQUE_SCALES:
-            tried = Input(inp.target, inp.velocity, inp.scale * share, inp.mode)
+            tried = replace(inp, scale=inp.scale * share)
             law = self.law(tried, state)
             if isinstance(law, Infeasible):
                 return law
@@ -244,4 +286,4 @@ class Generator:
                           f"its limit is {limit:.3g} N·m", joint=j, value=value, limit=limit)
 
 
-__all__ = ["TORQUE_SAMPLES", "TORQUE_SCALES", "Generator"]
+__all__ = ["BLOCKED_RATIO", "TORQUE_SAMPLES", "TORQUE_SCALES", "Generator"]

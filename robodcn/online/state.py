@@ -28,21 +28,29 @@ class Input:
     velocity : the velocity q̇* to pass q* with (None: arrive at rest). Clamped per joint to
         the scaled velocity limit and to what the joint can still brake to rest from before
         its position limit (√(2·a·distance)).
+    acceleration : the acceleration q̈* to pass q* with (None: zero). Clamped per joint to the
+        scaled acceleration limit; zero where q̇* and q̈* together would need more than the
+        velocity limit to settle (|q̇*| + q̈*²/(2·j) > v: Ruckig's bound on a target state).
     scale : speed scale k ∈ (0, 1]: the limits v·k, a·k², j·k³ (as
         :meth:`robodcn.path_timing.JointLimits.scaled`).
     mode : "target" (head for q*) or "stop" (brake to rest wherever that is, the shortest
         way the limits allow: a pause, a smooth stop).
+    duration : reach the target state no sooner than this many seconds after the input is
+        taken (Ruckig's minimum duration: a stream's next target is expected then); None:
+        as soon as the limits allow.
     """
 
     target: NDArray[np.float64] | None = None
     velocity: NDArray[np.float64] | None = None
+    acceleration: NDArray[np.float64] | None = None
     scale: float = 1.0
     mode: str = "target"
+    duration: float | None = None
 
     @classmethod
     def stop(cls, scale: float = 1.0) -> Input:
         """Brake to rest (a pause, a smooth stop)."""
-        return cls(None, None, scale, "stop")
+        return cls(scale=scale, mode="stop")
 
 
 @dataclass(frozen=True)

@@ -13,7 +13,8 @@ final reads), ``summary`` (the report of a finished stream), ``report`` (:class:
 currents, collision thresholds), ``trace`` (every feedback read, :class:`ExecutionTrace`),
 ``in_position`` (the final position against the goal, :class:`PositionMiss`),
 ``online`` (operations on a running stream: :func:`start`, :class:`Execution`) and
-``online_path`` (its path maths). Every public name is importable from ``robodcn.stream``.
+``online_path`` (its path maths), ``following`` (a stream of targets: :func:`follow`,
+:class:`Follower`). Every public name is importable from ``robodcn.stream``.
 """
 
 from __future__ import annotations
@@ -23,6 +24,7 @@ import logging
 from robodcn.stream.clock import REAL_CLOCK, Clock, RealClock, VirtualClock
 from robodcn.stream.collision import predicted_currents, thresholds
 from robodcn.stream.compensation import compensated_ticks
+from robodcn.stream.following import Follower, follow
 from robodcn.stream.in_position import PositionMiss
 from robodcn.stream.online import STOP_MODES, Execution, OnlineSamples, PlanningTimes, start
 from robodcn.stream.options import ExecutionHooks, ExecutionOptions
@@ -70,6 +72,7 @@ __all__ = [
     "ExecutionOptions",
     "ExecutionReport",
     "ExecutionTrace",
+    "Follower",
     "OnlineSamples",
     "PlannedSamples",
     "PlanningTimes",
@@ -84,6 +87,7 @@ __all__ = [
     "check_rate",
     "compensated_ticks",
     "execute",
+    "follow",
     "near_limits",
     "outcome_of",
     "predicted_currents",

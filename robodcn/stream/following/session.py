@@ -1,0 +1,400 @@
+"""A follow session: the arm heads for the newest of a stream of targets, streamed on a thread.
+
+:func:`follow` opens the session on a bus and returns a :class:`Follower` at once. The
+session is one execution (:func:`robodcn.stream.execute`: preflight, the Bus Watchdog, the
+schedule, feedback, tracking limit, collision stop, the hold and the report, as for a move)
+whose sample source is :class:`~robodcn.stream.following.source.FollowSamples`: each period
+the loop asks the online generator (:class:`robodcn.online.Generator`) for the next sample
+toward the newest input. Nothing is planned when a target arrives: :meth:`Follower.target`
+checks it, turns a pose into joints, estimates its velocity
+(:mod:`robodcn.stream.following.targets`) and hands the generator a new input, which the next
+period's sample already heads for. On an arm with torque limits the input is checked
+first (:meth:`robodcn.online.Generator.check`: a lower speed scale where the law would
+exceed one, with the session's payload).
+
+Ending: :meth:`Follower.end` — to rest at the last target, then the stream ends (outcome
+"done"); :meth:`Follower.stop` ``"smooth"`` — brake to rest the shortest way, the report
+says "stopped"; ``"hold"`` — hold at once. With ``timeout_s`` a session that gets no target
+for that long while the arm moves stops smoothly (the deadman), its report naming the
+timeout.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import logging
+import sys
+import threading
+from typing import Any
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from robodcn import servo_units
+from robodcn.bus import ServoBus
+from robodcn.config import Arm
+from robodcn.errors import InputError, NoMoveError
+from robodcn.online import Generator, Infeasible, Input
+from robodcn.path_timing import JointLimits
+from robodcn.planner import Trajectory, plan
+from robodcn.planner.arm_arrays import limits_of
+from robodcn.planner.path import user_pose
+from robodcn.stream.following.source import FollowSamples
+from robodcn.stream.following.targets import Targets
+from robodcn.stream.options import ExecutionOptions
+from robodcn.stream.report import ExecutionReport
+from robodcn.stream.signal import StopSignal
+from robodcn.stream.streamer import execute
+
+log = logging.getLogger("robodcn.stream")
+
+#: stop modes of :meth:`Follower.stop`
+STOP_MODES = ("smooth", "hold")
+#: GIL switch interval while a session streams (s): target() runs on other threads
+SWITCH_INTERVAL_S = 0.0002
+#: how long target() waits for the stream to start (s)
+ATTACH_TIMEOUT_S = 10.0
+#: bus periods a streamed target's law is stretched past the stream's gap, and the arm goes on
+#: past it: the next target may come that much late without a brake
+SLACK_PERIODS = 2
+#: the jerk limit (× the acceleration limit, 1/s) of a session on a joint without one: full
+#: acceleration in 20 ms
+SESSION_JERK_PER_ACCEL = 50.0
+#: a target velocity below this (rad/s, every joint) is rest
+REST_SPEED = 1e-9
+
+
+def smoothed(limits: JointLimits) -> JointLimits:
+    """``limits`` with a jerk limit of :data:`SESSION_JERK_PER_ACCEL` × a on every joint
+    that has none. A stream's law reaches each target state in one gap exactly
+    (:mod:`~robodcn.stream.following.targets`); an acceleration-limited (second-order)
+    law does so by switching between ±a_max within the gap — the position follows, but
+    the acceleration written to the servos jumps by 2·a_max at every target."""
+    extra = SESSION_JERK_PER_ACCEL * limits.a
+    jerk = extra if limits.j is None else np.where(np.isfinite(limits.j), limits.j, extra)
+    return dataclasses.replace(limits, j=jerk)
+
+
+class Follower:
+    """A running follow session (:func:`follow`); every method is thread-safe.
+
+    Attributes
+    ----------
+    status : "starting" | "following" | "ending" | "stopping" | "finished"
+    taken, refused : targets accepted and refused so far
+    seq : the sequence number of the newest accepted target (0 before the first)
+    report : the :class:`~robodcn.stream.ExecutionReport` once finished (None before)
+    error : what :func:`~robodcn.stream.execute` raised before any write, or None
+    """
+
+    def __init__(self, bus: ServoBus, arm: Arm, trajectory: Trajectory, *,
+                 space: str, timeout_s: float | None, payload_kg: float | None,
+                 options: ExecutionOptions, present_ticks: ArrayLike | None = None) -> None:
+        if timeout_s is not None and not (isinstance(timeout_s, int | float)
+                                          and 0 < timeout_s < float("inf")):
+            raise InputError(f"timeout_s must be a number of seconds > 0, got {timeout_s!r}",
+                             field="timeout_s", value=timeout_s)
+        self.bus = bus
+        self.arm = arm
+        self.trajectory = trajectory
+        self.targets = Targets(arm, space)
+        self.space = space
+        self.timeout_s = None if timeout_s is None else float(timeout_s)
+        self.rate_hz = trajectory.rate_hz
+        q0 = trajectory.joints[-1].copy()
+        self.generator = Generator(
+            smoothed(limits_of(arm, payload_kg)), self.rate_hz, q0,
+            position_limits=[(j.min_angle, j.max_angle) for j in arm.joints])
+        self.status = "starting"
+        self.taken = 0
+        self.refused = 0
+        self.seq = 0
+        self.infeasible = 0
+        self.report: ExecutionReport | None = None
+        self.error: BaseException | None = None
+        self.stream: Any = None
+        self.source: FollowSamples | None = None
+        self.clock = options.clock
+        self.stop_signal = options.stop if isinstance(options.stop, StopSignal) \
+            else StopSignal()
+        self._options = ExecutionOptions.build(
+            options, {"stop": self.stop_signal, "attach": self._attach,
+                      "compensation": False})
+        self._present_ticks = present_ticks
+        self._input = Input(target=q0)
+        #: the speed scale the torque limits allow toward the newest target
+        self._scale = 1.0
+        #: a streamed target reached early goes on at its velocity until then (the stream's
+        #: clock): the next target is due
+        self._coast_until = -np.inf
+        self._ending: str | None = None         # None | "end" | "stop"
+        self._stop_message: str | None = None
+        self._last_at: float | None = None
+        self._lock = threading.Lock()
+        self._attached = threading.Event()
+        self._done = threading.Event()
+        self._thread: threading.Thread | None = None
+
+    # -- lifecycle --------------------------------------------------------------------------
+
+    def start(self) -> Follower:
+        """Stream on a thread of its own; self at once."""
+        self._thread = threading.Thread(target=self.run, daemon=True, name="robodcn-follow")
+        self._thread.start()
+        return self
+
+    def run(self) -> ExecutionReport | None:
+        """Stream on the calling thread until the session ends; the report (or raise what
+        :func:`~robodcn.stream.execute` raised)."""
+        interval = sys.getswitchinterval()
+        sys.setswitchinterval(min(interval, SWITCH_INTERVAL_S))
+        try:
+            report = execute(self.trajectory, self.bus, self._options,
+                             present_ticks=self._present_ticks)
+            if self._stop_message is not None and report.stop_reason == "completed":
+                report = dataclasses.replace(report, stop_reason="stopped",
+                                             message=self._stop_message)
+            self.report = report
+        except BaseException as exc:  # reported through .error and wait()
+            self.error = exc
+        finally:
+            sys.setswitchinterval(interval)
+            self.status = "finished"
+            self._attached.set()
+            self._done.set()
+        return self.wait(0)
+
+    def _attach(self, stream: Any) -> None:
+        """Called by the streamer before its first sample: the generator becomes its
+        source."""
+        source = FollowSamples(self._step, self.bus, self.arm, self.rate_hz,
+                               stream.source.joint_names)
+        source.stream = stream
+        stream.swap(source)
+        self.stream, self.source = stream, source
+        self._last_at = self.clock.now()
+        self.status = "following"
+        self._attached.set()
+
+    def wait(self, timeout: float | None = None) -> ExecutionReport | None:
+        """Block until the session has ended (or ``timeout``); the report, or raise what
+        :func:`~robodcn.stream.execute` raised before any write."""
+        self._done.wait(timeout)
+        if self.error is not None:
+            raise self.error
+        return self.report
+
+    @property
+    def done(self) -> bool:
+        return self._done.is_set()
+
+    # -- one period (the loop's thread) -------------------------------------------------------
+
+    def _step(self, i: int) -> tuple[NDArray[np.float64], bool]:
+        """The commanded joints of sample ``i`` and whether it ends the session."""
+        with self._lock:
+            if self._deadman():
+                self._input = Input.stop(self._scale)
+            inp = self._input
+        sample = self.generator.update(inp)
+        if isinstance(sample, Infeasible):
+            self.infeasible += 1
+            log.warning("follow: input not taken at sample %d: %s", i, sample.message)
+            sample = self.generator.update()
+            if isinstance(sample, Infeasible):
+                return self.generator.state[0], False
+        if not sample.reached:
+            return sample.q, False
+        with self._lock:
+            if self._input is not inp:
+                return sample.q, False          # a newer input: the next sample takes it
+            if self._ending is not None:
+                return sample.q, True
+            if inp.mode == "target" and inp.velocity is not None \
+                    and np.abs(inp.velocity).max() > REST_SPEED \
+                    and self.stream.t_start + i / self.rate_hz > self._coast_until:
+                # passed the target with its velocity (and the law's acceleration, a
+                # streamed target's next is due by _coast_until) and no newer target
+                # came: rest there
+                self._input = Input(target=inp.target, scale=inp.scale)
+        return sample.q, False
+
+    def _deadman(self) -> bool:
+        """No target for ``timeout_s`` while the arm moves: a smooth stop (under the lock)."""
+        if self.timeout_s is None or self._ending is not None or self._last_at is None:
+            return False
+        if self.clock.now() - self._last_at <= self.timeout_s:
+            return False
+        qd = self.generator.state[1]
+        if np.abs(qd).max() <= REST_SPEED and self._input.mode == "target" \
+                and self._input.velocity is None:
+            at = self.generator.state[0]
+            if np.abs(at - np.asarray(self._input.target)).max() <= 1e-9:
+                return False                   # at rest at its target: nothing to stop
+        self._ending = "stop"
+        self.status = "stopping"
+        self._stop_message = (f"no target for {self.timeout_s:g} s (timeout_s): stopped "
+                              "smoothly (decelerated within the limits)")
+        log.info("follow: %s", self._stop_message)
+        return True
+
+    # -- operations ---------------------------------------------------------------------------
+
+    def _open(self, what: str) -> None:
+        if not self._attached.wait(ATTACH_TIMEOUT_S) or self.done:
+            raise NoMoveError(f"cannot {what}: the follow session is not running",
+                              field="follow", value=self.status)
+        if self._ending is not None:
+            raise NoMoveError(f"cannot {what}: the follow session is "
+                              f"{'ending' if self._ending == 'end' else 'stopping'}",
+                              field="follow", value=self.status)
+
+    def target(self, joints: ArrayLike | None = None, pose: ArrayLike | None = None,
+               velocity: ArrayLike | None = None) -> int:
+        """Head for a new target from the commanded state (module notes); its sequence
+        number. InputError naming ``joints``, ``pose`` or ``velocity`` (the session goes on
+        to the previous target); NoMoveError when the session is not running."""
+        self._open("take a target")
+        try:
+            last = self.targets.last
+            reference = last.joints if last is not None else self.generator.state[0]
+            q = self.targets.joints_of(joints, pose, reference)
+            with self._lock:
+                target = self.targets.take(q, velocity, self.clock.now())
+                segment = target.segment
+                if segment is None:
+                    # alone: as fast as the limits allow (passed with its given velocity)
+                    inp = Input(target=target.joints, velocity=target.velocity)
+                else:
+                    # in a stream: its state one gap (+ slack) after it arrived, when the
+                    # next is due; the arm goes on past it until then (_step)
+                    _, v1, a1 = segment.at(segment.end)
+                    due = segment.h + SLACK_PERIODS / self.rate_hz
+                    inp = Input(target=target.joints, velocity=v1, acceleration=a1,
+                                duration=due)
+                try:
+                    inp = self._checked(inp)
+                except InputError:
+                    self.targets.drop(target)
+                    raise
+                self._input, self._scale = inp, inp.scale
+                self._coast_until = -np.inf if segment is None else target.at + due
+                self._last_at = target.at
+                self.taken += 1
+                self.seq += 1
+                return self.seq
+        except InputError:
+            self.refused += 1
+            raise
+
+    def _checked(self, inp: Input) -> Input:
+        """``inp`` under the torque limits (Generator.check); InputError naming the
+        session's space when no speed keeps them."""
+        checked = self.generator.check(inp)
+        if isinstance(checked, Infeasible):
+            raise InputError(f"{self.space}: {checked.message}", field=self.space,
+                             value=None if inp.target is None else inp.target.tolist())
+        return checked
+
+    def end(self) -> None:
+        """Come to rest at the last target, then end the session (outcome "done")."""
+        self._open("end the session")
+        with self._lock:
+            last = self.targets.last
+            q = last.joints if last is not None else self.generator.state[0]
+            self._input = Input(target=q, scale=self._scale)
+            self._ending = "end"
+            self.status = "ending"
+
+    def stop(self, mode: str = "smooth", reason: str = "stop requested") -> None:
+        """``"smooth"``: brake to rest within the limits, then end ("stopped"); ``"hold"``:
+        hold at once."""
+        if mode not in STOP_MODES:
+            raise InputError(f"mode must be one of {', '.join(STOP_MODES)}, got {mode!r}",
+                             field="mode", value=mode)
+        if mode == "hold" or self.done or self.stream is None:
+            self.stop_signal.request(reason)
+            return
+        with self._lock:
+            self._input = Input.stop(self._scale)
+            self._ending = "stop"
+            self.status = "stopping"
+            self._stop_message = f"{reason}: stopped smoothly (decelerated within the limits)"
+
+    # -- what was streamed ------------------------------------------------------------------
+
+    def sent(self) -> tuple[NDArray[np.int64], NDArray[np.float64], NDArray[np.float64]]:
+        """Every sample sent so far: indices, send times (the stream's clock) and the
+        commanded joints (rad)."""
+        s, src = self.stream, self.source
+        if s is None or src is None:
+            return np.zeros(0, np.int64), np.zeros(0), np.zeros((0, len(self.arm.joints)))
+        n = s.records.count
+        index = np.array(s.records.index[:n], dtype=np.int64)
+        return index, np.array(s.records.at[:n]), src.joints[np.minimum(index, src.made - 1)]
+
+    def commanded(self) -> Trajectory:
+        """The session's commanded samples as a Trajectory (t from 0; every sample made,
+        sent or skipped): its record."""
+        src = self.source
+        if src is None or not src.made:
+            return self.trajectory
+        joints = src.joints[:src.made].copy()
+        ticks = src.ticks[:src.made].copy()
+        return Trajectory(np.arange(len(joints)) / self.rate_hz, user_pose(self.arm, joints),
+                          joints, ticks, self.arm.joint_names, tuple(self.bus.ids),
+                          self.rate_hz, "follow", self.trajectory.request)
+
+
+def _present_joints(bus: ServoBus, arm: Arm, present_ticks: ArrayLike | None
+                    ) -> tuple[NDArray[np.int64], NDArray[np.float64]]:
+    ticks = (np.asarray(present_ticks, dtype=np.int64) if present_ticks is not None
+             else bus.read_positions())
+    return ticks, servo_units.ticks_to_radians(ticks[None], arm.servos)[0]
+
+
+def follow(bus: ServoBus, arm: Arm, *, space: str = "joints", timeout_s: float | None = None,
+           payload_kg: float | None = None, rate_hz: float | None = None,
+           options: ExecutionOptions | None = None, present_ticks: ArrayLike | None = None,
+           compensation: bool = False, **kwargs: Any) -> Follower:
+    """Open a follow session on ``bus`` (module notes) and stream it on its own thread.
+
+    Parameters
+    ----------
+    bus : an open :class:`~robodcn.bus.ServoBus` with ``arm``'s servos.
+    arm : the arm (its joint limits, jerk and torque limits where set, its IK for poses).
+    space : "joints" (targets are joint angles, rad) or "pose" (the arm's pose axes).
+    timeout_s : the deadman: no target for this long while moving → a smooth stop.
+    payload_kg : the payload the torque limits carry (None: the arm's).
+    rate_hz : the bus rate (None: the arm's ``[bus] rate_hz``).
+    options, kwargs : :class:`~robodcn.stream.ExecutionOptions` (``clock``,
+        ``tracking_limit``, ``watchdog_ms`` …) as :func:`robodcn.stream.execute` takes them.
+    present_ticks : Present Position (k,) the caller has just read (None: read here).
+    compensation : tracking compensation — not available for a session yet (InputError
+        when asked for); the generator's samples are sent as they are.
+
+    Returns
+    -------
+    Follower: :meth:`~Follower.target`, :meth:`~Follower.end`, :meth:`~Follower.stop`,
+    :meth:`~Follower.wait` (the :class:`~robodcn.stream.ExecutionReport`).
+    """
+    if compensation:
+        raise InputError("compensation: a follow session streams the generator's samples "
+                         "uncompensated (compensation=False)", field="compensation",
+                         value=compensation)
+    opts = ExecutionOptions.build(options, kwargs)
+    rate = float(rate_hz) if rate_hz is not None else float(arm.bus.rate_hz)
+    ticks, q0 = _present_joints(bus, arm, present_ticks)
+    lo = np.array([j.min_angle for j in arm.joints])
+    hi = np.array([j.max_angle for j in arm.joints])
+    # a rest plan at the present joints: the preflight's, the feedback's and the record's
+    # first samples (the generator answers every sample after it)
+    start = np.clip(q0, lo, hi)
+    rest = plan(arm, [tuple(float(v) for v in user_pose(arm, start[None])[0])],
+                rate_hz=rate, start_joints=start, payload_kg=payload_kg)
+    follower = Follower(bus, arm, rest, space=space, timeout_s=timeout_s,
+                        payload_kg=payload_kg, options=opts, present_ticks=ticks)
+    return follower.start()
+
+
+__all__ = ["STOP_MODES", "Follower", "follow"]
