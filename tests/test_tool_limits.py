@@ -309,3 +309,20 @@ def test_a_moves_status_names_its_peak_tool_speed(arm_server) -> None:
     assert tool["binds_from"] is not None and 0.0 < tool["binding_share"] <= 1.0
     status, _, again = call(server, "GET", f"/v1/moves/{done['id']}")
     assert status == 200 and again["tool"] == tool
+
+
+def test_a_waypoints_file_carries_the_tool_limits(tmp_path: Path, monkeypatch) -> None:
+    from robodcn.workflow import files
+
+    path = tmp_path / "line.toml"
+    path.write_text('[plan]\nmethod = "seplerp"\ntool_speed = 0.05\ntool_acceleration = 0.5\n'
+                    "\n[[waypoints]]\nx = 0.25\ny = 0.10\ntheta_deg = 0\n"
+                    "\n[[waypoints]]\nx = 0.15\ny = 0.20\ntheta_deg = 0\n")
+    fields = files.load_waypoints(path, ARM3R).plan_fields()
+    assert fields["tool_speed"] == 0.05 and fields["tool_acceleration"] == 0.5
+    traj = plan(ARM3R, **fields)
+    assert measured(traj)["speed"].max() <= 0.05 + NOISE
+    path.write_text(path.read_text().replace("tool_speed = 0.05", "tool_speed = -1"))
+    with pytest.raises(InputError) as exc:
+        files.load_waypoints(path, ARM3R)
+    assert "tool_speed" in str(exc.value)

@@ -102,7 +102,9 @@ def test_trajectory_summary_fractions_match_the_limits():
     assert all(a["velocity_fraction"] < b["velocity_fraction"]
                for a, b in zip(slow["joints"], s["joints"], strict=True))
     text = plan_summary(traj, ARM)
-    assert "shoulder" in text and "of the limit" in text and len(text.splitlines()) == 5
+    # a line per joint, and the tool point's peak speed
+    assert "shoulder" in text and "of the limit" in text and len(text.splitlines()) == 6
+    assert text.splitlines()[-1].strip().startswith("tool       peak")
 
 
 def test_waypoint_beta_is_its_segments_and_plan_beta_the_default(tmp_path):

@@ -102,6 +102,10 @@ export function detectFeatures() {
   f.speedRange = (f.speed && numberRange(speed[f.speed], 0.05)) || [0.05, 1];
   const plan = bodyProps("/v1/trajectories", "post");
   f.betaRange = numberRange(plan.beta);
+  // the tool's speed limit (hands-on: 250 mm/s by default), at most the arm's ceiling
+  f.toolSpeed = "tool_speed" in plan;
+  f.toolSpeedMax = f.toolSpeed && typeof plan.tool_speed.maximum === "number"
+    ? plan.tool_speed.maximum : null;
   const torque = bodyProps("/v1/torque", "post");
   f.torque = op("/v1/torque", "post") ? (Object.keys(torque).find((k) =>
     torque[k].type === "boolean" && k !== "confirm") || "enabled") : null;

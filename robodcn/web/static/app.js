@@ -42,6 +42,7 @@ function bindControls() {
     box.addEventListener("input", () => { if (readInputs()) schedulePreview(); }));
   $("method").addEventListener("change", schedulePreview);
   $("duration").addEventListener("change", schedulePreview);
+  $("tool-speed").addEventListener("change", schedulePreview);
   document.querySelectorAll(".overlay-method").forEach((b) => b.addEventListener("change", schedulePreview));
   $("beta").addEventListener("input", () => {
     $("beta-value").textContent = parseFloat($("beta").value).toFixed(2);
@@ -67,6 +68,10 @@ function applyRanges() {
     $("beta-value").textContent = parseFloat(beta.value).toFixed(2);
   }
   $("speed").min = f.speedRange[0]; $("speed").max = f.speedRange[1];
+  $("tool-speed-box").hidden = !f.toolSpeed;
+  if (f.toolSpeedMax !== null && parseFloat($("tool-speed").value) > 1000 * f.toolSpeedMax) {
+    $("tool-speed").value = String(1000 * f.toolSpeedMax);  // the arm's own ceiling is lower
+  }
   if (f.gripper) {
     document.querySelectorAll("[data-gripper]").forEach((b) => {
       const cmd = b.dataset.gripper;

@@ -52,6 +52,17 @@ function duration() {
   return Number.isFinite(d) ? d : v;  // the service names a bad value
 }
 
+/** The tool speed field in m/s (it reads mm/s): null when empty (the arm's own limit) or
+ * when the service takes no tool_speed; a value that is not a number is sent as typed (the
+ * service names it). */
+function toolSpeed() {
+  if (!S.features.toolSpeed) return null;
+  const v = $("tool-speed").value.trim();
+  if (v === "") return null;
+  const mm = Number(v);
+  return Number.isFinite(mm) ? mm / 1000 : v;
+}
+
 /** The plan request of `method` from the present pose to the target; `fromPresent`: one
  * waypoint (the service starts from the arm's present state) where the contract allows. */
 export function planBody(method, { fromPresent = false } = {}) {
@@ -59,6 +70,8 @@ export function planBody(method, { fromPresent = false } = {}) {
     : [presentPose(), S.target.slice()];
   const body = { waypoints, method, duration: duration() };
   if (method === "kenlerp") body.beta = parseFloat($("beta").value);
+  const tool = toolSpeed();
+  if (tool !== null) body.tool_speed = tool;
   return body;
 }
 

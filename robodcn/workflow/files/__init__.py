@@ -6,7 +6,8 @@
   ``method`` / ``turn`` / ``beta`` (KenLERP β) for the segment that leads to that waypoint,
   ``gripper = "open" | "close"`` and ``payload_kg`` acted on there; a ``[plan]`` table with
   ``method``, ``beta``, ``turn`` (the defaults of segments whose waypoint gives none),
-  ``duration`` (seconds or "auto"), ``profile``, ``rate_hz``, ``blend``, ``payload_kg``; an
+  ``duration`` (seconds or "auto"), ``profile``, ``rate_hz``, ``blend``, ``payload_kg``,
+  ``tool_speed``, ``tool_angular_speed``, ``tool_acceleration`` (SI); an
   optional ``arm`` (the example name or config file it was taught on, :func:`waypoints_arm`).
   :func:`load_waypoints` → :class:`WaypointsPlan`,
   whose :meth:`~WaypointsPlan.plan_fields` are :class:`robodcn.planner.PlanRequest` fields

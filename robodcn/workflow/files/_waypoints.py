@@ -6,9 +6,11 @@
 ``beta`` for the segment that leads to it, ``gripper = "open" | "close"`` (acted on there,
 the arm at rest) and ``payload_kg`` (the mass at the tool point from that waypoint on).
 ``[plan]`` holds ``method``, ``beta``, ``turn`` (the defaults of segments whose waypoint gives
-none), ``duration``, ``profile``, ``rate_hz``, ``blend`` and ``payload_kg`` (the payload at
-the start); ``arm`` names the arm the file was taught on (``teach`` writes it): an example
-name or an arm config file, which ``run`` uses when no ``--arm`` is given
+none), ``duration``, ``profile``, ``rate_hz``, ``blend``, ``payload_kg`` (the payload at
+the start) and the tool limits ``tool_speed`` (m/s), ``tool_angular_speed`` (rad/s) and
+``tool_acceleration`` (m/s²) of every leg; ``arm`` names the arm the file was taught on
+(``teach`` writes it): an example name or an arm config file, which ``run`` uses when no
+``--arm`` is given
 (:func:`waypoints_arm`).
 """
 
@@ -29,7 +31,8 @@ from robodcn.config import PLANAR_POSE, YAWED_POSE, Arm
 from robodcn.errors import InputError
 from robodcn.workflow.files._common import fail, in_file, number, read
 
-PLAN_KEYS = ("method", "beta", "turn", "duration", "profile", "rate_hz", "blend", "payload_kg")
+PLAN_KEYS = ("method", "beta", "turn", "duration", "profile", "rate_hz", "blend", "payload_kg",
+             *contract.TOOL_FIELDS)
 #: What a waypoint may say besides its pose, acted on at that waypoint.
 ACTION_KEYS = ("gripper", "payload_kg")
 #: The gripper commands a waypoint may give.
@@ -86,7 +89,7 @@ def _plan_value(source: str, where: str, key: str, value: Any) -> Any:
             return contract.check_number(where, value, f.schema["oneOf"][0], f.unit)
         if key == "duration":
             return contract.check_choice(where, value, ("auto",))
-        return contract.check_field(key, value)     # profile, rate_hz, blend
+        return contract.check_field(key, value)     # profile, rate_hz, blend, tool_*
 
 
 def _file_keys(rows: Sequence[Any], arm: Arm | None) -> tuple[str, ...]:
