@@ -31,7 +31,7 @@ from robodcn.errors import HardwareAlertError, InputError, ServoMismatchError, S
 from robodcn.planner import Trajectory, plan_request
 from robodcn.servo_units import radians_per_tick, ticks_to_radians
 from robodcn.stream.options import ExecutionOptions
-from robodcn.stream.rate import check_rate
+from robodcn.stream.rate import check_rate, check_steps
 from robodcn.stream.report import Approach, approach_of
 
 log = logging.getLogger("robodcn.stream")
@@ -139,9 +139,14 @@ def preflight(trajectory: Trajectory, bus: ServoBus, opts: ExecutionOptions,
                       feedback_every=opts.feedback_every, fast_read=bus.fast_read,
                       return_delay_us=profile_rdt, item_bytes=FEEDBACK_LENGTH)
     if rate is not None:
-        log.warning("%s", rate.info.message)
+        log.info("%s", rate.info.message)
         warnings.warn(rate, stacklevel=3)
         issued.append(rate.to_dict())
+    coarse = check_steps(trajectory.joints, trajectory.rate_hz, trajectory.joint_names)
+    if coarse is not None:
+        log.info("%s", coarse.message)
+        warnings.warn(coarse, stacklevel=3)
+        issued.append(coarse.to_dict())
     # -- the first writes ------------------------------------------------------------------
     if not bus.configured or not all(bus.torque_enabled().values()):
         bus.configure(opts.profile)

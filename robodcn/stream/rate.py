@@ -1,11 +1,21 @@
-"""Warn before streaming when the requested rate is more than the bus can carry."""
+"""Warn before streaming when the requested rate is more than the bus can carry, or so low
+that the goals step further between samples than a servo should jump."""
 
 from __future__ import annotations
 
+import math
+from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import Any
 
+import numpy as np
+from numpy.typing import ArrayLike
+
 from robodcn.bus import mean_cycle_wire_time
+
+#: The largest goal step between two samples (rad) streamed without a warning: beyond it
+#: the servo's own profile, not the plan, shapes the motion between the samples.
+MAX_QUIET_STEP = math.radians(5.0)
 
 
 class RateWarning(UserWarning):
@@ -83,4 +93,51 @@ def check_rate(rate_hz: float, n_servos: int, baud: int, *, feedback_every: int 
     return RateWarning(check) if check.exceeded else None
 
 
-__all__ = ["RateCheck", "RateWarning", "check_rate"]
+class CoarseStepWarning(UserWarning):
+    """The rate is so low that consecutive goals step more than :data:`MAX_QUIET_STEP`.
+
+    Data: ``rate_hz``, ``joint`` (its name), ``step_rad`` (the largest step), ``sample``
+    (where it is) and ``suggested_rate_hz`` (the rate that keeps every step within
+    :data:`MAX_QUIET_STEP`); ``to_dict()`` is the form reports carry.
+    """
+
+    code = "goal_steps_too_coarse"
+
+    def __init__(self, rate_hz: float, joint: str, step_rad: float, sample: int,
+                 suggested_rate_hz: float) -> None:
+        self.rate_hz, self.joint, self.step_rad = rate_hz, joint, step_rad
+        self.sample, self.suggested_rate_hz = sample, suggested_rate_hz
+        super().__init__(self.message)
+
+    @property
+    def message(self) -> str:
+        return (f"at {self.rate_hz:g} Hz the goals step up to {math.degrees(self.step_rad):.1f}° "
+                f"between samples (joint {self.joint!r}, sample {self.sample}): the servo "
+                f"jumps between them at its own profile speed; raise the rate to at least "
+                f"{self.suggested_rate_hz:.0f} Hz for steps within "
+                f"{math.degrees(MAX_QUIET_STEP):.0f}°")
+
+    def to_dict(self) -> dict[str, Any]:
+        return {"code": self.code, "message": self.message, "rate_hz": self.rate_hz,
+                "joint": self.joint, "step_rad": self.step_rad, "sample": self.sample,
+                "suggested_rate_hz": self.suggested_rate_hz}
+
+
+def check_steps(joints: ArrayLike, rate_hz: float, joint_names: Sequence[str]
+                ) -> CoarseStepWarning | None:
+    """A :class:`CoarseStepWarning` when two consecutive samples of ``joints`` (n, k) differ
+    by more than :data:`MAX_QUIET_STEP` on a joint, else None."""
+    q = np.asarray(joints, dtype=np.float64)
+    if q.shape[0] < 2:
+        return None
+    steps = np.abs(np.diff(q, axis=0))
+    worst = float(steps.max())
+    if worst <= MAX_QUIET_STEP:
+        return None
+    sample, joint = np.unravel_index(int(np.argmax(steps)), steps.shape)
+    return CoarseStepWarning(float(rate_hz), str(joint_names[int(joint)]), worst,
+                             int(sample) + 1, math.ceil(rate_hz * worst / MAX_QUIET_STEP))
+
+
+__all__ = ["MAX_QUIET_STEP", "CoarseStepWarning", "RateCheck", "RateWarning", "check_rate",
+           "check_steps"]
