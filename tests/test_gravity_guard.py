@@ -304,3 +304,22 @@ def test_joints_off_already_or_unloaded_need_no_confirmation(held_omx):
     assert not release.check_release(OMX, q, [11]).falls
     assert release.check_release(OMX, q, [13]).joints == ("elbow",)
     assert not release.check_release(OMX, q, [15]).falls        # the gripper: no joint
+
+
+def test_the_library_stream_refuses_to_release_an_arm_under_gravity():
+    """``robodcn.execute(..., release=True)`` switches torque off at the end of a stream: on
+    an arm under gravity it is refused before anything is sent (the guard releases it)."""
+    from robodcn import execute, plan
+    from robodcn.errors import GravityReleaseError
+    from robodcn.simulated import simulated_arm
+
+    with simulated_arm(OMX, timing="fast") as s:
+        q = joints_of(s.sim)
+        trajectory = plan(OMX, [kinematics.fk_yawed(OMX.chain, q[None])[0], OMX.home],
+                          start_joints=q)
+        before = {i: len(s.sim.goal_history(i)) for i in OMX.servo_ids}
+        with pytest.raises(GravityReleaseError) as err:
+            execute(trajectory, s.bus, release=True)
+        assert err.value.field == "release" and "shoulder" in err.value.message
+        assert {i: len(s.sim.goal_history(i)) for i in OMX.servo_ids} == before
+        assert all(torque_on(s.sim))

@@ -27,7 +27,13 @@ from numpy.typing import ArrayLike, NDArray
 
 from robodcn._checks import is_int
 from robodcn.bus import FEEDBACK_LENGTH, ServoBus, describe_hardware_error
-from robodcn.errors import HardwareAlertError, InputError, ServoMismatchError, StartMismatchError
+from robodcn.errors import (
+    GravityReleaseError,
+    HardwareAlertError,
+    InputError,
+    ServoMismatchError,
+    StartMismatchError,
+)
 from robodcn.planner import Trajectory, plan_request
 from robodcn.servo_units import radians_per_tick, ticks_to_radians
 from robodcn.stream.options import ExecutionOptions
@@ -64,6 +70,7 @@ def check_arguments(trajectory: Any, bus: Any, opts: ExecutionOptions,
             f"the trajectory drives servo ids {list(trajectory.servo_ids)}, the bus has "
             f"{list(bus.ids)} (same ids in the same order needed)", field="servo_ids",
             value=list(trajectory.servo_ids))
+    _refuse_falling_release(trajectory, opts)
     if opts.collision_current is not None and len(opts.collision_current) != len(bus.ids):
         raise InputError(f"collision_current needs {len(bus.ids)} currents (A, one per "
                          f"joint), got {list(opts.collision_current)}",
@@ -77,6 +84,22 @@ def check_arguments(trajectory: Any, bus: Any, opts: ExecutionOptions,
                          f"Position, bus order), got {present_ticks!r}",
                          field="present_ticks", value=present_ticks)
     return np.array([int(v) for v in values], dtype=np.int64)
+
+
+def _refuse_falling_release(trajectory: Trajectory, opts: ExecutionOptions) -> None:
+    """GravityReleaseError for ``release`` on an arm under gravity: torque off at the end of
+    the stream would drop it; :func:`robodcn.workflow.release.release` (the gravity guard:
+    it asks, and lowers the arm to its rest pose first) releases such an arm."""
+    arm = None if trajectory.request is None else trajectory.request.arm
+    if not opts.release or arm is None or arm.mass_properties.gravity_m_s2 <= 0.0:
+        return
+    chain = tuple(j.name for j in arm.chain_joints)
+    raise GravityReleaseError(
+        f"release=True would switch torque off at the end of the stream and let arm "
+        f"{arm.name!r} fall under gravity ({', '.join(chain)}): stream without it and release "
+        "with robodcn.workflow.release.release, which asks and lowers it to its rest pose "
+        "first", arm=arm.name, joints=chain, holding_torque_nm=None, rest=arm.rest,
+        field="release")
 
 
 def _plan_approach(trajectory: Trajectory, bus: ServoBus,
