@@ -24,11 +24,11 @@ from typing import Any
 
 from robodcn.bus import ServoBus
 from robodcn.config import Arm, GripperSpec
-from robodcn.errors import BusError, InputError, StoppedError
+from robodcn.errors import InputError
 from robodcn.results import RebootAnswer, TorqueAnswer
 from robodcn.workflow import admin
 from robodcn.workflow import gripper as grip
-from robodcn.workflow.release import ReleaseResult, release
+from robodcn.workflow.release import release, released
 
 #: Seconds a gripper command may take on the worker thread: the jaws' own settling timeout
 #: (:func:`robodcn.workflow.gripper.actuate`, 3 s) and the reads around it.
@@ -47,17 +47,6 @@ def check_torque(arm: Arm, on: object, joint: str | None, confirm: object) -> No
     admin.joint_ids(arm, joint)
 
 
-def _done(result: ReleaseResult, what: str) -> ReleaseResult:
-    """``result`` when torque went off; else (a lowering that stopped short: torque stays
-    on) StoppedError for a stop request, BusError for a fault or a collision."""
-    if result.released:
-        return result
-    outcome = result.lowering.outcome if result.lowering is not None else "?"
-    error = StoppedError if outcome == "stopped" else BusError
-    raise error(f"{what} not done: the lowering to the rest pose ended {outcome}; torque "
-                "stays on", field="confirm", value=outcome)
-
-
 def set_torque(bus: ServoBus, arm: Arm, on: bool, joint: str | None = None, *,
                confirm: bool = False, execute_options: dict[str, Any] | None = None
                ) -> TorqueAnswer:
@@ -70,7 +59,7 @@ def set_torque(bus: ServoBus, arm: Arm, on: bool, joint: str | None = None, *,
     if on:
         return TorqueAnswer(on=True, joint=joint,
                             servo_ids=list(admin.set_torque(bus, arm, True, joint)))
-    result = _done(release(bus, arm, confirm=confirm, ids=admin.joint_ids(arm, joint),
+    result = released(release(bus, arm, confirm=confirm, ids=admin.joint_ids(arm, joint),
                            verify=False, execute_options=execute_options,
                            switch_off=lambda: admin.set_torque(bus, arm, False, joint)),
                    "torque off")
@@ -83,7 +72,7 @@ def reboot(bus: ServoBus, arm: Arm, joint: str | None = None, *, confirm: bool =
     """REBOOT ``joint``'s servo (default every joint's): it comes back with torque off, so
     it goes through the gravity guard like a torque off (:func:`set_torque`)."""
     check_torque(arm, False, joint, confirm)
-    result = _done(release(bus, arm, confirm=confirm, ids=admin.joint_ids(arm, joint),
+    result = released(release(bus, arm, confirm=confirm, ids=admin.joint_ids(arm, joint),
                            verify=False, what="reboot", execute_options=execute_options,
                            switch_off=lambda: admin.reboot(bus, arm, joint)), "reboot")
     return RebootAnswer(joint=joint, servo_ids=list(result.released_ids),

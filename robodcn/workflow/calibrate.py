@@ -43,7 +43,7 @@ from robodcn.bus import ServoBus
 from robodcn.config import Arm, arm_from_dict
 from robodcn.errors import InputError
 from robodcn.workflow.float_teach import has_gravity
-from robodcn.workflow.release import ReleaseResult, hold, release
+from robodcn.workflow.release import ReleaseResult, hold, release, released
 
 log = logging.getLogger(__name__)
 
@@ -189,9 +189,10 @@ class Calibrator:
     def start(self, *, confirm: bool = False, warn: Callable[[str], None] | None = None
               ) -> ReleaseResult:
         """Torque off so a hand moves the arm (class docstring): GravityReleaseError without
-        ``confirm`` when that drops it (nothing changed); ``warn`` is told what happens."""
-        self.released = release(self.bus, self.arm, confirm=confirm, what="calibration",
-                                warn=warn)
+        ``confirm`` when that drops it (nothing changed); StoppedError/BusError when the
+        lowering first stopped short (torque stays on); ``warn`` is told what happens."""
+        self.released = released(release(self.bus, self.arm, confirm=confirm,
+                                         what="calibration", warn=warn), "calibration")
         return self.released
 
     def __enter__(self) -> Self:

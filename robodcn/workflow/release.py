@@ -47,11 +47,13 @@ from robodcn import _checks
 from robodcn.bus import OPERATING_MODE_POSITION, ServoBus
 from robodcn.config import Arm
 from robodcn.errors import (
+    BusError,
     GravityReleaseError,
     HardwareAlertError,
     InputError,
     PlanError,
     StartMismatchError,
+    StoppedError,
 )
 from robodcn.planner import Trajectory, plan
 from robodcn.present import present_joints
@@ -254,6 +256,19 @@ def release(bus: ServoBus, arm: Arm, *, confirm: bool = False, lower: bool = Tru
                          hold if check.falls else None)
 
 
+def released(result: ReleaseResult, what: str = "torque off") -> ReleaseResult:
+    """``result`` when torque went off; else (a lowering that stopped short: torque stays
+    on, the arm holds) StoppedError for a stop request, BusError for a fault or a
+    collision — for a caller that must not go on with the arm held (a reboot, a
+    calibration, a teach session)."""
+    if result.released:
+        return result
+    outcome = result.lowering.outcome if result.lowering is not None else "?"
+    error = StoppedError if outcome == "stopped" else BusError
+    raise error(f"{what} not done: the lowering to the rest pose ended {outcome}; torque "
+                "stays on", field="confirm", value=outcome)
+
+
 def hold(bus: ServoBus, ids: Collection[int] | None = None) -> None:
     """Torque on in position mode with Goal Position = Present Position on ``ids`` (default
     every servo): the arm holds where it is (the way a calibration or a teach session ends,
@@ -265,4 +280,4 @@ def hold(bus: ServoBus, ids: Collection[int] | None = None) -> None:
 
 
 __all__ = ["ARRIVED", "LOADED_NM", "ReleaseCheck", "ReleaseResult", "check_release", "hold",
-           "refusal", "release"]
+           "refusal", "release", "released"]

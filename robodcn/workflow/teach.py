@@ -39,7 +39,7 @@ from robodcn.workflow.float_teach import FloatReport, FloatSample, FloatTeach, h
 from robodcn.workflow.gripper import COMMANDS as GRIPPER_ACTIONS
 from robodcn.workflow.gripper import GripperResult, actuate
 from robodcn.workflow.poses import file_key, pose_table
-from robodcn.workflow.release import ReleaseResult, hold, release
+from robodcn.workflow.release import ReleaseResult, hold, release, released
 
 log = logging.getLogger(__name__)
 
@@ -83,8 +83,8 @@ class Teaching:
         #: Whether leaving put the arm on hold (torque on, position mode).
         self.held = False
         if torque_off:
-            self.released = run(lambda: release(bus, arm, confirm=confirm, what="teach",
-                                                warn=warn))
+            self.released = released(run(lambda: release(bus, arm, confirm=confirm,
+                                                         what="teach", warn=warn)), "teach")
 
     def __enter__(self) -> Self:
         return self
