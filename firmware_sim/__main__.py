@@ -12,6 +12,8 @@ Fault flags take ``TARGET[:key=value,...]`` where TARGET is a servo ID or ``bus`
     --truncate-fast bus:keep=1,n=0   cut every fast-read chain after one block
     --split bus:pieces=3,gap_ms=0.5  write every reply in three pieces
     --trip 2:bits=32,at=1.5          overload servo 2 1.5 s after start
+    --stale bus:of=98,read=70,n=2    answer the next two reads of 70 with the last Bus
+                                     Watchdog reply first (a straggler)
 
 Physics (default): the firmware's controller drives a DC motor, gearbox and load;
 ``--dynamics off`` gives the kinematic model (Present Position = the profile).
@@ -90,7 +92,8 @@ def _spec(text: str) -> tuple[int | None, dict[str, float]]:
 
 
 _FAULT_KEYS = {"drop": set(), "delay": {"ms"}, "corrupt_crc": set(), "wrong_id": {"to"},
-               "truncate_fast": {"keep"}, "split": {"pieces", "gap_ms"}, "trip": {"bits", "at"}}
+               "truncate_fast": {"keep"}, "split": {"pieces", "gap_ms"}, "trip": {"bits", "at"},
+               "stale": {"of", "read"}}
 
 
 def _arm(faults: FaultInjector, kind: str, servo_id: int | None,
@@ -121,6 +124,12 @@ def _arm(faults: FaultInjector, kind: str, servo_id: int | None,
     elif kind == "split":
         faults.split(int(opts.get("pieces", 2)), opts.get("gap_ms", 0.5) / 1e3, servo_id,
                      **common)
+    elif kind == "stale":
+        if "of" not in opts:
+            raise SystemExit("firmware_sim: --stale needs of=ADDRESS (the earlier read whose "
+                             "reply is sent again)")
+        faults.stale(int(opts["of"]), servo_id,
+                     address=int(opts["read"]) if "read" in opts else None, **common)
     else:
         bits = int(opts.get("bits", 0x20))
         return lambda: faults.trip(servo_id, bits)

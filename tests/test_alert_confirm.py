@@ -11,7 +11,13 @@ before a read's own reply; the real dynamixel-sdk reads it over the pty.
 
 from __future__ import annotations
 
+import json
+import signal
+import subprocess
+import sys
+
 import pytest
+from conftest import ROOT
 from stream_helpers import IDS, LONG, execute, inject_at, open_bus, place
 
 from firmware_sim.protocol import Instruction
@@ -57,3 +63,32 @@ def test_a_persistent_alert_ends_the_move(sim):
     assert report.stop_reason == "hardware_alert", report.message
     assert report.hardware_errors[IDS[1]] == 0x20 and "overload" in report.message
     assert report.samples_sent < report.samples_total
+
+
+def test_move_on_a_firmware_sim_that_sends_stale_watchdog_replies(tmp_path) -> None:
+    """``python -m firmware_sim --stale bus:of=98,read=70,n=3`` (the command line's form of
+    the fault) and ``robodcn move --device`` on it, as a user runs them: the move completes
+    (exit 0, or 5 when a loaded machine skipped samples), no hardware alert."""
+    proc = subprocess.Popen([sys.executable, "-m", "firmware_sim", "--ids", "1,2,3", "--arm",
+                             str(ROOT / "configs" / "arm3r.toml"), "--timing", "fast",
+                             "--log", str(tmp_path / "wire.log"), "--stale",
+                             "bus:of=98,read=70,n=3"],
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+                            cwd=ROOT)
+    try:
+        device = proc.stdout.readline().strip()  # type: ignore[union-attr]
+        assert device.startswith("/dev/"), proc.stderr.read()  # type: ignore[union-attr]
+        out = subprocess.run([sys.executable, "-m", "robodcn", "move", "--arm",
+                              str(ROOT / "configs" / "arm3r.toml"), "--device", device,
+                              "--to", "0.12,0.24,60", "--json"], capture_output=True,
+                             text=True, timeout=60, cwd=ROOT)
+    finally:
+        proc.send_signal(signal.SIGTERM)
+        proc.wait(timeout=10)
+    assert out.returncode in (0, 5), out.stderr
+    stale = [line for line in (tmp_path / "wire.log").read_text().splitlines()
+             if "stale" in line]
+    assert len(stale) == 3, "the straggler was not sent as often as asked"
+    report = json.loads(out.stdout)
+    assert report["stop_reason"] == "completed", report["message"]
+    assert not any(report["hardware_errors"].values()), report["hardware_errors"]
