@@ -327,6 +327,50 @@ def test_serve_refuses_a_malformed_allow_host_with_exit_2() -> None:
     assert "allow_host" in out.stderr or "allow-host" in out.stderr, out.stderr
 
 
+def test_serve_sim_omx_as_the_attacker_finds_it() -> None:
+    """``robodcn serve --sim --arm omx --allow-host robot.local``, as a user starts it: the
+    cross-site form that dropped the arm (POST /v1/reboot), the no-cors move and the
+    rebinding torque off change nothing (the state read before and after is the same, torque
+    on); the console's own call and one from the allowed name are served."""
+    import re
+    import signal
+    import types
+    import urllib.parse
+
+    proc = subprocess.Popen([sys.executable, "-m", "robodcn", "serve", "--sim", "--arm",
+                             "omx", "--port", "0", "--allow-host", "robot.local"],
+                            stdout=subprocess.PIPE, stderr=subprocess.DEVNULL, text=True,
+                            cwd=ROOT)
+    try:
+        line = proc.stdout.readline()  # type: ignore[union-attr]
+        url = re.search(r"http://[\d.]+:\d+", line)
+        assert url, line
+        port = int(urllib.parse.urlsplit(url.group(0)).port or 0)
+        server = types.SimpleNamespace(server_address=("127.0.0.1", port))
+        host = own_host(server)
+        status, on = send(server, same_origin_fetch("POST", "/v1/torque", host, {"on": True}))
+        assert status == 200, on
+        status, before = send(server, same_origin_fetch("GET", "/v1/state", host))
+        assert status == 200 and before["torque"] is True, before
+        assert send(server, form_post("/v1/reboot", host))[0] == 403
+        assert send(server, form_post("/v1/reboot", host, origin=None))[0] == 415
+        assert send(server, no_cors_fetch("POST", "/v1/moves", host,
+                                          {"waypoints": [GOAL]}))[0] == 403
+        assert send(server, same_origin_fetch("POST", "/v1/torque", evil_host(server),
+                                              {"on": False, "confirm": True}))[0] == 403
+        time.sleep(0.5)  # what a fall or a move would have taken by now
+        status, after = send(server, same_origin_fetch("GET", "/v1/state", host))
+        assert status == 200 and after["torque"] is True and not after["moving"], after
+        assert max(abs(a - b) for a, b in zip(after["ticks"], before["ticks"],
+                                              strict=True)) <= 3, (before, after)
+        status, stop = send(server, same_origin_fetch("POST", "/v1/stop",
+                                                      f"robot.local:{port}", {}))
+        assert status == 200 and stop["stopped"] is False, stop
+    finally:
+        proc.send_signal(signal.SIGTERM)
+        assert proc.wait(timeout=20) == 0
+
+
 # -- the token ---------------------------------------------------------------------------------
 
 def test_the_token_guards_put_as_it_guards_post() -> None:
