@@ -204,6 +204,26 @@ def test_an_error_in_the_loop_still_restores_position_mode():
         fl.step()                                  # not active any more
 
 
+def test_a_float_the_servos_do_not_take_is_refused_and_the_arm_held():
+    """A servo that does not read back current control with torque on: CommError naming
+    it, never "it stays where you leave it"; the joints are put back in position mode with
+    torque on (the last switch)."""
+    bus = FakeBus(OMX, [ticks_of(OMX, [0.0, 0.2, 0.1, 0.0])])
+    real = bus.set_operating_mode
+
+    def stubborn(mode, servos, **kw):           # the elbow ignores the torque-on
+        real(mode, servos, **kw)
+        bus.torque[13] = mode != 0 and bus.torque[13]
+
+    bus.set_operating_mode = stubborn
+    with pytest.raises(CommError) as err:
+        with ft.FloatTeach(bus, OMX):
+            pass
+    assert err.value.field == "joints" and err.value.value == ["elbow"]
+    assert bus.calls[-1][:3] == ("mode", 3, (12, 13, 14))
+    assert bus.modes == {11: 3, 12: 3, 13: 3, 14: 3}
+
+
 @pytest.mark.parametrize("kwargs, field", [
     ({"rate_hz": 20}, "rate_hz"), ({"rate_hz": float("nan")}, "rate_hz"),
     ({"joints": ["knee"]}, "joints"), ({"joints": []}, "joints"),

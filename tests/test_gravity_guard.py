@@ -131,6 +131,10 @@ def test_http_reboot_confirmed_lowers_to_rest_first_and_the_arm_stays_there() ->
         z = heights(sa.sim, 1.0)                               # ... on an arm at rest
         assert np.abs(z - REST_Z).max() < 0.01, z
         assert at_rest(sa.sim)
+        # torque off everywhere already: a reboot drops nothing, so it asks nothing
+        status, _, answer = call(server, "POST", "/v1/reboot", {})
+        assert status == 200 and not answer["lowered"] and answer["hold"] is None, answer
+        assert np.abs(heights(sa.sim, 0.3) - REST_Z).max() < 0.01
 
 
 def test_http_stop_stops_the_lowering_and_torque_stays_on() -> None:
