@@ -182,8 +182,12 @@ def test_cli_reboot_with_a_servo_in_alert_says_hold_it_and_still_reboots(
     """An overloaded servo shuts its torque off: the streamer refuses a lowering then, so
     the user is told to hold the arm, and the reboot that clears the alert goes on."""
     held_omx.servo(14).trip(0x20)                               # the wrist overloads
-    argv = ["reboot", "--arm", "omx", "--device", held_omx.port_path, "--yes"]
-    assert run_cli(monkeypatch, argv) == 0
+    argv = ["reboot", "--arm", "omx", "--device", held_omx.port_path]
+    assert run_cli(monkeypatch, argv) == 2                      # asked: it says hold it
+    err = capsys.readouterr().err
+    assert "servo(s) in alert" in err and "hold it" in err and "--yes confirms" in err
+    assert held_omx.servo(14).hardware_error                    # nothing rebooted
+    assert run_cli(monkeypatch, [*argv, "--yes"]) == 0
     out, err = capsys.readouterr()
     assert "cannot be lowered first" in err and "hold it" in err, err
     assert "rebooted servo(s) 11, 12, 13, 14 (torque is off)" in out

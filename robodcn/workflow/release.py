@@ -44,7 +44,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from robodcn import _checks
-from robodcn.bus import OPERATING_MODE_POSITION, ServoBus
+from robodcn.bus import OPERATING_MODE_POSITION, ServoBus, describe_hardware_error
 from robodcn.config import Arm
 from robodcn.errors import (
     BusError,
@@ -230,6 +230,12 @@ def release(bus: ServoBus, arm: Arm, *, confirm: bool = False, lower: bool = Tru
     check = check_release(arm, q, [i for i in (bus.ids if ids is None else ids)
                                    if enabled.get(i, True)])    # off already: nothing drops
     trajectory, hold = _lowering_plan(arm, q, check, lower, plan_options)
+    if trajectory is not None:           # the streamer refuses to move servos in alert
+        alerts = {i: describe_hardware_error(e) for i, e in bus.hardware_errors().items()
+                  if e}
+        if alerts:
+            trajectory, hold = None, (f"servo(s) in alert ({alerts}): the streamer cannot "
+                                      "lower it before a reboot clears that")
     if check.falls and not confirm:
         raise refusal(check, what=what, hold=hold)
     tell = warn or log.warning
