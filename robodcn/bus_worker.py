@@ -61,25 +61,14 @@ class BusWorker:
         port before the next."""
         return self.fault is not None
 
-    @suspect.setter
-    def suspect(self, value: bool) -> None:
-        if not value:
-            self.fault = None
-        elif self.fault is None:
-            self.fault = f"a bus operation on {self.bus.port} failed"
-
     def mark_fault(self, reason: str) -> None:
         """The bus failed (``reason``): reopen and re-verify it before the next job."""
         self.fault = reason
 
-    @property
-    def busy(self) -> bool:
-        """A job is queued or running."""
-        with self._jobs_lock:
-            return self._jobs > 0
-
-    def submit(self, fn: Callable[..., Any], *args: Any) -> Future[Any]:
-        """Queue ``fn(*args)`` (it calls :meth:`recover` itself when it touches the port)."""
+    def submit(self, fn: Callable[..., Any], *args: Any, if_idle: bool = False
+               ) -> Future[Any] | None:
+        """Queue ``fn(*args)`` (it calls :meth:`recover` itself when it touches the port);
+        ``if_idle``: only when no job is queued or running (else None, nothing queued)."""
         def job() -> Any:
             try:
                 return fn(*args)
@@ -88,6 +77,8 @@ class BusWorker:
                     self._jobs -= 1
 
         with self._jobs_lock:
+            if if_idle and self._jobs:
+                return None
             self._jobs += 1
         try:
             return self._pool.submit(job)
@@ -124,6 +115,22 @@ class BusWorker:
         a job that does not finish within ``timeout`` (default :data:`STATE_TIMEOUT`)
         CommError naming ``what``.
         """
+        future = self.submit(self._job(fn))
+        assert future is not None
+        return self._wait(future, what, timeout)
+
+    def call_if_idle(self, fn: Callable[[], T], what: str, timeout: float | None = None
+                     ) -> tuple[bool, T | None]:
+        """:meth:`call` when no job is queued or running: ``(True, its result)``; else
+        ``(False, None)`` at once, nothing queued (a check that must not wait behind a
+        move or an admin job)."""
+        future = self.submit(self._job(fn), if_idle=True)
+        if future is None:
+            return False, None
+        return True, self._wait(future, what, timeout)
+
+    def _job(self, fn: Callable[[], T]) -> Callable[[], T]:
+        """``fn`` as a worker job: the port recovered first, its faults marked."""
         def job() -> T:
             self.recover()
             try:
@@ -136,8 +143,11 @@ class BusWorker:
                 self.mark_fault(fault.message)
                 raise fault from None
 
+        return job
+
+    @staticmethod
+    def _wait(future: Future[T], what: str, timeout: float | None) -> T:
         wait = STATE_TIMEOUT if timeout is None else timeout
-        future = self.submit(job)
         try:
             return future.result(wait)
         except FutureTimeout:

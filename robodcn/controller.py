@@ -585,11 +585,12 @@ class ArmController:
                 raise InputError("the controller is closed", field="controller", value=None)
             moving = self._current is not None
         worker = self._worker
-        if moving or worker.busy:
+        probed, alerts = (False, None) if moving else worker.call_if_idle(
+            self._read_alerts, "checking the servo bus", timeout)
+        if not probed:  # the stream or an admin job has the port: what it found
             if worker.fault is not None:
                 raise CommError(worker.fault, field="bus", value=self.bus.port)
             return
-        alerts = worker.call(self._read_alerts, "checking the servo bus", timeout)
         if alerts:
             named = dict(zip(self.arm.servo_ids, self.arm.joint_names, strict=True))
             which = "; ".join(f"servo {i} ({named.get(i, '?')}): {describe_hardware_error(e)}"
