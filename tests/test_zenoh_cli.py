@@ -57,8 +57,9 @@ def test_serve_zenoh_then_fleet_ls_and_state() -> None:
     (["--zenoh-listen", "tcp/0.0.0.0:7447", "--zenoh"], "--zenoh-listen"),
     (["--zenoh-connect", "tcp/127.0.0.1:7447"], "--zenoh-connect"),
     (["--zenoh", "--name", "a b"], "--name"),
+    (["--ros2", "--plan-only"], "--ros2"),
 ])
 def test_serve_zenoh_usage_errors(args: list[str], field: str) -> None:
-    out = _run("serve", "--sim", "--port", "0", *args)
+    out = _run("serve", *([] if "--plan-only" in args else ["--sim"]), "--port", "0", *args)
     assert out.returncode == 2, out.stdout + out.stderr
     assert field in out.stderr

@@ -240,3 +240,20 @@ def test_reconnects_after_losing_its_router() -> None:
             assert query(second, "robodcn/left/op/health")["status"] == 200
         finally:
             second.close()
+
+
+def test_plan_only_service_on_zenoh() -> None:
+    """A plan-only service plans over Zenoh; its arm operations answer 503 as over HTTP."""
+    from http_helpers import serving_planner
+    from zenoh_helpers import free_port
+
+    from robodcn.zenoh import face
+
+    endpoint = f"tcp/127.0.0.1:{free_port()}"
+    with serving_planner() as server, face(server, ZenohOptions(listen=(endpoint,),
+                                                                name="planner")), \
+            peer(endpoint) as session:
+        time.sleep(0.2)
+        assert query(session, "robodcn/planner/op/plan", BODY)["status"] == 200
+        state = query(session, "robodcn/planner/op/state")
+        assert state["status"] == 503 and state["body"]["error"]["code"] == "no_arm"

@@ -140,6 +140,9 @@ def zenoh_options(args: argparse.Namespace) -> Any:
     if args.processes > 1:
         raise InputError("--zenoh serves from one process: drop --processes",
                          field="--processes", value=args.processes)
+    if args.ros2 and args.plan_only:
+        raise InputError("--ros2 makes the arm a ROS 2 node: give --sim or --device, not "
+                         "--plan-only", field="--ros2", value=True)
     return ZenohOptions(connect=connect_endpoints(args), listen=tuple(args.zenoh_listen),
                         config_file=args.zenoh_config, scout=args.zenoh_scout,
                         name=args.name, ros2=args.ros2, ros_domain=args.ros_domain_id,
