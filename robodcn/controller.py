@@ -74,9 +74,10 @@ DEFAULT_EXECUTE = ExecutionOptions(approach=True, release=False)
 #: Seconds an online operation on a queued move waits for its stream to start (then 409):
 #: with the operation's own planning, the answer stays within a second.
 QUEUED_WAIT = 0.4
-#: Seconds before a move's ``start_at`` its stream is prepared (configure, start check):
-#: more than preparing takes, less than the Bus Watchdog (≥ 250 ms) once armed.
-START_LEAD_S = 0.15
+#: Seconds before a move's ``start_at`` its stream is prepared (preflight: the start check,
+#: configuring the servos): more than that takes on a loaded host; the streamer then waits
+#: for start_at itself before it arms the Bus Watchdog.
+START_LEAD_S = 1.0
 #: Seconds a replacement waits for another being planned (then 409): a queue of them would
 #: hold each answer for the planning of all before it.
 REPLACE_WAIT = 0.2
@@ -187,7 +188,7 @@ class ArmController:
         executor need not read it again; None when the executor is to read it.
         ``start_at``: UNIX time (s) its first sample is due (None: at once); the worker
         waits (stoppable) until :data:`START_LEAD_S` before it, then prepares the stream,
-        whose loop puts the first sample at ``start_at`` itself.
+        which waits for ``start_at`` after its preflight and puts the first sample then.
 
         Raises BusyError while another move is queued or running, InputError when the
         trajectory drives other servos than the arm's or the controller is closed.
@@ -442,7 +443,6 @@ class ArmController:
         try:
             worker.recover()
             if record.start_at is not None:
-                # wait here, not in the loop: an armed Bus Watchdog would trip meanwhile
                 record.stop_signal.wait(max(0.0, record.start_at - START_LEAD_S - time.time()))
             # streamed on this (the worker) thread: the execution's online operations
             # (pause, speed, replace) come from the request threads

@@ -56,6 +56,8 @@ Threading
 from __future__ import annotations
 
 import logging
+import threading
+import time
 from typing import Any
 
 from numpy.typing import ArrayLike
@@ -74,6 +76,10 @@ from robodcn.stream.source import PlannedSamples
 from robodcn.stream.summary import build_report
 
 log = logging.getLogger("robodcn.stream")
+
+#: Seconds before ``start_at`` the Bus Watchdog is armed and the loop takes over (its wait
+#: for the first sample stays well inside the watchdog's ≥ 250 ms).
+START_ARM_LEAD_S = 0.02
 
 
 def execute(trajectory: Trajectory, bus: ServoBus, options: ExecutionOptions | None = None,
@@ -108,6 +114,12 @@ def execute(trajectory: Trajectory, bus: ServoBus, options: ExecutionOptions | N
         issued = prepared.warnings + tuple(feedback.plan_limits(trajectory, opts,
                                                                 source.period))
         stream = Stream(source, bus, opts, feedback, failures)
+        if opts.start_at is not None:
+            # preflight is done: wait for start_at here, then arm the watchdog, so the
+            # loop's wait for its first sample stays short of the watchdog
+            ahead = opts.start_at - time.time() - START_ARM_LEAD_S
+            if ahead > 0:
+                (opts.stop or threading.Event()).wait(ahead)
         arm_watchdog(bus, opts, source.period)
         log.info("streaming %d samples at %g Hz to servos %s", len(source),
                  trajectory.rate_hz, list(bus.ids))
