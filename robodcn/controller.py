@@ -23,11 +23,13 @@ into JSON.
 Servo admin (:meth:`ArmController.set_torque`, :meth:`ArmController.reboot`,
 :meth:`ArmController.gripper`) runs on the same worker thread through
 :mod:`robodcn.servo_admin` and :mod:`robodcn.workflow.admin`, refused (BusyError) while a
-move runs; torque off on an arm under gravity needs ``confirm``.
+move runs; torque off on an arm under gravity needs ``confirm``. A stop
+(:meth:`ArmController.stop`) halts a gripper action too (:class:`robodcn.servo_admin.Halt`).
 
 Losing the serial device is a bus fault, never a crash (:mod:`robodcn.bus_worker`): the
 move ends ``fault`` with a report of what was sent, reads raise CommError (503), and the
-next request after a fault reopens and re-verifies the port.
+next request after a fault reopens and re-verifies the port;
+:meth:`ArmController.check_bus` (``GET /healthz``) says why the arm cannot be driven now.
 """
 
 from __future__ import annotations

@@ -3,12 +3,13 @@
 Endpoints (one route table, :data:`~robodcn.http.routes.ROUTES`, drives dispatch, the worker
 pool of each request and ``/openapi.json``)::
 
-    GET  /healthz            liveness, arm name, whether a move runs
+    GET  /healthz            health: arm name, whether a move runs; 503 with the reason
+                             while the bus is lost or faulted
     GET  /v1/arm             the arm configuration (SI units)
     POST /v1/trajectories    plan only → 200 Trajectory JSON
     POST /v1/moves           plan and execute → 202 Move; 409 while a move runs
     GET  /v1/moves/{id}      status (done | degraded | stopped | fault | …), progress, report
-    POST /v1/stop            stop and hold
+    POST /v1/stop            stop and hold (the move, a gripper action)
     GET  /v1/state           present joints, pose, torque, alerts
     GET  /openapi.json       OpenAPI 3.1 document of all of the above
     GET  /v1/moves/{id}/trajectory   what a move planned (Trajectory JSON)
