@@ -61,22 +61,43 @@ def side_points(arm: Arm, q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return np.array(pts), np.array(first)
 
 
-def deepest(arm: Arm, q: np.ndarray) -> dict[str, float]:
-    """Per zone the largest depth (m) of any tested point of the omx at q (floor: −z; base:
-    min(R − ρ, H − z) but for the shoulder and the first link; boxes: the nearest face)."""
+def point_depths(arm: Arm, q: np.ndarray) -> dict[str, np.ndarray]:
+    """Per zone the depth (m) of each tested point of the omx at q (floor: −z; base:
+    min(R − ρ, H − z), −inf for the shoulder and the first link; boxes: the nearest face)."""
     pts, first = side_points(arm, q)
     ws = arm.workspace
     out = {}
     if ws.floor is not None:
-        out["floor"] = float(np.max(ws.floor - pts[:, 2]))
+        out["floor"] = ws.floor - pts[:, 2]
     if ws.base_radius is not None:
         rho = np.hypot(pts[:, 0], pts[:, 1])
         d = np.minimum(ws.base_radius - rho, ws.base_height - pts[:, 2])
-        out["base"] = float(np.max(d[~first]))
+        out["base"] = np.where(first, -np.inf, d)
     for b in ws.boxes:
         lo, hi = np.array(b.low), np.array(b.high)
-        out[b.name] = float(np.max(np.minimum(pts - lo, hi - pts).min(axis=1)))
+        out[b.name] = np.minimum(pts - lo, hi - pts).min(axis=1)
     return out
+
+
+def deepest(arm: Arm, q: np.ndarray) -> dict[str, float]:
+    """Per zone the largest depth (m) of any tested point of the omx at q."""
+    return {zone: float(np.max(d)) for zone, d in point_depths(arm, q).items()}
+
+
+def keeps_out(arm: Arm, joints: np.ndarray) -> bool:
+    """Whether the motion ``joints`` never enters a zone: every point outside every zone at
+    every sample, but a point inside at the first sample, which may stay while its depth
+    never grows (the rule for an arm that starts inside: it may leave)."""
+    per = [point_depths(arm, q) for q in joints]
+    for zone in per[0]:
+        d = np.array([p[zone] for p in per])             # (n, points)
+        for col in d.T:
+            if col[0] > 1e-9:
+                rose = np.flatnonzero(np.diff(col) > 1e-9)
+                col = col[rose[0] + 1:] if rose.size else col[:0]
+            if (col > 1e-9).any():
+                return False
+    return True
 
 
 # -- the [workspace] table ----------------------------------------------------------------------
@@ -311,6 +332,8 @@ PILLAR = {"name": "pillar", "min": [0.1, -0.05, 0.0], "max": [0.16, 0.05, 0.08]}
                                                    HealthCheck.filter_too_much])
 @given(a=joints, b=joints, box=st.booleans())
 def test_every_sample_of_an_accepted_plan_is_outside_every_zone(a, b, box) -> None:
+    """An accepted plan never enters a zone: from a clear start every sample is outside
+    every zone; from a start inside one (where the arm fell) it only leaves."""
     arm = omx_with(keep_out=[PILLAR]) if box else OMX
     wp = kinematics.fk_yawed(OMX.chain, np.array([a, b])).tolist()
     try:
@@ -318,8 +341,10 @@ def test_every_sample_of_an_accepted_plan_is_outside_every_zone(a, b, box) -> No
     except PlanError:
         assume(False)
         return
-    for q in traj.joints:
-        assert max(deepest(arm, q).values()) <= 1e-9
+    assert keeps_out(arm, traj.joints)
+    if max(deepest(arm, traj.joints[0]).values()) <= 1e-9:     # a start clear of the zones
+        for q in traj.joints:
+            assert max(deepest(arm, q).values()) <= 1e-9
 
 
 # -- samples the planner did not sample: a retarget's after its switch --------------------------
@@ -341,3 +366,51 @@ def test_check_joints_names_the_first_sample_inside_with_the_users_pose() -> Non
         assert max(deepest(OMX, joints[i]).values()) <= 1e-9
     assert deepest(OMX, joints[v.sample])[v.zone] == pytest.approx(v.value, abs=1e-9)
     assert np.allclose(v.pose, kinematics.fk_yawed(OMX.chain, joints[v.sample][None])[0])
+
+
+# -- an arm that starts inside a zone may leave it ----------------------------------------------
+
+#: The omx fallen through the plate (the simulator has no table): the tool 14.9 cm under it.
+FALLEN = [0.0, 1.2, 0.3, 0.0]
+
+
+def test_a_plan_from_inside_a_zone_may_leave_it_but_not_go_deeper() -> None:
+    assert deepest(OMX, np.array(FALLEN))["floor"] > 0.14
+    up = plan(OMX, [(0.2, 0.0, 0.15, 0.0)], start_joints=FALLEN)      # out and up: fine
+    assert keeps_out(OMX, up.joints) and max(deepest(OMX, up.joints[-1]).values()) <= 0
+    with pytest.raises(KeepOutError) as info:                         # deeper: refused
+        plan(OMX, [(0.2, 0.0, -0.17, -90 * DEG)], start_joints=FALLEN)
+    assert info.value.zone == "floor"
+    # out, then back in through another way: refused where it re-enters
+    with pytest.raises(KeepOutError) as info:
+        plan(OMX, [(0.2, 0.0, 0.15, 0.0), (0.25, 0.0, -0.02, -90 * DEG)],
+             start_joints=FALLEN)
+    assert info.value.zone == "floor" and info.value.field == "waypoints[1]"
+
+
+def test_a_single_pose_inside_a_zone_is_refused_whatever_the_start() -> None:
+    from robodcn.planner.keepout import check_pose
+
+    with pytest.raises(KeepOutError) as info:
+        check_pose(OMX, FALLEN)
+    assert info.value.zone == "floor" and "no plan may go there" in info.value.message
+
+
+def test_the_leaving_rule_on_joint_motions() -> None:
+    from robodcn.config import first_intrusion
+
+    fallen = np.array(FALLEN)
+    deeper = np.array([0.0, 1.4, 0.3, 0.0])            # the shoulder further forward: lower
+    up = kinematics.ik_yawed(OMX.chain, np.array([[0.2, 0.0, 0.15, 0.0]]), OMX.elbow)[0]
+    s = np.linspace(0.0, 1.0, 50)[:, None]
+    out = fallen + s * (up - fallen)
+    assert keeps_out(OMX, out) and first_intrusion(OMX, out) is None
+    down = fallen + s * (deeper - fallen)
+    hit = first_intrusion(OMX, down)
+    assert not keeps_out(OMX, down) and hit is not None and hit.sample == 1
+    assert hit.zone == "floor" and hit.depth > deepest(OMX, fallen)["floor"]
+    back = np.vstack([out, out[::-1]])                  # out, then the same way back in
+    hit = first_intrusion(OMX, back)
+    assert not keeps_out(OMX, back) and hit is not None
+    assert hit.sample > 50 and max(deepest(OMX, back[hit.sample - 1]).values()) <= 1e-9
+    assert first_intrusion(OMX, fallen[None], motion=False).zone == "floor"

@@ -11,6 +11,14 @@ against the floor and the boxes).
 (:meth:`Workspace.depths`, vectorised over the samples) and names the earliest sample
 inside one: the deepest point there and its zone (an :class:`Intrusion`, data; the planner
 words it as a :class:`~robodcn.errors.Violation`).
+
+A motion may *start* inside a zone — the arm fell onto the table, a hand put it there, it
+was powered up so — and must then be able to leave: a point inside a zone at the first
+sample is allowed to stay in it while its depth never grows (it is on its way out, or
+still), and from the first sample where it grows on it counts as entering (as does a
+point that left and comes back). Every other point inside a zone fails at once. Samples
+taken one by one (:func:`clear_of_zones`: a plot's grid, a pose to record) have no such
+start.
 """
 
 from __future__ import annotations
@@ -155,15 +163,36 @@ def body_points(arm: Arm, joints: NDArray[np.float64]) -> NDArray[np.float64]:
     return np.stack([x, y, z], axis=-1)
 
 
-def first_intrusion(arm: Arm, joints: NDArray[np.float64]) -> Intrusion | None:
-    """The earliest sample of ``joints`` (n, k) with a point inside a keep-out zone of
-    ``arm`` (the deepest such point there), or None: every point of every sample clear."""
+def _leaving(d: NDArray[np.float64]) -> None:
+    """Exempt (−inf, in place) the samples of the points that start inside the zone while
+    their depth ``d`` (n, m) has not grown since the start (module docstring)."""
+    start = d[0] > DEPTH_SLACK
+    if not start.any():
+        return
+    cols = d[:, start]
+    rose = np.logical_or.accumulate(np.diff(cols, axis=0) > DEPTH_SLACK, axis=0)
+    leaving = np.concatenate([np.ones((1, cols.shape[1]), dtype=bool), ~rose])
+    d[:, start] = np.where(leaving, -np.inf, cols)
+
+
+def first_intrusion(arm: Arm, joints: NDArray[np.float64], *,
+                    motion: bool = True) -> Intrusion | None:
+    """The earliest sample of the motion ``joints`` (n, k) with a point entering a keep-out
+    zone of ``arm`` (the deepest such point there), or None: every point of every sample
+    clear (a point inside at the first sample may leave: module docstring).
+    ``motion=False``: the samples are poses on their own (a pose to record, a home pose):
+    any point inside a zone counts."""
     zones = arm.workspace
     if zones.empty or len(joints) == 0:
         return None
     depths, (u, v, yaw) = _depths(arm, np.asarray(joints, dtype=np.float64))
     if max(float(d.max()) for d in depths) <= DEPTH_SLACK:
         return None
+    if motion:
+        for d in depths:
+            _leaving(d)
+        if max(float(d.max()) for d in depths) <= DEPTH_SLACK:
+            return None
     depth = np.stack(depths, axis=-1)                 # (n, m, z)
     inside = depth > DEPTH_SLACK
     i = int(np.argmax(inside.any(axis=(1, 2))))

@@ -94,7 +94,7 @@ def _check_clear(arm: Arm, which: str, pose: tuple[float, ...]) -> None:
         q = kinematics.ik_yawed(chain, np.array([pose]), arm.elbow)
     else:
         q = kinematics.ik(arm.links, np.array([pose]), arm.elbow)
-    hit = first_intrusion(arm, q)
+    hit = first_intrusion(arm, q, motion=False)
     if hit is None:
         return
     raise ConfigError(f"key 'workspace' = a table: at its {which} pose the arm's {hit.point} "

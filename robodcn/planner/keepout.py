@@ -48,7 +48,7 @@ def check_pose(arm: Arm, joints: ArrayLike) -> None:
     q = np.asarray(joints, dtype=np.float64).reshape(1, -1)
     if arm.workspace.empty:
         return
-    hit = first_intrusion(arm, q)
+    hit = first_intrusion(arm, q, motion=False)
     if hit is None:
         return
     x, y, z = hit.position

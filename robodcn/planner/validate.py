@@ -111,17 +111,22 @@ def check_waypoints(req: PlanRequest) -> None:
 def check_waypoint_zones(req: PlanRequest, fmt: Callable[[Sequence[float]], str]) -> None:
     """Every waypoint's tool point outside the arm's keep-out zones, else KeepOutError
     naming the first such waypoint, the zone and how deep (before any sampling: the tool
-    point of a waypoint is the waypoint itself, whatever the branch). ``fmt`` words a
-    waypoint (reach.fmt_pose)."""
+    point of a waypoint is the waypoint itself, whatever the branch); the first of two or
+    more is where the motion starts, which the samples' check lets leave a zone. ``fmt``
+    words a waypoint (reach.fmt_pose)."""
     zones = req.arm.workspace
     if zones.empty:
         return
     wp = req.waypoints_array
+    # the first of two or more is where the motion starts: it may lie inside a zone (the
+    # arm fell there) and leave it (config.first_intrusion); a lone waypoint is the goal
+    first = 1 if wp.shape[0] > 1 else 0
     tool = np.zeros((wp.shape[0], 3))
     width = 3 if req.arm.yawed else 2
     tool[:, :width] = wp[:, :width]
     depth = zones.depths(tool)
     inside = depth > DEPTH_SLACK
+    inside[:first] = False
     if not inside.any():
         return
     j = int(np.argmax(inside.any(axis=1)))

@@ -458,7 +458,9 @@ class Execution:
         retargeting = Retargeting(self.arm, self._laws(), self._stream.source, self.speed)
         segments = retargeting.tail(state, target, plan_options)
         if segments:  # the moving start's blend or brake leaves the planned path: keep out
-            keepout.check_joints(self.arm, np.vstack([seg[0] for seg in segments]),
+            # (from the switch state: sample 0 is the commanded joints there)
+            keepout.check_joints(self.arm, np.vstack([state.q[None], *(seg[0] for seg in
+                                                                       segments)]),
                                  retargeting.timing.rate)
         self._told = retargeting.timing if retargeting.timing is not self._timing else None
         return segments
