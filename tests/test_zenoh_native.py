@@ -257,3 +257,15 @@ def test_plan_only_service_on_zenoh() -> None:
         assert query(session, "robodcn/planner/op/plan", BODY)["status"] == 200
         state = query(session, "robodcn/planner/op/state")
         assert state["status"] == 503 and state["body"]["error"]["code"] == "no_arm"
+
+
+def test_a_peer_leaving_mid_move_does_not_stop_it() -> None:
+    with zenoh_arm("left") as (server, _, endpoint):
+        with peer(endpoint) as session:
+            time.sleep(0.2)
+            moved = query(session, "robodcn/left/op/start_move", {**BODY, "duration": 1.0})
+            assert moved["status"] == 202, moved
+            wait_for(lambda: server.controller.busy, 5, "the move to start")
+        # the operator's session is gone; the move runs to its end
+        wait_for(lambda: not server.controller.busy, 10, "the move to end")
+        assert server.controller.move(moved["body"]["id"]).status in ("done", "degraded")
