@@ -326,3 +326,32 @@ def test_a_waypoints_file_carries_the_tool_limits(tmp_path: Path, monkeypatch) -
     with pytest.raises(InputError) as exc:
         files.load_waypoints(path, ARM3R)
     assert "tool_speed" in str(exc.value)
+
+
+@pytest.mark.parametrize("profile", ["quintic", "trapezoid"])
+def test_a_uniform_law_is_stretched_piece_by_piece(profile: str) -> None:
+    # a short first segment (1.4 mm) already within the tool speed, then a long one
+    waypoints = [(0.25, 0.10, 0.0), (0.249, 0.101, 0.0), (0.12, 0.24, 1.0)]
+    free = plan(ARM3R, waypoints, profile=profile)
+    kept = plan(ARM3R, waypoints, profile=profile, tool_speed=0.1)
+
+    def at_via(traj: Trajectory) -> int:
+        return int(np.argmin(np.linalg.norm(traj.poses[:, :2] - waypoints[1][:2], axis=1)))
+
+    assert measured(free)["speed"][:at_via(free) + 1].max() < 0.1
+    assert at_via(kept) == at_via(free)          # the first piece is not slowed
+    assert kept.duration > 3 * free.duration     # the second is
+    assert measured(kept)["speed"].max() <= 0.1 + NOISE
+
+
+def test_cli_names_the_angular_speed_in_degrees(monkeypatch, capsys) -> None:
+    argv = ["plan", "--arm", ARM3R_PATH, "--to", "0.12,0.24,60", "-q",
+            "--tool-angular-speed", "10"]
+    assert run_cli(monkeypatch, [*argv, "--duration", "2"]) == 3
+    err = capsys.readouterr().err
+    assert "the tool turns at" in err and "above --tool-angular-speed 10 deg/s" in err
+    assert run_cli(monkeypatch, [*argv, "--format", "json"]) == 0
+    data = __import__("json").loads(capsys.readouterr().out)
+    assert data["request"]["tool_angular_speed"] == pytest.approx(math.radians(10))
+    theta = np.unwrap(np.asarray(data["poses"])[:, 2])
+    assert np.abs(np.diff(theta)).max() * data["rate_hz"] <= math.radians(10) + NOISE

@@ -230,19 +230,26 @@ class UniformTiming:
     def slow(self, violation: Violation, sampled: Sampled | None) -> bool:
         """Auto pieces are each minimal; their joins can still fail (a linear profile's
         velocity step between segments): every path piece slowed by the violation's ratio
-        (uniform time scaling). False when that changes nothing."""
+        (uniform time scaling); a tool limit's, each piece by its own samples' largest.
+        False when that changes nothing."""
         ratio = max(1.0, violation.value / violation.limit)
         factor = ratio ** (1.0 / validate.ORDER[violation.quantity]) * (1.0 + 1e-6)
+        factors = [factor] * len(self.pieces)
         tool = validate.tool_limits(self.req) if violation.quantity in _TOOL else None
         if tool is not None and sampled is not None:
-            # a tool limit binds where the tool is fastest, not where it first fails: the
-            # whole plan's largest ratio at once (uniform scaling: speed 1/T, accel 1/T²)
+            # a tool limit binds where the tool is fastest, not where it first fails: each
+            # piece by its own samples' largest ratio at once (uniform scaling: speed 1/T,
+            # acceleration 1/T²), a piece within the limits left as it is
+            edges = [*sampled.starts.tolist(), sampled.joints.shape[0] - 1]
+            need = np.ones(sampled.joints.shape[0])
             for quantity, r in validate.tool_ratios(tool, sampled.joints,
                                                     self.req.rate_hz).items():
-                order = validate.ORDER[quantity]
-                factor = max(factor, float(r.max()) ** (1.0 / order) * (1.0 + 1e-6))
-        scaled = [math.ceil(c * factor) if p.path is not None else c
-                  for c, p in zip(self.counts, self.pieces, strict=True)]
+                need = np.maximum(need, r ** (1.0 / validate.ORDER[quantity]))
+            worst = [float(need[edges[k]:edges[k + 1] + 1].max())
+                     for k in range(len(self.pieces))]
+            factors = [w * (1.0 + 1e-6) if w > 1.0 else 1.0 for w in worst]
+        scaled = [math.ceil(c * f) if p.path is not None and f > 1.0 else c
+                  for c, p, f in zip(self.counts, self.pieces, factors, strict=True)]
         if scaled == self.counts:
             return False
         self.counts = scaled
