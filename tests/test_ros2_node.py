@@ -190,3 +190,18 @@ def test_cancel_and_preempt(ros: Any) -> None:
     again, _ = rp.call(f"{ACTION}/cancel_goal", "action_msgs/srv/CancelGoal",
                        {"goal_info": {"goal_id": {"uuid": second["goal_id"]["uuid"]}}})
     assert again["return_code"] == 3  # terminated
+
+
+@pytest.mark.serial  # times on the real clock
+def test_header_stamp_in_the_future_delays_the_start(ros: Any) -> None:
+    server, _, rp = ros
+    q0 = list(server.controller.state().joints)
+    start = time.time() + 0.8
+    goal = _goal(_points(q0, _target(), 0.5))
+    goal["goal"]["trajectory"]["header"] = {
+        "stamp": {"sec": int(start), "nanosec": int(start % 1 * 1e9)}, "frame_id": ""}
+    assert rp.call(f"{ACTION}/send_goal", f"{FJT}_SendGoal", goal)[0]["accepted"]
+    assert _result(rp, goal["goal_id"]["uuid"])["status"] == 4
+    records = server.controller.moves()[-1].execution.stream.records
+    first_write = time.time() - (time.perf_counter() - records.at[0])
+    assert start - 0.002 <= first_write <= start + 0.05

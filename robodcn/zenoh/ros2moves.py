@@ -27,7 +27,9 @@ def seconds(duration: dict[str, int]) -> float:
 def trajectory_body(server: Service, trajectory: dict[str, Any]) -> dict[str, Any]:
     """The ``POST /v1/moves`` body of a ROS JointTrajectory: joint names and points as
     JSON; a first point after t = 0 gets the present joints at t = 0 before it (as
-    joint_trajectory_controller starts from where the arm is)."""
+    joint_trajectory_controller starts from where the arm is); a ``header.stamp`` in the
+    future is the move's ``start_at`` (joint_trajectory_controller's delayed start; zero or
+    past: at once)."""
     names = list(trajectory.get("joint_names", []))
     points = [{key: list(p[key]) for key in ("positions", "velocities", "accelerations")}
               | {"time_from_start": dict(p["time_from_start"])}
@@ -48,7 +50,11 @@ def trajectory_body(server: Service, trajectory: dict[str, Any]) -> dict[str, An
         for key in ("velocities", "accelerations"):
             if not p.get(key):
                 p.pop(key, None)
-    return {"trajectory": {"joint_names": names, "points": points}}
+    body: dict[str, Any] = {"trajectory": {"joint_names": names, "points": points}}
+    start = seconds(trajectory.get("header", {}).get("stamp", {}))
+    if start > time.time():
+        body["start_at"] = start
+    return body
 
 
 def stop_and_wait(server: Service, timeout: float = REPLACE_WAIT_S) -> bool:
