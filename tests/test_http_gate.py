@@ -13,11 +13,13 @@ from __future__ import annotations
 
 import http.client
 import json
+import shutil
 import socket
 import subprocess
 import sys
 import time
 from collections.abc import Iterator
+from pathlib import Path
 from typing import Any
 
 import pytest
@@ -34,11 +36,13 @@ from http_helpers import (
     start_move,
 )
 
+import robodcn.web
 from robodcn.config import load_arm
 from robodcn.errors import InputError
 from robodcn.http import make_server
 
 OMX = load_arm(ROOT / "configs" / "omx.toml")
+STATIC = Path(robodcn.web.__file__).resolve().parent / "static"
 GOAL = [0.16, 0.06, 0.20, -0.2]
 EVIL = "http://evil.example"
 #: What Chromium adds to every request (its user agent and languages).
@@ -290,6 +294,68 @@ def test_the_console_files_are_served_to_any_origin(omx: Any) -> None:
     for path in ("/v1/state", "/v1/events", "/healthz"):
         status, _, reply = call(server, "GET", path, headers={"Origin": EVIL})
         assert status == 403 and error_of(reply)["code"] == "origin_not_allowed", path
+
+
+#: Runs the console's own control calls (robodcn/web/static/control.js) in node against the
+#: service: the page's fetch on absolute URLs, every request and its answer recorded.
+CONSOLE_SCRIPT = """
+const [base, dir] = process.argv.slice(2);
+const calls = [];
+const realFetch = globalThis.fetch;
+globalThis.fetch = async (path, opts = {}) => {
+  const r = await realFetch(base + path, opts);
+  calls.push({ method: opts.method, path, headers: opts.headers || {},
+               body: opts.body === undefined ? null : opts.body, status: r.status });
+  return r;
+};
+const element = () => new Proxy({ dataset: {}, style: {}, value: "30",
+  classList: { add() {}, remove() {}, toggle() {} } },
+  { get: (t, k) => (k in t ? t[k] : () => {}), set: (t, k, v) => { t[k] = v; return true; } });
+globalThis.document = { getElementById: element, querySelector: element,
+                        querySelectorAll: () => [] };
+globalThis.window = { confirm: () => true };
+globalThis.sessionStorage = { getItem: () => null, setItem() {}, removeItem() {} };
+const { S } = await import(dir + "/state.js");
+const control = await import(dir + "/control.js");
+S.features = { smoothStop: "smooth", holdStop: "hold", speed: "scale", torque: "on",
+               torqueConfirm: "confirm" };
+await control.stop("smooth");
+await control.stop("hold");
+S.features.smoothStop = null;          // a service without stop modes: a body-less stop
+await control.stop("smooth");
+await control.post("/v1/pause", {});
+await control.post("/v1/resume", {});
+control.setSpeed(0.5);
+await new Promise((done) => setTimeout(done, 300));
+await control.torque(true);
+await control.gripper("open");
+process.stdout.write(JSON.stringify(calls));
+"""
+
+
+@pytest.mark.skipif(shutil.which("node") is None, reason="needs node to run the page's module")
+def test_the_console_sends_json_on_every_control_call(omx: Any, tmp_path: Any) -> None:
+    """The console's control calls, run by node from the page's own modules against the
+    service: each carries Content-Type application/json and a JSON object body ({} for a
+    stop without a mode), and none is refused by the gate (no 403, 411 or 415)."""
+    server, _ = omx
+    script = tmp_path / "console_calls.mjs"
+    script.write_text(CONSOLE_SCRIPT)
+    out = subprocess.run(["node", str(script), f"http://{own_host(server)}",
+                          STATIC.as_uri()], capture_output=True, text=True, timeout=60)
+    assert out.returncode == 0, out.stderr
+    calls = json.loads(out.stdout)
+    assert [(c["method"], c["path"]) for c in calls] == [
+        ("POST", "/v1/stop"), ("POST", "/v1/stop"), ("POST", "/v1/stop"),
+        ("POST", "/v1/pause"), ("POST", "/v1/resume"), ("PUT", "/v1/speed"),
+        ("POST", "/v1/torque"), ("POST", "/v1/gripper")], calls
+    for call_ in calls:
+        assert call_["headers"].get("Content-Type") == "application/json", call_
+        assert isinstance(json.loads(call_["body"]), dict), call_
+        assert call_["status"] not in (403, 411, 415), call_
+    assert json.loads(calls[2]["body"]) == {}
+    # nothing ran: the stops answer 200, pause/resume/speed 409; torque and gripper act
+    assert [c["status"] for c in calls] == [200, 200, 200, 409, 409, 409, 200, 200], calls
 
 
 def test_allow_host_serves_another_name() -> None:
