@@ -34,7 +34,8 @@ class Retrying(Protocol):
     def flush(self) -> None: ...
 
 
-def retry(bus: Retrying, what: str, servo_id: int | None, fn: Callable[[], T]) -> T:
+def retry(bus: Retrying, what: str, servo_id: int | None, fn: Callable[[], T], *,
+          silence_expected: bool = False) -> T:
     """``fn()``, tried up to 1 + ``bus.retries`` times while it raises CommError.
 
     After each failed try (the last one too): wait :data:`STRAGGLER_S` and flush the
@@ -45,7 +46,8 @@ def retry(bus: Retrying, what: str, servo_id: int | None, fn: Callable[[], T]) -
     transaction's; the wait and the flush keep most out. Each failed try is logged
     (``robodcn.bus``, DEBUG; the last one WARNING) with the servo (``servo_id``; None:
     the whole bus) and the instruction (``what``). A lost device is not retried: its
-    error is raised at once.
+    error is raised at once. ``silence_expected``: no answer is an answer the caller asked
+    about (a PING looking for a free id), so the last try is logged at DEBUG too.
     """
     tries = bus.retries + 1
     for attempt in range(1, tries + 1):
@@ -53,7 +55,8 @@ def retry(bus: Retrying, what: str, servo_id: int | None, fn: Callable[[], T]) -
             return fn()
         except CommError as exc:
             who = "bus" if servo_id is None else f"servo {servo_id}"
-            level = logging.WARNING if attempt == tries else logging.DEBUG
+            level = logging.WARNING if attempt == tries and not silence_expected \
+                else logging.DEBUG
             log.log(level, "%s: %s failed (try %d of %d): %s", who, what, attempt, tries,
                     exc.message)
             if bus.lost:

@@ -46,10 +46,11 @@ class Transactions(Connection):
                             value=error)
         return bool(error & ALERT_BIT)
 
-    def _retry(self, what: str, servo_id: int | None, fn: Callable[[], T]) -> T:
+    def _retry(self, what: str, servo_id: int | None, fn: Callable[[], T], *,
+               silence_expected: bool = False) -> T:
         """``fn()`` through :func:`robodcn.bus.retry.retry` on this bus (open, not lost)."""
         self._port()
-        return retry(self, what, servo_id, fn)
+        return retry(self, what, servo_id, fn, silence_expected=silence_expected)
 
     def _read_txrx(self, port: PortHandler, servo_id: int, address: int,
                    length: int) -> tuple[list[int], int, int]:

@@ -97,7 +97,8 @@ class Verification(Transactions):
 
         with self.claim():
             try:
-                model_number = self._retry("ping", servo_id, once)
+                # a silent id is this call's answer (None): the caller says what it means
+                model_number = self._retry("ping", servo_id, once, silence_expected=True)
             except CommError:
                 if self.lost:
                     raise

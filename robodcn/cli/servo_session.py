@@ -30,14 +30,44 @@ def baud_of(args: argparse.Namespace, arm: Arm) -> int:
 
 
 def open_bus(args: argparse.Namespace, arm: Arm):
-    """A ServoBus on ``--device`` (or the arm's port) at ``--baud`` (or the arm's), opened."""
+    """A ServoBus on ``--device`` (or the arm's port) at ``--baud`` (or the arm's), opened,
+    with every servo of the arm answering: a silent one is named by its joint
+    (:class:`~robodcn.errors.ServoMismatchError`) before anything is read or written."""
     from robodcn.bus import ServoBus, lower_latency_timer
 
     device = device_of(args, arm)
     note = lower_latency_timer(device).message(device)
     if note:
         say(f"robodcn: {note}")
-    return ServoBus(device, baud_of(args, arm), servos=arm.servos, retries=3).open()
+    bus = ServoBus(device, baud_of(args, arm), servos=arm.servos, retries=3).open()
+    try:
+        missing = [spec for spec in arm.servos if bus.ping(spec.id) is None]
+    except BaseException:
+        bus.close()
+        raise
+    if missing:
+        bus.close()
+        raise missing_servos_error(arm, missing, device, bus.baud, args)
+    return bus
+
+
+def missing_servos_error(arm: Arm, missing, device: str, baud: int,
+                         args: argparse.Namespace):
+    """The ServoMismatchError naming each silent servo by its joint."""
+    import os
+
+    from robodcn.errors import ServoMismatchError
+
+    names = dict(zip((s.id for s in arm.servos), arm.joint_names, strict=True))
+    which = ", ".join(f"joint {names[s.id]!r} (servo {s.id})" for s in missing)
+    verb = "does" if len(missing) == 1 else "do"
+    hint = "" if getattr(args, "arm", None) or os.environ.get("ROBODCN_ARM") else (
+        f"; without --arm these are the servos of {arm.name!r} ({arm.source}): give your "
+        "arm file with --arm")
+    return ServoMismatchError(
+        f"{which} {verb} not answer on {device} at {baud} baud: check power and cable, the "
+        f"id and baud (robodcn scan --device {device} lists what answers){hint}",
+        field="servos", value={"missing": [s.id for s in missing]})
 
 
 def model_warning(mismatch) -> str:
@@ -61,5 +91,5 @@ def check_models(bus, arm: Arm) -> None:
     warn_models(bus_model_mismatches(bus, arm))
 
 
-__all__ = ["add_bus_options", "baud_of", "check_models", "device_of", "model_warning",
-           "open_bus", "warn_models"]
+__all__ = ["add_bus_options", "baud_of", "check_models", "device_of",
+           "missing_servos_error", "model_warning", "open_bus", "warn_models"]
