@@ -11,7 +11,11 @@ Every surface that starts a move through an :class:`~robodcn.controller.ArmContr
 2. **read** Present Position once, on the controller's bus thread;
 3. **plan** once from it (:func:`robodcn.present.plan_from_present`, or a given trajectory
    behind a joint-space approach, :func:`robodcn.workflow.files.with_approach`), so an
-   infeasible approach is refused now (422) and the record shows what will run;
+   infeasible approach is refused now (422) and the record shows what will run; from a
+   present state not acceptable as a start (a joint past its limit after a fall) the move
+   is planned from where a slow joint-space recovery takes the arm, and the recovery goes
+   first (:func:`robodcn.planner.recovery.with_recovery`: the record's ``recovery``, a
+   warning in the log);
 4. **start** it with the ticks read (the executor does not read them again).
 
 A replacement (``replace`` while a move runs) skips 2–4: it is planned from the running
@@ -39,11 +43,13 @@ import numpy as np
 from numpy.typing import NDArray
 
 from robodcn import servo_units
+from robodcn.config import Arm
 from robodcn.controller import ArmController
 from robodcn.errors import InputError
 from robodcn.moves import MoveRecord
 from robodcn.planner import PlanRequest, Trajectory
 from robodcn.planner.path import user_pose
+from robodcn.planner.recovery import recovery_target, start_problems, with_recovery
 from robodcn.present import plan_from_present
 from robodcn.workflow import files
 
@@ -141,19 +147,32 @@ def admit(controller: ArmController, order: MoveOrder, *,
     with controller.admitting():
         ticks = controller.present_ticks()
         joints = servo_units.ticks_to_radians(ticks[None, :], arm.servos)[0]
+        # the start the move is planned from: the present, or where a recovery takes it
+        start = recovery_target(arm, joints, start_problems(arm, joints))
         if order.trajectory is None:
-            request = order.request_at(joints)
+            request = order.request_at(start)
             with planning(request):
-                trajectory = plan_from_present(arm, None, request, joints=joints)
+                trajectory, recovery = with_recovery(arm, joints, lambda q: plan_from_present(
+                    arm, None, request, joints=q))
         else:
             given = order.trajectory
             assert given is not None
-            trajectory = files.with_approach(given, arm, joints)
-            if trajectory is not given:  # the samples prepended are the approach
-                trajectory.approach_samples = len(trajectory.t) - len(given.t)
+            trajectory, recovery = with_recovery(arm, joints,
+                                                 lambda q: _approached(given, arm, q))
+        if recovery is not None:
+            log.warning("move from outside the limits: %s", recovery.line())
         return controller.start_move(trajectory,
                                      present_ticks=tuple(int(v) for v in ticks),
-                                     start_at=order.start_at)
+                                     start_at=order.start_at, recovery=recovery)
+
+
+def _approached(given: Trajectory, arm: Arm, start: tuple[float, ...]) -> Trajectory:
+    """``given`` behind a joint-space approach from the ``start`` joints (rad) to its first
+    sample (:func:`robodcn.workflow.files.with_approach`), counted in approach_samples."""
+    trajectory = files.with_approach(given, arm, np.asarray(start, dtype=np.float64))
+    if trajectory is not given:  # the samples prepended are the approach
+        trajectory.approach_samples = len(trajectory.t) - len(given.t)
+    return trajectory
 
 
 __all__ = ["MoveOrder", "Parse", "Planning", "admit"]

@@ -62,6 +62,7 @@ from robodcn.errors import (
 )
 from robodcn.moves import RECORD_SAMPLES, MoveRecord, move_status
 from robodcn.planner import Trajectory
+from robodcn.planner.recovery import Recovery
 from robodcn.results import MoveStatus, RebootAnswer, State, StopAnswer, TorqueAnswer
 from robodcn.stream import STOP_MODES, ExecutionOptions, ExecutionReport, Progress, StopSignal
 from robodcn.stream.online import Execution, PlanningTimes, SwitchMissed, Turns, prepare
@@ -183,7 +184,8 @@ class ArmController:
 
     def start_move(self, trajectory: Trajectory, *,
                    present_ticks: tuple[int, ...] | None = None,
-                   start_at: float | None = None) -> MoveRecord:
+                   start_at: float | None = None,
+                   recovery: Recovery | None = None) -> MoveRecord:
         """Queue ``trajectory`` for execution on the worker thread; returns its record.
 
         ``present_ticks``: Present Position as read for planning it (admission), so the
@@ -191,6 +193,7 @@ class ArmController:
         ``start_at``: UNIX time (s) its first sample is due (None: at once); the worker
         waits (stoppable) until :data:`START_LEAD_S` before it, then prepares the stream,
         which waits for ``start_at`` after its preflight and puts the first sample then.
+        ``recovery``: the recovery that opens ``trajectory`` (admission), kept in the record.
 
         Raises BusyError while another move is queued or running, InputError when the
         trajectory drives other servos than the arm's or the controller is closed.
@@ -205,7 +208,8 @@ class ArmController:
         with self._lock:
             self._check_free()
             record = MoveRecord(id=str(next(self._ids)), trajectory=trajectory,
-                                present_ticks=present_ticks, start_at=start_at)
+                                present_ticks=present_ticks, start_at=start_at,
+                                recovery=recovery)
             self._current = record
             self._moves[record.id] = record
             self._trim()

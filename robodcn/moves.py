@@ -19,6 +19,7 @@ from numpy.typing import NDArray
 
 from robodcn.planner import Trajectory
 from robodcn.planner.tool_peak import tool_peak
+from robodcn.planner.recovery import Recovery
 from robodcn.results import ApproachInfo, ErrorDetail, MoveStatus, to_json
 from robodcn.stream import ExecutionReport, Progress, StopSignal
 
@@ -87,6 +88,9 @@ class MoveRecord:
     execution: Any = field(default=None, repr=False)
     #: UNIX time (s) its first sample is due (a move body's ``start_at``); None: at once.
     start_at: float | None = None
+    #: The recovery that opens the move (:class:`robodcn.planner.recovery.Recovery`), None
+    #: when the arm started inside its limits.
+    recovery: Recovery | None = None
     #: Sample of the execution where this move begins (a replacement starts mid-stream).
     offset: int = 0
     #: Sample where a replacement took the execution over (None: this move ran to its end).
@@ -121,7 +125,8 @@ class MoveRecord:
             approach=self.approach(), created=self.created, started=self.started,
             finished=self.finished, report=report,
             error=None if self.error is None else ErrorDetail.of(self.error),
-            paused=self.paused, speed_scale=self.speed_scale, tool=self.tool())
+            paused=self.paused, speed_scale=self.speed_scale, tool=self.tool(),
+            recovery=None if self.recovery is None else self.recovery.to_dict())
 
     def tool(self) -> dict[str, Any]:
         """The trajectory's :func:`~robodcn.planner.tool_peak.tool_peak` as JSON, found once

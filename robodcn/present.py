@@ -11,6 +11,11 @@ by ``robodcn move``/``sim`` (CLI) and ``POST /v1/moves`` (HTTP):
   waypoints with ``start_joints`` = the present joints; a waypoint list whose first entry is
   None starts at the present pose (FK of the present joints). The planner prepends a
   joint-space approach when the arm is not at the IK of the first waypoint.
+* :func:`plan_recovering` is :func:`plan_from_present` with a way back: from a present
+  state not acceptable as a start (a joint past its limit after a fall) a slow joint-space
+  recovery comes first and the move is planned from the recovered joints
+  (:func:`robodcn.planner.recovery.with_recovery`; its :class:`Recovery` says what it does).
+  Every surface that moves the arm from where it is plans through it.
 * :func:`approach_of` gives that approach (samples and duration, as the planner recorded it
   in ``Trajectory.approach_samples``), for reports (:mod:`robodcn.stream.report`, re-exported
   here). The streamer's own ``approach`` option plans through the planner directly.
@@ -31,6 +36,7 @@ from robodcn.config import Arm
 from robodcn.errors import InputError, ServoMismatchError
 from robodcn.planner import PlanRequest, Trajectory, plan, plan_request
 from robodcn.planner.path import user_pose
+from robodcn.planner.recovery import Recovered, Recovery, with_recovery
 from robodcn.stream.report import Approach, approach_of  # re-export: the report's types
 
 
@@ -104,4 +110,26 @@ def plan_from_present(arm: Arm, bus: ServoBus | None,
     return plan(arm, waypoints, start_joints=start, **plan_options)
 
 
-__all__ = ["Approach", "approach_of", "check_servos", "plan_from_present", "present_joints"]
+def plan_recovering(arm: Arm, bus: ServoBus | None,
+                    target: PlanRequest | Sequence[ArrayLike | None], *,
+                    joints: ArrayLike | None = None, verify: bool = True,
+                    **plan_options: Any) -> Recovered:
+    """:func:`plan_from_present` behind a recovery when the present joints are not
+    acceptable as a start (module docstring): (the trajectory, its Recovery or None).
+
+    The move is planned from the recovered joints before anything moves; a first waypoint
+    None is the pose there. Raises what :func:`plan_from_present` raises.
+    """
+    if joints is None:
+        if bus is None:
+            raise InputError("plan_recovering needs a bus or the present joints",
+                             field="bus", value=None)
+        q = present_joints(arm, bus, verify=verify)
+    else:
+        q = np.asarray(joints, dtype=np.float64)
+    return with_recovery(arm, q, lambda start: plan_from_present(
+        arm, None, target, joints=start, **plan_options))
+
+
+__all__ = ["Approach", "Recovered", "Recovery", "approach_of", "check_servos",
+           "plan_from_present", "plan_recovering", "present_joints"]

@@ -108,6 +108,11 @@ class MoveStatus:
         "pose, peak_acceleration m/s², speed_limit and acceleration_limit (the request's "
         "tool_speed and tool_acceleration, or null), binds_from and binds_to s, "
         "binding_share)"))
+    recovery: dict[str, Any] | None = field(default=None, metadata=_doc(
+        "the slow joint-space recovery that opens the move when the arm was outside its "
+        "joint limits (robodcn.planner.recovery.Recovery: joints moved with start, target "
+        "(rad) and speed (rad/s), samples, duration_s, share of the limits, message), or "
+        "null"))
 
 
 @dataclass

@@ -21,18 +21,26 @@ OPTION_BY_FIELD = {"rate_hz": "--rate", "duration": "--duration", "beta": "--bet
 MAX_CHARS = 400
 
 
-def waypoint_options(vias: int) -> list[str]:
-    """The option that gave waypoints[i]: ``--from``, ``--via 1`` … ``--via N``, ``--to``."""
-    return ["--from"] + [f"--via {i + 1}" for i in range(vias)] + ["--to"]
+#: What waypoints[0] is when the user typed no --from: where the arm is.
+PRESENT_POSE = "the present pose"
 
 
-def option_for(field: str | None, vias: int) -> str | None:
-    """The option behind a request field (``waypoints[2]`` → ``--via 2``), None if unknown."""
+def waypoint_options(vias: int, start: bool = True) -> list[str]:
+    """The option that gave waypoints[i]: ``--from`` (``start``: the user typed it, else
+    :data:`PRESENT_POSE`: the plan starts where the arm is), ``--via 1`` … ``--via N``,
+    ``--to``."""
+    return [("--from" if start else PRESENT_POSE)] + [f"--via {i + 1}" for i in range(vias)] \
+        + ["--to"]
+
+
+def option_for(field: str | None, vias: int, start: bool = True) -> str | None:
+    """The option behind a request field (``waypoints[2]`` → ``--via 2``), None if unknown;
+    ``start``: whether --from was typed (else waypoints[0] is the present pose)."""
     if not field:
         return None
     match = re.fullmatch(r"waypoints\[(\d+)\].*", field)
     if match:
-        names = waypoint_options(vias)
+        names = waypoint_options(vias, start)
         index = int(match.group(1))
         return names[index] if index < len(names) else None
     return OPTION_BY_FIELD.get(field.split("[", 1)[0])
@@ -53,12 +61,13 @@ def one_line(text: str) -> str:
                    for c in text)
 
 
-def error_text(exc: RobodcnError, *, vias: int | None = None) -> str:
+def error_text(exc: RobodcnError, *, vias: int | None = None, start: bool = True) -> str:
     """``describe(exc)`` naming the option it is about (when ``vias``, the number of --via
-    options, is given), cut to :data:`MAX_CHARS`."""
-    names = waypoint_options(vias) if vias is not None else None
+    options, is given; ``start``: whether --from was typed, else the first waypoint is
+    the present pose and no --from is named), cut to :data:`MAX_CHARS`."""
+    names = waypoint_options(vias, start) if vias is not None else None
     text = describe(exc, names)
-    option = option_for(exc.field, vias) if vias is not None else None
+    option = option_for(exc.field, vias, start) if vias is not None else None
     if option and option not in text:
         text = (f"{text} ({exc.field} is {option})" if exc.field.startswith("waypoints")
                 else f"{option}: {text}")
@@ -81,5 +90,5 @@ def shorten(text: str, limit: int = MAX_CHARS) -> str:
     return f"{text[:head]} … {text[len(text) - (limit - 3 - head):]}"
 
 
-__all__ = ["MAX_CHARS", "OPTION_BY_FIELD", "describe", "error_text", "one_line", "option_for",
-           "shorten", "waypoint_options"]
+__all__ = ["MAX_CHARS", "OPTION_BY_FIELD", "PRESENT_POSE", "describe", "error_text", "one_line",
+           "option_for", "shorten", "waypoint_options"]

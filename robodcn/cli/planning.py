@@ -191,13 +191,25 @@ def plan_motion(request: MotionRequest, arm, start_pose, start_joints=None):
 
 def plan_from_present(request: MotionRequest, arm, bus):
     """Plan from the arm's present joints (read from ``bus``, :func:`robodcn.present.
-    plan_from_present`) to --to: from the present pose, or with a joint-space approach to
-    --from first."""
-    from robodcn.present import plan_from_present as from_present
+    plan_recovering`) to --to: from the present pose, or with a joint-space approach to
+    --from first; from a present state outside the joint limits a recovery comes first,
+    announced on stderr (:func:`announce_recovery`)."""
+    from robodcn.present import plan_recovering
 
     with _cli_terms(request):
-        return from_present(arm, bus, [request.start, *request.vias, request.end],
-                            **request.keywords)
+        traj, recovery = plan_recovering(arm, bus, [request.start, *request.vias,
+                                                    request.end], **request.keywords)
+    announce_recovery(recovery)
+    return traj
+
+
+def announce_recovery(recovery) -> None:
+    """The recovery's one line on stderr (:meth:`robodcn.planner.recovery.Recovery.line`),
+    when the move opens with one."""
+    if recovery is not None:
+        from robodcn.cli.dialogue import say
+
+        say(f"robodcn: {recovery.line()}")
 
 
 @contextmanager
@@ -206,11 +218,10 @@ def _cli_terms(request: MotionRequest) -> Iterator[None]:
     try:
         yield
     except RobodcnError as exc:
-        exc.cli_text = error_text(exc, vias=len(request.vias))
+        exc.cli_text = error_text(exc, vias=len(request.vias), start=request.start is not None)
         raise
 
 
 __all__ = ["ELBOWS", "MotionRequest", "add_motion_options", "add_payload_option",
-           "add_tool_options", "hands_on_speed", "motion_request", "payload_keywords",
-           "plan_from_present",
-           "plan_motion", "tool_keywords"]
+           "add_tool_options", "announce_recovery", "hands_on_speed", "motion_request",
+           "payload_keywords", "plan_from_present", "plan_motion", "tool_keywords"]

@@ -192,7 +192,8 @@ def plan_file(args: argparse.Namespace, arm: Arm, bus, wp: Any, leg_list: list[A
 
     present = present_joints(arm, bus)     # a bus error is not the file's
     with _file_terms(args.file, wp):
-        return plan_legs(arm, leg_list, present, source=args.file)
+        return plan_legs(arm, leg_list, present, source=args.file,
+                         on_recovery=planning.announce_recovery)
 
 
 @contextmanager
@@ -212,12 +213,14 @@ def _file_terms(path: str, wp: Any) -> Iterator[None]:
 
 def plan_run(args: argparse.Namespace, arm: Arm, bus, kind: str, loaded: Any):
     """The trajectory ``run`` streams, from the present joints read on ``bus``
-    (:func:`robodcn.workflow.run.trajectory_to_run`)."""
+    (:func:`robodcn.workflow.run.trajectory_to_run`; a recovery first is announced)."""
     from robodcn.present import present_joints
     from robodcn.workflow.run import trajectory_to_run
 
     present = present_joints(arm, bus)     # a bus error is not the file's
-    return trajectory_to_run(arm, kind, loaded, present, source=args.file)
+    traj, recovery = trajectory_to_run(arm, kind, loaded, present, source=args.file)
+    planning.announce_recovery(recovery)
+    return traj
 
 
 def run(args: argparse.Namespace) -> int:

@@ -22,7 +22,7 @@ from __future__ import annotations
 
 import dataclasses
 import re
-from collections.abc import Iterator, Sequence
+from collections.abc import Callable, Iterator, Sequence
 from contextlib import contextmanager
 from dataclasses import dataclass
 from typing import Any
@@ -34,6 +34,7 @@ from robodcn import messages
 from robodcn.config import Arm
 from robodcn.errors import InputError, PlanError, RobodcnError
 from robodcn.planner import PlanRequest, Trajectory, plan_request
+from robodcn.planner.recovery import Recovered, Recovery, with_recovery
 from robodcn.workflow.files import WaypointsPlan, with_approach
 
 #: The kinds of file ``run`` plays (:func:`robodcn.workflow.files.file_kind`).
@@ -193,11 +194,13 @@ def plan_leg(arm: Arm, leg: Leg, present: ArrayLike, *, source: str) -> Trajecto
         return _leg_trajectory(arm, leg, present)
 
 
-def plan_legs(arm: Arm, leg_list: Sequence[Leg], present: ArrayLike, *,
-              source: str) -> list[Trajectory]:
+def plan_legs(arm: Arm, leg_list: Sequence[Leg], present: ArrayLike, *, source: str,
+              on_recovery: Callable[[Recovery], None] | None = None) -> list[Trajectory]:
     """Every leg's trajectory, planned before anything moves: the first from the
-    ``present`` joints (k,) rad, each next from the end of the one before (its last planned
-    joints, at rest: where the arm will be, its goal already there).
+    ``present`` joints (k,) rad — behind a recovery when they are not acceptable as a
+    start (:mod:`robodcn.planner.recovery`; ``on_recovery`` is told of it) — each next
+    from the end of the one before (its last planned joints, at rest: where the arm will
+    be, its goal already there).
 
     Every check the planner makes (reach, joint and tick limits, speed, acceleration, jerk,
     torque with the leg's payload) holds on every leg, or nothing is returned.
@@ -210,13 +213,20 @@ def plan_legs(arm: Arm, leg_list: Sequence[Leg], present: ArrayLike, *,
     """
     q = np.asarray(present, dtype=np.float64)
     out: list[Trajectory] = []
+    recovery = None
     for k, leg in enumerate(leg_list, start=1):
         try:
-            traj = _leg_trajectory(arm, leg, q)
+            if k == 1:
+                traj, recovery = with_recovery(
+                    arm, q, lambda start, leg=leg: _leg_trajectory(arm, leg, start))
+            else:
+                traj = _leg_trajectory(arm, leg, q)
         except RobodcnError as exc:
             raise in_file_terms(exc, leg, k, len(leg_list), source) from None
         out.append(traj)
         q = traj.joints[-1]
+    if recovery is not None and on_recovery is not None:
+        on_recovery(recovery)
     return out
 
 
@@ -275,10 +285,11 @@ def in_file_terms(exc: RobodcnError, leg: Leg, k: int, count: int,
 
 
 def trajectory_to_run(arm: Arm, kind: str, loaded: dict[str, Any] | Trajectory,
-                      present: ArrayLike, *, source: str) -> Trajectory:
+                      present: ArrayLike, *, source: str) -> Recovered:
     """The trajectory ``run`` streams from the ``present`` joints (k,) rad: the waypoints
     file's fields (:func:`waypoints_fields`) planned from there, or a saved trajectory
-    after a joint-space approach to its first sample."""
+    after a joint-space approach to its first sample; either behind a recovery when the
+    present is not acceptable as a start (:mod:`robodcn.planner.recovery`)."""
     from robodcn import present as present_pose
 
     q = np.asarray(present, dtype=np.float64)
@@ -286,10 +297,11 @@ def trajectory_to_run(arm: Arm, kind: str, loaded: dict[str, Any] | Trajectory,
         assert isinstance(loaded, dict)
         fields = dict(loaded)
         with naming_file(source):
-            return present_pose.plan_from_present(arm, None, fields.pop("waypoints"),
-                                                  joints=q, **fields)
+            return present_pose.plan_recovering(arm, None, fields.pop("waypoints"),
+                                                joints=q, **fields)
     assert isinstance(loaded, Trajectory)
-    return with_approach(loaded, arm, q)
+    given = loaded
+    return with_recovery(arm, q, lambda start: with_approach(given, arm, np.asarray(start)))
 
 
 __all__ = ["KINDS", "Leg", "PlanOverrides", "in_file_terms", "leg_context", "legs",
