@@ -18,8 +18,8 @@ import numpy as np
 from numpy.typing import NDArray
 
 from robodcn.planner import Trajectory
-from robodcn.planner.tool_peak import tool_peak
 from robodcn.planner.recovery import Recovery
+from robodcn.planner.tool_peak import tool_peak
 from robodcn.results import ApproachInfo, ErrorDetail, MoveStatus, to_json
 from robodcn.stream import ExecutionReport, Progress, StopSignal
 

@@ -56,6 +56,7 @@ from robodcn.errors import (
     StoppedError,
 )
 from robodcn.planner import Trajectory, plan
+from robodcn.planner.recovery import Recovery, with_recovery
 from robodcn.present import present_joints
 from robodcn.stream import ExecutionReport, execute
 from robodcn.workflow.float_teach import gravity_torques, has_gravity
@@ -108,12 +109,16 @@ class ReleaseResult:
     released: bool
     released_ids: tuple[int, ...]
     hold: str | None = None
+    #: The recovery that opened the lowering, from outside the joint limits
+    #: (:mod:`robodcn.planner.recovery`); None without one.
+    recovery: Recovery | None = None
 
     def to_dict(self) -> dict[str, Any]:
         return {"check": self.check.to_dict(), "lowered": self.lowered,
                 "lowering": None if self.lowering is None else self.lowering.to_dict(),
                 "released": self.released, "released_ids": list(self.released_ids),
-                "hold": self.hold}
+                "hold": self.hold,
+                "recovery": None if self.recovery is None else self.recovery.to_dict()}
 
 
 def _released_joints(arm: Arm, ids: Collection[int] | None) -> tuple[str, ...]:
@@ -150,20 +155,25 @@ def check_release(arm: Arm, joints: ArrayLike, ids: Collection[int] | None = Non
 
 
 def _lowering_plan(arm: Arm, q: NDArray[np.float64], check: ReleaseCheck, lower: bool,
-                   plan_options: dict[str, Any] | None) -> tuple[Trajectory | None, str | None]:
-    """The lowering to the rest pose from ``q`` (None when none is due) and, when the arm
-    falls but cannot be lowered, why (the user must hold it)."""
+                   plan_options: dict[str, Any] | None
+                   ) -> tuple[Trajectory | None, str | None, Recovery | None]:
+    """The lowering to the rest pose from ``q`` (None when none is due), when the arm
+    falls but cannot be lowered why (the user must hold it), and the recovery that opens
+    the lowering from outside the joint limits (:mod:`robodcn.planner.recovery`)."""
     if not check.falls:
-        return None, None
+        return None, None, None
     if not lower:
-        return None, "the lowering was not asked for"
+        return None, "the lowering was not asked for", None
     if arm.rest is None:
-        return None, "it has no rest pose ([arm.rest]) to be lowered to"
+        return None, "it has no rest pose ([arm.rest]) to be lowered to", None
+    rest = arm.rest
     try:
-        return plan(arm, [tool_pose(arm, q), arm.rest], start_joints=q,
-                    **(plan_options or {})), None
+        trajectory, recovery = with_recovery(arm, q, lambda start: plan(
+            arm, [tool_pose(arm, np.asarray(start)), rest], start_joints=start,
+            **(plan_options or {})))
+        return trajectory, None, recovery
     except (InputError, PlanError) as exc:
-        return None, f"the lowering to its rest pose cannot be planned: {exc.message}"
+        return None, f"the lowering to its rest pose cannot be planned: {exc.message}", None
 
 
 def refusal(check: ReleaseCheck, *, what: str = "torque off", hold: str | None = None
@@ -229,20 +239,21 @@ def release(bus: ServoBus, arm: Arm, *, confirm: bool = False, lower: bool = Tru
     enabled = bus.torque_enabled()
     check = check_release(arm, q, [i for i in (bus.ids if ids is None else ids)
                                    if enabled.get(i, True)])    # off already: nothing drops
-    trajectory, hold = _lowering_plan(arm, q, check, lower, plan_options)
+    trajectory, hold, recovery = _lowering_plan(arm, q, check, lower, plan_options)
     if trajectory is not None:           # the streamer refuses to move servos in alert
         alerts = {i: describe_hardware_error(e) for i, e in bus.hardware_errors().items()
                   if e}
         if alerts:
-            trajectory, hold = None, (f"servo(s) in alert ({alerts}): the streamer cannot "
-                                      "lower it before a reboot clears that")
+            trajectory, recovery = None, None
+            hold = (f"servo(s) in alert ({alerts}): the streamer cannot lower it before a "
+                    "reboot clears that")
     if check.falls and not confirm:
         raise refusal(check, what=what, hold=hold)
     tell = warn or log.warning
     lowering = None
     if trajectory is not None:
         tell(f"{what} lets arm {arm.name!r} fall under gravity (confirmed): lowering it to "
-             "its rest pose first")
+             "its rest pose first" + ("" if recovery is None else f"; {recovery.line()}"))
         try:
             lowering = execute(trajectory, bus, **(execute_options or {}))
         except (InputError, PlanError, HardwareAlertError, StartMismatchError) as exc:
@@ -250,7 +261,7 @@ def release(bus: ServoBus, arm: Arm, *, confirm: bool = False, lower: bool = Tru
         if lowering is not None and lowering.outcome not in ARRIVED:
             log.warning("%s: the lowering to the rest pose ended %s; torque stays on", what,
                         lowering.outcome)
-            return ReleaseResult(check, False, lowering, False, (), None)
+            return ReleaseResult(check, False, lowering, False, (), None, recovery)
     if check.falls and hold is not None:
         tell(f"{what} lets arm {arm.name!r} fall under gravity (confirmed) and it cannot be "
              f"lowered first ({hold}): hold it, torque goes off on {', '.join(check.joints)}")
@@ -259,7 +270,7 @@ def release(bus: ServoBus, arm: Arm, *, confirm: bool = False, lower: bool = Tru
     log.info("%s: torque off on %s%s", what, ", ".join(map(str, released)),
              " after lowering to the rest pose" if lowering is not None else "")
     return ReleaseResult(check, lowering is not None, lowering, True, released,
-                         hold if check.falls else None)
+                         hold if check.falls else None, recovery)
 
 
 def released(result: ReleaseResult, what: str = "torque off") -> ReleaseResult:
