@@ -37,9 +37,6 @@ log = logging.getLogger("robodcn.stream")
 OVERLOAD_BIT = 0x20
 #: A final reading one tick off its target counts once unchanged for this long (s).
 REST_S = 0.05
-#: A final reading within the in-position tolerance but more than a tick off counts once
-#: unchanged for this long (s): a P loop creeping through its dead band gets the time to.
-IN_POSITION_REST_S = 0.2
 #: Time between two final reads while settling (s).
 SETTLE_POLL_S = 0.005
 #: The least settle (s) of a stream whose last goals were slewed after a host stall
@@ -49,8 +46,9 @@ SETTLE_POLL_S = 0.005
 CATCH_UP_SETTLE_S = 0.3
 #: The least settle (s) of a stream that completed: its final read is where the arm came to
 #: rest, which the in-position check (:mod:`robodcn.stream.in_position`) compares with the
-#: goal. The wait ends as soon as the arm rests within its tolerance: this bound is paid
-#: only by an arm that does not get there (a load the plan did not expect).
+#: goal. The wait ends as soon as the arm rests within a tick of its last goal: this bound
+#: is paid only by an arm that does not get there (a load the plan did not expect, a P
+#: loop's friction dead band).
 IN_POSITION_SETTLE_S = 0.5
 
 
@@ -69,11 +67,9 @@ class Finished:
 
 def finish(bus: ServoBus, clock: Clock, *, hold: bool, release: bool, settle: float,
            last_goal: NDArray[np.int64] | None, last_present: NDArray[np.int64] | None,
-           hardware: dict[int, int] | None = None,
-           tolerance: NDArray[np.int64] | int = 1) -> Finished:
+           hardware: dict[int, int] | None = None) -> Finished:
     """Hold (when stopped), disarm the watchdog, recover (``hardware``: the errors found,
-    given only with ``recover``), read the final positions (settling within ``tolerance``
-    ticks of the target, :func:`_final`), release."""
+    given only with ``recover``), read the final positions, release."""
     done = Finished()
     try:
         bus.disarm_watchdog()
@@ -84,8 +80,7 @@ def finish(bus: ServoBus, clock: Clock, *, hold: bool, release: bool, settle: fl
     if hold:
         done.hold_goals, done.hold_failed = _hold(bus, last_goal, last_present)
     if not bus.lost:
-        done.final = _final(bus, clock, settle, done.hold_goals if hold else last_goal,
-                            tolerance)
+        done.final = _final(bus, clock, settle, done.hold_goals if hold else last_goal)
     if release and not bus.lost:
         try:
             bus.torque(False)
@@ -167,16 +162,14 @@ def _recover(bus: ServoBus, hardware: dict[int, int]) -> list[dict[str, Any]]:
     return recovered
 
 
-def _final(bus: ServoBus, clock: Clock, settle: float, target: NDArray[np.int64] | None,
-           tolerance: NDArray[np.int64] | int = 1) -> NDArray[np.int64] | None:
+def _final(bus: ServoBus, clock: Clock, settle: float,
+           target: NDArray[np.int64] | None) -> NDArray[np.int64] | None:
     """The final positions, read for up to ``settle`` seconds until the arm is on its
-    target, at rest within one tick of it, or at rest longer within ``tolerance`` ticks
-    of it (per joint; None if they cannot be read).
+    target or at rest within one tick of it (None if they cannot be read).
 
-    A position off the target is returned only at rest (the same reading for
-    :data:`REST_S`, or :data:`IN_POSITION_REST_S` more than a tick off): a motor still
-    closing its last ticks would otherwise be reported short of where it comes to
-    rest."""
+    One tick off is returned only at rest (the same reading for :data:`REST_S`): a motor
+    still closing its last tick would otherwise be reported a tick short of where it comes
+    to rest."""
     now = clock.now()
     deadline = now + settle
     final = None
@@ -191,13 +184,11 @@ def _final(bus: ServoBus, clock: Clock, settle: float, target: NDArray[np.int64]
             last, since = final, now
         if target is None or now >= deadline:
             return final
-        error = np.abs(final - target)
-        rest = now - since
-        if not error.any() or (error.max() <= 1 and rest >= REST_S) or (
-                bool(np.all(error <= tolerance)) and rest >= IN_POSITION_REST_S):
+        error = np.abs(final - target).max()
+        if error == 0 or (error <= 1 and now - since >= REST_S):
             return final
         clock.sleep(SETTLE_POLL_S)
 
 
-__all__ = ["CATCH_UP_SETTLE_S", "IN_POSITION_REST_S", "IN_POSITION_SETTLE_S", "OVERLOAD_BIT",
+__all__ = ["CATCH_UP_SETTLE_S", "IN_POSITION_SETTLE_S", "OVERLOAD_BIT",
            "REST_S", "Finished", "finish", "held_goals"]

@@ -66,7 +66,6 @@ from robodcn.bus import ServoBus
 from robodcn.planner import Trajectory
 from robodcn.stream.feedback import CommFailures, Feedback
 from robodcn.stream.finish import CATCH_UP_SETTLE_S, IN_POSITION_SETTLE_S, finish
-from robodcn.stream.in_position import tolerance_ticks
 from robodcn.stream.loop import PROGRESS_INTERVAL_S, Stream
 from robodcn.stream.options import ExecutionOptions
 from robodcn.stream.preflight import arm_watchdog, check_arguments, preflight
@@ -128,8 +127,7 @@ def execute(trajectory: Trajectory, bus: ServoBus, options: ExecutionOptions | N
             return finish(bus, opts.clock, hold=hold, release=opts.release, settle=settle,
                           last_goal=stream.last_goal, last_present=feedback.last_present,
                           hardware=(feedback.hardware if opts.recover
-                                    and stream.ending.reason == "hardware_alert" else None),
-                          tolerance=1 if hold else tolerance_ticks(bus.servos, feedback.arm))
+                                    and stream.ending.reason == "hardware_alert" else None))
 
         try:
             with timer_slack(), realtime_priority(opts.realtime) as stream.realtime:
