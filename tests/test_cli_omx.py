@@ -292,16 +292,16 @@ def test_readme_omx_commands_run(tmp_path):
 
 def test_a_move_from_outside_the_joint_limits_recovers_first_and_says_so(omx_bus, monkeypatch,
                                                                        capsys):
-    """An arm left with torque off has been pushed past a joint limit: the move opens with
-    a slow recovery of that joint back into its range, announced on stderr (issue 26 §4;
-    it was refused, naming the present joints)."""
-    backdrive(omx_bus, {12: 3782, 13: 1674})               # the shoulder at 152°
+    """An arm left with torque off has fallen onto its elbow's end stop, 3° past the
+    limit: the move opens with a slow recovery of that joint back into its range,
+    announced on stderr (issue 26 §4; it was refused, naming the present joints)."""
+    backdrive(omx_bus, {12: 1364, 13: 2995, 14: 2504})      # the elbow at 83.2°
     assert run_cli(monkeypatch, ["move", "--arm", "omx", "--device", omx_bus.port_path,
                                  "--to", "0.18,0.065,0.15,-20", "--compensation", "off"]
                    ) in (0, 5)
     err = capsys.readouterr().err
-    assert "robodcn: recovery: shoulder 152.4° → 84.9°" in err
-    shoulder = OMX.joints[1]
-    at = servo_units.ticks_to_radians(np.array([omx_bus.servo(12).present_position]),
-                                      (shoulder.servo,))[0]
-    assert shoulder.min_angle <= at <= shoulder.max_angle
+    assert "robodcn: recovery: elbow 83.2° → 79.2°" in err
+    elbow = OMX.joints[2]
+    at = servo_units.ticks_to_radians(np.array([omx_bus.servo(13).present_position]),
+                                      (elbow.servo,))[0]
+    assert elbow.min_angle <= at <= elbow.max_angle

@@ -206,10 +206,8 @@ def test_torque_off_where_no_lowering_can_be_planned_asks_to_hold_and_releases(
         monkeypatch, capsys):
     """The tool pointing back over the base: no path to the rest pose; --yes still
     releases, after asking the user to hold the arm."""
-    from robodcn.cli import releasing
     from robodcn.simulated import simulated_arm
 
-    monkeypatch.setattr(releasing, "HOLD_S", 0.2)
     behind = [0.0, -1.2, -1.2, 0.5]
     with simulated_arm(OMX, timing="fast", start_joints=behind) as sa:
         sa.bus.close()
@@ -217,9 +215,8 @@ def test_torque_off_where_no_lowering_can_be_planned_asks_to_hold_and_releases(
                                      sa.sim.port_path, "--yes"])
         captured = capsys.readouterr()
         assert code == 0, captured.err
-        assert "cannot be lowered to its rest pose" in captured.err
-        assert "hold it now" in captured.err
-        assert "where the arm was (it could not be lowered)" in captured.out
+        assert "cannot be lowered first" in captured.err and "hold it" in captured.err
+        assert "torque off: servo(s) 11, 12, 13, 14" in captured.out
         assert not any(sa.sim.servo(i).torque_enabled for i in OMX.servo_ids)
 
 
