@@ -196,7 +196,7 @@ def plan_from_present(request: MotionRequest, arm, bus):
     announced on stderr (:func:`announce_recovery`)."""
     from robodcn.present import plan_recovering
 
-    with _cli_terms(request):
+    with _cli_terms(request, present=True):
         traj, recovery = plan_recovering(arm, bus, [request.start, *request.vias,
                                                     request.end], **request.keywords)
     announce_recovery(recovery)
@@ -213,12 +213,15 @@ def announce_recovery(recovery) -> None:
 
 
 @contextmanager
-def _cli_terms(request: MotionRequest) -> Iterator[None]:
-    """A planner error leaves with ``cli_text``: what main() prints, naming the option."""
+def _cli_terms(request: MotionRequest, *, present: bool = False) -> Iterator[None]:
+    """A planner error leaves with ``cli_text``: what main() prints, naming the option;
+    ``present``: the plan starts at the arm's present pose unless --from was typed (the
+    first waypoint is then named "the present pose", not a --from the user never typed)."""
     try:
         yield
     except RobodcnError as exc:
-        exc.cli_text = error_text(exc, vias=len(request.vias), start=request.start is not None)
+        exc.cli_text = error_text(exc, vias=len(request.vias),
+                                  start=not present or request.start is not None)
         raise
 
 
