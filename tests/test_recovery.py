@@ -289,3 +289,47 @@ def test_an_http_move_after_a_fall_recovers_then_moves(fallen_server, caplog):
     assert (e[out][0] - e[out][-1]) / window <= \
         RECOVERY_SHARE * OMX.joints[ELBOW].max_velocity * 1.2
     assert np.allclose(tool_pose(OMX, joints_of(sim))[:3], GOAL[:3], atol=0.005)
+
+
+def test_run_of_a_saved_trajectory_after_a_fall_recovers_then_approaches(
+        held_omx, monkeypatch, capsys, tmp_path):
+    """``run`` of a saved Trajectory: its joint-space approach was refused from the fallen
+    pose; now the recovery comes first, then the approach to its first sample, then it."""
+    saved = tmp_path / "goal.json"
+    assert run_cli(monkeypatch, ["plan", "--arm", "omx", "--to", GOAL_ARG, "--format", "json",
+                                 "--out", str(saved), "--quiet"]) == 0
+    capsys.readouterr()
+    q = fall(held_omx)
+    before = len(held_omx.goal_history(ELBOW_ID))
+    code = run_cli(monkeypatch, ["run", str(saved), "--arm", "omx", "--device",
+                                 held_omx.port_path, "--compensation", "off"])
+    err = capsys.readouterr().err
+    assert code in COMPLETED, err
+    check_recovery_line(err, q[ELBOW])
+    goals = [g for _, g in recovery_goals(held_omx, before)]
+    assert goals[-1] == TARGET_TICK and np.all(np.diff(goals) <= 0)
+    assert np.allclose(tool_pose(OMX, joints_of(held_omx))[:3], GOAL[:3], atol=0.012)
+
+
+def test_an_http_joint_trajectory_after_a_fall_recovers_then_approaches(fallen_server):
+    """A JointTrajectory body (the ROS shape) from the fallen pose: its approach was refused
+    ("start_joints[2] … outside joint 'elbow''s limits"); now recovery, approach, then it."""
+    server, sim, q = fallen_server
+    first = [0.0, -0.6, 0.4, 0.4]
+    last = [0.3, -0.3, 0.2, 0.3]
+    body = {"trajectory": {"joint_names": list(OMX.joint_names), "points": [
+        {"positions": first, "time_from_start": {"sec": 0}},
+        {"positions": last, "time_from_start": {"sec": 2}}]}}
+    status, _, reply = call(server, "POST", "/v1/moves", body)
+    assert status == 202, reply
+    assert [r["joint"] for r in reply["recovery"]["joints"]] == ["elbow"]
+    done = poll_move(server, reply["id"], lambda b: b["status"] not in ("queued", "running"),
+                     timeout=30)
+    assert done["status"] in ("done", "degraded"), done["report"]["headline"]
+    status, _, traj = call(server, "GET", f"/v1/moves/{reply['id']}/trajectory")
+    n = reply["recovery"]["samples"]
+    assert np.allclose(traj["joints"][0], q, atol=1e-9)                # from the fallen pose
+    assert traj["joints"][n][ELBOW] == pytest.approx(LIMIT - RECOVERY_MARGIN, abs=1e-6)
+    assert np.allclose(traj["joints"][-1], last, atol=1e-6)
+    # where it ended is the in-position check's (degraded when off); near the end here
+    assert np.allclose(joints_of(sim), last, atol=math.radians(2.0))
