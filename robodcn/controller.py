@@ -64,7 +64,14 @@ from robodcn.moves import RECORD_SAMPLES, MoveRecord, move_status
 from robodcn.planner import Trajectory
 from robodcn.planner.recovery import Recovery
 from robodcn.results import MoveStatus, RebootAnswer, State, StopAnswer, TorqueAnswer
-from robodcn.stream import STOP_MODES, ExecutionOptions, ExecutionReport, Progress, StopSignal
+from robodcn.stream import (
+    STOP_MODES,
+    ExecutionOptions,
+    ExecutionReport,
+    Follower,
+    Progress,
+    StopSignal,
+)
 from robodcn.stream.online import Execution, PlanningTimes, SwitchMissed, Turns, prepare
 from robodcn.workflow import poses
 from robodcn.workflow.gripper import GripperResult
@@ -205,6 +212,13 @@ class ArmController:
             raise InputError(f"the trajectory drives servo ids {list(trajectory.servo_ids)}, "
                              f"arm {self.arm.name!r} has {list(self.arm.servo_ids)}",
                              field="servo_ids", value=list(trajectory.servo_ids))
+        record = self._queue(trajectory, present_ticks, start_at)
+        self._worker.submit(self._run, record)
+        return record
+
+    def _queue(self, trajectory: Trajectory, present_ticks: tuple[int, ...] | None,
+               start_at: float | None) -> MoveRecord:
+        """A new current move's record (BusyError while another is queued or running)."""
         with self._lock:
             self._check_free()
             record = MoveRecord(id=str(next(self._ids)), trajectory=trajectory,
@@ -213,7 +227,6 @@ class ArmController:
             self._current = record
             self._moves[record.id] = record
             self._trim()
-        self._worker.submit(self._run, record)
         return record
 
     @staticmethod
@@ -424,6 +437,61 @@ class ArmController:
                 self._trim()
             return new
 
+    # -- follow a stream of targets (robodcn.stream.following) -----------------------------
+
+    def start_follow(self, trajectory: Trajectory, *, space: str = "joints",
+                     timeout_s: float | None = None, payload_kg: float | None = None,
+                     present_ticks: tuple[int, ...] | None = None) -> MoveRecord:
+        """Open a follow session: one move record (status ``following``) whose stream the
+        worker runs until :meth:`follow_end` or a stop (:class:`~robodcn.stream.Follower`;
+        ``trajectory``: its rest samples where the arm is,
+        :func:`~robodcn.stream.following.rest_trajectory`). The arguments are checked
+        here (InputError naming the field); BusyError while another move runs."""
+        self.check_follow(space, timeout_s)
+        record = self._queue(trajectory, present_ticks, None)
+        options = ExecutionOptions.build(
+            self.execute_options,
+            {"stop": record.stop_signal,
+             "progress": lambda p: self._on_progress(self._live_of(record), p)})
+
+        def make(rec: MoveRecord) -> Follower:
+            return Follower(self.bus, self.arm, rec.trajectory, space=space,
+                            timeout_s=timeout_s, payload_kg=payload_kg, options=options,
+                            present_ticks=rec.present_ticks)
+        self._worker.submit(self._run, record, make)
+        return record
+
+    def check_follow(self, space: str, timeout_s: float | None) -> None:
+        """A follow session's arguments (InputError naming ``space`` or ``timeout_s``)."""
+        Follower.check(self.arm, space, timeout_s)
+
+    def _session(self) -> tuple[MoveRecord, Follower]:
+        """The running follow session; NoMoveError (409) when none runs."""
+        with self._lock:
+            record = self._current
+        if record is not None:
+            record.prepared.wait(QUEUED_WAIT)
+        follower = None if record is None else record.execution
+        if record is None or not isinstance(follower, Follower) or record.done.is_set():
+            raise NoMoveError("no follow session is open (POST /v1/follow opens one)",
+                              field="follow", value=None if record is None else record.id)
+        return record, follower
+
+    def follow_target(self, joints: Any = None, pose: Any = None,
+                      velocity: Any = None) -> int:
+        """Hand the running follow session a target (:meth:`Follower.target`); its sequence
+        number. InputError naming ``joints``/``pose``/``velocity`` (the session goes on to
+        the previous target), NoMoveError when no session runs."""
+        _, follower = self._session()
+        return follower.target(joints=joints, pose=pose, velocity=velocity)
+
+    def follow_end(self) -> MoveStatus:
+        """End the follow session at rest on its last target (the move ends ``done``);
+        answers at once, the record's status is ``following`` until the arm is there."""
+        record, follower = self._session()
+        follower.end()
+        return self._snapshot(record)
+
     # -- the worker: streaming a move ---------------------------------------------------------
 
     def _on_progress(self, record: MoveRecord, p: Progress) -> None:
@@ -441,23 +509,30 @@ class ArmController:
             if error is not None:
                 record.tracking_error = error
 
-    def _run(self, record: MoveRecord) -> None:
+    def _prepare(self, record: MoveRecord) -> Execution:
+        """The execution of a planned move (its online operations from the request
+        threads: pause, speed, replace)."""
+        execution = prepare(record.trajectory, self.bus, self.execute_options,
+                            start_at=record.start_at, stop=record.stop_signal,
+                            progress=lambda p: self._on_progress(self._live_of(record), p),
+                            arm=self.arm, planning_times=self._planning_times,
+                            present_ticks=record.present_ticks)
+        execution.budget_s = OPERATION_BUDGET_S
+        return execution
+
+    def _run(self, record: MoveRecord, make: Any = None) -> None:
+        """Stream ``record`` on this (the worker) thread: the execution ``make(record)``
+        builds (default :meth:`_prepare`; a follow session's :class:`~robodcn.stream.
+        Follower`), run to its end."""
         with self._lock:
-            record.status = "running"
+            record.status = "running" if make is None else "following"
             record.started = time.time()
         worker = self._worker
         try:
             worker.recover()
             if record.start_at is not None:
                 record.stop_signal.wait(max(0.0, record.start_at - START_LEAD_S - time.time()))
-            # streamed on this (the worker) thread: the execution's online operations
-            # (pause, speed, replace) come from the request threads
-            execution = prepare(record.trajectory, self.bus, self.execute_options,
-                                start_at=record.start_at, stop=record.stop_signal,
-                                progress=lambda p: self._on_progress(self._live_of(record), p),
-                                arm=self.arm, planning_times=self._planning_times,
-                                present_ticks=record.present_ticks)
-            execution.budget_s = OPERATION_BUDGET_S
+            execution = (make or self._prepare)(record)
             with self._lock:
                 record.execution = execution
             record.prepared.set()
@@ -511,6 +586,10 @@ class ArmController:
             record.status = status
             record.report = report
             record.error = error
+            if isinstance(record.execution, Follower):
+                # a follow session's record is what it commanded (its rest plan before)
+                record.trajectory = record.execution.commanded()
+                record._tool = None
             if report is None and status == "fault" and error is not None:
                 record.fault_report = record.known_report(error)
             record.finished = time.time()

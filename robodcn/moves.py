@@ -1,10 +1,10 @@
 """A service move's record: its trajectory, lifecycle status and what was measured.
 
-Lifecycle: ``queued`` → ``running`` → ``done`` | ``degraded`` | ``stopped`` | ``collision``
-| ``fault`` | ``failed`` | ``replaced`` (:data:`robodcn.results.MoveState`). The
-:class:`~robodcn.controller.ArmController` owns the records and changes them under its
-lock; :meth:`MoveRecord.snapshot` is the typed :class:`~robodcn.results.MoveStatus` a
-surface turns into JSON.
+Lifecycle: ``queued`` → ``running`` (``following``: a follow session) → ``done`` |
+``degraded`` | ``stopped`` | ``collision`` | ``fault`` | ``failed`` | ``replaced``
+(:data:`robodcn.results.MoveState`). The :class:`~robodcn.controller.ArmController` owns
+the records and changes them under its lock; :meth:`MoveRecord.snapshot` is the typed
+:class:`~robodcn.results.MoveStatus` a surface turns into JSON.
 """
 
 from __future__ import annotations
@@ -27,7 +27,7 @@ from robodcn.stream import ExecutionReport, Progress, StopSignal
 #: at 100 Hz); the reads themselves are the execution's (its report's trace).
 RECORD_SAMPLES = 12_000
 #: Statuses of a move that has not finished.
-ACTIVE = ("queued", "running")
+ACTIVE = ("queued", "running", "following")
 
 
 def move_status(report: ExecutionReport) -> str:

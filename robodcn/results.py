@@ -20,8 +20,8 @@ from robodcn.workflow.gripper import GripperResult
 #: it after motion began; ``collision``: the collision stop ended it; ``failed``: refused
 #: before any sample was sent; ``replaced``: a move with ``"replace": true`` took over the
 #: rest of it in flight.
-MoveState = Literal["queued", "running", "done", "degraded", "stopped", "collision", "fault",
-                    "failed", "replaced"]
+MoveState = Literal["queued", "running", "following", "done", "degraded", "stopped",
+                    "collision", "fault", "failed", "replaced"]
 
 
 def _doc(text: str, **schema: Any) -> dict[str, Any]:
@@ -306,7 +306,16 @@ class AlertEvent:
 #: Event name → the type of its ``data`` (one JSON object per event).
 EVENTS: dict[str, type] = {"state": StateEvent, "move": MoveStatus, "alert": AlertEvent}
 
-RESULTS: dict[str, type] = {"Move": MoveStatus, "State": State, "Stop": StopAnswer,
+@dataclass
+class FollowTargetAnswer:
+    """A follow session took a target (``PUT /v1/follow/target``)."""
+
+    seq: int = field(metadata=_doc("the target's sequence number in the session (1, 2, …)",
+                                   type="integer", minimum=1))
+
+
+RESULTS: dict[str, type] = {"Move": MoveStatus, "FollowTarget": FollowTargetAnswer,
+                            "State": State, "Stop": StopAnswer,
                             "Health": Health, "Arm": ArmInfo, "Torque": TorqueAnswer,
                             "Gripper": GripperResult,
                             "Reboot": RebootAnswer, "Record": Recording,

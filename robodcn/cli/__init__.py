@@ -4,6 +4,7 @@ Subcommands
     plan    print a planned trajectory (table, JSON or CSV); touches no hardware
     move    plan from the arm's present pose and execute it on the servos
     sim     the same as move, against an in-process simulated bus (a dry-run)
+    follow  stream targets to the arm, one JSON line each from stdin
     serve   the HTTP trajectory service
     scan    list the servos on a serial device: id, model, firmware, baud
     gripper open|close|WIDTH_MM: the arm's [gripper] (current-based position mode)
@@ -38,7 +39,8 @@ from robodcn.errors import RobodcnError
 
 #: The command modules, in help order; each has ``register(subparsers)``.
 COMMANDS: tuple[str, ...] = ("robodcn.cli.plan_cmd", "robodcn.cli.motion_cmd",
-                             "robodcn.cli.jog_cmd", "robodcn.cli.serve_cmd", "robodcn.cli.scan_cmd",
+                             "robodcn.cli.jog_cmd", "robodcn.cli.follow_cmd",
+                             "robodcn.cli.serve_cmd", "robodcn.cli.scan_cmd",
                              "robodcn.cli.calibrate_cmd", "robodcn.cli.teach_cmd",
                              "robodcn.cli.run_cmd", "robodcn.cli.gripper_cmd",
                              "robodcn.cli.admin_cmd",

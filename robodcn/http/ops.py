@@ -15,7 +15,7 @@ import robodcn
 from robodcn.admission import MoveOrder, admit
 from robodcn.contract.start_at import take_start_at
 from robodcn.errors import InputError, RobodcnError, TooLargeError
-from robodcn.http import online_ops
+from robodcn.http import follow_ops, online_ops
 from robodcn.http.answer import Operation
 from robodcn.http.context import Service, controller_of
 from robodcn.http.framing import HTTPError, Reply, Request, stream_head
@@ -236,3 +236,4 @@ def op_openapi(server: Service, request: Request, params: dict[str, str]
 OPERATIONS: dict[str, Operation] = {name.removeprefix("op_"): fn for name, fn in
                                     dict(globals()).items() if name.startswith("op_")}
 OPERATIONS.update(online_ops.OPERATIONS)
+OPERATIONS.update(follow_ops.OPERATIONS)

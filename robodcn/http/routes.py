@@ -90,6 +90,16 @@ ROUTES: tuple[Route, ...] = (
           "Move", "EmptyBody", (*BODY_ERRORS, 409), pool="control"),
     Route("PUT", "/v1/speed", "set_speed", "Scale the running move's speed live (limits "
           "v·k, a·k², j·k³)", 200, "Move", "SpeedBody", (*BODY_ERRORS, 409), pool="control"),
+    Route("POST", "/v1/follow", "follow_open", "Open a follow session: the arm heads for "
+          "the newest of a stream of targets (one move, status following; 409 while "
+          "another runs)", 201, "Move", "FollowBody", (*BODY_ERRORS, 409)),
+    Route("PUT", "/v1/follow/target", "follow_target", "Send the follow session a target "
+          "(joints or a pose; nothing is planned: checked and taken at the next bus "
+          "period); 409 without a session", 200, "FollowTarget", "FollowTargetBody",
+          (*BODY_ERRORS, 409), pool="control"),
+    Route("DELETE", "/v1/follow", "follow_end", "End the follow session: rest at the last "
+          "target, the move ends done", 200, "Move", "EmptyBody", (*BODY_ERRORS, 409),
+          pool="control"),
     Route("GET", "/v1/state", "state", "Present joints, pose, torque and hardware alerts",
           200, "State", pool="read"),
     Route("GET", "/openapi.json", "openapi", "This OpenAPI 3.1 document", 200, "OpenAPI"),

@@ -52,7 +52,7 @@ KEEPALIVE_S = 10.0
 QUEUE_LENGTH = 256
 #: Longest wait between checks that the client is still connected (s).
 _POLL_S = 0.25
-_ACTIVE = ("queued", "running")
+_ACTIVE = ("queued", "running", "following")
 #: The keys of a state event's ``move_info`` (robodcn.results.MoveInfo).
 _MOVE_KEYS = tuple(f.name for f in dataclasses.fields(MoveInfo))
 

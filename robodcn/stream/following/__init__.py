@@ -5,7 +5,8 @@ loop's sample source made by the online generator), ``session`` (:class:`Followe
 :func:`follow`).
 """
 
-from robodcn.stream.following.session import STOP_MODES, Follower, follow
+from robodcn.stream.following.session import STOP_MODES, Follower, follow, rest_trajectory
 from robodcn.stream.following.targets import SPACES, STALE_S, Target, Targets
 
-__all__ = ["SPACES", "STALE_S", "STOP_MODES", "Follower", "Target", "Targets", "follow"]
+__all__ = ["SPACES", "STALE_S", "STOP_MODES", "Follower", "Target", "Targets", "follow",
+           "rest_trajectory"]

@@ -39,6 +39,7 @@ from robodcn.path_timing import JointLimits
 from robodcn.planner import Trajectory, plan
 from robodcn.planner.arm_arrays import limits_of
 from robodcn.planner.path import user_pose
+from robodcn.stream.collision import predicted_currents, thresholds
 from robodcn.stream.following.source import FollowSamples
 from robodcn.stream.following.targets import Targets
 from robodcn.stream.options import ExecutionOptions
@@ -60,6 +61,8 @@ SLACK_PERIODS = 2
 #: the jerk limit (× the acceleration limit, 1/s) of a session on a joint without one: full
 #: acceleration in 20 ms
 SESSION_JERK_PER_ACCEL = 50.0
+#: how far (rad) each joint's probe motion goes for the collision thresholds
+PROBE_RAD = 0.6
 #: a target velocity below this (rad/s, every joint) is rest
 REST_SPEED = 1e-9
 
@@ -90,10 +93,7 @@ class Follower:
     def __init__(self, bus: ServoBus, arm: Arm, trajectory: Trajectory, *,
                  space: str, timeout_s: float | None, payload_kg: float | None,
                  options: ExecutionOptions, present_ticks: ArrayLike | None = None) -> None:
-        if timeout_s is not None and not (isinstance(timeout_s, int | float)
-                                          and 0 < timeout_s < float("inf")):
-            raise InputError(f"timeout_s must be a number of seconds > 0, got {timeout_s!r}",
-                             field="timeout_s", value=timeout_s)
+        self.check(arm, space, timeout_s)
         self.bus = bus
         self.arm = arm
         self.trajectory = trajectory
@@ -106,6 +106,10 @@ class Follower:
             smoothed(limits_of(arm, payload_kg)), self.rate_hz, q0,
             position_limits=[(j.min_angle, j.max_angle) for j in arm.joints])
         self.status = "starting"
+        #: paused (a stop that stays until :meth:`resume`)
+        self.paused = False
+        #: the speed scale asked for (:meth:`set_speed`; the torque check may lower it more)
+        self.speed = 1.0
         self.taken = 0
         self.refused = 0
         self.seq = 0
@@ -134,6 +138,16 @@ class Follower:
         self._attached = threading.Event()
         self._done = threading.Event()
         self._thread: threading.Thread | None = None
+
+    @staticmethod
+    def check(arm: Arm, space: str, timeout_s: float | None) -> None:
+        """A session's arguments (InputError naming ``space`` or ``timeout_s``)."""
+        Targets(arm, space)
+        if timeout_s is not None and not (isinstance(timeout_s, int | float)
+                                          and not isinstance(timeout_s, bool)
+                                          and 0 < timeout_s < float("inf")):
+            raise InputError(f"timeout_s must be a number of seconds > 0, got {timeout_s!r}",
+                             field="timeout_s", value=timeout_s)
 
     # -- lifecycle --------------------------------------------------------------------------
 
@@ -170,11 +184,45 @@ class Follower:
         source = FollowSamples(self._step, self.bus, self.arm, self.rate_hz,
                                stream.source.joint_names)
         source.stream = stream
+        self._collision_thresholds(stream.feedback)
         stream.swap(source)
         self.stream, self.source = stream, source
         self._last_at = self.clock.now()
         self.status = "following"
         self._attached.set()
+
+    def _collision_thresholds(self, feedback: Any) -> None:
+        """The collision stop's thresholds for a session (:mod:`robodcn.stream.collision`):
+        what it will command is not known ahead, so each joint's is that of the fastest
+        motion the limits allow near the start — :data:`PROBE_RAD` out and back on every
+        joint at once, the generator's law at the session's rate — instead of the rest
+        plan's (which a first target at speed took for a collision). A configured
+        ``collision_current_a`` (or the execution's ``collision_current``) stands."""
+        if feedback.threshold_at is None:
+            return
+        q0 = self.generator.state[0]
+        lo = np.array([j.min_angle for j in self.arm.joints])
+        hi = np.array([j.max_angle for j in self.arm.joints])
+        room = np.where(hi - q0 > q0 - lo, 1.0, -1.0)
+        far = np.clip(q0 + room * PROBE_RAD, lo, hi)
+        probe = Generator(self.generator.limits, self.rate_hz, q0)
+        rows = [q0]
+        for goal in (far, q0):
+            inp = Input(target=goal)
+            while True:
+                sample = probe.update(inp)
+                if isinstance(sample, Infeasible):
+                    break
+                rows.append(sample.q)
+                if sample.reached:
+                    break
+        bus = self.bus
+        predicted = predicted_currents(np.array(rows), 1.0 / self.rate_hz, bus.servos,
+                                       self.arm, feedback.payload_kg)
+        limits = bus.current_limits or tuple(2.3 for _ in bus.ids)
+        feedback.threshold_at = None
+        feedback.chain = None
+        feedback.threshold = thresholds(predicted, limits, self.arm, bus.position_d_gains)
 
     def wait(self, timeout: float | None = None) -> ExecutionReport | None:
         """Block until the session has ended (or ``timeout``); the report, or raise what
@@ -194,7 +242,7 @@ class Follower:
         """The commanded joints of sample ``i`` and whether it ends the session."""
         with self._lock:
             if self._deadman():
-                self._input = Input.stop(self._scale)
+                self._input = Input.stop(self._scale * self.speed)
             inp = self._input
         sample = self.generator.update(inp)
         if isinstance(sample, Infeasible):
@@ -221,7 +269,8 @@ class Follower:
 
     def _deadman(self) -> bool:
         """No target for ``timeout_s`` while the arm moves: a smooth stop (under the lock)."""
-        if self.timeout_s is None or self._ending is not None or self._last_at is None:
+        if self.timeout_s is None or self._ending is not None or self._last_at is None \
+                or self.paused:
             return False
         if self.clock.now() - self._last_at <= self.timeout_s:
             return False
@@ -243,6 +292,9 @@ class Follower:
     def _open(self, what: str) -> None:
         if not self._attached.wait(ATTACH_TIMEOUT_S) or self.done:
             raise NoMoveError(f"cannot {what}: the follow session is not running",
+                              field="follow", value=self.status)
+        if self.paused and what != "end the session":
+            raise NoMoveError(f"cannot {what}: the follow session is paused (resume it)",
                               field="follow", value=self.status)
         if self._ending is not None:
             raise NoMoveError(f"cannot {what}: the follow session is "
@@ -273,11 +325,11 @@ class Follower:
                     inp = Input(target=target.joints, velocity=v1, acceleration=a1,
                                 duration=due)
                 try:
-                    inp = self._checked(inp)
+                    inp = self._checked(dataclasses.replace(inp, scale=self.speed))
                 except InputError:
                     self.targets.drop(target)
                     raise
-                self._input, self._scale = inp, inp.scale
+                self._input, self._scale = inp, inp.scale / self.speed
                 self._coast_until = -np.inf if segment is None else target.at + due
                 self._last_at = target.at
                 self.taken += 1
@@ -302,7 +354,8 @@ class Follower:
         with self._lock:
             last = self.targets.last
             q = last.joints if last is not None else self.generator.state[0]
-            self._input = Input(target=q, scale=self._scale)
+            self._input = Input(target=q, scale=self._scale * self.speed)
+            self.paused = False
             self._ending = "end"
             self.status = "ending"
 
@@ -316,10 +369,42 @@ class Follower:
             self.stop_signal.request(reason)
             return
         with self._lock:
-            self._input = Input.stop(self._scale)
+            self._input = Input.stop(self._scale * self.speed)
+            self.paused = False
             self._ending = "stop"
             self.status = "stopping"
             self._stop_message = f"{reason}: stopped smoothly (decelerated within the limits)"
+
+    def pause(self) -> bool:
+        """Brake to rest and stay there (the stream goes on); targets are refused until
+        :meth:`resume`. True (a session can always be paused)."""
+        self._open("pause")
+        with self._lock:
+            self._input = Input.stop(self._scale * self.speed)
+            self.paused = True
+            self.status = "paused"
+        return True
+
+    def resume(self) -> None:
+        """Head for the last target again (at rest there) after a pause."""
+        if not self.paused:
+            return
+        with self._lock:
+            last = self.targets.last
+            q = last.joints if last is not None else self.generator.state[0]
+            self._input = Input(target=q, scale=self._scale * self.speed)
+            self.paused = False
+            self.status = "following"
+
+    def set_speed(self, scale: float) -> None:
+        """Scale the limits the session moves with by ``scale`` ∈ (0, 1] (v·k, a·k², j·k³;
+        the present motion is re-timed from the commanded state at once)."""
+        if not (isinstance(scale, int | float) and 0.0 < scale <= 1.0):
+            raise InputError(f"scale must be a number in (0, 1], got {scale!r}",
+                             field="scale", value=scale)
+        with self._lock:
+            self.speed = float(scale)
+            self._input = dataclasses.replace(self._input, scale=self._scale * self.speed)
 
     # -- what was streamed ------------------------------------------------------------------
 
@@ -346,11 +431,20 @@ class Follower:
                           self.rate_hz, "follow", self.trajectory.request)
 
 
-def _present_joints(bus: ServoBus, arm: Arm, present_ticks: ArrayLike | None
-                    ) -> tuple[NDArray[np.int64], NDArray[np.float64]]:
-    ticks = (np.asarray(present_ticks, dtype=np.int64) if present_ticks is not None
-             else bus.read_positions())
-    return ticks, servo_units.ticks_to_radians(ticks[None], arm.servos)[0]
+def rest_trajectory(arm: Arm, present_ticks: ArrayLike, rate_hz: float | None = None,
+                    payload_kg: float | None = None) -> Trajectory:
+    """A session's first samples: at rest where the arm is (``present_ticks`` (k,), clipped
+    to the joint limits), at ``rate_hz`` (None: the arm's ``[bus] rate_hz``) — what the
+    preflight checks the start against and the record opens with (the generator answers
+    every sample after them)."""
+    ticks = np.asarray(present_ticks, dtype=np.int64)
+    q0 = servo_units.ticks_to_radians(ticks[None], arm.servos)[0]
+    lo = np.array([j.min_angle for j in arm.joints])
+    hi = np.array([j.max_angle for j in arm.joints])
+    start = np.clip(q0, lo, hi)
+    rate = float(rate_hz) if rate_hz is not None else float(arm.bus.rate_hz)
+    return plan(arm, [tuple(float(v) for v in user_pose(arm, start[None])[0])],
+                rate_hz=rate, start_joints=start, payload_kg=payload_kg)
 
 
 def follow(bus: ServoBus, arm: Arm, *, space: str = "joints", timeout_s: float | None = None,
@@ -383,18 +477,12 @@ def follow(bus: ServoBus, arm: Arm, *, space: str = "joints", timeout_s: float |
                          "uncompensated (compensation=False)", field="compensation",
                          value=compensation)
     opts = ExecutionOptions.build(options, kwargs)
-    rate = float(rate_hz) if rate_hz is not None else float(arm.bus.rate_hz)
-    ticks, q0 = _present_joints(bus, arm, present_ticks)
-    lo = np.array([j.min_angle for j in arm.joints])
-    hi = np.array([j.max_angle for j in arm.joints])
-    # a rest plan at the present joints: the preflight's, the feedback's and the record's
-    # first samples (the generator answers every sample after it)
-    start = np.clip(q0, lo, hi)
-    rest = plan(arm, [tuple(float(v) for v in user_pose(arm, start[None])[0])],
-                rate_hz=rate, start_joints=start, payload_kg=payload_kg)
+    ticks = (np.asarray(present_ticks, dtype=np.int64) if present_ticks is not None
+             else bus.read_positions())
+    rest = rest_trajectory(arm, ticks, rate_hz, payload_kg)
     follower = Follower(bus, arm, rest, space=space, timeout_s=timeout_s,
                         payload_kg=payload_kg, options=opts, present_ticks=ticks)
     return follower.start()
 
 
-__all__ = ["STOP_MODES", "Follower", "follow"]
+__all__ = ["STOP_MODES", "Follower", "follow", "rest_trajectory"]
