@@ -212,12 +212,12 @@ class ArmController:
             raise InputError(f"the trajectory drives servo ids {list(trajectory.servo_ids)}, "
                              f"arm {self.arm.name!r} has {list(self.arm.servo_ids)}",
                              field="servo_ids", value=list(trajectory.servo_ids))
-        record = self._queue(trajectory, present_ticks, start_at)
+        record = self._queue(trajectory, present_ticks, start_at, recovery)
         self._worker.submit(self._run, record)
         return record
 
     def _queue(self, trajectory: Trajectory, present_ticks: tuple[int, ...] | None,
-               start_at: float | None) -> MoveRecord:
+               start_at: float | None, recovery: Recovery | None = None) -> MoveRecord:
         """A new current move's record (BusyError while another is queued or running)."""
         with self._lock:
             self._check_free()
