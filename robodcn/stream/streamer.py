@@ -145,7 +145,9 @@ def execute(trajectory: Trajectory, bus: ServoBus, options: ExecutionOptions | N
             settle = max(settle, IN_POSITION_SETTLE_S)
         done = end(hold=not completed, settle=settle)
         report = build_report(stream, feedback, done, prepared.approach, issued)
-        log.info("%s", report.headline)
+        # the stream's own view: a smooth stop runs its brake to the end ("completed"), so
+        # the caller that asked for it logs the move's headline (Execution, a follow session)
+        log.debug("stream ended: %s", report.headline)
         return report
 
 

@@ -168,6 +168,7 @@ class Follower:
             if self._stop_message is not None and report.stop_reason == "completed":
                 report = dataclasses.replace(report, stop_reason="stopped",
                                              message=self._stop_message)
+            log.info("%s", report.headline)
             self.report = report
         except BaseException as exc:  # reported through .error and wait()
             self.error = exc

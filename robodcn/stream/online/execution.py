@@ -218,6 +218,7 @@ class Execution:
                 report = dataclasses.replace(
                     report, stop_reason="stopped",
                     message="stopped smoothly along the path (decelerated within the limits)")
+            log.info("%s", report.headline)
             self.report = report
         except BaseException as exc:  # reported through .error and wait()
             self.error = exc
