@@ -16,6 +16,7 @@ from __future__ import annotations
 
 import contextlib
 import dataclasses
+import logging
 from collections.abc import Iterator
 from typing import Any
 
@@ -35,6 +36,10 @@ def face(server: Any, options: ZenohOptions, *, url: str | None = None) -> Itera
 
     if options.ros2 and options.idle_hz < ROS_IDLE_HZ:
         options = dataclasses.replace(options, idle_hz=ROS_IDLE_HZ)
+    if getattr(server, "token", None) and options.config_file is None:
+        logging.getLogger("robodcn.zenoh").warning(
+            "--token gates HTTP only: the Zenoh face answers any peer that reaches it "
+            "(loopback here); give --zenoh-config with user/password to gate it too")
     session = open_session(options)
     try:
         with contextlib.ExitStack() as stack:
