@@ -21,6 +21,8 @@ from robodcn import kinematics
 from robodcn.cli.jog_cmd import Jogger
 from robodcn.simulated import simulated_arm
 
+pytest_plugins = ["omx_helpers"]     # fixtures: held_omx
+
 #: float noise of the finite differences at 1 kHz (m/s)
 NOISE = 1e-6
 
@@ -91,7 +93,7 @@ class _Kept(Jogger):
 
 @pytest.mark.parametrize("given", [None, 0.1])
 def test_jog_keeps_the_reduced_speed_of_hands_on_work(given) -> None:
-    from robodcn.cli.planning import hands_on_speed
+    from robodcn.contract import hands_on_speed
 
     limit = hands_on_speed(ARM3R) if given is None else given
     assert hands_on_speed(ARM3R) == 0.25
@@ -119,8 +121,8 @@ def test_jog_refuses_a_tool_speed_above_the_arms_ceiling(monkeypatch, capsys,
     from workflow_helpers import ARM3R as ARM3R_PATH
     from workflow_helpers import run_cli
 
-    from robodcn.cli.planning import hands_on_speed
     from robodcn.config import load_arm
+    from robodcn.contract import hands_on_speed
 
     path = tmp_path / "arm.toml"
     path.write_text(Path(ARM3R_PATH).read_text() + "\n[tool]\nmax_speed = 0.2\n")
@@ -128,3 +130,35 @@ def test_jog_refuses_a_tool_speed_above_the_arms_ceiling(monkeypatch, capsys,
     assert run_cli(monkeypatch, ["jog", "--arm", str(path), "--sim",
                                  "--tool-speed", "0.3"]) == 2
     assert "--tool-speed 0.3 m/s is above the arm's [tool] max_speed" in capsys.readouterr().err
+
+
+@pytest.mark.parametrize("given", [None, "0.1"])
+def test_teach_lowers_the_arm_at_the_hands_on_speed(held_omx, monkeypatch, tmp_path,
+                                                    given) -> None:
+    """teach without --float on the omx (under gravity) lowers it to its rest pose before
+    torque goes off: a motion beside the hand that will move the arm, at ≤ 250 mm/s."""
+    from omx_helpers import OMX
+    from workflow_helpers import run_cli
+
+    from robodcn.workflow import release
+
+    lowered = []
+    execute = release.execute
+
+    def recorded(trajectory, *args, **kw):
+        lowered.append(trajectory)
+        return execute(trajectory, *args, **kw)
+
+    monkeypatch.setattr(release, "execute", recorded)
+    argv = ["teach", "--arm", "omx", "--device", held_omx.port_path, "--out",
+            str(tmp_path / "x.toml"), "--yes"] + ([] if given is None else
+                                                  ["--tool-speed", given])
+    run_cli(monkeypatch, argv, ["q"])     # nothing recorded: exit 2, after the lowering
+    limit = 0.25 if given is None else float(given)
+    assert len(lowered) == 1 and lowered[0].request.tool_speed == limit
+    p = lowered[0].poses[:, :3]
+    speed = np.linalg.norm(np.diff(p, axis=0), axis=1) * lowered[0].rate_hz
+    assert speed.max() <= limit + NOISE
+    # and it reached the rest pose it was lowered to
+    rest = np.asarray(OMX.rest)
+    assert np.allclose(lowered[0].poses[-1, :3], rest[:3], atol=1e-6)

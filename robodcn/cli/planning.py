@@ -65,12 +65,15 @@ def add_tool_options(g, *, hands_on: bool = False) -> None:
     speed :data:`robodcn.contract.HANDS_ON_SPEED`)."""
     default = (f"default {contract.HANDS_ON_SPEED:g} m/s, the reduced speed for hands-on "
                "work" if hands_on else "default: the arm's [tool] speed, else none")
+    if hands_on:
+        g.add_argument("--tool-speed", type=options.positive_float, metavar="M/S",
+                       help=f"the tool point's largest speed, m/s ({default}; at most the "
+                            "arm's [tool] max_speed)")
+        return
     g.add_argument("--tool-speed", type=options.positive_float, metavar="M/S",
                    help=f"the tool point's largest speed, m/s, kept along the whole path with "
                         f"every joint limit; a straight line (seplerp, or kenlerp --beta 0) "
                         f"runs at exactly this speed where the joints allow ({default})")
-    if hands_on:
-        return
     g.add_argument("--tool-angular-speed", type=options.positive_float, metavar="DEG/S",
                    help="the largest rate of θ (of pitch and of yaw on the omx), deg/s "
                         "(default: the arm's [tool] angular_speed, else none)")
@@ -84,10 +87,11 @@ def tool_keywords(args: argparse.Namespace, arm, *, hands_on: bool = False
                   ) -> dict[str, float]:
     """The tool limits given as options, SI (``tool_speed`` …), each checked against the
     arm's ``[tool]`` ceiling in the units typed; {} for none (the arm's defaults). With
-    ``hands_on`` (jog) the tool speed defaults to :func:`hands_on_speed` instead."""
+    ``hands_on`` (jog, teach) the tool speed defaults to
+    :func:`robodcn.contract.hands_on_speed` instead."""
     out: dict[str, float] = {}
     if hands_on and getattr(args, "tool_speed", None) is None:
-        out["tool_speed"] = hands_on_speed(arm)
+        out["tool_speed"] = contract.hands_on_speed(arm)
     for name, key, factor, unit in (("tool_speed", "max_speed", 1.0, "m/s"),
                                     ("tool_angular_speed", "max_angular_speed",
                                      math.pi / 180.0, "deg/s"),
@@ -102,14 +106,6 @@ def tool_keywords(args: argparse.Namespace, arm, *, hands_on: bool = False
                              f"{top / factor:.6g} {unit}", field=option, value=given)
         out[name] = given * factor
     return out
-
-
-def hands_on_speed(arm) -> float:
-    """The tool speed (m/s) of hands-on work on ``arm`` (jog): the reduced speed
-    :data:`robodcn.contract.HANDS_ON_SPEED` (ISO 10218-1's 250 mm/s), or the arm's
-    ``[tool]`` speed or ``max_speed`` where lower."""
-    return min(x for x in (contract.HANDS_ON_SPEED, arm.tool.speed, arm.tool.max_speed)
-               if x is not None)
 
 
 def add_payload_option(g) -> None:
@@ -226,5 +222,5 @@ def _cli_terms(request: MotionRequest, *, present: bool = False) -> Iterator[Non
 
 
 __all__ = ["ELBOWS", "MotionRequest", "add_motion_options", "add_payload_option",
-           "add_tool_options", "announce_recovery", "hands_on_speed", "motion_request",
-           "payload_keywords", "plan_from_present", "plan_motion", "tool_keywords"]
+           "add_tool_options", "announce_recovery", "motion_request", "payload_keywords",
+           "plan_from_present", "plan_motion", "tool_keywords"]

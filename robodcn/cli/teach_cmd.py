@@ -23,7 +23,7 @@ from pathlib import Path
 
 from robodcn import contract
 from robodcn._files import rescue
-from robodcn.cli import options, releasing
+from robodcn.cli import options, planning, releasing
 from robodcn.cli.dialogue import say, stdin_prompt
 from robodcn.cli.output import save_work
 from robodcn.cli.report_text import pose_text
@@ -63,6 +63,8 @@ def register(subparsers: argparse._SubParsersAction) -> None:
                    help="sclerp | kenlerp | seplerp | dlb, or one per segment, for the file")
     p.add_argument("--turn", metavar="T[,T...]", help="shortest | ccw | cw, or one per segment")
     p.add_argument("--beta", type=options.finite_float, help="KenLERP bias for the file's [plan]")
+    # the lowering to the rest pose before torque goes off moves the arm near a hand
+    planning.add_tool_options(p.add_argument_group("lowering"), hands_on=True)
     p.set_defaults(func=run)
 
 
@@ -125,9 +127,11 @@ def _check_segments(method, turn, count: int, out, text: str) -> None:
                              f"segments; {where}", field=option.lstrip("-"), value=value)
 
 
-def _teach(args: argparse.Namespace, arm, bus):
+def _teach(args: argparse.Namespace, arm, bus, lowering: dict[str, float]):
     """The dialogue on ``bus``: floating (--float) or with torque off; the Teaching. However
-    it ends, an arm under gravity is left holding where it is (torque on, position mode)."""
+    it ends, an arm under gravity is left holding where it is (torque on, position mode).
+    ``lowering``: the plan options of a lowering to the rest pose (the hands-on tool
+    speed)."""
     from robodcn.present import present_joints
     from robodcn.workflow.teach import FloatSession, Teaching
 
@@ -141,12 +145,13 @@ def _teach(args: argparse.Namespace, arm, bus):
             record(teaching)
         _float_end(session.report)
         if args.release:
-            _release_at_end(args, arm, bus)
+            _release_at_end(args, arm, bus, lowering)
         return teaching
     if gravity and not args.yes:
         say("robodcn: teach --float holds a vertical arm while a hand moves it")
         releasing.confirm_release(arm, present_joints(arm, bus), args.yes, what="teach")
-    with Teaching(bus, arm, confirm=args.yes, warn=releasing.warning) as teaching:
+    with Teaching(bus, arm, confirm=args.yes, warn=releasing.warning,
+                  plan_options=lowering) as teaching:
         record(teaching)
     if teaching.held:
         say("teach: the arm holds where it is (torque on, position mode)")
@@ -177,8 +182,9 @@ def _float_end(report) -> None:
     say(f"float off: {report.cycles} refreshes at {report.rate_hz:.0f} Hz{clipped}; {held}")
 
 
-def _release_at_end(args: argparse.Namespace, arm, bus) -> None:
-    say(releasing.release_line(releasing.guarded(args, arm, bus)))
+def _release_at_end(args: argparse.Namespace, arm, bus, lowering: dict[str, float]
+                    ) -> None:
+    say(releasing.release_line(releasing.guarded(args, arm, bus, plan_options=lowering)))
 
 
 def run(args: argparse.Namespace) -> int:
@@ -191,8 +197,9 @@ def run(args: argparse.Namespace) -> int:
     if args.release and not args.float_mode:
         raise InputError("--release applies to teach --float (without it torque is already "
                          "off)", field="release", value=True)
+    lowering = planning.tool_keywords(args, arm, hands_on=True)
     with open_bus(args, arm) as bus:
-        teaching = _teach(args, arm, bus)
+        teaching = _teach(args, arm, bus, lowering)
     poses = teaching.poses
     if len(poses) < 2:
         raise InputError(f"recorded {len(poses)} waypoint(s), a motion needs at least 2; "

@@ -65,6 +65,7 @@ from robodcn.contract.fields import (
     cli_choices,
     cli_option,
     field,
+    hands_on_speed,
     waypoints_field,
 )
 from robodcn.contract.parse import parse_request
@@ -106,6 +107,7 @@ __all__ = [
     "cli_option",
     "fail",
     "field",
+    "hands_on_speed",
     "intervals",
     "parse_request",
     "request_schema",

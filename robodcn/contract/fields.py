@@ -47,6 +47,15 @@ MAX_TOOL_ACCELERATION = 1e4
 #: The reduced tool speed (m/s) of hands-on work (jog, teach, the console's live drag): ISO
 #: 10218-1's 250 mm/s at the tool.
 HANDS_ON_SPEED = 0.25
+
+
+def hands_on_speed(arm: Arm) -> float:
+    """The tool speed (m/s) of hands-on work on ``arm`` (jog, teach, the console):
+    :data:`HANDS_ON_SPEED`, or the arm's ``[tool]`` speed or ``max_speed`` where lower."""
+    return min(x for x in (HANDS_ON_SPEED, arm.tool.speed, arm.tool.max_speed)
+               if x is not None)
+
+
 #: The tool-limit fields (their defaults: the arm's ``[tool]`` table; none: no limit).
 TOOL_FIELDS = ("tool_speed", "tool_angular_speed", "tool_acceleration")
 

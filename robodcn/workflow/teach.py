@@ -62,7 +62,8 @@ class Teaching:
     With ``torque_off`` (default) torque goes off when the session starts, so a hand moves
     the arm freely — through the gravity guard (:func:`robodcn.workflow.release.release`):
     on an arm under gravity only with ``confirm`` (GravityReleaseError otherwise), after
-    lowering it to its rest pose, ``warn`` told what happens. Without, the arm is held
+    lowering it to its rest pose (planned with ``plan_options``: the command gives the
+    hands-on tool speed), ``warn`` told what happens. Without, the arm is held
     otherwise (float mode: pass the :class:`FloatSession`'s ``call`` as ``run``, which every
     bus access goes through). Leaving (finished, aborted or failed), an arm under gravity
     whose torque the session switched off holds where it is
@@ -72,7 +73,8 @@ class Teaching:
 
     def __init__(self, bus: ServoBus, arm: Arm, *, torque_off: bool = True,
                  confirm: bool = False, warn: Callable[[str], None] | None = None,
-                 run: Callable[[Callable[[], Any]], Any] = _direct) -> None:
+                 run: Callable[[Callable[[], Any]], Any] = _direct,
+                 plan_options: dict[str, Any] | None = None) -> None:
         self.bus = bus
         self.arm = arm
         self._run = run
@@ -83,8 +85,9 @@ class Teaching:
         #: Whether leaving put the arm on hold (torque on, position mode).
         self.held = False
         if torque_off:
-            self.released = released(run(lambda: release(bus, arm, confirm=confirm,
-                                                         what="teach", warn=warn)), "teach")
+            self.released = released(run(lambda: release(
+                bus, arm, confirm=confirm, what="teach", warn=warn,
+                plan_options=plan_options)), "teach")
 
     def __enter__(self) -> Self:
         return self
