@@ -82,14 +82,21 @@ def depth_text(depth: float, units: Units) -> str:
     return mm if units == "cli" else f"{depth:.4f} m ({mm})"
 
 
+def point_name(point: str | None, is_joint: bool) -> str:
+    """A tested point of the arm in words: "tool point", "'elbow' joint" (a joint centre),
+    or the link's own name ("wrist–tool link")."""
+    if point == "tool":
+        return "tool point"
+    return f"{point!r} joint" if is_joint else f"{point}"
+
+
 def keepout_text(v: Violation, units: Units) -> str:
     """Which point of the arm is inside which keep-out zone, how deep and where."""
     where = ""
     if v.position is not None:
         x, y, z = v.position
         where = f" at x={x:.4f} m, y={y:.4f} m, z={z:.4f} m"
-    point = "tool point" if v.point == "tool" else (
-        f"{v.point!r} joint" if v.joint is not None else f"{v.point}")
+    point = point_name(v.point, v.joint is not None)
     return (f"the {point}{where} is {depth_text(v.value, units)} inside the arm's keep-out "
             f"zone {v.zone!r} ([workspace]): choose a pose or path clear of it")
 

@@ -15,7 +15,7 @@ from numpy.typing import ArrayLike
 
 from robodcn.config import Arm, first_intrusion
 from robodcn.errors import KeepOutError, Violation
-from robodcn.messages import describe_violation
+from robodcn.messages import describe_violation, point_name
 from robodcn.planner.path import user_pose
 
 
@@ -52,8 +52,7 @@ def check_pose(arm: Arm, joints: ArrayLike) -> None:
     if hit is None:
         return
     x, y, z = hit.position
-    name = "tool point" if hit.point == "tool" else (
-        f"{hit.point!r} joint" if hit.joint is not None else hit.point)
+    name = point_name(hit.point, hit.joint is not None)
     raise KeepOutError(f"the arm's {name} is at x={x:.4f} m, y={y:.4f} m, z={z:.4f} m, "
                        f"{hit.depth * 1e3:.1f} mm inside the arm's keep-out zone "
                        f"{arm.workspace.describe(hit.zone)}: no plan may go there; move the "

@@ -16,6 +16,7 @@ from robodcn.errors import (
     TickLimitError,
     VelocityLimitError,
 )
+from robodcn.messages import point_name
 from robodcn.planner import Trajectory
 from robodcn.workflow.files._common import SLACK
 from robodcn.workflow.poses import tool_poses
@@ -62,8 +63,7 @@ def check_joint_samples(arm: Arm, joints: NDArray[np.float64], rate_hz: float, *
             hit.sample == first[0] and first[3] not in ("position", "ticks"))):
         point = int(point_of_sample[hit.sample])
         x, y, z = hit.position
-        name = "tool point" if hit.point == "tool" else (
-            f"{hit.point!r} joint" if hit.joint is not None else hit.point)
+        name = point_name(hit.point, hit.joint is not None)
         raise KeepOutError(
             f"{source}: points[{point}] (sample {hit.sample}, t={hit.sample / rate_hz:.3f} s): "
             f"the {name} at x={x:.4f} m, y={y:.4f} m, z={z:.4f} m is "
