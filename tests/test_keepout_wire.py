@@ -178,7 +178,7 @@ def test_http_a_joint_trajectory_through_the_plate_is_refused_before_moving(omx_
 # -- jog and teach --------------------------------------------------------------------------------
 
 def test_a_jog_key_through_the_table_is_refused_and_the_arm_stays_above() -> None:
-    with simulated.simulated_arm(OMX, timing="fast") as sa:
+    with simulated.simulated_arm(OMX, timing="fast", dynamics=False) as sa:
         out = io.StringIO()
         jog = Jogger(OMX, sa.bus, step=0.1, step_rad=5 * DEG, method="sclerp", rate_hz=100.0,
                      out=out)
@@ -368,3 +368,46 @@ def test_a_retarget_whose_samples_leave_for_a_zone_is_refused_and_the_move_goes_
         assert report is not None and report.outcome in ("done", "degraded")
         q = servo_units.ticks_to_radians(sa.bus.read_positions()[None], arm.servos)
         assert np.allclose(kinematics.fk(arm.links, q)[0, :2], goal[:2], atol=3e-3)
+
+
+# -- a follow session (the online generator) ----------------------------------------------------
+
+def test_a_follow_session_refuses_targets_into_a_zone_and_laws_through_one() -> None:
+    """A follow session on the omx (firmware_sim, real SDK): a pose target under the plate
+    and a joint target whose law from the commanded state swings the arm through the plate
+    (both ends clear) are refused (KeepOutError, counted as refused; nothing sent toward
+    them), a clear target is taken and reached."""
+    from robodcn.stream import follow
+
+    start = np.array([0.585, 0.971, 0.244, -1.383])      # leaning forward, low
+    through = [-1.632, 0.81, -0.758, 1.673]             # clear, but the way there is not
+    with simulated.simulated_arm(OMX, timing="fast", dynamics=False,
+                                 start_joints=start) as sa:
+        before = goals_and_positions(sa.sim, OMX.servo_ids)
+        f = follow(sa.bus, OMX, space="joints", watchdog_ms=0)
+        try:
+            below = kinematics.ik_yawed(OMX.chain, np.array([[0.2, 0.0, -0.05, -90 * DEG]]),
+                                        OMX.elbow)[0]
+            with pytest.raises(KeepOutError) as info:
+                f.target(joints=below.tolist())
+            assert info.value.zone == "floor" and info.value.field == "joints"
+            with pytest.raises(KeepOutError) as info:
+                f.target(joints=through)
+            v = info.value.violation
+            assert v is not None and v.zone == "floor" and v.sample > 0
+            assert f.refused == 2 and f.taken == 0
+            time.sleep(0.2)
+            held = goals_and_positions(sa.sim, OMX.servo_ids)
+            assert all(abs(held[i][1] - before[i][1]) <= 2 for i in OMX.servo_ids)
+            clear = (start + np.array([0.3, -0.2, 0.0, 0.0])).tolist()
+            f.target(joints=clear)
+            assert f.taken == 1
+            f.end()
+            report = f.wait(30)
+        finally:
+            if not f.done:
+                f.stop("hold")
+                f.wait(10)
+        assert report is not None and report.outcome in ("done", "degraded"), report
+        q = servo_units.ticks_to_radians(sa.bus.read_positions()[None], OMX.servos)[0]
+        assert np.allclose(q, clear, atol=3e-3)

@@ -41,10 +41,10 @@ def check_joints(arm: Arm, joints: ArrayLike, rate_hz: float, *,
     raise KeepOutError(describe_violation(violation, "si"), violation=violation)
 
 
-def check_pose(arm: Arm, joints: ArrayLike) -> None:
-    """Raise KeepOutError when the arm at ``joints`` (k,) (a pose about to be recorded)
-    has a point inside one of its keep-out zones: which point, where, the zone and how
-    deep, in mm (field ``joints``)."""
+def check_pose(arm: Arm, joints: ArrayLike, field: str = "joints") -> None:
+    """Raise KeepOutError when the arm at ``joints`` (k,) (a pose about to be recorded, a
+    target to follow) has a point inside one of its keep-out zones: which point, where,
+    the zone and how deep, in mm (``field``: the request field that gave it)."""
     q = np.asarray(joints, dtype=np.float64).reshape(1, -1)
     if arm.workspace.empty:
         return
@@ -56,7 +56,7 @@ def check_pose(arm: Arm, joints: ArrayLike) -> None:
     raise KeepOutError(f"the arm's {name} is at x={x:.4f} m, y={y:.4f} m, z={z:.4f} m, "
                        f"{hit.depth * 1e3:.1f} mm inside the arm's keep-out zone "
                        f"{arm.workspace.describe(hit.zone)}: no plan may go there; move the "
-                       "arm clear of it", field="joints",
+                       "arm clear of it", field=field,
                        value=q[0].tolist(), point=hit.point, zone=hit.zone, depth=hit.depth,
                        position=list(hit.position),
                        joint=None if hit.joint is None else arm.joints[hit.joint].name)

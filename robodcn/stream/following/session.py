@@ -23,6 +23,7 @@ from __future__ import annotations
 
 import dataclasses
 import logging
+import math
 import sys
 import threading
 from typing import Any
@@ -33,10 +34,10 @@ from numpy.typing import ArrayLike, NDArray
 from robodcn import servo_units
 from robodcn.bus import ServoBus
 from robodcn.config import Arm
-from robodcn.errors import InputError, NoMoveError
+from robodcn.errors import InputError, KeepOutError, NoMoveError
 from robodcn.online import Generator, Infeasible, Input
 from robodcn.path_timing import JointLimits
-from robodcn.planner import Trajectory, plan
+from robodcn.planner import Trajectory, keepout, plan
 from robodcn.planner.arm_arrays import limits_of
 from robodcn.planner.path import user_pose
 from robodcn.stream.collision import predicted_currents, thresholds
@@ -65,6 +66,8 @@ SESSION_JERK_PER_ACCEL = 50.0
 PROBE_RAD = 0.6
 #: a target velocity below this (rad/s, every joint) is rest
 REST_SPEED = 1e-9
+#: samples of the law toward a new target checked against the keep-out zones (at most)
+KEEPOUT_SAMPLES = 400
 
 
 def smoothed(limits: JointLimits) -> JointLimits:
@@ -327,7 +330,7 @@ class Follower:
                                 duration=due)
                 try:
                     inp = self._checked(dataclasses.replace(inp, scale=self.speed))
-                except InputError:
+                except (InputError, KeepOutError):
                     self.targets.drop(target)
                     raise
                 self._input, self._scale = inp, inp.scale / self.speed
@@ -336,17 +339,27 @@ class Follower:
                 self.taken += 1
                 self.seq += 1
                 return self.seq
-        except InputError:
+        except (InputError, KeepOutError):
             self.refused += 1
             raise
 
     def _checked(self, inp: Input) -> Input:
         """``inp`` under the torque limits (Generator.check); InputError naming the
-        session's space when no speed keeps them."""
+        session's space when no speed keeps them; KeepOutError when the law toward it from
+        the commanded state takes a point of the arm into a keep-out zone (its samples
+        checked as a plan's: :func:`robodcn.planner.keepout.check_joints`)."""
         checked = self.generator.check(inp)
         if isinstance(checked, Infeasible):
             raise InputError(f"{self.space}: {checked.message}", field=self.space,
                              value=None if inp.target is None else inp.target.tolist())
+        if not self.arm.workspace.empty:
+            law = self.generator.law(checked)
+            if not isinstance(law, Infeasible):
+                n = max(2, min(KEEPOUT_SAMPLES, math.ceil(law.duration * self.rate_hz) + 1))
+                at = np.linspace(0.0, law.duration, n)
+                q = np.array([law.at_time(float(t))[0] for t in at])
+                keepout.check_joints(self.arm, q, (n - 1) / max(law.duration, 1e-9),
+                                     field=self.space)
         return checked
 
     def end(self) -> None:

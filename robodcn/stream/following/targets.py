@@ -2,7 +2,8 @@
 
 A target is joints (k,) rad or a pose in the arm's pose axes ((x, y, θ); (x, y, z, pitch) on
 a yawed arm), with an optional joint velocity (k,) rad/s to pass it with. Joints must lie
-within every joint's limits and their servos' tick limits; a pose must be reachable (the
+within every joint's limits and their servos' tick limits and keep the arm out of its
+keep-out zones (else a :class:`~robodcn.errors.KeepOutError`); a pose must be reachable (the
 arm's branch-continuous IK, :func:`robodcn.planner.path.joints_of`, nearest the previous
 target's joints) — else an :class:`~robodcn.errors.InputError` naming ``joints``, ``pose`` or
 ``velocity`` and the offending value, and the session goes on to the previous target.
@@ -26,7 +27,7 @@ from numpy.typing import NDArray
 from robodcn import servo_units
 from robodcn.config import Arm
 from robodcn.errors import InputError
-from robodcn.planner import ANGLE_SLACK
+from robodcn.planner import ANGLE_SLACK, keepout
 from robodcn.planner.path import joints_of, yawed
 from robodcn.stream.following.reference import Segment
 
@@ -125,6 +126,7 @@ class Targets:
                 raise InputError(f"{name}: joint {self.arm.joints[j].name!r} needs tick {t}, "
                                  f"outside servo {s.id}'s tick limits "
                                  f"{s.min_tick}..{s.max_tick}", field=name, value=given)
+        keepout.check_pose(self.arm, q, field=name)   # KeepOutError: inside a zone
 
     def take(self, q: NDArray[np.float64], velocity: object, now: float) -> Target:
         """The target at joints ``q`` arrived at ``now`` with ``velocity`` (checked; None:
