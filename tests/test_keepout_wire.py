@@ -178,7 +178,7 @@ def test_http_a_joint_trajectory_through_the_plate_is_refused_before_moving(omx_
 # -- jog and teach --------------------------------------------------------------------------------
 
 def test_a_jog_key_through_the_table_is_refused_and_the_arm_stays_above() -> None:
-    with simulated.simulated_arm(OMX, timing="fast", dynamics=False) as sa:
+    with simulated.simulated_arm(OMX, timing="fast") as sa:
         out = io.StringIO()
         jog = Jogger(OMX, sa.bus, step=0.1, step_rad=5 * DEG, method="sclerp", rate_hz=100.0,
                      out=out)
@@ -201,7 +201,9 @@ def test_a_jog_key_through_the_table_is_refused_and_the_arm_stays_above() -> Non
         end = kinematics.fk_yawed(OMX.chain, servo_units.ticks_to_radians(
             np.array([[sa.sim.servo(i).present_position for i in OMX.servo_ids]]),
             OMX.servos))[0]
-        assert end[2] == pytest.approx(want[2], abs=4e-3) and end[2] > 0.03
+        # where the last accepted key left it (within what a loaded machine's skipped
+        # samples leave of a physics arm's tracking), well above the plate
+        assert end[2] == pytest.approx(want[2], abs=1e-2) and end[2] > 0.025
 
 
 def _arm3r_with_box(tmp_path, center) -> str:
