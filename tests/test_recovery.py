@@ -155,6 +155,20 @@ def test_a_move_that_cannot_be_planned_from_the_recovered_pose_is_refused_first(
     assert len(calls) == 1 and calls[0][ELBOW] == pytest.approx(LIMIT - RECOVERY_MARGIN)
 
 
+def test_a_recovery_that_would_push_the_arm_deeper_into_the_table_is_refused():
+    """The shoulder pushed by hand to 152° (only a simulator without a table allows it):
+    the tool 266 mm below the mounting plate. Swinging the shoulder back into its range
+    would take the tool deeper first: refused naming the floor zone, before anything
+    moves (a point inside a keep-out zone may only leave it)."""
+    from robodcn.errors import KeepOutError
+
+    q = servo_units.ticks_to_radians(np.array([2048, 3782, 1674, 2048]), OMX.servos)
+    with pytest.raises(KeepOutError) as info:
+        with_recovery(OMX, q, lambda start: plan(
+            OMX, [tool_pose(OMX, np.asarray(start)), GOAL], start_joints=start))
+    assert info.value.field == "start_joints" and "floor" in info.value.message
+
+
 # -- the command line, on the wire -------------------------------------------------------------
 
 def test_move_after_a_fall_recovers_the_elbow_then_moves(held_omx, monkeypatch, capsys):

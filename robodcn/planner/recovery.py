@@ -19,7 +19,8 @@ there first brings the arm back:
   peaks ds/dτ = 15/8 and |d²s/dτ²| = 10/√3), rounded up to whole sample periods.
 * **Then the move** (:func:`with_recovery`): the move asked for is planned from the
   recovered joints first — a plan that fails raises before anything moves — and the
-  recovery is put in front of it: one trajectory, streamed as one motion.
+  recovery is put in front of it: one trajectory, streamed as one motion, checked against
+  the arm's keep-out zones from where the arm is (a point inside may only leave).
   :class:`Recovery` says what it does, as data and as the one line surfaces announce.
 """
 
@@ -36,6 +37,7 @@ from numpy.typing import ArrayLike, NDArray
 from robodcn import servo_units
 from robodcn.config import Arm
 from robodcn.errors import InputError, TickLimitError
+from robodcn.planner import keepout
 from robodcn.planner.path import user_pose
 from robodcn.planner.trajectory import Trajectory
 
@@ -215,6 +217,9 @@ def with_recovery(arm: Arm, present: ArrayLike, plan: Callable[[tuple[float, ...
     _check_ticks(arm, joints, ticks)
     n = len(joints) - 1              # the recovery's last sample is the move's first
     all_joints = np.concatenate([joints[:-1], move.joints])
+    # keep-out zones as on every plan, from where the arm is: a point already inside may
+    # only leave, none may enter (KeepOutError before anything moves)
+    keepout.check_joints(arm, all_joints, rate, field="start_joints")
     out = Trajectory(
         t=np.arange(len(all_joints)) / rate,
         poses=np.concatenate([user_pose(arm, joints[:-1]), move.poses]),
