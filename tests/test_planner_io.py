@@ -63,7 +63,8 @@ def test_from_json_checks_shapes(edit: Any, field: str) -> None:
 def test_csv_matches_the_arrays() -> None:
     traj = plan(ARM2R, WAYPOINTS_2R, rate_hz=50)
     rows = list(csv.reader(io.StringIO(traj.to_csv())))
-    assert rows[0] == ["t", "x", "y", "theta", "q_shoulder", "q_elbow", "tick_1", "tick_2"]
+    assert rows[0] == ["t_s", "x_m", "y_m", "theta_rad", "q_shoulder_rad", "q_elbow_rad",
+                       "tick_1", "tick_2"]
     body = np.array(rows[1:], dtype=float)
     np.testing.assert_array_equal(body[:, 0], traj.t)
     np.testing.assert_array_equal(body[:, 1:4], traj.poses)

@@ -83,8 +83,12 @@ def test_recording_as_json_and_csv():
     assert np.allclose(data["joints"], servo_units.ticks_to_radians(
         np.array([t[1] for t in ticks]), ARM.servos))
     rows = list(csv.reader(io.StringIO(recording_csv(ARM, ticks))))
-    assert rows[0][:2] == ["t_s", "q_shoulder_rad"] and len(rows) == 3
-    assert [int(v) for v in rows[2][4:7]] == [2100, 2000, 2048]
+    # plan --format csv's columns: t, the pose, the joints, the ticks
+    assert rows[0] == plan(ARM, [ARM.home, (0.12, 0.24, 1.0)]).to_csv().splitlines()[0] \
+        .split(",") and len(rows) == 3
+    assert rows[0][:5] == ["t_s", "x_m", "y_m", "theta_rad", "q_shoulder_rad"]
+    assert [int(v) for v in rows[2][7:10]] == [2100, 2000, 2048]
+    assert np.allclose(np.array(rows[2][1:4], dtype=float), data["poses"][1])
     assert recording(ARM, [])["ticks"] == []
 
 

@@ -10,8 +10,6 @@ collision-stop threshold; then where a limit came within 10 %.
 
 from __future__ import annotations
 
-import csv
-import io
 import math
 from typing import Any
 
@@ -214,21 +212,10 @@ def plan_table(traj: Any) -> str:
 
 
 def plan_csv(traj: Any) -> str:
-    """``plan --format csv``: one row per sample, SI values at full precision, every header
-    naming its unit: t_s, x_m, y_m, theta_rad (a yawed arm: x_m, y_m, z_m, pitch_rad),
-    q_<joint>_rad, tick_<servo id> (ticks)."""
-    from robodcn.workflow.poses import ANGLE_KEYS
-
-    out = io.StringIO()
-    writer = csv.writer(out, lineterminator="\n")
-    writer.writerow(["t_s", *(f"{k}_rad" if k in ANGLE_KEYS else f"{k}_m"
-                              for k in _pose_columns(traj)),
-                     *(f"q_{n}_rad" for n in traj.joint_names),
-                     *(f"tick_{i}" for i in traj.servo_ids)])
-    floats = np.column_stack([traj.t, traj.poses, traj.joints])
-    for row, ticks in zip(floats.tolist(), traj.ticks.tolist(), strict=True):
-        writer.writerow([repr(v) for v in row] + ticks)
-    return out.getvalue()
+    """``plan --format csv``: :meth:`robodcn.planner.Trajectory.to_csv` (one row per sample,
+    SI at full precision, every header naming its unit; a move's record has the same
+    columns)."""
+    return traj.to_csv()
 
 
 def pose_text(keys: Any, pose: Any, *, signed: bool = False) -> str:

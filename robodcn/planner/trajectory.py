@@ -6,11 +6,12 @@ import csv
 import io
 import json
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass, field, fields
 from typing import Any
 
 import numpy as np
-from numpy.typing import NDArray
+from numpy.typing import ArrayLike, NDArray
 
 from robodcn import _checks
 from robodcn.config import PLANAR_POSE, RATE_RANGE, YAWED_POSE, Arm
@@ -224,16 +225,31 @@ class Trajectory:
                    tuple(switches), approach, state, tuple(keys_))
 
     def to_csv(self) -> str:
-        """CSV: t, x, y, theta (or x, y, z, pitch: :attr:`pose_keys`), one column per joint
-        (rad), one per servo (ticks)."""
-        out = io.StringIO()
-        writer = csv.writer(out, lineterminator="\n")
-        writer.writerow(["t", *self.pose_keys, *(f"q_{n}" for n in self.joint_names),
-                         *(f"tick_{i}" for i in self.servo_ids)])
-        floats = np.column_stack([self.t, self.poses, self.joints])
-        for row, ticks in zip(floats.tolist(), self.ticks.tolist(), strict=True):
-            writer.writerow([repr(v) for v in row] + ticks)
-        return out.getvalue()
+        """CSV in :func:`csv_rows`' columns (``plan --format csv``, a move's record): SI
+        values at full precision, every header naming its unit."""
+        return csv_rows(self.pose_keys, self.joint_names, self.servo_ids, self.t,
+                        self.poses, self.joints, self.ticks)
+
+
+#: The angle keys of a pose (radians in a CSV header; the rest are metres).
+_ANGLE_KEYS = frozenset({"theta", "pitch"})
+
+
+def csv_rows(pose_keys: Sequence[str], joint_names: Sequence[str], servo_ids: Sequence[int],
+             t: ArrayLike, poses: ArrayLike, joints: ArrayLike, ticks: ArrayLike) -> str:
+    """The one CSV of motion samples, planned or measured: t_s, the pose (x_m, y_m,
+    theta_rad; a yawed arm's x_m, y_m, z_m, pitch_rad), q_<joint>_rad, tick_<servo id>."""
+    out = io.StringIO()
+    writer = csv.writer(out, lineterminator="\n")
+    writer.writerow(["t_s", *(f"{k}_rad" if k in _ANGLE_KEYS else f"{k}_m" for k in pose_keys),
+                     *(f"q_{n}_rad" for n in joint_names), *(f"tick_{i}" for i in servo_ids)])
+    t = np.asarray(t, dtype=np.float64).reshape(-1)
+    floats = np.column_stack([t, np.asarray(poses, dtype=np.float64).reshape(t.size, -1),
+                              np.asarray(joints, dtype=np.float64).reshape(t.size, -1)])
+    for row, tick_row in zip(floats.tolist(), np.asarray(ticks).reshape(t.size, -1).tolist(),
+                             strict=True):
+        writer.writerow([repr(v) for v in row] + [int(k) for k in tick_row])
+    return out.getvalue()
 
 
 _FIELDS = frozenset(f.name for f in fields(Trajectory))

@@ -9,8 +9,6 @@ whose headers name their units (as ``plan --format csv``), for
 
 from __future__ import annotations
 
-import csv
-import io
 from collections.abc import Sequence
 from typing import Any
 
@@ -18,6 +16,7 @@ import numpy as np
 
 from robodcn import servo_units
 from robodcn.config import Arm
+from robodcn.planner.trajectory import csv_rows
 from robodcn.workflow.poses import tool_poses
 
 
@@ -35,15 +34,10 @@ def recording(arm: Arm, samples: Sequence[tuple[float, Sequence[int]]]) -> dict[
 
 
 def recording_csv(arm: Arm, samples: Sequence[tuple[float, Sequence[int]]]) -> str:
-    """CSV, one row per read; every header names its unit: t_s, q_<joint>_rad,
-    tick_<servo id> (ticks), then the pose: x_m, y_m, theta_rad (a yawed arm's x_m, y_m,
-    z_m, pitch_rad)."""
+    """CSV, one row per read, in ``plan --format csv``'s columns
+    (:func:`robodcn.planner.trajectory.csv_rows`): t_s, the pose, q_<joint>_rad,
+    tick_<servo id>."""
     data = recording(arm, samples)
-    out = io.StringIO()
-    writer = csv.writer(out, lineterminator="\n")
-    writer.writerow(["t_s", *(f"q_{n}_rad" for n in arm.joint_names),
-                     *(f"tick_{i}" for i in arm.servo_ids),
-                     *(f"{key}_{'m' if key in 'xyz' else 'rad'}" for key in arm.pose_keys)])
-    for t, q, k, p in zip(data["t"], data["joints"], data["ticks"], data["poses"], strict=True):
-        writer.writerow([repr(t), *map(repr, q), *k, *map(repr, p)])
-    return out.getvalue()
+    return csv_rows(arm.pose_keys, arm.joint_names, arm.servo_ids, data["t"], data["poses"],
+                    data["joints"], data["ticks"])
+
