@@ -71,6 +71,17 @@ def present_joints(arm: Arm, bus: ServoBus, *, verify: bool = True) -> NDArray[n
     return servo_units.ticks_to_radians(ticks, arm.servos)
 
 
+def _given_or_read(arm: Arm, bus: ServoBus | None, joints: ArrayLike | None, verify: bool,
+                   caller: str) -> NDArray[np.float64]:
+    """``joints`` (k,) rad as given, else read from ``bus`` (:func:`present_joints`)."""
+    if joints is not None:
+        return np.asarray(joints, dtype=np.float64)
+    if bus is None:
+        raise InputError(f"{caller} needs a bus or the present joints", field="bus",
+                         value=None)
+    return present_joints(arm, bus, verify=verify)
+
+
 def plan_from_present(arm: Arm, bus: ServoBus | None,
                       target: PlanRequest | Sequence[ArrayLike | None], *,
                       joints: ArrayLike | None = None, verify: bool = True,
@@ -90,13 +101,7 @@ def plan_from_present(arm: Arm, bus: ServoBus | None,
 
     Raises whatever :func:`present_joints` and the planner raise (nothing moves).
     """
-    if joints is None:
-        if bus is None:
-            raise InputError("plan_from_present needs a bus or the present joints",
-                             field="bus", value=None)
-        q = present_joints(arm, bus, verify=verify)
-    else:
-        q = np.asarray(joints, dtype=np.float64)
+    q = _given_or_read(arm, bus, joints, verify, "plan_from_present")
     start = tuple(float(v) for v in q)
     if isinstance(target, PlanRequest):
         if plan_options:
@@ -120,13 +125,7 @@ def plan_recovering(arm: Arm, bus: ServoBus | None,
     The move is planned from the recovered joints before anything moves; a first waypoint
     None is the pose there. Raises what :func:`plan_from_present` raises.
     """
-    if joints is None:
-        if bus is None:
-            raise InputError("plan_recovering needs a bus or the present joints",
-                             field="bus", value=None)
-        q = present_joints(arm, bus, verify=verify)
-    else:
-        q = np.asarray(joints, dtype=np.float64)
+    q = _given_or_read(arm, bus, joints, verify, "plan_recovering")
     return with_recovery(arm, q, lambda start: plan_from_present(
         arm, None, target, joints=start, **plan_options))
 

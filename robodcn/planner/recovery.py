@@ -26,6 +26,7 @@ there first brings the arm back:
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from collections.abc import Callable
 from dataclasses import dataclass
@@ -65,8 +66,7 @@ class StartProblem:
     target: float
 
     def to_dict(self) -> dict[str, Any]:
-        return {"kind": self.kind, "joint": self.joint, "index": self.index,
-                "value": self.value, "limit": self.limit, "target": self.target}
+        return dataclasses.asdict(self)
 
 
 def joint_limit_problems(arm: Arm, joints: NDArray[np.float64]) -> tuple[StartProblem, ...]:
@@ -112,8 +112,7 @@ class JointRecovery:
     speed: float
 
     def to_dict(self) -> dict[str, Any]:
-        return {"joint": self.joint, "index": self.index, "start": self.start,
-                "target": self.target, "speed": self.speed}
+        return dataclasses.asdict(self)
 
 
 @dataclass(frozen=True)
