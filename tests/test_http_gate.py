@@ -474,3 +474,20 @@ def test_every_body_is_required_in_the_document(omx: Any) -> None:
         assert list(body["content"]) == ["application/json"], key
     assert all("403" in op["responses"] for ops in doc["paths"].values()
                for op in ops.values())
+
+
+def test_a_wildcard_bind_without_allow_host_says_how_to_be_reached(caplog: Any) -> None:
+    """``serve --host 0.0.0.0 --token …`` answers only its loopback names: it says so, and
+    what to add, when it starts."""
+    import logging
+
+    with caplog.at_level(logging.WARNING, logger="robodcn.http"):
+        server = make_server(ARM, None, host="0.0.0.0", token="s3cret")
+        server.server_close()
+    assert any("--allow-host" in r.getMessage() for r in caplog.records), caplog.text
+    caplog.clear()
+    with caplog.at_level(logging.WARNING, logger="robodcn.http"):
+        server = make_server(ARM, None, host="0.0.0.0", token="s3cret",
+                             allow_hosts=("robot.local",))
+        server.server_close()
+    assert not caplog.records, caplog.text

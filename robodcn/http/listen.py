@@ -8,6 +8,7 @@ address for a plan-only service in N worker processes (:mod:`robodcn.http.prefor
 from __future__ import annotations
 
 import errno
+import logging
 from typing import Any
 
 from robodcn._checks import is_int, is_real
@@ -21,6 +22,8 @@ from robodcn.http.gate import Gate
 from robodcn.http.prefork import PreforkServer, bind_group
 from robodcn.http.routes import ROUTES, Route
 from robodcn.http.server import RobodcnHTTPServer
+
+log = logging.getLogger("robodcn.http")
 
 
 class ListenError(RobodcnError):
@@ -107,6 +110,10 @@ def make_server(arm: Arm, controller: ArmController | None, *, host: str = "127.
                          value=request_timeout)
     check_processes(processes, arm_attached=controller is not None)
     Gate.of(host, port, tuple(allow_hosts))  # InputError naming allow_host, before binding
+    if host in ("0.0.0.0", "::") and not allow_hosts:
+        log.warning("serving on every address of this machine (%s), but only requests "
+                    "naming 127.0.0.1, localhost or [::1] are answered: give --allow-host "
+                    "NAME for each name or address other machines use to reach it", host)
 
     def server(sock: Any = None) -> RobodcnHTTPServer:
         return RobodcnHTTPServer((host, port), arm, controller, token=token,
