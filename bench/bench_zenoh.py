@@ -8,8 +8,10 @@ face, and a second Zenoh session as the remote side.
 - state latency: a ``robodcn/<arm>/state``-sized JSON put on one session → the subscriber
   callback on the other, 1000 puts at 200 Hz, the send time in the payload;
 - a query round trip ``robodcn/<arm>/op/health`` vs ``GET /healthz`` on a kept-alive HTTP
-  connection (the follow target's put → first changed goal needs the follow session, which
-  this service does not have yet: no row);
+  connection;
+- a follow target: from the put on ``robodcn/<arm>/follow/target`` (or the HTTP
+  ``PUT /v1/follow/target``) to the first Goal Position the simulated servos receive that
+  differs from the held one, the session resting at the previous target each time;
 - ``/joint_states`` while a 3 s move streams at 100 Hz: rate and interval jitter;
 - two arms, one ``start_at`` (sent over Zenoh), 20 runs: spread of their first writes.
 """
@@ -52,8 +54,10 @@ def _peer(connect: list[str], listen: list[str] | None = None) -> Any:
 
 
 @contextlib.contextmanager
-def served(name: str, *, ros2: bool = False) -> Iterator[tuple[Any, str]]:
-    """A simulated arm3r with HTTP and its Zenoh face: (server, endpoint)."""
+def served(name: str, *, ros2: bool = False, with_sim: list[Any] | None = None
+           ) -> Iterator[tuple[Any, str]]:
+    """A simulated arm3r with HTTP and its Zenoh face: (server, endpoint); ``with_sim``
+    receives the simulated arm."""
     import threading
 
     from robodcn.config import load_arm
@@ -65,6 +69,8 @@ def served(name: str, *, ros2: bool = False) -> Iterator[tuple[Any, str]]:
     arm = load_arm(ROOT / "configs" / "arm3r.toml")
     endpoint = f"tcp/127.0.0.1:{_free_port()}"
     with simulated_arm(arm, timing="fast") as sa:
+        if with_sim is not None:
+            with_sim.append(sa)
         controller = ArmController(arm, sa.bus, execute_options={"watchdog_ms": 1000})
         server = make_server(arm, controller, port=0)
         thread = threading.Thread(target=server.serve_forever, daemon=True)
@@ -140,6 +146,45 @@ def round_trips(n: int = 300) -> tuple[np.ndarray, np.ndarray]:
     return np.asarray(zq), np.asarray(hq)
 
 
+def follow_latency(runs: int = 20) -> tuple[np.ndarray, np.ndarray]:
+    """Seconds from a target's put (Zenoh) / PUT (HTTP) to the first changed Goal Position
+    on the simulated servos, ``runs`` each, alternating, the session at rest between."""
+    sims: list[Any] = []
+    with served("bench", with_sim=sims) as (server, endpoint):
+        sim = sims[0].sim
+        ids = list(server.arm.servo_ids)
+        session = _peer([endpoint])
+        conn = http.client.HTTPConnection("127.0.0.1", server.server_address[1], timeout=10)
+        try:
+            time.sleep(0.3)
+            assert _query(session, "robodcn/bench/op/follow_open",
+                          b'{"space": "joints"}')["status"] == 201
+            q0 = np.asarray(server.controller.state().joints)
+            zenoh_s, http_s = [], []
+            for k in range(2 * runs):
+                time.sleep(0.6)  # at rest on the previous target
+                held = [sim.servo(i).goal_position for i in ids]
+                target = q0 + (0.1 if k % 2 == 0 else 0.0)
+                body = json.dumps({"joints": target.tolist()})
+                start = time.perf_counter()
+                if k % 4 < 2:
+                    session.put("robodcn/bench/follow/target", body)
+                else:
+                    conn.request("PUT", "/v1/follow/target", body=body,
+                                 headers={"Content-Type": "application/json"})
+                    conn.getresponse().read()
+                while [sim.servo(i).goal_position for i in ids] == held:
+                    if time.perf_counter() - start > 2:
+                        break
+                    time.sleep(0.0002)
+                (zenoh_s if k % 4 < 2 else http_s).append(time.perf_counter() - start)
+            _query(session, "robodcn/bench/op/follow_end", b"{}")
+        finally:
+            conn.close()
+            session.close()
+    return np.asarray(zenoh_s), np.asarray(http_s)
+
+
 def joint_states(duration: float = 3.0) -> np.ndarray:
     """Arrival times of /joint_states while a ``duration`` s move streams at 100 Hz."""
     from robodcn.ros2 import wire
@@ -207,6 +252,7 @@ def _ms(x: float) -> str:
 def run() -> str:
     lat = state_latency()
     zq, hq = round_trips()
+    fz, fh = follow_latency()
     js = joint_states()
     gaps = np.diff(js)
     spread, late = start_spread()
@@ -227,8 +273,10 @@ def run() -> str:
         f"{_ms(np.percentile(zq, 99))} | — |",
         f"| HTTP `GET /healthz` round trip (kept alive), p50 / p99 | "
         f"{_ms(np.percentile(hq, 50))} / {_ms(np.percentile(hq, 99))} | — |",
-        "| follow target put → first changed goal | not measured: the service has no "
-        "follow operation yet | — |",
+        f"| follow target put (Zenoh) → first changed Goal Position, p50 / max ({len(fz)}) | "
+        f"{_ms(float(np.median(fz)))} / {_ms(float(fz.max()))} | — |",
+        f"| follow target `PUT /v1/follow/target` (HTTP) → first changed Goal Position, "
+        f"p50 / max ({len(fh)}) | {_ms(float(np.median(fh)))} / {_ms(float(fh.max()))} | — |",
         f"| /joint_states while streaming at {RATE_HZ} Hz: rate (median interval) | "
         f"{1 / statistics.median(gaps):.1f} Hz | ≥ 50 Hz {ok_rate} |",
         f"| /joint_states interval jitter: std / max | {_ms(float(np.std(gaps)))} / "

@@ -14,6 +14,7 @@ import time
 from typing import Any
 
 import http_helpers
+import numpy as np
 import pytest
 import zenoh
 from http_helpers import BODY, ROOT
@@ -133,11 +134,33 @@ def test_fleet_ls_lists_two_arms() -> None:
         assert e.host and e.moving is False and len(e.pose) == 3 and e.error is None
 
 
-def test_follow_target_without_follow_operation_is_counted(left: Any) -> None:
+def test_bad_follow_target_is_counted(left: Any) -> None:
     _, native, session = left
     session.put("robodcn/left/follow/target", b"not json")
     wait_for(lambda: native.bad_puts >= 1, 3, "the put to be counted")
+    assert native.follow_fed == 0
     assert query(session, "robodcn/left/op/health")["status"] == 200  # still serving
+
+
+def test_follow_targets_over_zenoh_move_the_arm(left: Any) -> None:
+    """The teleop path: open a follow session (op/follow_open), stream joint targets as
+    puts on follow/target, end it (op/follow_end); the arm rests at the last target."""
+    server, native, session = left
+    q0 = np.asarray(server.controller.state().joints)
+    goal = q0 + np.array([0.25, -0.2, 0.15])
+    opened = query(session, "robodcn/left/op/follow_open", {"space": "joints"})
+    assert opened["status"] == 201, opened
+    for k in range(1, 41):  # 0.8 s of targets at 50 Hz along a straight joint line
+        target = q0 + (goal - q0) * min(1.0, k / 30)
+        session.put("robodcn/left/follow/target", json.dumps({"joints": target.tolist()}))
+        time.sleep(0.02)
+    wait_for(lambda: native.follow_fed >= 10, 5, "targets to reach the session")
+    ended = query(session, "robodcn/left/op/follow_end", {})
+    assert ended["status"] == 200, ended
+    wait_for(lambda: not server.controller.busy, 10, "the session to come to rest")
+    # present positions: within the servos' few ticks of the last target (moved 0.25 rad)
+    assert server.controller.state().joints == pytest.approx(goal.tolist(), abs=0.02)
+    assert native.bad_puts == 0
 
 
 @pytest.mark.parametrize("listen", ["tcp/0.0.0.0:7447", "tcp/192.168.1.7:7447",

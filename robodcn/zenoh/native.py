@@ -10,7 +10,9 @@
   a load of plans never delays a stop;
 - queryable ``robodcn/<arm>/info``: name, host, process, version, the HTTP URL;
 - subscriber ``robodcn/<arm>/follow/target``: a put of a ``PUT /v1/follow/target`` body
-  feeds the open follow session (the ``follow_target`` operation), when the service has it.
+  feeds the open follow session (the ``follow_target`` operation) on a thread of its own,
+  the newest put replacing one not yet taken (a target stream is only as good as its
+  newest); a refused target is counted and logged.
 
 A peer that disappears changes nothing here (a move it started runs on); callbacks never
 raise into Zenoh (a bad query is answered, a bad put is counted and logged).
@@ -73,6 +75,14 @@ class NativeFace:
         self._backlog = {kind: threading.BoundedSemaphore(POOL_BACKLOG) for kind in POOL_SIZES}
         self._declared: list[Any] = []
         self._thread: threading.Thread | None = None
+        #: Follow targets handed to the follow operation, and those a newer one replaced
+        #: before they were taken.
+        self.follow_fed = 0
+        self.follow_dropped = 0
+        self._follow_lock = threading.Lock()
+        self._follow_next: bytes | None = None
+        self._follow_wake = threading.Event()
+        self._follow_thread: threading.Thread | None = None
 
     # -- lifecycle ------------------------------------------------------------------------
 
@@ -90,12 +100,17 @@ class NativeFace:
             self._thread = threading.Thread(target=self._publish_state, daemon=True,
                                             name="robodcn-zenoh-state")
             self._thread.start()
+        self._follow_thread = threading.Thread(target=self._feed_follow, daemon=True,
+                                               name="robodcn-zenoh-follow")
+        self._follow_thread.start()
         return self
 
     def close(self) -> None:
         self._stop.set()
-        if self._thread is not None:
-            self._thread.join(2.0)
+        self._follow_wake.set()
+        for thread in (self._thread, self._follow_thread):
+            if thread is not None:
+                thread.join(2.0)
         for entity in reversed(self._declared):
             try:
                 entity.undeclare()
@@ -157,22 +172,39 @@ class NativeFace:
                         encoding="application/json")
 
     def _on_follow(self, sample: Any) -> None:
-        if FOLLOW_OPERATION not in dispatch.BY_NAME:
-            self.bad_puts += 1
-            if self.bad_puts == 1:
-                log.warning("a follow target arrived on %s/follow/target but this service "
-                            "has no %s operation (the follow session is not part of it)",
-                            self.prefix, FOLLOW_OPERATION)
-            return
-        try:
-            result = dispatch.call(self.server, FOLLOW_OPERATION, sample.payload.to_bytes())
-        except Exception:
-            log.exception("follow target failed")
-            self.bad_puts += 1
-            return
-        if result["status"] >= 300:
-            self.bad_puts += 1
-            log.info("follow target refused (%s): %s", result["status"], result["body"])
+        """A target put: handed to the follow thread, the newest replacing any not yet
+        taken (the follow session heads for the newest target anyway)."""
+        with self._follow_lock:
+            if self._follow_next is not None:
+                self.follow_dropped += 1
+            self._follow_next = sample.payload.to_bytes()
+        self._follow_wake.set()
+
+    def _feed_follow(self) -> None:
+        while not self._stop.is_set():
+            self._follow_wake.wait(0.5)
+            with self._follow_lock:
+                payload, self._follow_next = self._follow_next, None
+                self._follow_wake.clear()
+            if payload is None:
+                continue
+            if FOLLOW_OPERATION not in dispatch.BY_NAME:
+                self.bad_puts += 1
+                if self.bad_puts == 1:
+                    log.warning("a follow target arrived on %s/follow/target but this "
+                                "service has no %s operation", self.prefix, FOLLOW_OPERATION)
+                continue
+            try:
+                result = dispatch.call(self.server, FOLLOW_OPERATION, payload)
+            except Exception:
+                log.exception("follow target failed")
+                self.bad_puts += 1
+                continue
+            if result["status"] >= 300:
+                self.bad_puts += 1
+                log.info("follow target refused (%s): %s", result["status"], result["body"])
+            else:
+                self.follow_fed += 1
 
     # -- the state publication -------------------------------------------------------------
 
