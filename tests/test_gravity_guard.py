@@ -137,6 +137,7 @@ def test_http_reboot_confirmed_lowers_to_rest_first_and_the_arm_stays_there() ->
         assert np.abs(heights(sa.sim, 0.3) - REST_Z).max() < 0.01
 
 
+@pytest.mark.serial    # a stop at a wall-clock moment of the lowering
 def test_http_stop_stops_the_lowering_and_torque_stays_on() -> None:
     import threading
 
@@ -219,6 +220,7 @@ def test_calibrate_asks_before_torque_off_and_a_no_changes_nothing(held_omx, mon
     assert np.abs(heights(held_omx, 0.5) - z).max() < 0.002 and not out.exists()
 
 
+@pytest.mark.serial    # a hand on the real clock
 @pytest.mark.parametrize("abort", ["end of input", "Ctrl-C"])
 def test_calibrate_confirmed_lowers_first_and_an_abort_leaves_it_holding(
         held_omx, hand, monkeypatch, capsys, tmp_path, abort):
@@ -251,6 +253,7 @@ def test_calibrate_confirmed_lowers_first_and_an_abort_leaves_it_holding(
 
 # -- teach ---------------------------------------------------------------------------------------
 
+@pytest.mark.serial    # the float loop's refresh rate on the real clock
 def test_float_teach_from_torque_off_switches_torque_on_and_the_arm_stays(
         held_omx, hand, monkeypatch, capsys, tmp_path):
     """A freshly powered arm (torque off) that a hand holds up: teach --float switches the

@@ -66,8 +66,12 @@ log = logging.getLogger("robodcn.workflow")
 
 #: A joint holding less than this against gravity does not count as loaded (N·m).
 LOADED_NM = 1e-3
-#: Lowering outcomes after which the arm is at rest on the rest pose.
+#: Lowering outcomes after which the arm is at rest on the rest pose (every sample sent).
 ARRIVED = ("done", "degraded")
+#: How long the lowering waits, after its last sample, for the arm to arrive on the rest
+#: pose before torque goes off (s; the streamer's ``settle``): a stream that fell behind
+#: on a loaded host would otherwise let go of an arm still above its support.
+SETTLE_S = 1.0
 
 
 @dataclass(frozen=True)
@@ -255,7 +259,7 @@ def release(bus: ServoBus, arm: Arm, *, confirm: bool = False, lower: bool = Tru
         tell(f"{what} lets arm {arm.name!r} fall under gravity (confirmed): lowering it to "
              "its rest pose first" + ("" if recovery is None else f"; {recovery.line()}"))
         try:
-            lowering = execute(trajectory, bus, **(execute_options or {}))
+            lowering = execute(trajectory, bus, **{"settle": SETTLE_S, **(execute_options or {})})
         except (InputError, PlanError, HardwareAlertError, StartMismatchError) as exc:
             hold = f"the lowering to its rest pose was refused: {exc.message}"
         if lowering is not None and lowering.outcome not in ARRIVED:
@@ -296,5 +300,5 @@ def hold(bus: ServoBus, ids: Collection[int] | None = None) -> None:
              ", ".join(map(str, bus.ids if ids is None else ids)))
 
 
-__all__ = ["ARRIVED", "LOADED_NM", "ReleaseCheck", "ReleaseResult", "check_release", "hold",
-           "refusal", "release", "released"]
+__all__ = ["ARRIVED", "LOADED_NM", "SETTLE_S", "ReleaseCheck", "ReleaseResult",
+           "check_release", "hold", "refusal", "release", "released"]
