@@ -199,6 +199,29 @@ def refusal(check: ReleaseCheck, *, what: str = "torque off", hold: str | None =
         rest=check.rest)
 
 
+def arrived(report: ExecutionReport) -> bool:
+    """Whether a lowering left the arm on its rest pose: every sample sent (outcome in
+    :data:`ARRIVED`) and the arm in position there (no ``out_of_position`` joint)."""
+    return report.outcome in ARRIVED and not report.out_of_position
+
+
+def _lower(bus: ServoBus, arm: Arm, trajectory: Trajectory,
+           plan_options: dict[str, Any] | None,
+           execute_options: dict[str, Any] | None) -> ExecutionReport:
+    """Stream the lowering, waiting up to :data:`SETTLE_S` for the arm to arrive; a
+    lowering that completed out of position (its last goals lost on a loaded bus) is planned
+    again from where the arm is and streamed once more."""
+    options = {"settle": SETTLE_S, **(execute_options or {})}
+    report = execute(trajectory, bus, **options)
+    if report.outcome in ARRIVED and report.out_of_position:
+        log.warning("the lowering ended out of position (%s): lowering again",
+                    ", ".join(miss.joint for miss in report.out_of_position))
+        q = present_joints(arm, bus, verify=False)
+        report = execute(plan(arm, [tool_pose(arm, q), arm.rest], start_joints=q,
+                              **(plan_options or {})), bus, **options)
+    return report
+
+
 def _torque_off(bus: ServoBus, ids: Collection[int] | None) -> None:
     bus.torque(False, None if ids is None else tuple(ids))
 
@@ -259,10 +282,10 @@ def release(bus: ServoBus, arm: Arm, *, confirm: bool = False, lower: bool = Tru
         tell(f"{what} lets arm {arm.name!r} fall under gravity (confirmed): lowering it to "
              "its rest pose first" + ("" if recovery is None else f"; {recovery.line()}"))
         try:
-            lowering = execute(trajectory, bus, **{"settle": SETTLE_S, **(execute_options or {})})
+            lowering = _lower(bus, arm, trajectory, plan_options, execute_options)
         except (InputError, PlanError, HardwareAlertError, StartMismatchError) as exc:
             hold = f"the lowering to its rest pose was refused: {exc.message}"
-        if lowering is not None and lowering.outcome not in ARRIVED:
+        if lowering is not None and not arrived(lowering):
             log.warning("%s: the lowering to the rest pose ended %s; torque stays on", what,
                         lowering.outcome)
             return ReleaseResult(check, False, lowering, False, (), None, recovery)
@@ -284,7 +307,10 @@ def released(result: ReleaseResult, what: str = "torque off") -> ReleaseResult:
     calibration, a teach session)."""
     if result.released:
         return result
-    outcome = result.lowering.outcome if result.lowering is not None else "?"
+    lowering = result.lowering
+    outcome = lowering.outcome if lowering is not None else "?"
+    if lowering is not None and lowering.out_of_position:
+        outcome += " out of position (" + ", ".join(m.joint for m in lowering.out_of_position) + ")"
     error = StoppedError if outcome == "stopped" else BusError
     raise error(f"{what} not done: the lowering to the rest pose ended {outcome}; torque "
                 "stays on", field="confirm", value=outcome)
@@ -300,5 +326,5 @@ def hold(bus: ServoBus, ids: Collection[int] | None = None) -> None:
              ", ".join(map(str, bus.ids if ids is None else ids)))
 
 
-__all__ = ["ARRIVED", "LOADED_NM", "SETTLE_S", "ReleaseCheck", "ReleaseResult",
+__all__ = ["ARRIVED", "LOADED_NM", "SETTLE_S", "ReleaseCheck", "ReleaseResult", "arrived",
            "check_release", "hold", "refusal", "release", "released"]
