@@ -57,8 +57,11 @@ class Violation:
     and jerk to i + 2 of the differences that produce them (planner module docstring).
     """
 
-    sample: int = _field(metadata={"description": "Index of the first failing sample."})
-    t: float = _field(metadata={"description": "Its time from the plan start (s)."})
+    sample: int | None = _field(metadata={
+        "description": "Index of the first failing sample; null when the plan is refused "
+                       "before it is timed (a pose the arm cannot hold: no sample exists)."})
+    t: float | None = _field(metadata={
+        "description": "Its time from the plan start (s); null with a null sample."})
     pose: tuple[float, ...] = _field(
         metadata={"description": "Its pose: [x, y, θ] (m, m, rad), or on an arm with a base "
                                  "yaw [x, y, z, pitch] (m, m, m, rad).",

@@ -48,6 +48,29 @@ def quantity(value: float, unit: str, units: Units) -> str:
     return f"{value:.4g}{_SI_UNITS.get(unit, ' ' + unit)}"
 
 
+def quantity_pair(value: float, limit: float, unit: str, units: Units) -> tuple[str, str]:
+    """``value`` and ``limit`` as :func:`quantity` words them, with more digits where those
+    would read alike: d significant digits (decimals of a degree) from d = ⌈−log₁₀ of the
+    relative gap |value − limit| / |limit|⌉ + 1 up until the two differ, so "needs 2.800011
+    N·m, limit 2.800000 N·m" tells a value 3.9e-6 above its limit from the limit."""
+    a, b = quantity(value, unit, units), quantity(limit, unit, units)
+    if a != b or value == limit or not (math.isfinite(value) and math.isfinite(limit)):
+        return a, b
+    gap = abs(value - limit) / max(abs(limit), abs(value))
+    name, factor = _CLI_UNITS.get(unit, (unit, 1.0)) if units == "cli" else (None, 1.0)
+    suffix = f" {name}".rstrip() if units == "cli" else _SI_UNITS.get(unit, " " + unit)
+    whole = len(str(int(abs(limit * factor))))
+    for digits in range(max(4, math.ceil(-math.log10(gap)) + 1), 18):
+        if name == "°":
+            places = max(1, digits - whole)
+            a, b = (f"{round(x * factor, places) + 0.0:.{places}f}°" for x in (value, limit))
+        else:
+            a, b = (f"{x * factor:#.{digits}g}{suffix}" for x in (value, limit))
+        if a != b:
+            break
+    return a, b
+
+
 def pose_text(pose: Sequence[float], units: Units) -> str:
     """x, y (and an arm with a base yaw's z) in metres; θ (pitch) in degrees on the CLI,
     radians over HTTP."""
@@ -143,15 +166,21 @@ def describe_violation(v: Violation, units: Units = "si",
                        waypoint_names: Sequence[str] | None = None,
                        field_names: Mapping[str, str] | None = None) -> str:
     """One line naming sample, time, pose, segment (or waypoint), joint, value and limit;
-    the field to change is ``v.field`` in the user's terms (:func:`field_name`)."""
-    where = [f"sample {v.sample}"]
+    the field to change is ``v.field`` in the user's terms (:func:`field_name`). A violation
+    found before timing (no sample: a pose the arm cannot hold) names the waypoint, or the
+    path's segment and pose."""
+    where = []
     if v.waypoint is not None:
         where.append(_waypoint(v.waypoint, units, waypoint_names))
     elif v.segment is not None:
         a, b = (_waypoint(i, units, waypoint_names) for i in v.segment)
         where.append(f"segment {a} → {b}" if units == "cli" or waypoint_names
                      else f"segment waypoint {v.segment[0]} → {v.segment[1]}")
-    where.append(f"t={v.t:.3f} s")
+    if v.sample is not None:
+        where[:0] = [f"sample {v.sample}"]
+        where.append(f"t={v.t:.3f} s")
+    elif v.waypoint is None:
+        where[:0] = ["the path"]
     where.append(pose_text(v.pose, units))
     head = f"{where[0]} ({', '.join(where[1:])})"
     who = f"joint {v.joint!r} " if v.joint else ""
@@ -175,14 +204,15 @@ def describe_violation(v: Violation, units: Units = "si",
     elif v.quantity == "torque" and v.field.rsplit(".", 1)[-1] == "payload_kg":
         # gravity alone (links and payload) overloads the joint there: no timing helps (the
         # field is the request's payload_kg, or a file's waypoints[4].payload_kg)
-        text = (f"{head}: {who}needs {quantity(v.value, v.unit, units)} just to hold the "
-                f"arm, limit {quantity(v.limit, v.unit, units)} (torque): lighten "
+        value, limit = quantity_pair(v.value, v.limit, v.unit, units)
+        text = (f"{head}: {who}needs {value} just to hold the arm, limit {limit} (torque): "
+                "lighten "
                 f"{field_name(v.field, units, field_names=field_names)} or avoid that pose")
     else:
         option = field_name(v.field, units, field_names=field_names)
-        text = (f"{head}: {who}needs {quantity(v.value, v.unit, units)}, limit "
-                f"{quantity(v.limit, v.unit, units)} ({_WHAT[v.quantity]}): lengthen "
-                f"{option}")
+        value, limit = quantity_pair(v.value, v.limit, v.unit, units)
+        text = (f"{head}: {who}needs {value}, limit {limit} ({_WHAT[v.quantity]}): "
+                f"lengthen {option}")
     if v.other_branch_ok is not None:
         flag = "--elbow" if units == "cli" else "elbow"
         text += ("; the other elbow branch would pass (" + flag + ")" if v.other_branch_ok

@@ -8,6 +8,8 @@ import math
 import warnings
 
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from robodcn import contract, load_arm, messages, plan
 from robodcn.errors import (
@@ -93,3 +95,19 @@ def test_beta_warning_names_the_option() -> None:
     w = [r.message for r in record if isinstance(r.message, BetaIgnoredWarning)]
     assert len(w) == 1 and w[0].field == "beta"
     assert messages.describe(w[0], "cli").startswith("--beta = 0.3 has no effect")
+
+
+@settings(max_examples=200, deadline=None)
+@given(limit=st.floats(1e-3, 1e3), gap=st.floats(1e-11, 1e-2),
+       units=st.sampled_from(["cli", "si"]), unit=st.sampled_from(["N*m", "rad/s"]))
+def test_a_value_and_its_limit_never_read_alike(limit, gap, units, unit):
+    """Issue 27 §2: "needs 2.8 N·m, limit 2.8 N·m" told nothing; the digits follow the gap."""
+    value = limit * (1.0 + gap)
+    a, b = messages.quantity_pair(value, limit, unit, units)
+    assert a != b
+    factor = 180.0 / math.pi if units == "cli" and unit == "rad/s" else 1.0
+    x, y = (float(t.split()[0]) for t in (a, b))
+    assert x > y
+    if messages.quantity(value, unit, units) == messages.quantity(limit, unit, units):
+        # the digits added: the limit reads within the gap of itself
+        assert abs(y - limit * factor) <= abs(value - limit) * factor

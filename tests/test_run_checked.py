@@ -74,8 +74,10 @@ def test_a_later_leg_the_torque_cannot_carry_moves_nothing(held_omx, monkeypatch
     err = capsys.readouterr().err
     assert code == 3, err
     assert wire_state(held_omx) == before           # no goal, no gripper action, no torque
-    assert err.startswith(f"robodcn: {path}: leg 2 of 2 (waypoints 1..3): sample ")
-    assert "(segment waypoint 1 → waypoint 2," in err
+    # refused before timing (planner.holding): the waypoint the arm cannot hold, numbered
+    # as the file numbers it
+    assert err.startswith(f"robodcn: {path}: leg 2 of 2 (waypoints 1..3): waypoint 1 "
+                          "(x=0.2000 m, y=0.0000 m, z=0.1000 m, pitch=-30.0°): joint ")
     assert err.endswith("lighten waypoint 1 (payload_kg = 3 in the file) or avoid that "
                         "pose\n")
     assert "--payload" not in err and "leg 1/2" not in err
@@ -104,9 +106,10 @@ def test_a_leg_error_is_in_the_file_terms_for_the_library(tmp_path):
         plan_legs(OMX, [leg_list[0], heavy], OMX.home, source=str(path))
     exc = caught.value
     assert exc.leg == (2, 2, 1, 3)
-    assert exc.violation.segment == (1, 2) and exc.violation.field == \
-        "waypoints[1].payload_kg" and exc.field == "waypoints[1].payload_kg"
-    assert exc.message.startswith(f"{path}: leg 2 of 2 (waypoints 1..3): sample ")
+    assert exc.violation.waypoint == 1 and exc.violation.sample is None
+    assert exc.violation.field == "waypoints[1].payload_kg" and \
+        exc.field == "waypoints[1].payload_kg"
+    assert exc.message.startswith(f"{path}: leg 2 of 2 (waypoints 1..3): waypoints[1] (")
     assert exc.message.endswith("lighten waypoints[1].payload_kg or avoid that pose")
 
 

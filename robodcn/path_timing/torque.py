@@ -12,9 +12,13 @@ the reachability analysis (:mod:`robodcn.path_timing.reachability`), like the ac
 row −a_max ≤ q′·s̈ + q″·ṡ² ≤ a_max.
 
 A speed scale k (the law s(k t)) multiplies a·s̈ + b·ṡ² by k² and leaves c: the scaled law
-keeps k²·(±τ_max − c). A stage where gravity alone needs more than τ_max (|c| > τ_max: the
-arm cannot hold itself there) gets no torque row: the law is timed without it and the
-planner's validation names the sample and joint (TorqueLimitError).
+keeps k²·(±τ_max − c). A stage where gravity alone needs more than τ_max (|c| > τ_max·(1 +
+:data:`SLACK`): the arm cannot hold itself there) gets no torque row: the law is timed
+without it and the planner's validation names the sample and joint (TorqueLimitError); the
+planner refuses such a path before timing it (:meth:`TorqueLimits.overloaded` on its dense
+samples, :mod:`robodcn.planner.holding`), since near it the law crawls. Within the slack
+gravity counts as at the limit (c clipped to ±τ_max), so the timing, the precheck and the
+validation (``planner.validate``: |τ| ≤ τ_max·(1 + SLACK)) draw one line.
 """
 
 from __future__ import annotations
@@ -27,9 +31,18 @@ import numpy as np
 from numpy.typing import NDArray
 
 from robodcn.config import Arm, rigid_chain
-from robodcn.dynamics import RigidChain, inverse_dynamics, path_torque_coefficients
+from robodcn.dynamics import (
+    RigidChain,
+    gravity_torque,
+    inverse_dynamics,
+    path_torque_coefficients,
+)
 
-__all__ = ["TorqueLimits", "TorqueRows"]
+__all__ = ["SLACK", "TorqueLimits", "TorqueRows"]
+
+#: Relative tolerance of every torque comparison (float rounding only): the rows below,
+#: the planner's holding precheck and its validation (planner.validate.LIMIT_SLACK).
+SLACK = 1e-9
 
 #: paths whose coefficients (a, b, c) a TorqueLimits and its shrunk copies keep (a re-timing
 #: tries several shares of the limits on one path, a duration fit several speeds)
@@ -74,8 +87,9 @@ class TorqueLimits:
         a, b, c = self.coefficients(q, dq, ddq)
         k2 = scale * scale
         tau = self.tau[None, :]
+        off = ~np.isfinite(tau) | self.overloaded(c)
+        c = np.clip(c, -tau, tau)  # within SLACK of the limit: at it (module doc)
         lo, hi = k2 * (-tau - c), k2 * (tau - c)
-        off = ~np.isfinite(tau) | (np.abs(c) > tau)
         if off.any():
             off = np.broadcast_to(off, c.shape)
             a, b = np.where(off, 0.0, a), np.where(off, 0.0, b)
@@ -99,6 +113,16 @@ class TorqueLimits:
                     del self._kept[next(iter(self._kept))]  # the oldest
                 self._kept[key] = got
         return got
+
+    def gravity(self, q: NDArray) -> NDArray[np.float64]:
+        """τ_g (n, k): the torque that holds the arm still at q (n, k) with the payload
+        (inverse dynamics at q̇ = q̈ = 0: links, payload and gravity; the static holding
+        torque, :func:`robodcn.dynamics.gravity_torque`)."""
+        return gravity_torque(self.chain, q, self.payload_kg)
+
+    def overloaded(self, g: NDArray) -> NDArray[np.bool_]:
+        """Where holding torques g (n, k) pass the limits: |g| > τ_max·(1 + SLACK)."""
+        return np.abs(g) > self.tau * (1.0 + SLACK)
 
     def torques(self, q: NDArray, qd: NDArray, qdd: NDArray) -> NDArray[np.float64]:
         """τ (n, k) of the motion (q, q̇, q̈) (robodcn.dynamics.inverse_dynamics)."""

@@ -20,7 +20,7 @@ import logging
 
 from robodcn.contract.request import PlanRequest
 from robodcn.path_timing import moving_start
-from robodcn.planner import arm_arrays
+from robodcn.planner import arm_arrays, holding
 from robodcn.planner.arc import by_arc_length
 from robodcn.planner.pieces import DensePiece, build_pieces
 
@@ -54,6 +54,11 @@ def stops_beat_blend(req: PlanRequest) -> bool:
     stops, _ = build_pieces(stopping)
     if blended is None or stops is None:
         return False
+    # a blended curve the arm cannot hold somewhere is not timed (its law crawls:
+    # planner.holding); the plan stops at the vias, whose path the planner checked first
+    if holding.overload(canonical, blended) is not None:
+        log.debug("blend: the blended curve passes a pose the arm cannot hold: stopping")
+        return True
     t_blend = _optimal_duration(canonical, blended)
     t_stops = _optimal_duration(canonical, stops)
     if t_stops < t_blend:

@@ -29,7 +29,7 @@ from robodcn.errors import (
     VelocityLimitError,
     Violation,
 )
-from robodcn.planner import arm_arrays, reach, validate
+from robodcn.planner import arm_arrays, holding, reach, validate
 from robodcn.planner.blend_choice import stops_beat_blend
 from robodcn.planner.optimal import OptimalTiming
 from robodcn.planner.path import to_user
@@ -111,9 +111,24 @@ def _unreachable_path(req: PlanRequest, pose: NDArray) -> NoReturn:
     reach.raise_unreachable_pose(req, pose)
 
 
+def _refuse_unholdable(req: PlanRequest, pieces: list | None) -> None:
+    """TorqueLimitError at once where gravity alone overloads a joint along ``pieces``
+    (planner.holding: no law could carry it, and the optimal one crawls before failing)."""
+    if pieces is None:
+        return
+    violation = holding.overload(req, pieces)
+    if violation is not None:
+        validate.raise_for(reach.user_violation(req, violation))
+
+
 def plan_request(req: PlanRequest) -> Trajectory:
     """Plan a validated :class:`PlanRequest` (package docstring); see :func:`plan`."""
     reach.check_waypoints(req)
+    if validate.torque_limits(req) is not None:
+        # every waypoint and the path between them (stopping at the vias) held at rest,
+        # before any law is timed (the blend choice below times two)
+        stops = dataclasses.replace(req, blend=False)
+        _refuse_unholdable(stops, build_pieces(stops)[0])
     # the geometry: a blend stops at its vias where that is faster under any time law,
     # decided whatever this request's profile, duration and rate (planner.blend_choice)
     geometry = dataclasses.replace(req, blend=False) if stops_beat_blend(req) else req
@@ -128,6 +143,8 @@ def plan_request(req: PlanRequest) -> Trajectory:
     if pieces is None:
         assert bad_pose is not None
         _unreachable_path(req, bad_pose)
+    if geometry.blend:  # the blended curve departs from the segments checked above
+        _refuse_unholdable(geometry, pieces)
     if req.start_state is not None or not arm_arrays.arrays_of(req.arm).jerk_limited:
         return run(req, OptimalTiming(geometry, pieces, fine=fine))
     return _no_slower_than_quintic(req, geometry, pieces, fine)

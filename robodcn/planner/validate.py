@@ -46,12 +46,14 @@ from robodcn.errors import (
 )
 from robodcn.messages import describe_violation
 from robodcn.path_timing.tool import ToolLimits
+from robodcn.path_timing.torque import SLACK as TORQUE_SLACK
 from robodcn.path_timing.torque import TorqueLimits
 from robodcn.planner import arm_arrays
 
 #: Relative slack on velocity/acceleration/jerk limits, for float rounding only (auto timing
-#: itself uses the exact limits, so auto plans never rely on it).
-LIMIT_SLACK = 1e-9
+#: itself uses the exact limits, so auto plans never rely on it); the torque timing's own
+#: tolerance (path_timing.torque.SLACK: one line for timing, holding precheck and validation).
+LIMIT_SLACK = TORQUE_SLACK
 #: Slack on joint position limits (rad), float rounding only.
 ANGLE_SLACK = arm_arrays.ANGLE_SLACK
 #: The finite-difference order of each dynamic quantity (what a uniform stretch λ divides by
@@ -421,8 +423,9 @@ def check(req: PlanRequest, poses: NDArray, joints: NDArray, *, dynamics: bool =
         assert torque is not None
         _, grav = sample_torques(torque, joints, rate, history)
         assert grav is not None
-        if abs(float(grav[i, j])) > limit:
+        if torque.overloaded(grav[i])[j]:
             field = "payload_kg"  # gravity alone overloads the joint there: no duration helps
+            waypoint = (marks or {}).get(i)  # at rest on a waypoint: name it
     if segment is None and segment_of is not None and quantity in ("position", "ticks") \
             and req.start_joints is not None:
         field = "start_joints"
