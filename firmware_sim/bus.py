@@ -14,6 +14,8 @@ the port's rate; the replies follow it as :mod:`firmware_sim.replies` describes.
 
 from __future__ import annotations
 
+import dataclasses
+import math
 import threading
 import time
 import traceback
@@ -86,7 +88,8 @@ class SimBus:
                               lock=arm_lock if sp.on_arm else None,
                               load_inertia=sp.load_inertia, indirect=sp.indirect)
                        for sp in servos.servos]
-        if servos.arm is not None:
+        #: The plant the arm's servos share (None without an arm).
+        self._plant = None if servos.arm is None else \
             couple_arm(servos.arm, [self.servo(i) for i in servos.arm_ids])
         self.faults = FaultInjector(seed=cfg.fault_seed)
         self.faults._tripper = self._trip
@@ -182,6 +185,30 @@ class SimBus:
                 return s
         raise KeyError(f"no servo with id {servo_id} on the bus (ids: "
                        f"{[s.id for s in self._servos]})")
+
+    @property
+    def payload_kg(self) -> float | None:
+        """The point mass (kg) the simulated arm carries at its tool point; None without
+        an arm (no ``arm=`` document, or the kinematic model)."""
+        return None if self.arm is None else self.arm.payload
+
+    def set_payload(self, kg: float) -> None:
+        """Let the arm carry ``kg`` at its tool point from now on: a gripper closing on an
+        object, or a dry run carrying the payload a move declares. The plant first advances
+        to now on the old mass, then runs on the new one (its rest support recomputed).
+        RuntimeError without an arm; ValueError for a mass that is not a finite number ≥ 0."""
+        if self.arm is None or self._plant is None:
+            raise RuntimeError("no arm on this bus (no arm file, or the kinematic model): "
+                               "nothing carries a payload")
+        if isinstance(kg, bool) or not isinstance(kg, int | float) or not math.isfinite(kg) \
+                or kg < 0:
+            raise ValueError(f"payload must be a finite number of kg >= 0, got {kg!r}")
+        with self.lock:
+            for s in self._plant.owners:
+                s.update()
+            arm = dataclasses.replace(self.arm, payload=float(kg))
+            self._plant.set_arm(arm)
+            self.arm = arm
 
     def goal_history(self, servo_id: int) -> list[int]:
         """Every accepted Goal Position of that servo, in order (WRITE, REG_WRITE+ACTION,

@@ -12,6 +12,8 @@ One command a line, one answer a line (``ok`` or ``error <reason>``)::
                        (a WRITE to an Indirect Address answers OK and stores nothing: an
                        older firmware, a clone) or unresolved (stored, not followed)
     get ID             answers ``ok POSITION VELOCITY CURRENT TEMPERATURE`` (table units)
+    payload KG         the arm carries KG at its tool point from now on (``payload`` alone
+                       answers ``ok KG``): an object picked up, or a dry run's declared load
 
 A client may keep the connection open and send many lines; several clients may connect.
 """
@@ -38,6 +40,8 @@ def execute(bus: SimBus, line: str) -> str:
     if not words:
         return "error empty command"
     verb, args = words[0].lower(), words[1:]
+    if verb == "payload":
+        return _payload(bus, args)
     commands: dict[str, tuple[int, Callable[..., str]]] = {
         "move": (2, lambda s, a: _do(lambda: s.backdrive(int(a)))),
         "push": (2, lambda s, a: _do(lambda: s.push(float(a)))),
@@ -50,7 +54,8 @@ def execute(bus: SimBus, line: str) -> str:
             ct.PRESENT_TEMPERATURE))),
     }
     if verb not in commands:
-        return f"error unknown command {verb!r}; known: {', '.join(sorted(commands))}"
+        known = ", ".join(sorted([*commands, "payload"]))
+        return f"error unknown command {verb!r}; known: {known}"
     arity, run = commands[verb]
     if len(args) != arity:
         return f"error {verb} takes {arity} argument(s), got {len(args)}"
@@ -66,6 +71,22 @@ def execute(bus: SimBus, line: str) -> str:
         return run(servo, *args[1:])
     except ValueError as exc:
         return f"error {exc}"
+
+
+def _payload(bus: SimBus, args: list[str]) -> str:
+    """``payload [KG]``: the arm's payload, read or set (:meth:`SimBus.set_payload`)."""
+    if len(args) > 1:
+        return f"error payload takes 0 or 1 argument(s), got {len(args)}"
+    if not args:
+        kg = bus.payload_kg
+        return "error no arm on this bus" if kg is None else f"ok {kg!r}"
+    try:
+        bus.set_payload(float(args[0]))
+    except ValueError as exc:
+        return f"error {exc}"
+    except RuntimeError as exc:
+        return f"error {exc}"
+    return "ok"
 
 
 def _do(action: Callable[[], object]) -> str:

@@ -136,6 +136,15 @@ class Plant:
         self.owners: list = []
         self.steps_taken = 0
 
+    def set_arm(self, arm: ArmModel) -> None:
+        """Carry ``arm`` from now on (another payload, say): same joints, new bodies; the
+        rest support follows its gravity. The caller advances the plant to now first."""
+        if self.arm is None or arm.dof != self.n:
+            raise ValueError(f"the plant carries no arm of {arm.dof} joints")
+        self.arm = arm
+        self.rest_support = []
+        self._arm_stops(arm)
+
     def _arm_stops(self, arm: ArmModel) -> None:
         """The arm's end stops and its rest support in shaft angles."""
         for j, stop in enumerate(arm.stops or ()):

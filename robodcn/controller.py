@@ -42,7 +42,7 @@ import logging
 import threading
 import time
 from collections.abc import Iterator
-from typing import Any
+from typing import Any, Protocol
 
 import numpy as np
 from numpy.typing import NDArray
@@ -99,6 +99,16 @@ HEALTH_TIMEOUT = 1.0
 OPERATION_BUDGET_S = 0.5
 
 
+class CarriedLoad(Protocol):
+    """A simulated arm that carries what each move declares (robodcn.simulated.SimulatedArm):
+    :meth:`carry` before the move streams, :meth:`reported` names the load in its report."""
+
+    def carry(self, payload_kg: float | None) -> float | None: ...
+
+    def reported(self, report: ExecutionReport, trajectory: Trajectory
+                 ) -> ExecutionReport: ...
+
+
 class ArmController:
     """Runs moves and state reads for ``arm`` on ``bus`` from one worker thread.
 
@@ -109,10 +119,13 @@ class ArmController:
     history : how many moves :meth:`move` remembers
     execute_options : :class:`~robodcn.stream.ExecutionOptions`, or a dict of its fields
         over :data:`DEFAULT_EXECUTE` (``stop`` and ``progress`` are the controller's)
+    simulated : the dry run's simulated arm (``serve --sim``): it carries the payload each
+        move declares before the move streams, and the report names it (issue 27 §2)
     """
 
     def __init__(self, arm: Arm, bus: ServoBus, *, history: int = 64,
-                 execute_options: ExecutionOptions | dict[str, Any] | None = None) -> None:
+                 execute_options: ExecutionOptions | dict[str, Any] | None = None,
+                 simulated: CarriedLoad | None = None) -> None:
         if tuple(bus.ids) != arm.servo_ids:
             raise InputError(f"the bus drives servo ids {list(bus.ids)}, arm {arm.name!r} has "
                              f"{list(arm.servo_ids)}", field="bus", value=list(bus.ids))
@@ -135,6 +148,7 @@ class ArmController:
             raise InputError("execute_options may not set stop or progress: the controller "
                              "owns them", field="execute_options", value=None)
         self.execute_options = options
+        self.simulated = simulated
         self._lock = threading.Lock()
         self._moves: collections.OrderedDict[str, MoveRecord] = collections.OrderedDict()
         self._current: MoveRecord | None = None
@@ -532,6 +546,10 @@ class ArmController:
             worker.recover()
             if record.start_at is not None:
                 record.stop_signal.wait(max(0.0, record.start_at - START_LEAD_S - time.time()))
+            if self.simulated is not None and record.trajectory is not None:
+                # the dry run carries what the move declares
+                request = record.trajectory.request
+                self.simulated.carry(None if request is None else request.payload_kg)
             execution = (make or self._prepare)(record)
             with self._lock:
                 record.execution = execution
@@ -583,6 +601,8 @@ class ArmController:
                     status = move_status(report)
             if status is None:
                 status = record.failure()
+            if report is not None and self.simulated is not None:
+                report = self.simulated.reported(report, record.trajectory)
             record.status = status
             record.report = report
             record.error = error

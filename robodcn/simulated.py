@@ -19,6 +19,7 @@ reads the stream clock's ``now`` (:class:`StreamTime`).
 from __future__ import annotations
 
 import contextlib
+import dataclasses
 import math
 from collections.abc import Callable, Iterator, Sequence
 from dataclasses import dataclass
@@ -35,7 +36,9 @@ from robodcn import kinematics, servo_units
 from robodcn.bus import ServoBus, StreamProfile
 from robodcn.config import Arm
 from robodcn.errors import InputError
+from robodcn.planner import Trajectory
 from robodcn.stream.clock import Clock, RealClock
+from robodcn.stream.report import ExecutionReport
 
 TIMINGS = ("fast", "realistic")
 #: Status timeout of reads (ms). No USB adapter sits between host and pty, but the simulator
@@ -56,11 +59,36 @@ PLACE_TOLERANCE_TICKS = 1
 @dataclass(frozen=True)
 class SimulatedArm:
     """What :func:`simulated_arm` yields: ``sim`` (started SimBus), ``bus`` (open, verified,
-    configured ServoBus on ``sim.port_path``) and ``arm``."""
+    configured ServoBus on ``sim.port_path``) and ``arm``; ``pinned_kg`` the payload the
+    simulated arm carries whatever a move declares, or None (it carries what each move
+    declares: :meth:`carry`)."""
 
     sim: SimBus
     bus: ServoBus
     arm: Arm
+    pinned_kg: float | None = None
+
+    def carry(self, payload_kg: float | None) -> float | None:
+        """Let the simulated arm carry the payload a move declares (``payload_kg``, None:
+        the arm file's), so a dry run predicts the real arm that carries it (issue 27 §2);
+        a pinned payload stays. Returns the kg the simulated arm now carries (None on the
+        kinematic model, which carries nothing)."""
+        if self.sim.arm is None:
+            return None
+        if self.pinned_kg is None:
+            kg = self.arm.payload_kg if payload_kg is None else float(payload_kg)
+            if kg != self.sim.payload_kg:
+                self.sim.set_payload(kg)
+        return self.sim.payload_kg
+
+    def reported(self, report: ExecutionReport, trajectory: Trajectory) -> ExecutionReport:
+        """``report`` naming the payload the simulated arm carried (``sim_payload_kg``) and
+        the one ``trajectory`` was planned for (``planned_payload_kg``)."""
+        request = trajectory.request
+        planned = self.arm.payload_kg if request is None or request.payload_kg is None \
+            else float(request.payload_kg)
+        return dataclasses.replace(report, sim_payload_kg=self.sim.payload_kg,
+                                   planned_payload_kg=planned)
 
 
 class StreamTime(FirmwareClock):
@@ -153,7 +181,8 @@ def sim_arm_document(arm: Arm) -> dict[str, Any]:
 @contextlib.contextmanager
 def simulated_arm(arm: Arm, *, timing: str = "realistic", start_joints: ArrayLike | None = None,
                   firmware: int = 46, dynamics: bool = True,
-                  clock: Clock | None = None) -> Iterator[SimulatedArm]:
+                  clock: Clock | None = None,
+                  carried_kg: float | None = None) -> Iterator[SimulatedArm]:
     """A started firmware_sim bus with ``arm``'s servos and a ServoBus ready to stream.
 
     Parameters
@@ -171,6 +200,10 @@ def simulated_arm(arm: Arm, *, timing: str = "realistic", start_joints: ArrayLik
         their time from (module docstring); pass the same one to ``execute(clock=…)``.
         None (default): the host's monotonic clock. The bus's status timeout follows it
         (:func:`rx_timeout_for`).
+    carried_kg : the payload (kg, at the tool point) the simulated arm carries whatever a
+        move declares: a load the plan misdeclares, as on a real arm. None (default): it
+        starts with the arm file's ``payload_kg`` and carries what each move declares
+        (:meth:`SimulatedArm.carry`, which ``sim`` and ``serve --sim`` call per move).
 
     A ``[gripper]`` servo is simulated too (at its zero offset), beside the joints; an arm
     under gravity starts held (:func:`_hold_under_gravity`). The
@@ -190,6 +223,10 @@ def simulated_arm(arm: Arm, *, timing: str = "realistic", start_joints: ArrayLik
     if clock is not None and not callable(getattr(clock, "now", None)):
         raise InputError(f"clock must be a stream clock with now(), got {clock!r}",
                          field="clock", value=clock)
+    if carried_kg is not None and (isinstance(carried_kg, bool) or not isinstance(
+            carried_kg, int | float) or not math.isfinite(carried_kg) or carried_kg < 0):
+        raise InputError(f"carried_kg must be a finite number of kg >= 0, got {carried_kg!r}",
+                         field="carried_kg", value=carried_kg)
     ticks = start_ticks(arm, start_joints)
     servos = arm.servos if arm.gripper is None else (*arm.servos, arm.gripper.servo)
     models = {s.id: s.model for s in servos}
@@ -201,6 +238,8 @@ def simulated_arm(arm: Arm, *, timing: str = "realistic", start_joints: ArrayLik
             arm=sim_arm_document(arm) if dynamics else None, positions=positions,
             clock=None if clock is None else StreamTime(clock.now)))
         _check_placed(sim, arm.servo_ids, ticks)
+        if carried_kg is not None and sim.arm is not None:
+            sim.set_payload(float(carried_kg))
         _hold_under_gravity(sim, arm.servo_ids)
         sim.start()
         stack.callback(sim.close)
@@ -210,4 +249,5 @@ def simulated_arm(arm: Arm, *, timing: str = "realistic", start_joints: ArrayLik
         stack.callback(bus.close)
         bus.verify()
         bus.configure()
-        yield SimulatedArm(sim=sim, bus=bus, arm=arm)
+        yield SimulatedArm(sim=sim, bus=bus, arm=arm,
+                           pinned_kg=None if carried_kg is None else float(carried_kg))

@@ -121,6 +121,11 @@ def register(subparsers: argparse._SubParsersAction) -> None:
                    help="servo physics with the arm's masses (on, default: the report shows "
                         "the lag and currents to expect) or the kinematic model whose servos "
                         "reach each goal at once (off)")
+    p.add_argument("--sim-payload", type=options.non_negative_float, metavar="KG",
+                   help="the mass (kg) the simulated arm carries at its tool point, whatever "
+                        "--payload declares: a load the plan misdeclares (default: the "
+                        "payload the move declares, so the dry run predicts the arm "
+                        "carrying it)")
     add_execution_options(p)
     p.set_defaults(func=run_sim)
 
@@ -290,7 +295,10 @@ def run_sim(args: argparse.Namespace) -> int:
     check_plot(args.plot)
     arm = options.load_arm(args)
     request = planning.motion_request(args, arm)
-    with simulated_arm(arm, timing=args.timing, dynamics=args.dynamics == "on") as sim:
+    with simulated_arm(arm, timing=args.timing, dynamics=args.dynamics == "on",
+                       carried_kg=args.sim_payload) as sim:
         traj = planning.plan_from_present(request, arm, sim.bus)
+        sim.carry(traj.request.payload_kg if traj.request is not None else None)
         report, live, released = stream_and_release(args, traj, arm, sim.bus)
+        report = sim.reported(report, traj)
     return finish(args, arm, traj, report, live, released=released)

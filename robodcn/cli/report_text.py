@@ -75,6 +75,14 @@ def near_limit_line(near: dict[str, Any]) -> str:
             f"{factor * near['limit']:.3g}{unit} (from t {near['time_s']:.3f} s)")
 
 
+def sim_payload_text(carried: float, planned: float | None) -> str:
+    """What the simulated arm carried, against the payload the plan declared."""
+    text = f"simulated arm carried {carried:g} kg at the tool point"
+    if planned is None or planned == carried:
+        return text + " (the payload the plan declares)"
+    return text + f", the plan declares {planned:g} kg"
+
+
 def report_text(report: Any, approach_s: float = 0.0) -> str:
     """The execution report, a headline and indented detail lines."""
     r = report.to_dict()
@@ -84,6 +92,9 @@ def report_text(report: Any, approach_s: float = 0.0) -> str:
              f"{r['achieved_rate_hz']:.1f} Hz"]
     for warning in report.warnings:
         lines.append(f"  warning: {warning['message']}")
+    carried = r.get("sim_payload_kg")
+    if carried is not None:
+        lines.append("  " + sim_payload_text(carried, r.get("planned_payload_kg")))
     if approach_s > 0:
         lines.append(f"  approach {approach_s:.3f} s: a joint-space move from the present pose "
                      "to the start, before the path")

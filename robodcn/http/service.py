@@ -126,13 +126,16 @@ def serve(arm: Arm, *, host: str = "127.0.0.1", port: int = 8080, token: str | N
             server.server_close()
         return
     with contextlib.ExitStack() as stack:
+        simulated = None
         if sim:
             from robodcn.simulated import simulated_arm
 
-            bus = stack.enter_context(simulated_arm(arm, timing="realistic")).bus
+            # it carries the payload each move declares (ArmController's ``simulated``)
+            simulated = stack.enter_context(simulated_arm(arm, timing="realistic"))
+            bus = simulated.bus
         else:
             bus = stack.enter_context(open_device(arm, device, baud))
-        controller = ArmController(arm, bus, execute_options=execution)
+        controller = ArmController(arm, bus, execute_options=execution, simulated=simulated)
         stack.callback(controller.close)
         server = make_server(arm, controller, host=host, port=port, token=token,
                              allow_hosts=allow_hosts)

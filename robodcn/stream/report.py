@@ -234,6 +234,11 @@ class ExecutionReport:
     #: device lost, the write failed or not confirmed by a read-back), or None: such a stop
     #: is a ``fault`` (only the servos' Bus Watchdog stops them).
     hold_failed: str | None = None
+    #: A dry run on firmware_sim's physics: the payload (kg, at the tool point) the
+    #: simulated arm carried, and the one the plan declared (``payload_kg``, its torque
+    #: limits and compensation); None on a real arm (robodcn.simulated.SimulatedArm.carry).
+    sim_payload_kg: float | None = None
+    planned_payload_kg: float | None = None
     trace: ExecutionTrace | None = field(default=None, repr=False, compare=False)
 
     @property
