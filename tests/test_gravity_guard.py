@@ -204,6 +204,16 @@ def test_servo_set_id_on_a_loaded_joint_needs_yes(held_omx, monkeypatch, capsys)
     assert held_omx.servo(13).get(fct.ID) == 13                 # not changed
 
 
+def test_servo_set_baud_of_an_arm_under_gravity_needs_yes(held_omx, monkeypatch, capsys):
+    argv = ["servo", "set-baud", "57600", "--arm", "omx", "--device", held_omx.port_path]
+    assert run_cli(monkeypatch, argv) == 2
+    err = capsys.readouterr().err
+    assert "servo set-baud 57600" in err and "--yes confirms" in err
+    assert all(name in err for name in LOADED)
+    assert all(torque_on(held_omx))                             # nothing written
+    assert all(held_omx.servo(i).get(fct.BAUD_RATE) == 3 for i in OMX.servo_ids)
+
+
 # -- calibrate ------------------------------------------------------------------------------------
 
 def test_calibrate_asks_before_torque_off_and_a_no_changes_nothing(held_omx, monkeypatch,

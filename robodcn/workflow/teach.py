@@ -7,10 +7,13 @@ arm with a base yaw. A :class:`Teaching` session records and undoes poses on an 
 waypoints file that :func:`robodcn.workflow.files.load_waypoints` reads back
 (``robodcn run poses.toml``).
 
-On a vertical arm the arm would fall with torque off: :class:`FloatSession` holds it in
-float mode instead (:class:`robodcn.workflow.float_teach.FloatTeach`: current control with
-the present pose's gravity currents, refreshed on a thread of its own) while a hand moves
-it; the session's bus work (recording, the gripper) runs on that thread between two
+On a vertical arm the arm would fall with torque off: the session switches it off only
+through the gravity guard (:func:`robodcn.workflow.release.release`: confirmed, lowered to
+its rest pose first) and, however it ends, leaves the arm holding where it is
+(:func:`robodcn.workflow.release.hold`). Or :class:`FloatSession` holds it in float mode
+instead (:class:`robodcn.workflow.float_teach.FloatTeach`: current control with torque on
+and the present pose's gravity currents, refreshed on a thread of its own) while a hand
+moves it; the session's bus work (recording, the gripper) runs on that thread between two
 refreshes (:meth:`FloatSession.call`), since the float loop holds the bus. Leaving it, the
 arm holds in position mode where it was left. :meth:`Teaching.gripper` opens or closes the
 gripper (:mod:`robodcn.workflow.gripper`) and marks the waypoint there ``gripper =
