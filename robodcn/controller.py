@@ -74,7 +74,7 @@ from robodcn.stream import (
 )
 from robodcn.stream.online import Execution, PlanningTimes, SwitchMissed, Turns, prepare
 from robodcn.workflow import poses
-from robodcn.workflow.gripper import GripperResult
+from robodcn.workflow.gripper import GripperResult, GripperState, read_gripper_state
 
 log = logging.getLogger("robodcn.controller")
 
@@ -633,7 +633,8 @@ class ArmController:
     # -- state ----------------------------------------------------------------------------------
 
     def _state_from(self, ticks: Any, *, torque: bool | None, alerts: dict[int, int],
-                    source: str, record: MoveRecord | None) -> State:
+                    source: str, record: MoveRecord | None,
+                    gripper: GripperState | None = None) -> State:
         ticks = np.asarray(ticks, dtype=np.int64)
         joints = servo_units.ticks_to_radians(ticks[None, :], self.arm.servos)[0]
         pose = poses.tool_pose(self.arm, joints)
@@ -644,16 +645,21 @@ class ArmController:
             moving=record is not None, move=None if record is None else record.id,
             source=source,  # type: ignore[arg-type]
             paused=False if record is None else record.paused,
-            speed_scale=None if record is None else record.speed_scale)
+            speed_scale=None if record is None else record.speed_scale,
+            gripper_width_m=None if gripper is None else gripper.width_m,
+            holding=None if gripper is None else gripper.holding)
 
     def _read_state(self) -> State:
         with self.bus.claim():
             ticks = self.bus.read_positions()
             torque = all(self.bus.torque_enabled().values())
             alerts = self.bus.hardware_errors()
+            jaws = None if self.arm.gripper is None else \
+                read_gripper_state(self.bus, self.arm.gripper)
         with self._lock:
             self._last_ticks = tuple(int(v) for v in ticks)
-        return self._state_from(ticks, torque=torque, alerts=alerts, source="bus", record=None)
+        return self._state_from(ticks, torque=torque, alerts=alerts, source="bus", record=None,
+                                gripper=jaws)
 
     def state(self) -> State:
         """Present joints (rad), pose (FK), ticks, torque, hardware alerts.

@@ -132,6 +132,12 @@ class State:
     paused: bool = field(default=False, metadata=_doc("the running move is paused"))
     speed_scale: float | None = field(default=None, metadata=_doc(
         "speed scale of the running move (null when none runs)"))
+    gripper_width_m: float | None = field(default=None, metadata=_doc(
+        "the gripper's jaw width (m, from its Present Position); null without a [gripper] "
+        "or while a move streams"))
+    holding: bool | None = field(default=None, metadata=_doc(
+        "the gripper holds an object: torque on, the jaws at rest short of their goal, "
+        "pushing with at least half the grip current; null as gripper_width_m"))
 
 
 @dataclass

@@ -121,3 +121,19 @@ def test_the_wait_ends_at_the_timeout_with_an_injected_clock(omx_sim, bus):
     result = gr.actuate(bus, GRIPPER, "open", timeout_s=1.0, clock=lambda: next(ticks),
                         sleep=lambda s: None)
     assert not result.settled and not result.blocked and result.elapsed_s == 10.0
+
+
+def test_the_state_reads_the_jaw_width_and_whether_an_object_is_held(omx_sim, bus):
+    from robodcn.workflow.admin import present_state
+
+    result = gr.open_gripper(bus, GRIPPER)
+    jaws = present_state(bus, OMX).gripper
+    assert jaws is not None and not jaws.holding
+    assert jaws.width_m == pytest.approx(result.final_width_m, abs=1e-9)
+    omx_sim.servo(15).set_obstacle(-20.0)
+    held = gr.close_gripper(bus, GRIPPER)
+    jaws = present_state(bus, OMX).gripper
+    assert held.blocked and jaws.holding
+    assert jaws.width_m == pytest.approx(held.final_width_m, abs=5e-4)
+    assert present_state(bus, OMX).to_dict(OMX)["holding"] is True
+    omx_sim.servo(15).set_obstacle(None)

@@ -240,7 +240,7 @@ def test_the_record_of_an_omx_move_has_four_number_poses(omx_server: Any) -> Non
     assert np.allclose(rec["poses"][-1], tool_pose(OMX, rec["joints"][-1]), atol=1e-9)
     rows = list(zip(rec["t"], rec["ticks"], strict=True))
     header = recording_csv(OMX, rows).splitlines()[0]
-    assert header.endswith(",x_m,y_m,z_m,pitch_rad") and "q_yaw_rad" in header
+    assert header.startswith("t_s,x_m,y_m,z_m,pitch_rad,") and "q_yaw_rad" in header
 
 
 # -- the gripper ---------------------------------------------------------------------------------

@@ -17,7 +17,11 @@ import numpy as np
 from numpy.typing import NDArray
 
 from robodcn import _checks
-from robodcn.bus.control_table import ADDR_GOAL_POSITION, ADDR_PRESENT_POSITION
+from robodcn.bus.control_table import (
+    ADDR_GOAL_POSITION,
+    ADDR_PRESENT_POSITION,
+    ADDR_TORQUE_ENABLE,
+)
 from robodcn.bus.transactions import Transactions
 from robodcn.config import ServoSpec
 from robodcn.errors import InputError, TickLimitError
@@ -62,6 +66,16 @@ class Single(Transactions):
         """Present Position (132) of one servo, ticks (signed)."""
         spec = self.spec_of(servo)
         return self._read_int(spec.id, ADDR_PRESENT_POSITION, 4, signed=True)
+
+    def read_goal_position(self, servo: Servo) -> int:
+        """Goal Position (116) of one servo, ticks (signed): where it is sent."""
+        spec = self.spec_of(servo)
+        return self._read_int(spec.id, ADDR_GOAL_POSITION, 4, signed=True)
+
+    def read_torque_enabled(self, servo: Servo) -> bool:
+        """Torque Enable (64) of one servo."""
+        spec = self.spec_of(servo)
+        return bool(self._read_int(spec.id, ADDR_TORQUE_ENABLE, 1))
 
     def write_goal_position(self, servo: Servo, tick: int) -> None:
         """Goal Position (116) of one servo, after the check against :meth:`tick_limits`.

@@ -55,8 +55,11 @@ def pose_line(arm: Arm, state) -> str:
     ticks."""
     joints = ", ".join(f"{n} {math.degrees(q):8.2f}°" for n, q in
                        zip(arm.joint_names, state.joints, strict=True))
+    jaws = "" if getattr(state, "gripper", None) is None else (
+        f"  |  gripper {1e3 * state.gripper.width_m:.1f} mm"
+        + (", holding an object" if state.gripper.holding else ""))
     return (f"{pose_text(arm.pose_keys, state.pose)}  |  {joints}  |  ticks "
-            + ",".join(str(int(t)) for t in state.ticks))
+            + ",".join(str(int(t)) for t in state.ticks) + jaws)
 
 
 def run_pose(args: argparse.Namespace) -> int:

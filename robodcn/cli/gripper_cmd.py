@@ -64,7 +64,12 @@ def run(args: argparse.Namespace) -> int:
         raise InputError(f"arm {arm.name!r} has no [gripper] table", field="gripper",
                          value=arm.name)
     goal = goal_of(args.command)
-    gripper_goal(arm.gripper, goal.get("command"), width_m=goal.get("width_m"))  # checked
+    try:
+        gripper_goal(arm.gripper, goal.get("command"), width_m=goal.get("width_m"))
+    except InputError as exc:
+        if exc.field != "width_m":
+            raise
+        raise width_error(arm.gripper, args.command) from None
     if args.sim:
         from robodcn.simulated import simulated_arm
 
@@ -79,4 +84,15 @@ def run(args: argparse.Namespace) -> int:
     return Exit.DONE if result.settled else Exit.FAULT
 
 
-__all__ = ["goal_of", "register", "result_line", "run"]
+def width_error(gripper, typed: str) -> InputError:
+    """A jaw width outside the stroke, echoed as typed (millimetres), with the width in
+    millimetres when the number looks like metres (``gripper 0.04``)."""
+    low, high = sorted((gripper.closed_width * 1e3, gripper.open_width * 1e3))
+    value = options.number(typed.strip(), "WIDTH_MM")
+    hint = (f"; in metres that is {value * 1e3:g} mm: type {value * 1e3:g}"
+            if low <= value * 1e3 <= high else "")
+    return InputError(f"WIDTH_MM {typed.strip()} mm is outside the gripper's stroke "
+                      f"{low:g}..{high:g} mm{hint}", field="width_m", value=value / 1e3)
+
+
+__all__ = ["goal_of", "register", "result_line", "run", "width_error"]

@@ -32,6 +32,7 @@ from robodcn.bus import (
 )
 from robodcn.config import MAX_SERVO_ID, Arm, ServoSpec
 from robodcn.errors import CommError, InputError
+from robodcn.workflow.gripper import GripperState, read_gripper_state
 from robodcn.workflow.poses import tool_pose
 
 log = logging.getLogger(__name__)
@@ -50,24 +51,32 @@ OPERATING_MODES: dict[int, str] = {0: "current", 1: "velocity", 3: "position",
 @dataclass(frozen=True)
 class ArmState:
     """Present ticks (k,), joints (k,) rad and tool pose of an arm: (x, y, θ), or (x, y, z,
-    pitch) for an arm with a base yaw (m, rad; :func:`robodcn.workflow.poses.tool_poses`)."""
+    pitch) for an arm with a base yaw (m, rad; :func:`robodcn.workflow.poses.tool_poses`);
+    the gripper's jaws (:class:`~robodcn.workflow.gripper.GripperState`) on an arm with a
+    ``[gripper]``, else None."""
 
     ticks: NDArray[np.int64]
     joints: NDArray[np.float64]
     pose: NDArray[np.float64]
+    gripper: GripperState | None = None
 
     def to_dict(self, arm: Arm) -> dict[str, Any]:
         """SI JSON body (the HTTP service's units)."""
-        return {"joint_names": list(arm.joint_names), "ticks": self.ticks.tolist(),
+        body = {"joint_names": list(arm.joint_names), "ticks": self.ticks.tolist(),
                 "joints": self.joints.tolist(), "pose": self.pose.tolist()}
+        if self.gripper is not None:
+            body.update(gripper_width_m=self.gripper.width_m, holding=self.gripper.holding)
+        return body
 
 
 def present_state(bus: ServoBus, arm: Arm) -> ArmState:
-    """Read Present Position of every servo; joints by the arm's calibration, pose by FK."""
+    """Read Present Position of every servo; joints by the arm's calibration, pose by FK;
+    the gripper's jaws where the arm has one."""
     ticks = bus.read_positions()
     joints = servo_units.ticks_to_radians(ticks, arm.servos)
     pose = tool_pose(arm, joints)
-    return ArmState(ticks, joints, pose)
+    jaws = None if arm.gripper is None else read_gripper_state(bus, arm.gripper)
+    return ArmState(ticks, joints, pose, jaws)
 
 
 def joint_ids(arm: Arm, joint: str | None) -> tuple[int, ...]:

@@ -114,7 +114,9 @@ def gripper_goal(gripper: GripperSpec, command: str | None = None, *,
                              f"{_checks.show(width_m)}", field="width_m", value=width_m)
         width = float(width_m)  # type: ignore[arg-type]
         if not low - 1e-9 <= width * 1e3 <= high + 1e-9:
-            raise InputError(f"gripper width {width * 1e3:.1f} mm is outside the stroke "
+            mm = width * 1e3       # 0.04 (metres typed as mm) shows as 0.04, not 0.0
+            shown = f"{mm:.1f}" if abs(mm) >= 0.1 or mm == 0 else f"{mm:.3g}"
+            raise InputError(f"gripper width {shown} mm is outside the stroke "
                              f"{low:.1f}–{high:.1f} mm", field="width_m", value=width)
         angle = gripper.angle_of_width(width)
         kind = "width"
@@ -194,6 +196,33 @@ def actuate(bus: ServoBus, gripper: GripperSpec, command: str | None = None, *,
                  "with %.2f A", servo.id, result.final_width_m * 1e3, goal.width_m * 1e3,
                  current)
     return result
+
+
+@dataclass(frozen=True)
+class GripperState:
+    """Where the jaws are: ``width_m`` (m, from Present Position), ``holding`` (torque on and
+    the jaws at rest short of their goal by more than :data:`TOLERANCE_TICKS`, pushing with
+    at least half the grip current: an object is between them), ``current_a`` (signed, A)."""
+
+    width_m: float
+    holding: bool
+    current_a: float
+
+    def to_dict(self) -> dict[str, Any]:
+        return asdict(self)
+
+
+def read_gripper_state(bus: ServoBus, gripper: GripperSpec) -> GripperState:
+    """The jaws' :class:`GripperState`: four reads of the gripper's servo."""
+    servo = gripper.servo
+    present = bus.read_position(servo)
+    goal = bus.read_goal_position(servo)
+    current = float(bus.read_present_current(servo))
+    torque = bus.read_torque_enabled(servo)
+    angle = servo_units.ticks_to_radians([present], [servo])[0]
+    holding = torque and abs(goal - present) > TOLERANCE_TICKS \
+        and abs(current) >= 0.5 * gripper.grip_current
+    return GripperState(float(gripper.width_of_angle(float(angle))), bool(holding), current)
 
 
 def open_gripper(bus: ServoBus, gripper: GripperSpec, **options: Any) -> GripperResult:
