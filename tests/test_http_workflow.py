@@ -124,12 +124,12 @@ def test_a_saved_trajectory_plays_and_is_recorded(arm_server: Any) -> None:
     conn_status, headers, text = csv_get(server, f"/v1/moves/{done['id']}/record")
     assert conn_status == 200 and headers["Content-Type"].startswith("text/csv")
     rows = list(csv.reader(io.StringIO(text)))
-    # every header names its unit, as plan --format csv's do
-    assert rows[0] == ["t_s", *(f"q_{n}_rad" for n in ARM.joint_names),
-                       *(f"tick_{i}" for i in ARM.servo_ids), "x_m", "y_m", "theta_rad"]
+    # every header names its unit, in plan --format csv's order: t, the pose, joints, ticks
+    assert rows[0] == ["t_s", "x_m", "y_m", "theta_rad", *(f"q_{n}_rad" for n in ARM.joint_names),
+                       *(f"tick_{i}" for i in ARM.servo_ids)]
     assert len(rows) - 1 == len(rec["t"])
     assert [float(r[0]) for r in rows[1:]] == rec["t"]
-    assert [int(v) for v in rows[-1][1 + ARM.dof:1 + 2 * ARM.dof]] == rec["ticks"][-1]
+    assert [int(v) for v in rows[-1][4 + ARM.dof:4 + 2 * ARM.dof]] == rec["ticks"][-1]
 
 
 def csv_get(server: Any, path: str) -> tuple[int, dict[str, str], str]:
