@@ -45,8 +45,9 @@ def register(subparsers: argparse._SubParsersAction) -> None:
                    help="stream rate (default: the arm's [bus] rate)")
     g.add_argument("--payload", type=options.positive_float, metavar="KG",
                    help="payload the torque limits carry (default: the arm's)")
-    g.add_argument("--compensation", choices=("on", "off"), default="off",
-                   help="tracking compensation (a session streams without it: off)")
+    g.add_argument("--compensation", choices=("on", "off"),
+                   help="tracking compensation: lead each goal like a planned move's "
+                        "(default on; off with --sim --dynamics off)")
     g.add_argument("--sim", action="store_true",
                    help="follow on an in-process simulated arm (firmware_sim)")
     g.add_argument("--timing", choices=("realistic", "fast"), default="realistic",
@@ -115,12 +116,20 @@ class Feeder:
                 f"{ended}")
 
 
+def _compensation(args: argparse.Namespace) -> bool:
+    """--compensation as given; by default on, but against kinematic simulated servos
+    (``--sim --dynamics off``), which reach each goal at once."""
+    if args.compensation is not None:
+        return args.compensation == "on"
+    return not (args.sim and args.dynamics == "off")
+
+
 def run_follow(args: argparse.Namespace, stdin: TextIO | None = None,
                err: TextIO | None = None) -> int:
     """The command; ``stdin``/``err`` replace the process's (tests)."""
     arm = options.load_arm(args)
     settings = {"space": args.space, "timeout_s": args.timeout, "rate_hz": args.rate,
-                "payload_kg": args.payload, "compensation": args.compensation == "on"}
+                "payload_kg": args.payload, "compensation": _compensation(args)}
     source = stdin if stdin is not None else sys.stdin
     out = err if err is not None else sys.stderr
     if args.sim:

@@ -125,8 +125,7 @@ class Follower:
         self.stop_signal = options.stop if isinstance(options.stop, StopSignal) \
             else StopSignal()
         self._options = ExecutionOptions.build(
-            options, {"stop": self.stop_signal, "attach": self._attach,
-                      "compensation": False})
+            options, {"stop": self.stop_signal, "attach": self._attach})
         self._present_ticks = present_ticks
         self._input = Input(target=q0)
         #: the speed scale the torque limits allow toward the newest target
@@ -185,8 +184,12 @@ class Follower:
     def _attach(self, stream: Any) -> None:
         """Called by the streamer before its first sample: the generator becomes its
         source."""
+        planned = stream.source
+        compensated = getattr(planned, "compensated", False)
         source = FollowSamples(self._step, self.bus, self.arm, self.rate_hz,
-                               stream.source.joint_names)
+                               planned.joint_names,
+                               lead=planned.commanded_for if compensated else None,
+                               start_goal=getattr(planned, "start_goal", None))
         source.stream = stream
         self._collision_thresholds(stream.feedback)
         stream.swap(source)
@@ -478,19 +481,16 @@ def follow(bus: ServoBus, arm: Arm, *, space: str = "joints", timeout_s: float |
     options, kwargs : :class:`~robodcn.stream.ExecutionOptions` (``clock``,
         ``tracking_limit``, ``watchdog_ms`` …) as :func:`robodcn.stream.execute` takes them.
     present_ticks : Present Position (k,) the caller has just read (None: read here).
-    compensation : tracking compensation — not available for a session yet (InputError
-        when asked for); the generator's samples are sent as they are.
+    compensation : tracking compensation: each goal led like a plan's
+        (:mod:`~robodcn.stream.following.source`; about a millisecond a sample, for rates
+        up to a few hundred Hz); False (the default) sends the generator's samples.
 
     Returns
     -------
     Follower: :meth:`~Follower.target`, :meth:`~Follower.end`, :meth:`~Follower.stop`,
     :meth:`~Follower.wait` (the :class:`~robodcn.stream.ExecutionReport`).
     """
-    if compensation:
-        raise InputError("compensation: a follow session streams the generator's samples "
-                         "uncompensated (compensation=False)", field="compensation",
-                         value=compensation)
-    opts = ExecutionOptions.build(options, kwargs)
+    opts = ExecutionOptions.build(options, {**kwargs, "compensation": compensation})
     ticks = (np.asarray(present_ticks, dtype=np.int64) if present_ticks is not None
              else bus.read_positions())
     rest = rest_trajectory(arm, ticks, rate_hz, payload_kg)
