@@ -382,3 +382,35 @@ def test_with_compensation_goals_are_led_and_the_arm_ends_nearer_its_target():
     led_miss = np.abs(report.final_error_ticks).sum()
     plain_miss = np.abs(plain_report.final_error_ticks).sum()
     assert led_miss < plain_miss, (report.final_error_ticks, plain_report.final_error_ticks)
+
+
+def test_pause_resume_and_speed_are_generator_inputs():
+    """pause: brake to rest and stay (targets refused meanwhile); resume: on to the last
+    target; set_speed(0.5): the limits v·k, a·k² from then on; every step within the
+    limits and the session ends on its target."""
+    arm = ARM3R
+    refused = []
+
+    def paused_target(f):
+        with pytest.raises(NoMoveError) as exc:
+            f.target(joints=f.targets.last.joints)
+        refused.append(exc.value)
+    with arm_at_start() as sa:
+        q0 = servo_units.ticks_to_radians(sa.bus.read_positions()[None], arm.servos)[0]
+        far = q0 + np.array([0.9, 0.7, 0.9])
+        steps = [(0.0, lambda f: f.target(joints=far)), (0.15, lambda f: f.pause()),
+                 (0.5, paused_target), (0.5, lambda f: f.resume()),
+                 (0.5, lambda f: f.set_speed(0.5)), (0.51, lambda f: f.end())]
+        f, report, wire = run_session(sa, arm, steps)
+    assert report.outcome == "done", report.message
+    assert refused and "paused" in str(refused[0])
+    index, joints = _commanded(f, wire, arm)
+    _check_limits(joints, arm)
+    vel = np.abs(np.diff(joints, axis=0)) * RATE
+    v, _ = _limits(arm)
+    at_rest = (index[1:] > 400) & (index[1:] < 500)
+    assert vel[at_rest].max() < 1e-9, "paused: at rest until the resume"
+    after = index[1:] > 520
+    assert (vel[after] <= 0.5 * v * (1 + SLACK)).all(), "half speed after set_speed(0.5)"
+    assert vel[after].max() > 0.4 * v.min()
+    np.testing.assert_allclose(joints[-1], far, atol=1e-9)

@@ -137,6 +137,7 @@ def test_the_deadman_ends_a_moving_session_stopped_naming_timeout_s(arm_server):
     assert ended["status"] == "stopped" and "timeout_s" in ended["report"]["message"]
 
 
+@pytest.mark.serial
 def test_put_target_answers_fast_on_a_keep_alive_connection(arm_server):
     """No planning in the request path: 100 targets on one keep-alive connection, each
     answered 200 (median well under the 5 ms bar; the p99 depends on the loaded host)."""
@@ -161,3 +162,23 @@ def test_put_target_answers_fast_on_a_keep_alive_connection(arm_server):
     call(server, "DELETE", "/v1/follow")
     poll_move(server, move["id"], lambda m: m["status"] != "following")
     assert float(np.median(took)) < 0.02, np.median(took)
+
+
+def test_pause_resume_and_speed_of_a_session_over_http(arm_server):
+    """The running move's controls act on a session too: pause (targets 409 meanwhile),
+    resume, speed; the session then ends at its last target."""
+    server, sa = arm_server
+    q0 = _present(sa)
+    move = _open(server)
+    call(server, "PUT", "/v1/follow/target", {"joints": list(q0 + 0.5)})
+    status, _, paused = call(server, "POST", "/v1/pause", {})
+    assert status == 200 and paused["paused"] is True and paused["status"] == "following"
+    status, _, answer = call(server, "PUT", "/v1/follow/target", {"joints": list(q0)})
+    assert status == 409 and "paused" in error_of(answer)["message"]
+    status, _, resumed = call(server, "POST", "/v1/resume", {})
+    assert status == 200 and resumed["paused"] is False
+    status, _, fast = call(server, "PUT", "/v1/speed", {"scale": 0.5})
+    assert status == 200 and fast["speed_scale"] == 0.5
+    call(server, "DELETE", "/v1/follow")
+    done = poll_move(server, move["id"], lambda m: m["status"] != "following")
+    assert done["report"]["stop_reason"] == "completed", done["report"]
