@@ -205,3 +205,15 @@ def test_header_stamp_in_the_future_delays_the_start(ros: Any) -> None:
     records = server.controller.moves()[-1].execution.stream.records
     first_write = time.time() - (time.perf_counter() - records.at[0])
     assert start - 0.002 <= first_write <= start + 0.1  # + what a loaded host adds
+
+
+def test_goals_back_to_back_the_newest_wins(ros: Any) -> None:
+    server, _, rp = ros
+    q0 = list(server.controller.state().joints)
+    first = _goal(_points(q0, _target(), 1.0))
+    second = _goal(_points(q0, q0, 0.5))
+    assert rp.call(f"{ACTION}/send_goal", f"{FJT}_SendGoal", first)[0]["accepted"]
+    assert rp.call(f"{ACTION}/send_goal", f"{FJT}_SendGoal", second)[0]["accepted"]
+    assert _result(rp, first["goal_id"]["uuid"])["status"] == 5
+    assert _result(rp, second["goal_id"]["uuid"])["status"] == 4
+    assert server.controller.state().joints == pytest.approx(q0, abs=0.02)

@@ -102,7 +102,9 @@ class FollowJointTrajectoryServer:
         self.arm = server.arm
         self.goals: OrderedDict[bytes, Goal] = OrderedDict()
         self._lock = threading.Lock()
-        self._requests = ThreadPoolExecutor(2, thread_name_prefix="robodcn-ros2-action")
+        # one thread: goals are accepted (and the older ones preempted) in arrival order
+        self._requests = ThreadPoolExecutor(1, thread_name_prefix="robodcn-ros2-action")
+        self._starting = threading.Lock()
         self._results = threading.BoundedSemaphore(64)
         base = f"{name}/_action"
         node.service(f"{base}/send_goal", f"{ACTION}_SendGoal", self._send_goal,
@@ -181,28 +183,35 @@ class FollowJointTrajectoryServer:
             goal.done.set()
             log.info("goal rejected: %s", goal.result["error_string"])
             return {"accepted": False, "stamp": goal.stamp}
+        for other in self._active():  # a new goal preempts the running ones
+            if other is not goal:
+                other.preempted = "preempted by a new goal"
+                other.cancel.set()
         self._set(goal, ACCEPTED)
         threading.Thread(target=self._execute, args=(goal,), daemon=True,
                          name="robodcn-ros2-goal").start()
         return {"accepted": True, "stamp": goal.stamp}
 
     def _execute(self, goal: Goal) -> None:
-        for other in self._active():
-            if other is not goal:
-                other.preempted = "preempted by a new goal"
-                other.cancel.set()
-        if not stop_and_wait(self.server):
-            self._set(goal, ABORTED, INVALID_GOAL, "the running move did not stop in time")
-            return
-        if goal.cancel.is_set():
-            self._set(goal, CANCELED, SUCCESSFUL, goal.preempted or "canceled")
-            return
+        with self._starting:  # one goal starts at a time; a preempted one starts not at all
+            if goal.cancel.is_set():
+                self._set(goal, CANCELED, SUCCESSFUL, goal.preempted or "canceled")
+                return
+            if not stop_and_wait(self.server):
+                self._set(goal, ABORTED, INVALID_GOAL, "the running move did not stop in time")
+                return
+            started = self._start(goal)
+        if started:
+            self._monitor(goal)
+
+    def _start(self, goal: Goal) -> bool:
+        """Start ``goal``'s move (EXECUTING), or abort it INVALID_GOAL with the reason."""
         body = trajectory_body(self.server, goal.goal["trajectory"])
         try:
             payload = json.dumps(body, allow_nan=False).encode()
         except ValueError:
             self._set(goal, ABORTED, INVALID_GOAL, "the trajectory holds NaN or infinity")
-            return
+            return False
         answer = dispatch.call(self.server, "start_move", payload)
         if answer["status"] != 202:
             error = answer["body"].get("error", {}) if isinstance(answer["body"], dict) else {}
@@ -210,10 +219,10 @@ class FollowJointTrajectoryServer:
             if error.get("field"):
                 text += f" (field {error['field']})"
             self._set(goal, ABORTED, INVALID_GOAL, text)
-            return
+            return False
         goal.move_id = answer["body"]["id"]
         self._set(goal, EXECUTING)
-        self._monitor(goal)
+        return True
 
     # -- execution ----------------------------------------------------------------------
 

@@ -50,7 +50,8 @@ class RosNode:
         self.native = native
         self.controller_name = options.ros_controller
         self.name = node_name(options.name or server.arm.name)
-        self.work = ThreadPoolExecutor(2, thread_name_prefix="robodcn-ros2")
+        # one thread: JointTrajectory messages are played in arrival order
+        self.work = ThreadPoolExecutor(1, thread_name_prefix="robodcn-ros2")
         #: JointTrajectory messages refused (bad joints, NaN, beyond the limits).
         self.refused = 0
         self.node: Node | None = None
