@@ -407,7 +407,9 @@ def test_pause_resume_and_the_speed_slider_drive_the_move(driver: Any, until: An
     open_console(driver, until, service)
     for testid in ("pause", "resume", "speed"):
         assert el(driver, testid).is_displayed(), testid
+    assert not el(driver, "resume").is_enabled(), "Resume offered with nothing paused"
     move_id = start_slow_move(driver, until, service)
+    assert not el(driver, "resume").is_enabled(), "Resume offered on a running move"
     driver.execute_script("""
         const s = arguments[0];
         s.value = '0.5';
@@ -425,6 +427,7 @@ def test_pause_resume_and_the_speed_slider_drive_the_move(driver: Any, until: An
     assert max(abs(a - b) for a, b in zip(before, after, strict=True)) < 0.2, "paused arm moved"
     _, info = service.call("GET", f"/v1/moves/{move_id}")
     assert info["status"] == "running" and info["progress"] < 0.9, info
+    until(lambda d: el(d, "resume").is_enabled(), 10, "Resume not offered on a paused move")
     el(driver, "resume").click()
     until(lambda d: service.call("GET", f"/v1/moves/{move_id}")[1]["paused"] is False, 10,
           "Resume did not resume the move")

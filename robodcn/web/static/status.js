@@ -84,7 +84,9 @@ export function updateButtons() {
   $("pause").hidden = !f.pause;
   $("resume").hidden = !f.resume;
   $("pause").disabled = !active;
-  $("resume").disabled = !arm;
+  // Resume acts on a paused move only: at idle, or while a move runs, it has nothing to do
+  const paused = active && !!((S.move && S.move.paused) || (S.state && S.state.paused));
+  $("resume").disabled = !arm || !paused;
   $("speed-box").hidden = !f.speed;
   $("speed").disabled = !active;             // it scales the running move only
   $("torque-row").hidden = !f.torque;
@@ -121,7 +123,10 @@ export function onState(st) {
         current: st.current });
     }
     setMove(mi);
+  } else if (!!st.paused !== !!S.pausedShown) {
+    updateButtons();                      // a pause or resume is in the state's own flag
   }
+  S.pausedShown = !!st.paused;
   redraw();
 }
 
