@@ -182,7 +182,9 @@ def test_move_after_a_fall_recovers_the_elbow_then_moves(held_omx, monkeypatch, 
     check_recovery_line(err, q[ELBOW])
     timed = recovery_goals(held_omx, before)
     goals = [g for _, g in timed]
-    assert goals[0] <= start_tick and goals[-1] == TARGET_TICK   # from the present to 1° in
+    # from the present to 1° inside (a sample skipped on a loaded machine may step past the
+    # recovery's last goal into the move's first ones)
+    assert goals[0] <= start_tick and goals[-1] <= TARGET_TICK < goals[-2]
     assert np.all(np.diff(goals) <= 0)                      # toward its range only
     # 20 % of the velocity limit (a tick of rounding over the 50 ms window)
     assert wire_speed(timed) <= SHARE_TICKS_S * 1.05 + 20
@@ -321,7 +323,7 @@ def test_run_of_a_saved_trajectory_after_a_fall_recovers_then_approaches(
     assert code in COMPLETED, err
     check_recovery_line(err, q[ELBOW])
     goals = [g for _, g in recovery_goals(held_omx, before)]
-    assert goals[-1] == TARGET_TICK and np.all(np.diff(goals) <= 0)
+    assert goals[-1] <= TARGET_TICK < goals[-2] and np.all(np.diff(goals) <= 0)
     assert np.allclose(tool_pose(OMX, joints_of(held_omx))[:3], GOAL[:3], atol=0.012)
 
 
