@@ -29,10 +29,11 @@ DEFAULT_QOS = wire.QoS(depth=10)
 
 
 class Publisher:
-    """A ROS 2 publisher: ``publish(dict)`` encodes and puts with its attachment."""
+    """A ROS 2 publisher of ``type_name`` on ``topic`` over a Zenoh publisher:
+    ``publish(dict)`` encodes and puts with the attachment (sequence number counted from 1,
+    the send time, the publisher's random GID)."""
 
-    def __init__(self, node: Node, topic: str, type_name: str, qos: wire.QoS,
-                 zenoh_publisher: Any) -> None:
+    def __init__(self, topic: str, type_name: str, zenoh_publisher: Any) -> None:
         self.type_name = type_name
         self.topic = topic
         self.gid = os.urandom(wire.GID_SIZE)
@@ -83,7 +84,7 @@ class Node:
             pub = self.session.declare_publisher(key)
         self._declared.append(pub)
         self._token("MP", topic, type_name, qos)
-        return Publisher(self, topic, type_name, qos, pub)
+        return Publisher(topic, type_name, pub)
 
     def subscription(self, topic: str, type_name: str,
                      callback: Callable[[dict[str, Any]], None],
