@@ -63,3 +63,10 @@ def test_serve_zenoh_usage_errors(args: list[str], field: str) -> None:
     out = _run("serve", *([] if "--plan-only" in args else ["--sim"]), "--port", "0", *args)
     assert out.returncode == 2, out.stdout + out.stderr
     assert field in out.stderr
+
+
+def test_fleet_ls_with_no_arm_says_so() -> None:
+    out = _run("fleet", "ls", "--zenoh-connect", f"tcp/127.0.0.1:{free_port()}",
+               "--timeout", "0.5")
+    assert out.returncode == 0, out.stderr
+    assert out.stdout.strip() == "no arm is live on this Zenoh network"
