@@ -212,3 +212,46 @@ def test_sim_plot_draws_the_tracking_error_and_current_of_the_run(tmp_path, monk
     monkeypatch.undo()
     import matplotlib.pyplot as plt
     plt.close(fig)
+
+
+def _inside(ax, points) -> bool:
+    (x0, x1), (y0, y1) = ax.get_xlim(), ax.get_ylim()
+    x, y = np.asarray(points, dtype=float).T
+    return bool(np.all((x0 <= x) & (x <= x1) & (y0 <= y) & (y <= y1)))
+
+
+def _arrow_tips(ax) -> np.ndarray:
+    """Where the tool-axis arrows of ``ax`` end (data units, scale_units="xy")."""
+    from matplotlib.quiver import Quiver
+
+    quiver = next(c for c in ax.collections if isinstance(c, Quiver))
+    return quiver.XY + np.column_stack([quiver.U, quiver.V]) / quiver.scale
+
+
+def test_the_path_views_hold_the_whole_path_and_its_arrows_and_do_not_overlap(tmp_path,
+                                                                             monkeypatch):
+    """The OM-X side view was cut at the right (quiver scales the view to the arrows'
+    tails) and the top view's label ran into it; a planar arm's view likewise."""
+    from robodcn.workflow import resolve_arm
+
+    figures = _captured(monkeypatch)
+    omx = resolve_arm("omx")
+    cases = [(omx, [omx.home, (0.2, 0.1, 0.15, 0.0)]), (ARM, WAYPOINTS[:2])]
+    for arm, waypoints in cases:
+        traj = plan(arm, waypoints)
+        plot_motion(str(tmp_path / f"{arm.name}.png"), arm, traj)
+    (omx_fig, planar_fig) = figures
+    side, top = omx_fig.axes[:2]
+    r = np.hypot(*np.asarray(plan(omx, cases[0][1]).poses)[:, :2].T)
+    assert _inside(side, np.column_stack([r, plan(omx, cases[0][1]).poses[:, 2]]))
+    assert _inside(side, _arrow_tips(side))
+    renderer = omx_fig.canvas.get_renderer()
+    side_box = side.get_tightbbox(renderer)
+    top_box = top.get_tightbbox(renderer)
+    assert side_box.x1 < top_box.x0, "the top view overlaps the side view"
+    path = planar_fig.axes[0]
+    assert _inside(path, _arrow_tips(path))
+    monkeypatch.undo()
+    import matplotlib.pyplot as plt
+    for fig in figures:
+        plt.close(fig)

@@ -126,7 +126,8 @@ def plot_motion(path: str, arm: Arm, traj, *,
     if arm.yawed:
         from robodcn.plots._yawed import draw_yawed_path
 
-        left = grid[:tall, 0].subgridspec(1, 2, width_ratios=(1.4, 1))
+        # apart enough that the top view's y label stays clear of the side view
+        left = grid[:tall, 0].subgridspec(1, 2, width_ratios=(1.4, 1), wspace=0.4)
         draw_yawed_path(fig.add_subplot(left[0, 0]), fig.add_subplot(left[0, 1]), arm, traj,
                         wp, samples, stop, near_limits, title)
     else:
@@ -179,6 +180,9 @@ def _draw_path(ax, arm: Arm, traj, wp, samples, stop, near_limits, title) -> Non
     p = traj.poses[ticks_at]
     ax.quiver(p[:, 0], p[:, 1], np.cos(p[:, 2]), np.sin(p[:, 2]), angles="xy",
               scale_units="xy", scale=1.0 / length, width=0.003, color="tab:blue", alpha=0.6)
+    # quiver scales the view to the arrows' tails only: their tips are in view too
+    ax.update_datalim(np.column_stack([p[:, 0] + length * np.cos(p[:, 2]),
+                                       p[:, 1] + length * np.sin(p[:, 2])]))
     marks = waypoint_samples(traj, wp)
     _draw_arm(ax, arm.links, traj.joints[0], "tab:green", "arm at start")
     for i in marks[1:-1]:
@@ -208,6 +212,8 @@ def _draw_path(ax, arm: Arm, traj, wp, samples, stop, near_limits, title) -> Non
                     textcoords="offset points", xytext=(4, -10))
     ax.set(xlabel="x [m]", ylabel="y [m]", title=title or "tool path", aspect="equal")
     ax.grid(alpha=0.3)
+    ax.margins(0.06)                      # room for the waypoint labels at the edges
+    ax.autoscale_view()
     ax.legend(fontsize="small", loc="best")
 
 

@@ -64,6 +64,9 @@ def draw_yawed_path(ax_side, ax_top, arm: Arm, traj, wp, samples, stop, near_lim
     ax_side.quiver(r[at], z[at], np.cos(poses[at, 3]), np.sin(poses[at, 3]), angles="xy",
                    scale_units="xy", scale=1.0 / length, width=0.003, color="tab:blue",
                    alpha=0.6)
+    # quiver scales the view to the arrows' tails only: their tips are in view too
+    ax_side.update_datalim(np.column_stack([r[at] + length * np.cos(poses[at, 3]),
+                                            z[at] + length * np.sin(poses[at, 3])]))
     marks = waypoint_samples(traj, wp)
     for i, color, label in ((0, "tab:green", "arm at start"),
                             *((m, "tab:olive", None) for m in marks[1:-1]),
@@ -96,6 +99,8 @@ def draw_yawed_path(ax_side, ax_top, arm: Arm, traj, wp, samples, stop, near_lim
     ax_top.plot(0.0, 0.0, "k+", ms=10)
     for ax in (ax_side, ax_top):
         ax.grid(alpha=0.3)
+        ax.margins(0.1)                   # room for the waypoint labels at the edges
+        ax.autoscale_view()
     ax_side.legend(fontsize="small", loc="best")
 
 
