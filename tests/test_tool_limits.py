@@ -355,3 +355,26 @@ def test_cli_names_the_angular_speed_in_degrees(monkeypatch, capsys) -> None:
     assert data["request"]["tool_angular_speed"] == pytest.approx(math.radians(10))
     theta = np.unwrap(np.asarray(data["poses"])[:, 2])
     assert np.abs(np.diff(theta)).max() * data["rate_hz"] <= math.radians(10) + NOISE
+
+
+def test_run_plays_a_waypoints_file_at_the_commanded_tool_speed(monkeypatch, capsys,
+                                                                 tmp_path: Path) -> None:
+    path = tmp_path / "line.toml"
+    path.write_text('[plan]\nmethod = "seplerp"\n'
+                    "\n[[waypoints]]\nx = 0.25\ny = 0.10\ntheta_deg = 0\n"
+                    "\n[[waypoints]]\nx = 0.15\ny = 0.20\ntheta_deg = 0\n")
+    # the same plan run streams: its samples (the sim starts at home, the first waypoint)
+    want = plan(ARM3R, [(0.25, 0.10, 0.0), (0.15, 0.20, 0.0)], method="seplerp",
+                tool_speed=0.05, tool_acceleration=0.5)
+    code = run_cli(monkeypatch, ["run", str(path), "--arm", ARM3R_PATH, "--sim",
+                                 "--tool-speed", "0.05", "--tool-acceleration", "0.5"])
+    seen = capsys.readouterr()
+    assert code in (0, 5), seen.err
+    text = seen.out + seen.err
+    assert f"/{len(want.t)} in " in text, text  # "samples sent k/N in …": N the plan's
+    # a JSON trajectory is already timed: the options are refused
+    traj = tmp_path / "t.json"
+    traj.write_text(plan(ARM3R, PATHS["arm3r"][:2]).to_json())
+    assert run_cli(monkeypatch, ["run", str(traj), "--arm", ARM3R_PATH, "--sim",
+                                 "--tool-speed", "0.05"]) == 2
+    assert "--tool-speed applies to waypoints files" in capsys.readouterr().err

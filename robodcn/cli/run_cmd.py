@@ -44,7 +44,9 @@ from robodcn.errors import InputError, RobodcnError, RobodcnWarning
 #: The plan options of ``run`` → the PlanOverrides field each sets.
 PLAN_OPTIONS = {"--method": "method", "--beta": "beta", "--turn": "turn",
                 "--duration": "duration", "--profile": "profile", "--blend": "blend",
-                "--payload": "payload"}
+                "--payload": "payload", "--tool-speed": "tool_speed",
+                "--tool-angular-speed": "tool_angular_speed",
+                "--tool-acceleration": "tool_acceleration"}
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
@@ -78,6 +80,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     g.add_argument("--rate", type=options.rate, metavar="HZ",
                    help="stream rate, 1..1000 Hz (default: the file's, else the arm's)")
     planning.add_payload_option(g)
+    planning.add_tool_options(g)
     motion_cmd.add_execution_options(p)
     p.set_defaults(func=run)
 
@@ -100,9 +103,9 @@ def _choices(text: str | None, option: str, name: str) -> list[str] | None:
     return options.choice_list(text, option, contract.cli_choices(name))
 
 
-def overrides(args: argparse.Namespace, segments: int):
+def overrides(args: argparse.Namespace, segments: int, arm: Arm):
     """The plan options as a :class:`robodcn.workflow.run.PlanOverrides` for a file of
-    ``segments`` segments."""
+    ``segments`` segments on ``arm`` (the tool limits checked against its ceilings)."""
     from robodcn.workflow.run import PlanOverrides
 
     return PlanOverrides(
@@ -112,7 +115,7 @@ def overrides(args: argparse.Namespace, segments: int):
                           args.file),
         beta=_per_segment(args.beta, "--beta", segments, args.file),
         duration=args.duration, profile=args.profile, blend=args.blend, rate_hz=args.rate,
-        payload_kg=args.payload)
+        payload_kg=args.payload, **planning.tool_keywords(args, arm))
 
 
 def load_run_file(args: argparse.Namespace, arm: Arm) -> tuple[str, Any]:
@@ -124,7 +127,8 @@ def load_run_file(args: argparse.Namespace, arm: Arm) -> tuple[str, Any]:
     if kind == "waypoints":
         wp = files.load_waypoints(args.file, arm)
         with _file_terms(args.file, wp):
-            return kind, waypoints_fields(wp, arm, overrides(args, len(wp.waypoints) - 1))
+            return kind, waypoints_fields(wp, arm, overrides(args, len(wp.waypoints) - 1,
+                                                                  arm))
     given = [option for option, dest in PLAN_OPTIONS.items()
              if getattr(args, dest) is not None]
     if given:

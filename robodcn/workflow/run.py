@@ -55,6 +55,10 @@ class PlanOverrides:
     rate_hz: float | None = None
     #: kg at the tool point (None: the file's [plan] payload_kg, else the arm's).
     payload_kg: float | None = None
+    #: the tool limits, SI (None: the file's [plan] ones, else the arm's [tool] defaults).
+    tool_speed: float | None = None
+    tool_angular_speed: float | None = None
+    tool_acceleration: float | None = None
 
     def given(self) -> tuple[str, ...]:
         """The names of the fields that are set."""
