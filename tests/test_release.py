@@ -135,3 +135,32 @@ def test_bad_flags_name_the_field(kwargs, field):
     with pytest.raises(InputError) as err:
         release.release(None, VERTICAL, **kwargs)
     assert err.value.field == field
+
+
+def test_the_rest_pose_is_taken_in_the_present_yaw_plane():
+    """issue 27 §7: torque off --yes swung the base to yaw 0 to reach [arm.rest]."""
+    q = np.array([np.radians(40.0), -0.3, 0.4, 0.2])
+    rest = release.rest_here(OMX, q)
+    assert np.hypot(*rest[:2]) == pytest.approx(np.hypot(*OMX.rest[:2]), abs=1e-12)
+    assert rest[2:] == pytest.approx(OMX.rest[2:], abs=1e-12)
+    assert np.degrees(np.arctan2(rest[1], rest[0])) == pytest.approx(40.0, abs=1e-9)
+    assert release.rest_here(VERTICAL, np.zeros(3)) == tuple(VERTICAL.rest)
+
+
+def test_a_turned_omx_is_lowered_without_swinging_its_base():
+    from robodcn.planner import plan
+    from robodcn.stream import execute
+    from robodcn.workflow.poses import tool_pose
+
+    with simulated_arm(OMX, timing="fast") as s:
+        home = np.asarray(OMX.home)
+        turned = (home[0] * np.cos(0.7), home[0] * np.sin(0.7), *home[2:])
+        q0 = s.bus.read_positions()
+        start = servo_units.ticks_to_radians(q0, OMX.servos)
+        execute(plan(OMX, [tool_pose(OMX, start), turned], start_joints=start), s.bus)
+        yaw_id = OMX.servos[0].id
+        before = len(s.sim.goal_history(yaw_id))
+        result = release.release(s.bus, OMX, confirm=True)
+        assert result.lowered, result.to_dict()
+        yaw_goals = s.sim.goal_history(yaw_id)[before:]
+        assert yaw_goals and max(yaw_goals) - min(yaw_goals) <= 2, "the base swung round"

@@ -36,6 +36,7 @@ and shows :class:`ReleaseResult`.
 from __future__ import annotations
 
 import logging
+import math
 from collections.abc import Callable, Collection
 from dataclasses import dataclass
 from typing import Any
@@ -158,6 +159,30 @@ def check_release(arm: Arm, joints: ArrayLike, ids: Collection[int] | None = Non
     return ReleaseCheck(arm.name, bool(loaded), loaded, arm.joint_names, torques, arm.rest)
 
 
+def rest_here(arm: Arm, q: NDArray[np.float64]) -> tuple[float, ...]:
+    """The rest pose to lower to from joints ``q``: ``[arm.rest]`` itself, or on an arm with
+    a base yaw turned about the yaw axis into the present vertical plane, so the lowering
+    does not swing the base around (the chain's rest is the same in any plane).
+
+    The turn is the yaw joint's: the tool's azimuth at ``q`` less its azimuth with the yaw
+    at zero (whatever the joint's direction); none when the tool is on the yaw axis.
+    """
+    rest = arm.rest
+    assert rest is not None
+    if not arm.yawed:
+        return tuple(rest)
+    q = np.asarray(q, dtype=np.float64)
+    at_zero = q.copy()
+    at_zero[0] = 0.0
+    here, zero = tool_pose(arm, q), tool_pose(arm, at_zero)
+    if min(np.hypot(*here[:2]), np.hypot(*zero[:2])) < 1e-6:
+        return tuple(rest)
+    turn = math.atan2(here[1], here[0]) - math.atan2(zero[1], zero[0])
+    c, s = math.cos(turn), math.sin(turn)
+    x, y = rest[0], rest[1]
+    return (c * x - s * y, s * x + c * y, *rest[2:])
+
+
 def _lowering_plan(arm: Arm, q: NDArray[np.float64], check: ReleaseCheck, lower: bool,
                    plan_options: dict[str, Any] | None
                    ) -> tuple[Trajectory | None, str | None, Recovery | None]:
@@ -170,11 +195,10 @@ def _lowering_plan(arm: Arm, q: NDArray[np.float64], check: ReleaseCheck, lower:
         return None, "the lowering was not asked for", None
     if arm.rest is None:
         return None, "it has no rest pose ([arm.rest]) to be lowered to", None
-    rest = arm.rest
     try:
         trajectory, recovery = with_recovery(arm, q, lambda start: plan(
-            arm, [tool_pose(arm, np.asarray(start)), rest], start_joints=start,
-            **(plan_options or {})))
+            arm, [tool_pose(arm, np.asarray(start)), rest_here(arm, np.asarray(start))],
+            start_joints=start, **(plan_options or {})))
         return trajectory, None, recovery
     except (InputError, PlanError) as exc:
         return None, f"the lowering to its rest pose cannot be planned: {exc.message}", None
@@ -217,7 +241,7 @@ def _lower(bus: ServoBus, arm: Arm, trajectory: Trajectory,
         log.warning("the lowering ended out of position (%s): lowering again",
                     ", ".join(miss.joint for miss in report.out_of_position))
         q = present_joints(arm, bus, verify=False)
-        report = execute(plan(arm, [tool_pose(arm, q), arm.rest], start_joints=q,
+        report = execute(plan(arm, [tool_pose(arm, q), rest_here(arm, q)], start_joints=q,
                               **(plan_options or {})), bus, **options)
     return report
 
