@@ -11,8 +11,10 @@ import contextlib
 import io
 import json
 import math
+import os
 import shutil
 import subprocess
+import sys
 import time
 import tomllib
 from collections.abc import Iterator
@@ -413,3 +415,23 @@ def test_a_follow_session_refuses_targets_into_a_zone_and_laws_through_one() -> 
         assert report is not None and report.outcome in ("done", "degraded"), report
         q = servo_units.ticks_to_radians(sa.bus.read_positions()[None], OMX.servos)[0]
         assert np.allclose(q, clear, atol=3e-3)
+
+
+def test_robodcn_follow_refuses_a_line_under_the_plate_and_goes_on() -> None:
+    """``robodcn follow --arm omx`` (a process, targets on stdin): a pose under the plate is
+    one stderr line naming its line, field and zone; the next target is taken."""
+    env = {**os.environ, "PYTHONPATH": str(CONFIGS.parent)}
+    proc = subprocess.Popen([sys.executable, "-m", "robodcn", "follow", "--sim", "--timing",
+                             "fast", "--dynamics", "off", "--arm", "omx", "--space", "pose"],
+                            stdin=subprocess.PIPE, stdout=subprocess.PIPE,
+                            stderr=subprocess.PIPE, text=True, env=env, cwd=CONFIGS.parent)
+    below = [0.2, 0.0, -0.1, -math.pi / 2]
+    near = [OMX.home[0] + 0.01, OMX.home[1], OMX.home[2] - 0.01, OMX.home[3]]
+    _out, err = proc.communicate(json.dumps({"pose": below}) + "\n"
+                                 + json.dumps({"pose": near}) + "\n", timeout=120)
+    lines = err.strip().splitlines()
+    assert proc.returncode in (0, 5), err
+    refused = [ln for ln in lines if ln.startswith("robodcn: line ")]
+    assert len(refused) == 1 and refused[0].startswith("robodcn: line 1: pose: "), refused
+    assert "100.0 mm inside the arm's keep-out zone 'floor'" in refused[0]
+    assert lines[-1].startswith("follow: 1 target(s) taken, 1 refused"), lines[-1]

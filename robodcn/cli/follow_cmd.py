@@ -20,7 +20,7 @@ from typing import Any, TextIO
 
 from robodcn.cli import options
 from robodcn.cli.exit_codes import Exit, exit_for_report
-from robodcn.errors import BusError, InputError, RobodcnError
+from robodcn.errors import BusError, InputError, KeepOutError, RobodcnError
 from robodcn.stream.following import SPACES
 
 #: the keys a target line may carry
@@ -99,12 +99,12 @@ class Feeder:
                 continue
             try:
                 self.follower.target(**target)
-            except InputError as exc:
+            except (InputError, KeepOutError) as exc:   # the arm goes on to the last target
                 self._refused(number, exc)
             if self.follower.done:
                 return
 
-    def _refused(self, number: int, exc: InputError) -> None:
+    def _refused(self, number: int, exc: InputError | KeepOutError) -> None:
         self.err.write(f"robodcn: line {number}: {exc.field}: {exc.message}\n")
         self.err.flush()
 
