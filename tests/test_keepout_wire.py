@@ -177,6 +177,26 @@ def test_http_a_joint_trajectory_through_the_plate_is_refused_before_moving(omx_
     assert unmoved(before, goals_and_positions(sa.sim, OMX.servo_ids))
 
 
+def test_http_a_follow_target_under_the_plate_is_422_and_the_session_goes_on(omx_server
+                                                                            ) -> None:
+    server, _ = omx_server
+    status, _, move = call(server, "POST", "/v1/follow", {"space": "pose"})
+    assert status == 201, move
+    try:
+        status, _, body = call(server, "PUT", "/v1/follow/target",
+                               {"pose": [0.2, 0.0, -0.1, -math.pi / 2]})
+        error = error_of(body)
+        assert status == 422 and error["code"] == "keep_out" and error["field"] == "pose"
+        assert error["keepout"]["zone"] == "floor"
+        near = [OMX.home[0] + 0.01, OMX.home[1], OMX.home[2] - 0.01, OMX.home[3]]
+        status, _, answer = call(server, "PUT", "/v1/follow/target", {"pose": near})
+        assert status == 200 and answer == {"seq": 1}, answer
+    finally:
+        call(server, "DELETE", "/v1/follow")
+    done = poll_move(server, move["id"], lambda m: m["status"] != "following")
+    assert done["report"]["stop_reason"] == "completed", done["report"]
+
+
 # -- jog and teach --------------------------------------------------------------------------------
 
 def test_a_jog_key_through_the_table_is_refused_and_the_arm_stays_above() -> None:
