@@ -270,7 +270,7 @@ def test_teach_does_not_record_a_pose_inside_a_zone(sim, monkeypatch, capsys, tm
 
 def test_teaching_the_omx_refuses_a_pose_under_the_plate() -> None:
     # the issue's: a pose at z −0.09 m, backdriven on torque-off servos (kinematic sim)
-    with SimBus(OMX.servo_ids, timing="fast", log=False) as sim:
+    with SimBus((*OMX.servo_ids, OMX.gripper.servo.id), timing="fast", log=False) as sim:
         with open_bus(sim, OMX.servos) as bus:
             teaching = Teaching(bus, OMX)
             below = kinematics.ik_yawed(OMX.chain, np.array([[0.2, 0.0, -0.09, -90 * DEG]]),
