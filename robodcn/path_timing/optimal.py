@@ -237,8 +237,9 @@ def max_start_speed(q: ArrayLike, s: ArrayLike, v_max: ArrayLike, a_max: ArrayLi
                     max_stages: int = MAX_STAGES, torque: TorqueLimits | None = None,
                     tool: ToolLimits | None = None) -> float:
     """The fastest ṡ at s[0] from which the path can still be followed within the velocity
-    and acceleration limits and brought to rest by the end (or the first stop): √x_max,0 of
-    the TOPP-RA controllable set. Without a jerk limit any ``sd_start`` up to it is accepted
+    and acceleration limits (and ``torque``'s and ``tool``'s, as :func:`time_optimal` takes
+    them) and brought to rest by the end (or the first stop): √x_max,0 of the TOPP-RA
+    controllable set. Without a jerk limit any ``sd_start`` up to it is accepted
     by :func:`time_optimal`; with one, the jerk pass needs room below it."""
     q = np.asarray(q, dtype=np.float64)
     s = np.asarray(s, dtype=np.float64)
