@@ -41,7 +41,8 @@ allow-list and the Origin check), :mod:`~robodcn.http.context` (what an
 operation sees of the server), :mod:`~robodcn.http.planbody`,
 :mod:`~robodcn.http.planning` (size check, planning lanes), :mod:`~robodcn.http.openapi`,
 :mod:`~robodcn.http.ops` and :mod:`~robodcn.http.online_ops` (the operations; a move goes
-through :func:`robodcn.admission.admit`), :mod:`~robodcn.http.answer` (the edge: typed
+through :func:`robodcn.admission.admit`; the controls of the running motion are built from
+:data:`robodcn.controls.CONTROLS`), :mod:`~robodcn.http.answer` (the edge: typed
 results of :mod:`robodcn.results` and errors as replies), :mod:`~robodcn.http.server`
 (selector loop, caps, pools), :mod:`~robodcn.http.listen` (``make_server``),
 :mod:`~robodcn.http.prefork` (a plan-only service in N worker processes,

@@ -11,7 +11,8 @@ import robodcn
 from robodcn.config import Arm
 from robodcn.contract import schema_of
 from robodcn.contract.start_at import START_AT_SCHEMA
-from robodcn.http import follow_ops, online_ops
+from robodcn.controls import body_schemas
+from robodcn.http import online_ops
 from robodcn.http.jsonbody import CHANGING
 from robodcn.http.planbody import move_body_schema, plan_body_schema, trajectory_move_schema
 from robodcn.http.routes import ROUTES, TRANSPORT_ERRORS, Route
@@ -51,7 +52,7 @@ def schemas(arm: Arm | None = None) -> dict[str, dict[str, Any]]:
         "OpenAPI": {"type": "object"},
         **{name: schema_of(cls) for name, cls in RESULTS.items()},
         **online,
-        **follow_ops.body_schemas(arm),
+        **body_schemas(arm),
         # after the online bodies: waypoints (with replace) or a given trajectory
         "MoveBody": {"anyOf": [online["MoveBody"], given],
                      "description": "Waypoints to plan from the arm's present pose (or, with "

@@ -14,8 +14,9 @@ from typing import Any
 import robodcn
 from robodcn.admission import MoveOrder, admit
 from robodcn.contract.start_at import take_start_at
+from robodcn.controls import CONTROLS, Control
 from robodcn.errors import InputError, RobodcnError, TooLargeError
-from robodcn.http import follow_ops, online_ops
+from robodcn.http import online_ops
 from robodcn.http.answer import Operation
 from robodcn.http.context import Service, controller_of
 from robodcn.http.framing import HTTPError, Reply, Request, stream_head
@@ -217,12 +218,6 @@ def op_get_move(server: Service, request: Request, params: dict[str, str]
     return 200, controller_of(server).move_info(params["id"])
 
 
-def op_stop(server: Service, request: Request, params: dict[str, str]
-            ) -> tuple[int, Any]:
-    controller = controller_of(server)
-    return 200, controller.stop_move(online_ops.stop_mode(read_json(request)))
-
-
 def op_state(server: Service, request: Request, params: dict[str, str]
              ) -> tuple[int, Any]:
     return 200, controller_of(server).state()
@@ -235,5 +230,14 @@ def op_openapi(server: Service, request: Request, params: dict[str, str]
 
 OPERATIONS: dict[str, Operation] = {name.removeprefix("op_"): fn for name, fn in
                                     dict(globals()).items() if name.startswith("op_")}
-OPERATIONS.update(online_ops.OPERATIONS)
-OPERATIONS.update(follow_ops.OPERATIONS)
+
+
+def _control(control: Control) -> Operation:
+    """The HTTP operation of a control (robodcn.controls): its JSON body to its ``run``."""
+    def op(server: Service, request: Request, params: dict[str, str]) -> tuple[int, Any]:
+        return control.ok, control.run(controller_of(server), read_json(request))
+    op.__name__ = f"op_{control.name}"
+    return op
+
+
+OPERATIONS.update({c.name: _control(c) for c in CONTROLS})

@@ -28,6 +28,7 @@ import re
 from dataclasses import dataclass, field
 from typing import Literal
 
+from robodcn.controls import CONTROLS
 from robodcn.http.framing import HTTPError
 
 Pool = Literal["work", "read", "control", "stream"]
@@ -81,25 +82,9 @@ ROUTES: tuple[Route, ...] = (
           "Move", "MoveBody", (*BODY_ERRORS, 409)),
     Route("GET", "/v1/moves/{id}", "get_move", "Status, progress and report of a move", 200,
           "Move", None, (404,), pool="read"),
-    Route("POST", "/v1/stop", "stop", "Stop the running move (smooth: decelerate along its "
-          "path, then hold; hold: at once)", 200,
-          "Stop", "StopBody", BODY_ERRORS, pool="control"),
-    Route("POST", "/v1/pause", "pause", "Pause the running move: a smooth stop on its path",
-          200, "Move", "EmptyBody", (*BODY_ERRORS, 409), pool="control"),
-    Route("POST", "/v1/resume", "resume", "Resume the paused move along the same path", 200,
-          "Move", "EmptyBody", (*BODY_ERRORS, 409), pool="control"),
-    Route("PUT", "/v1/speed", "set_speed", "Scale the running move's speed live (limits "
-          "v·k, a·k², j·k³)", 200, "Move", "SpeedBody", (*BODY_ERRORS, 409), pool="control"),
-    Route("POST", "/v1/follow", "follow_open", "Open a follow session: the arm heads for "
-          "the newest of a stream of targets (one move, status following; 409 while "
-          "another runs)", 201, "Move", "FollowBody", (*BODY_ERRORS, 409)),
-    Route("PUT", "/v1/follow/target", "follow_target", "Send the follow session a target "
-          "(joints or a pose; nothing is planned: checked and taken at the next bus "
-          "period); 409 without a session", 200, "FollowTarget", "FollowTargetBody",
-          (*BODY_ERRORS, 409), pool="control"),
-    Route("DELETE", "/v1/follow", "follow_end", "End the follow session: rest at the last "
-          "target, the move ends done", 200, "Move", "EmptyBody", (*BODY_ERRORS, 409),
-          pool="control"),
+    # the controls of the running motion, declared once (robodcn.controls)
+    *(Route(c.method, c.path, c.name, c.summary, c.ok, c.response, c.body,
+            (*BODY_ERRORS, *c.errors), pool=c.pool) for c in CONTROLS),
     Route("GET", "/v1/state", "state", "Present joints, pose, torque and hardware alerts",
           200, "State", pool="read"),
     Route("GET", "/openapi.json", "openapi", "This OpenAPI 3.1 document", 200, "OpenAPI"),
