@@ -77,6 +77,12 @@ class Single(Transactions):
         spec = self.spec_of(servo)
         return bool(self._read_int(spec.id, ADDR_TORQUE_ENABLE, 1))
 
+    def write_torque_enabled(self, servo: Servo, on: bool) -> None:
+        """Torque Enable (64) of one servo, on this bus's wire or not (a gripper): off lets
+        a hand move it."""
+        spec = self.spec_of(servo)
+        self._write_int(spec.id, ADDR_TORQUE_ENABLE, 1 if on else 0, 1)
+
     def write_goal_position(self, servo: Servo, tick: int) -> None:
         """Goal Position (116) of one servo, after the check against :meth:`tick_limits`.
 

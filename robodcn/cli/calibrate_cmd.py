@@ -14,9 +14,10 @@ import sys
 
 from robodcn.cli import options, releasing
 from robodcn.cli.dialogue import confirm, say, stdin_prompt
+from robodcn.cli.exit_codes import Exit
 from robodcn.cli.output import save_work
 from robodcn.cli.servo_session import add_bus_options, open_bus
-from robodcn.errors import InputError, StoppedError
+from robodcn.errors import InputError
 
 #: Answers that skip a joint's range step, or a joint that did not move.
 SKIP_ANSWERS = ("s", "skip")
@@ -65,8 +66,11 @@ def dialogue(calibrator, *, ranges: bool):
          "press Enter")
     calibrator.read_reference()
     for j, spec in enumerate(arm.joints):
-        _ask(f"Turn joint {spec.name!r} (servo {spec.servo.id}) a little in its positive "
-             "direction and press Enter")
+        answer = _ask(f"Turn joint {spec.name!r} (servo {spec.servo.id}) a little in its "
+                      "positive direction and press Enter (s: skip this joint)")
+        if answer in SKIP_ANSWERS:
+            calibrator.skip(j)
+            continue
         motion = calibrator.motion(j)
         while motion.direction is None:
             answer = _ask(f"joint {spec.name!r} moved {motion.moved_ticks} ticks "
@@ -85,6 +89,14 @@ def dialogue(calibrator, *, ranges: bool):
                               "press Enter (s: skip)")
             if answer not in SKIP_ANSWERS:
                 calibrator.joint_range(j, sampler)
+    if arm.gripper is not None:
+        for end in ("open", "closed"):
+            answer = _ask(f"Move the gripper's jaws by hand to fully {end} and press Enter "
+                          "(s: skip the gripper)")
+            if answer in SKIP_ANSWERS:
+                calibrator.skip_gripper()
+                break
+            calibrator.gripper_end(end)
     return calibrator.result()
 
 
@@ -125,7 +137,8 @@ def run(args: argparse.Namespace) -> int:
     sys.stdout.write(changes or f"no changes to {source}\n")
     sys.stdout.flush()
     if not confirm(f"write {out}?", yes=args.yes):
-        raise StoppedError(f"{out} not written", field="out", value=str(out))
+        say(f"{out} not written")
+        return Exit.DECLINED
     save_work(out, new, what="the calibrated config")
     say(f"wrote {out}" + ("" if cal.held else " (torque stays off)"))
     return 0

@@ -22,6 +22,7 @@ class Exit(IntEnum):
     """What a ``robodcn`` command's exit status means."""
 
     DONE = 0
+    DECLINED = 1
     USAGE = 2
     INFEASIBLE = 3
     FAULT = 4
@@ -33,6 +34,7 @@ class Exit(IntEnum):
 #: code → meaning, in the words of README.md's table.
 EXIT_CODES: dict[int, str] = {
     Exit.DONE: "done",
+    Exit.DECLINED: "declined: the user answered no (nothing written)",
     Exit.USAGE: "bad usage or input (nothing moved)",
     Exit.INFEASIBLE: "plan infeasible (nothing moved)",
     Exit.FAULT: "servo or bus fault, or a collision stop (including: scan found no servo)",

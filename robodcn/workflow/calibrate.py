@@ -38,6 +38,7 @@ from typing import Self
 import numpy as np
 from numpy.typing import NDArray
 
+from robodcn import servo_units
 from robodcn._checks import is_finite_real
 from robodcn.bus import ServoBus
 from robodcn.config import Arm, arm_from_dict
@@ -68,6 +69,9 @@ class Calibration:
 
     joints: tuple[JointCalibration, ...]
     notes: tuple[str, ...] = field(default=())
+    #: The gripper servo's angles (rad, tick ``zero_offset`` = 0) at open and closed, when
+    #: the gripper step measured them (None: skipped, or the arm has no gripper).
+    gripper: tuple[float, float] | None = None
 
 
 class _Sampler:
@@ -182,6 +186,8 @@ class Calibrator:
         self._joints: dict[int, JointCalibration] = {}
         self._notes: list[str] = []
         self._skipped: set[int] = set()
+        self._gripper: dict[str, float] = {}
+        self._gripper_skipped = False
         #: What :meth:`start`'s release did (None before it); whether leaving held the arm.
         self.released: ReleaseResult | None = None
         self.held = False
@@ -262,6 +268,39 @@ class Calibrator:
         self._skipped.add(j)
         self._notes.append(note)
 
+    def gripper_end(self, end: str) -> float:
+        """The gripper servo's angle (rad) where a hand left the jaws, as its ``end``
+        ("open" | "closed"); its torque is switched off first (a gripper drops nothing)."""
+        gripper = self.arm.gripper
+        if gripper is None or end not in ("open", "closed"):
+            raise InputError(f"no gripper end {end!r} on arm {self.arm.name!r}",
+                             field="gripper", value=end)
+        if not self._gripper:
+            self.bus.write_torque_enabled(gripper.servo, False)
+        tick = self.bus.read_position(gripper.servo)
+        angle = float(servo_units.ticks_to_radians([tick], [gripper.servo])[0])
+        self._gripper[end] = angle
+        return angle
+
+    def skip_gripper(self) -> None:
+        """Leave the gripper's open and closed angles as configured; noted in the result."""
+        self._gripper.clear()
+        self._gripper_skipped = True
+        self._notes.append("gripper: skipped; its open and closed angles are the config's")
+
+    def _gripper_result(self) -> tuple[float, float] | None:
+        """(open, closed) when both were measured and differ by at least min_motion_deg;
+        else None (a note says why when they did not)."""
+        if self._gripper_skipped or set(self._gripper) != {"open", "closed"}:
+            return None
+        opened, closed = self._gripper["open"], self._gripper["closed"]
+        if abs(math.degrees(opened - closed)) < self.min_motion_deg:
+            self._notes.append(f"gripper: open and closed are only "
+                               f"{abs(math.degrees(opened - closed)):.1f}° apart; its angles "
+                               "are the config's")
+            return None
+        return opened, closed
+
     def sampling(self) -> _Sampler:
         """A context that samples Present Position while the user moves a joint; the bus is
         the sampler's until the context ends."""
@@ -291,8 +330,9 @@ class Calibrator:
         missing = [self.arm.joints[j].name for j in range(self.arm.dof) if j not in self._joints]
         if missing:
             raise RuntimeError(f"joints not calibrated yet: {missing}")
+        gripper = self._gripper_result()
         return Calibration(tuple(self._joints[j] for j in range(self.arm.dof)),
-                           tuple(self._notes))
+                           tuple(self._notes), gripper)
 
 
 def _set_angle(table, key: str, value: float) -> None:
@@ -323,6 +363,10 @@ def updated_toml(text: str, calibration: Calibration, *, source: str = "<calibra
         if cal.min_angle is not None and cal.max_angle is not None:
             _set_angle(table, "min", cal.min_angle)
             _set_angle(table, "max", cal.max_angle)
+    if calibration.gripper is not None and "gripper" in doc:
+        opened, closed = calibration.gripper
+        _set_angle(doc["gripper"], "open", opened)
+        _set_angle(doc["gripper"], "closed", closed)
     new = tomlkit.dumps(doc)
     arm_from_dict(tomllib.loads(new), source=source)
     return new
