@@ -87,6 +87,9 @@ class Drive:
         self.velocity = VelocityController()
         self.thermal = Thermal(motor.thermal_resistance, motor.thermal_time_constant)
         self.settings: DriveSettings | None = None
+        #: What :attr:`settings` was built from (servo.live.configure_drive): the control
+        #: table's settings bytes, the profile and the supply voltage.
+        self.settings_from: tuple | None = None
         #: Multi-turn counter offset, pulses: actual position = θ·PULSES_PER_RAD − turns.
         self.turns = 0.0
         #: External torque on the output shaft, N·m (Servo.push).

@@ -107,11 +107,26 @@ def _refresh_physics(st: ServoState, now: float) -> bool:
     return not lo <= volts <= hi and not data[ct.HARDWARE_ERROR_STATUS] & ct.HW_INPUT_VOLTAGE
 
 
+#: The control-table bytes a drive's settings come from (Drive Mode at 10 … Goal Current at
+#: 102–103; the present values live above): :func:`configure_drive` rebuilds the snapshot
+#: only when they, the profile or the supply voltage changed.
+SETTINGS_END = ct.GOAL_CURRENT + 2
+
+
 def configure_drive(st: ServoState) -> None:
-    """Snapshot what the drive reads from the control table (before plant steps)."""
+    """Snapshot what the drive reads from the control table (before plant steps); kept
+    while the bytes it reads (:data:`SETTINGS_END`), the profile and the supply voltage
+    are those it was built from (a plant advances several times a 10 ms cycle and the
+    snapshot, 15 table reads, was most of a servo's update)."""
     drive = st.motion.drive
     assert drive is not None
     t = st.table
+    head = bytes(t.data[:SETTINGS_END])
+    built = drive.settings_from
+    if drive.settings is not None and built is not None and built[0] == head \
+            and built[1] is st.motion.profile and built[2] == drive.supply_voltage:
+        return
+    drive.settings_from = (head, st.motion.profile, drive.supply_voltage)
     xm = st.spec.has_current
     stall = drive.supply_voltage / drive.motor.resistance
     drive.settings = DriveSettings(
