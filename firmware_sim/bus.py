@@ -279,10 +279,12 @@ class SimBus:
         first ping of a client that took a second to start) went unanswered. The server
         thread calls this every :data:`KEEP_UP_S` between packets, so the catch-up before
         any reply stays a few steps. On a :class:`~firmware_sim.clock.VirtualClock` (a
-        test that moves time itself) the server thread leaves the physics lazy."""
+        test that moves time itself) the server thread leaves the physics lazy. The live
+        items are left to the next read (:meth:`Servo.advance`): refreshing every servo's
+        Present items here cost more than the steps themselves."""
         with self.lock:
             for s in self._servos:
-                s.update()
+                s.advance()
 
     def _handle(self, pkt: Packet) -> None:
         self._log.add(LogEntry(pkt.time, "rx", pkt.id, pkt.name, pkt.params, None, pkt.raw,

@@ -172,7 +172,9 @@ class Chain:
         d_phi = [0.0] * n
         for mass, lv in self.bodies:
             terms = [lv[s] * e[s] for s in range(n)]
-            r = sum(t.real for t in terms)
+            r = 0.0
+            for t in terms:
+                r += t.real
             inertia += mass * r * r
             for s in range(n):
                 d_phi[s] -= 2.0 * mass * r * terms[s].imag

@@ -56,7 +56,11 @@ def _solve(a: list[list[float]], b: list[float]) -> list[float]:
     """x with a·x = b by Gaussian elimination with partial pivoting (n ≤ 6; a, b consumed)."""
     n = len(b)
     for col in range(n):
-        piv = max(range(col, n), key=lambda r: abs(a[r][col]))
+        piv, best = col, abs(a[col][col])       # the first row of the largest |a[r][col]|
+        for r in range(col + 1, n):
+            v = abs(a[r][col])
+            if v > best:
+                piv, best = r, v
         if piv != col:
             a[col], a[piv] = a[piv], a[col]
             b[col], b[piv] = b[piv], b[col]
@@ -292,9 +296,14 @@ class Plant:
             new = [0.0] * n
             moving = [j for j in free if j not in locked]
             if moving:
-                af = [[a[i][j] + (h * damp[i] if i == j else 0.0) for j in moving]
-                      for i in moving]
-                bf = [sum(a[i][k] * omega[k] for k in range(n)) + h * rhs[i] for i in moving]
+                af = [[a[i][j] for j in moving] for i in moving]
+                bf = []
+                for r, i in enumerate(moving):
+                    af[r][r] += h * damp[i]
+                    row, acc = a[i], 0.0
+                    for k in range(n):
+                        acc += row[k] * omega[k]
+                    bf.append(acc + h * rhs[i])
                 for i, w in zip(moving, _solve(af, bf), strict=True):
                     if omega[i] * w < 0.0 and abs(net[i]) <= drives[i].motor.coulomb:
                         w = 0.0         # friction stops a reversal it can hold (as stuck)

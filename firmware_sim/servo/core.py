@@ -256,6 +256,16 @@ class Servo:
         """Advance the plant, the watchdog and the live items (Present *, Moving, tick…)
         to now."""
         with self._lock:
+            now = self.advance()
+            st = self._st
+            if refresh(st, now):
+                alerts.physical_fault(st, ct.HW_INPUT_VOLTAGE, now)
+
+    def advance(self) -> float:
+        """Advance the plant and the watchdog to now, leaving the live items to the next
+        read (:meth:`update` refreshes them): what the bus's keep-up between packets needs,
+        without rewriting every Present item of every servo each time. Returns now."""
+        with self._lock:
             st = self._st
             now = self.clock.now()
             plant = st.motion.plant
@@ -266,8 +276,7 @@ class Servo:
             st.watchdog.expire(st.table, st.motion, now)
             if plant is not None:
                 plant.advance(now)
-            if refresh(st, now):
-                alerts.physical_fault(st, ct.HW_INPUT_VOLTAGE, now)
+            return now
 
     def configure_drive(self) -> None:
         """Snapshot the control table for the drive (the plant calls it before steps)."""
