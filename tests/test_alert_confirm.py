@@ -15,13 +15,14 @@ import json
 import signal
 import subprocess
 import sys
+import threading
 
 import pytest
 from conftest import ROOT
 from stream_helpers import IDS, LONG, execute, inject_at, open_bus, place
 
 from firmware_sim.protocol import Instruction
-from robodcn.bus import ADDR_HARDWARE_ERROR
+from robodcn.bus import ADDR_GOAL_POSITION, ADDR_HARDWARE_ERROR, ADDR_PRESENT_POSITION
 from robodcn.bus.control_table import ADDR_BUS_WATCHDOG
 
 #: The example of the issue: a 250 ms Bus Watchdog reads 13 (20 ms units).
@@ -92,3 +93,30 @@ def test_move_on_a_firmware_sim_that_sends_stale_watchdog_replies(tmp_path) -> N
     report = json.loads(out.stdout)
     assert report["stop_reason"] == "completed", report["message"]
     assert not any(report["hardware_errors"].values()), report["hardware_errors"]
+
+
+def test_a_stale_position_reply_is_not_taken_for_the_goals_a_stop_holds(sim):
+    """A stop holds the goals the servos hold, read back (stream.finish). The Present
+    Position read at the start of the move (4 bytes from every servo) answered again in
+    place of that read — the same size as Goal Position's — would be the hold: the arm sent
+    back to where it started. The goals are read in a form no other read shares; the hold
+    is the goal the servos were heading for, and the read-back confirms it."""
+    with open_bus(sim) as bus:
+        place(bus, LONG.ticks[0])
+        start = [sim.servo(i).present_position for i in IDS]
+        stop = threading.Event()
+
+        def stop_now():
+            sim.faults.stale(ADDR_PRESENT_POSITION, address=ADDR_GOAL_POSITION, times=2,
+                             instructions={Instruction.FAST_SYNC_READ, Instruction.SYNC_READ})
+            stop.set()
+
+        report = execute(LONG, bus, stop=stop, progress=inject_at(15, stop_now))
+    assert report.stop_reason == "stopped" and report.outcome == "stopped", report.message
+    assert report.hold_failed is None, report.hold_failed
+    assert list(report.hold_goals) == [sim.servo(i).goal_position for i in IDS]
+    # where the move was, not where it started
+    assert max(abs(h - s) for h, s in zip(report.hold_goals, start, strict=True)) > 50, (
+        report.hold_goals, start)
+    stale = [e for e in sim.packets("tx") if e.note.startswith("stale")]
+    assert len(stale) == 2, "the straggler was not sent as often as asked"

@@ -165,13 +165,13 @@ def test_health_poll_catches_an_alert_in_write_only_streaming(sim):
     assert report.feedback_reads == 0 and report.health_polls >= 1
     assert report.hardware_errors[IDS[2]] == 0x20
     # Only the pre-flight and the final read asked for Present Position; the hold re-writes
-    # the goals the servos hold (Goal Position, 116), so it does not jump back to a lagging
-    # present position.
+    # the goals the servos hold (Goal Position, 116, read with Profile Velocity from 112:
+    # robodcn.bus.reads), so it does not jump back to a lagging present position.
     def reads_of(address):
         return [e for e in sim.packets("rx", "FAST_SYNC_READ")
                 if int.from_bytes(e.params[:2], "little") == address]
     assert len(reads_of(132)) == 2               # pre-flight, final
-    assert len(reads_of(116)) >= 1               # the hold
+    assert len(reads_of(112)) >= 1               # the hold
 
 
 def test_host_stall_past_the_watchdog_stops_with_hardware_alert(sim):

@@ -12,7 +12,10 @@ passes every check of the SDK's and ours. So no two kinds of read share a size w
 mix-up could stop the arm: Hardware Error Status is read as the 3 bytes from Status Return
 Level (68, 69, 70), whose first two bytes can only be 1–2 and 0–1, never as the 1 byte at 70
 that a Bus Watchdog poll's straggler (1 byte at 98: 13 for 250 ms) would answer in its place
-— the misread that once ended a move with "hardware error 13" on every servo.
+— the misread that once ended a move with "hardware error 13" on every servo. Goal Position
+likewise is read with Profile Velocity before it (112..119, 8 bytes), never as the 4 bytes a
+Present Position read's straggler (the positions at the start of a move) would answer: a
+hold written from those would send the arm back.
 """
 
 from __future__ import annotations
@@ -25,8 +28,10 @@ from numpy.typing import NDArray
 
 from robodcn.bus.control_table import (
     ADDR_BUS_WATCHDOG,
+    ADDR_GOAL_POSITION,
     ADDR_HARDWARE_ERROR,
     ADDR_PRESENT_POSITION,
+    ADDR_PROFILE_VELOCITY,
     ADDR_STATUS_RETURN_LEVEL,
     ADDR_TORQUE_ENABLE,
 )
@@ -156,6 +161,30 @@ class Reads(Transactions):
                                 f"{data[0]}, {data[1]} (Status Return Level, Registered "
                                 "Instruction): a reply to another read",
                                 field=f"servo[{servo_id}]", value=list(data))
+        return raw
+
+    def read_goals(self) -> NDArray[np.int64]:
+        """Goal Position of every servo (ticks, signed), shape (k,) in bus order.
+
+        Read with Profile Velocity before it (112..119, a size no other read has: module
+        notes); a reply whose Profile Velocity is not 0..32767 is not this read's
+        (CommError, retried)."""
+        what = f"goal read 8 byte(s) at {ADDR_PROFILE_VELOCITY}"
+        raw = self._retry(what, None, lambda: self._goals_once())
+        rows = np.frombuffer(b"".join(raw), dtype="<i4").reshape(len(self.ids), 2)
+        at = (ADDR_GOAL_POSITION - ADDR_PROFILE_VELOCITY) // 4
+        return rows[:, at].astype(np.int64)
+
+    def _goals_once(self) -> list[bytes]:
+        with self.claim():
+            raw = self._sync_read_once(self._group(ADDR_PROFILE_VELOCITY, 8, self.ids), 8,
+                                       self.ids)
+        for servo_id, data in zip(self.ids, raw, strict=True):
+            velocity = int.from_bytes(data[:4], "little", signed=True)
+            if not 0 <= velocity <= 32767:
+                raise CommError(f"servo {servo_id}: the goal read's reply starts with "
+                                f"{velocity} as Profile Velocity (0..32767): a reply to "
+                                "another read", field=f"servo[{servo_id}]", value=velocity)
         return raw
 
     def watchdog_status(self) -> dict[int, int]:

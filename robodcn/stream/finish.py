@@ -97,7 +97,8 @@ def _hold(bus: ServoBus, last_goal: NDArray[np.int64] | None,
     the last present positions) and confirm it: (the goals sent, None when none went out;
     why the hold is not confirmed, None when it is). A Sync Write has no reply (a stalled
     bus takes its bytes as readily as a live one), so the servos' Goal Position is read
-    back: a hold is confirmed only when every servo answers with it."""
+    back: a hold is confirmed only when every servo answers with it (a read that shows
+    other goals is read again, the first may be a straggler of the read before)."""
     if bus.lost:
         return None, "the serial device is lost"
     goals = held_goals(bus)
@@ -114,6 +115,10 @@ def _hold(bus: ServoBus, last_goal: NDArray[np.int64] | None,
     if bus.lost:
         return goals, "the serial device was lost while the hold was written"
     held = held_goals(bus)
+    if held is not None and not np.array_equal(held, goals):
+        # a late reply to the Goal Position read before the write (same size, the old
+        # goals) passes for this one's: a second read confirms
+        held = held_goals(bus)
     if held is None:
         log.warning("the hold is not confirmed: Goal Position cannot be read back")
         return goals, ("the servos did not answer the read-back of the hold (Goal "
@@ -126,12 +131,12 @@ def _hold(bus: ServoBus, last_goal: NDArray[np.int64] | None,
 
 
 def held_goals(bus: ServoBus) -> NDArray[np.int64] | None:
-    """The Goal Position (k,) each servo holds now, ticks (None if it cannot be read)."""
+    """The Goal Position (k,) each servo holds now, ticks (None if it cannot be read;
+    :meth:`~robodcn.bus.ServoBus.read_goals`: a read no straggler of another passes for)."""
     try:
-        raw = bus.sync_read(ADDR_GOAL_POSITION, 4)
+        return bus.read_goals()
     except BusError:
         return None
-    return np.array([int.from_bytes(b, "little", signed=True) for b in raw], dtype=np.int64)
 
 
 def _recover(bus: ServoBus, hardware: dict[int, int]) -> list[dict[str, Any]]:

@@ -15,7 +15,7 @@ from collections.abc import Sequence
 import numpy as np
 from numpy.typing import NDArray
 
-from robodcn.bus import ADDR_GOAL_POSITION, ServoBus
+from robodcn.bus import ServoBus
 from robodcn.errors import BusError
 from robodcn.planner import Trajectory
 from robodcn.stream.compensation import compensated_ticks
@@ -41,7 +41,10 @@ def servo_state(bus: ServoBus, present: NDArray[np.int64] | None = None
         except BusError:
             return None
 
-    goal = read(ADDR_GOAL_POSITION, 4)
+    try:
+        goal: list[int] | None = [int(g) for g in bus.read_goals()]  # no straggler passes
+    except BusError:
+        goal = None
     if present is None:
         try:
             present = bus.read_positions()
