@@ -246,6 +246,33 @@ def test_unreachable_target_shows_the_error_and_sends_no_move(driver: Any, until
         "const p = window.robodcnConsole.S.plans.sclerp; return p && p.mark"), 10)
 
 
+def test_four_overlays_of_an_unreachable_target_say_it_once(driver: Any, until: Any,
+                                                            service: Any) -> None:
+    """Issue 27 §7: four methods refused at one target showed the error four times, the
+    field twice in each row, and four labels on top of each other, cut at the edge."""
+    service.wait_idle()
+    open_console(driver, until, service)
+    type_target(driver, UNREACHABLE)
+    for box in driver.find_elements("css selector", ".overlay-method"):
+        if not box.is_selected():
+            box.click()
+    el(driver, "preview").click()
+    rows_js = "return [...document.querySelectorAll('#plans tbody tr')].map(r => r.innerText)"
+    rows = until(lambda d: (r := d.execute_script(rows_js)) and len(r) == 4
+                 and all("–" in x for x in r) and r, 15, "no four refused rows")
+    first, *others = rows
+    assert "out of reach" in first and first.count("waypoints[1]") == 1, first
+    assert all("as ScLERP" in r and "out of reach" not in r for r in others), others
+    error = el(driver, "error").text
+    assert error.count("out of reach") == 1, error
+    assert error.startswith("ScLERP, KenLERP, SEP-LERP, DLB: "), error
+    labels = until(lambda d: d.execute_script(
+        "return window.robodcnConsole.S.markLabels"), 10, "no mark label drawn")
+    width = driver.execute_script("return document.querySelector('canvas').width")
+    assert len(labels) == 1 and len(labels[0]["methods"]) == 4, labels
+    assert 0 <= labels[0]["x"] and labels[0]["x"] + labels[0]["w"] <= width, (labels, width)
+
+
 def test_a_too_fast_plan_marks_its_failing_sample(driver: Any, until: Any,
                                                  service: Any) -> None:
     service.wait_idle()

@@ -68,7 +68,9 @@ def exit_for_error(exc: RobodcnError) -> Exit:
         if isinstance(exc, cls):
             return code
     own = getattr(exc, "exit_code", None)
-    return Exit(own) if own in EXIT_CODES and own != Exit.DONE else Exit.FAULT
+    # an error is never "done" nor "declined" (the user's own no, which raises nothing)
+    return Exit(own) if own in EXIT_CODES and own not in (Exit.DONE, Exit.DECLINED) \
+        else Exit.FAULT
 
 
 def exit_for_report(report: Any) -> Exit:

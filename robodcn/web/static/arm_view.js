@@ -93,22 +93,39 @@ function drawWorkspace(ctx, canvas, k) {
   ctx.fillText(parts.join(" · "), 8, canvas.height - 8);
 }
 
-/** The failing sample (or waypoint) of each infeasible plan, in its method's colour. */
+/** The failing sample (or waypoint) of each infeasible plan, in its method's colour; the
+ * methods that fail at one spot share one label, kept inside the canvas. */
 function drawMarks(ctx) {
-  S.planOrder.filter((m) => S.plans[m] && S.plans[m].mark).forEach((m, i) => {
+  const canvas = ctx.canvas, spots = [];
+  S.planOrder.filter((m) => S.plans[m] && S.plans[m].mark).forEach((m) => {
     const p = S.plans[m];
     if (S.model.yawed && p.mark.length < 4) return;
     const [u, v] = toPlane(S.model, p.mark);
     const [px, py] = toCanvas(u, v);
+    const where = typeof p.error.sample === "number" ? `sample ${p.error.sample}` : p.error.field || "";
+    const spot = spots.find((s) => Math.hypot(s.px - px, s.py - py) < 4 && s.where === where);
+    if (spot) spot.methods.push(m); else spots.push({ px, py, where, methods: [m] });
+  });
+  spots.forEach((spot, k) => {
+    const { px, py } = spot;
     ctx.strokeStyle = "#b3261e"; ctx.lineWidth = 3;
     ctx.beginPath(); ctx.moveTo(px - 8, py - 8); ctx.lineTo(px + 8, py + 8);
     ctx.moveTo(px + 8, py - 8); ctx.lineTo(px - 8, py + 8); ctx.stroke();
-    ctx.strokeStyle = COLORS[m] || "#b3261e"; ctx.lineWidth = 2;
-    ctx.beginPath(); ctx.arc(px, py, 12 + 3 * i, 0, 2 * Math.PI); ctx.stroke();
-    ctx.fillStyle = COLORS[m] || "#b3261e"; ctx.font = "12px system-ui";
-    const where = typeof p.error.sample === "number" ? `sample ${p.error.sample}` : p.error.field || "";
-    ctx.fillText(`${NAMES[m]}: ${where}`, px + 18, py - 10 + 14 * i);
+    spot.methods.forEach((m, i) => {
+      ctx.strokeStyle = COLORS[m] || "#b3261e"; ctx.lineWidth = 2;
+      ctx.beginPath(); ctx.arc(px, py, 12 + 3 * i, 0, 2 * Math.PI); ctx.stroke();
+    });
+    ctx.fillStyle = COLORS[spot.methods[0]] || "#b3261e"; ctx.font = "12px system-ui";
+    const text = `${spot.methods.map((m) => NAMES[m]).join(", ")}: ${spot.where}`;
+    const w = ctx.measureText(text).width;
+    // right of the mark, or left of it where the right runs off the canvas
+    let x = px + 18 + 3 * spot.methods.length;
+    if (x + w > canvas.width - 4) x = Math.max(4, px - 18 - 3 * spot.methods.length - w);
+    const y = Math.min(canvas.height - 24, Math.max(14, py - 10 + 14 * k));
+    ctx.fillText(text, x, y);
+    spot.label = { x, y, w };
   });
+  S.markLabels = spots.map((s) => ({ methods: s.methods, ...s.label }));
 }
 
 /** The arm at joints q: each chain joint's allowed range (relative to the previous link),

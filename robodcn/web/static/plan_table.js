@@ -4,7 +4,7 @@
 import { $, COLORS, NAMES } from "./state.js";
 import { showError, clearError, errorText } from "./ui.js";
 
-function row(method, plan) {
+function row(method, plan, sameAs = null) {
   const tr = document.createElement("tr");
   tr.dataset.method = method;
   const cell = (text, cls) => {
@@ -27,13 +27,20 @@ function row(method, plan) {
   } else {
     const err = plan.error || {};
     const td = cell("", "bad plan-error");
-    if (err.field) {
-      const field = document.createElement("code");
-      field.className = "field";
-      field.textContent = err.field;
-      td.append(field, " ");
+    const message = err.message || "infeasible";
+    if (sameAs) {
+      // the same refusal as a row above: said once, not once per method
+      td.append(`as ${NAMES[sameAs]}`);
+    } else {
+      // the field as a chip only when the message does not name it already
+      if (err.field && !message.includes(err.field)) {
+        const field = document.createElement("code");
+        field.className = "field";
+        field.textContent = err.field;
+        td.append(field, " ");
+      }
+      td.append(message);
     }
-    td.append(err.message || "infeasible");
     td.title = err.code ? `${err.code}: ${errorText(err)}` : errorText(err);
   }
   return tr;
@@ -43,12 +50,28 @@ function row(method, plan) {
 export function showPlans(results, inputError = null) {
   const tbody = $("plans").querySelector("tbody");
   if (inputError) { showError(inputError, "preview"); return; }
-  tbody.replaceChildren(...results.map(([m, p]) => row(m, p)));
+  // Methods refused with the same words share one line (four overlays of an unreachable
+  // target are one refusal, not four)
+  const first = new Map();
+  const rows = results.map(([m, p]) => {
+    const text = p.error ? errorText(p.error) : null;
+    const earlier = text !== null && first.has(text) ? first.get(text) : null;
+    if (text !== null && earlier === null) first.set(text, m);
+    return row(m, p, earlier);
+  });
+  tbody.replaceChildren(...rows);
   const failed = results.filter(([, p]) => p.error);
   const main = results.length ? results[0][0] : null;
   if (failed.length) {
-    showError(failed.map(([m, p]) => (failed.length > 1 || m !== main ? NAMES[m] + ": " : "") +
-      errorText(p.error)).join("\n"), "preview");
+    const groups = new Map();
+    failed.forEach(([m, p]) => {
+      const text = errorText(p.error);
+      if (!groups.has(text)) groups.set(text, []);
+      groups.get(text).push(m);
+    });
+    showError([...groups].map(([text, methods]) =>
+      (failed.length > 1 || methods[0] !== main ? methods.map((m) => NAMES[m]).join(", ") + ": "
+        : "") + text).join("\n"), "preview");
   } else {
     clearError("preview");
   }
