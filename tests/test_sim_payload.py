@@ -173,3 +173,40 @@ def test_serve_sim_carries_each_moves_payload(sim_server):
     done = _move(server, {"waypoints": [GOAL]})
     assert done["report"]["sim_payload_kg"] == OMX.payload_kg
     assert np.isfinite(done["report"]["current_peak_a"]).all()
+
+
+PICK = """arm = "omx"
+
+[[waypoints]]
+x = 0.20
+y = 0.0
+z = 0.20
+pitch_deg = 0
+
+[[waypoints]]
+x = 0.20
+y = 0.0
+z = 0.10
+pitch_deg = -30
+gripper = "close"
+payload_kg = 0.3
+
+[[waypoints]]
+x = 0.18
+y = 0.08
+z = 0.15
+pitch_deg = 0
+"""
+
+
+def test_run_sim_carries_each_legs_payload(monkeypatch, capsys, tmp_path):
+    """``run FILE --sim``: a leg after the gripper closes on an object (the file's
+    ``payload_kg``) is dry-run with the simulated arm carrying it."""
+    monkeypatch.delenv("ROBODCN_ARM", raising=False)
+    path = tmp_path / "pick.toml"
+    path.write_text(PICK)
+    run_cli(monkeypatch, ["run", str(path), "--sim", "--json"])
+    data = json.loads(capsys.readouterr().out)
+    carried = [(leg["report"]["sim_payload_kg"], leg["report"]["planned_payload_kg"])
+               for leg in data["legs"]]
+    assert carried == [(OMX.payload_kg, OMX.payload_kg), (0.3, 0.3)], carried

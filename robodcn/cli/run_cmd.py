@@ -240,27 +240,41 @@ def run(args: argparse.Namespace) -> int:
         leg_list = legs(wp, loaded, arm)
         if wp.has_actions:
             return run_legs(args, arm, leg_list, wp)
-    with _bus(args, arm) as bus:
+    with _bus(args, arm) as (bus, simulated):
         if wp is not None:
             (traj,) = plan_file(args, arm, bus, wp, leg_list)
         else:
             traj = plan_run(args, arm, bus, kind, loaded)
+        _carry(simulated, traj)
         report, live, released = motion_cmd.stream_and_release(args, traj, arm, bus)
+        report = _reported(simulated, report, traj)
     return motion_cmd.finish(args, arm, traj, report, live,
                              waypoints=loaded["waypoints"] if kind == "waypoints" else None,
                              released=released)
 
 
 @contextmanager
-def _bus(args: argparse.Namespace, arm: Arm) -> Iterator[Any]:
+def _bus(args: argparse.Namespace, arm: Arm) -> Iterator[tuple[Any, Any]]:
+    """(bus, the SimulatedArm with ``--sim`` else None)."""
     if args.sim:
         from robodcn.simulated import simulated_arm
 
         with simulated_arm(arm, timing="fast") as sim:
-            yield sim.bus
+            yield sim.bus, sim
     else:
         with open_bus(args, arm) as bus:
-            yield bus
+            yield bus, None
+
+
+def _carry(simulated: Any, traj: Any) -> None:
+    """With ``--sim`` the simulated arm carries the payload the leg declares (issue 27 §2)."""
+    if simulated is not None:
+        simulated.carry(traj.request.payload_kg if traj.request is not None else None)
+
+
+def _reported(simulated: Any, report: Any, traj: Any) -> Any:
+    """``report`` naming the payload the simulated arm carried (``--sim``), else as is."""
+    return report if simulated is None else simulated.reported(report, traj)
 
 
 def _leg_plot(path: str | None, k: int) -> str | None:
@@ -281,7 +295,7 @@ def run_legs(args: argparse.Namespace, arm: Arm, plan_legs: list[Any], wp: Any) 
     held = argparse.Namespace(**{**vars(args), "release": False})
     done: list[dict[str, Any]] = []
     code, last, released = Exit.DONE, None, None
-    with _bus(args, arm) as bus:
+    with _bus(args, arm) as (bus, simulated):
         trajectories = plan_file(args, arm, bus, wp, plan_legs)
         if getattr(args, "release", False) and releasing.falls(arm):
             releasing.confirm_release(arm, trajectories[-1].joints[-1], args.yes)
@@ -289,10 +303,12 @@ def run_legs(args: argparse.Namespace, arm: Arm, plan_legs: list[Any], wp: Any) 
             final = k == len(plan_legs)
             say(f"leg {k}/{len(plan_legs)}: waypoints {leg.first}..{leg.last}, payload "
                 f"{leg.payload_kg:g} kg{f', then gripper {leg.gripper}' if leg.gripper else ''}")
+            _carry(simulated, traj)
             if final:
                 report, live, released = motion_cmd.stream_and_release(args, traj, arm, bus)
             else:
                 report, live = motion_cmd.stream(held, traj, arm, bus)
+            report = _reported(simulated, report, traj)
             approach = approach_seconds(report, traj)
             entry = {**leg.to_dict(), "report": report_dict(report, approach)}
             done.append(entry)
