@@ -378,3 +378,18 @@ def test_run_plays_a_waypoints_file_at_the_commanded_tool_speed(monkeypatch, cap
     assert run_cli(monkeypatch, ["run", str(traj), "--arm", ARM3R_PATH, "--sim",
                                  "--tool-speed", "0.05"]) == 2
     assert "--tool-speed applies to waypoints files" in capsys.readouterr().err
+
+
+def test_sim_reports_the_planned_peak_tool_speed(monkeypatch, capsys) -> None:
+    argv = ["sim", "--arm", ARM3R_PATH, "--to", "0.15,0.20,0", "--method", "seplerp",
+            "--timing", "fast"]
+    assert run_cli(monkeypatch, [*argv, "--tool-speed", "0.05", "--json"]) in (0, 5)
+    data = __import__("json").loads(capsys.readouterr().out)
+    assert data["tool"]["speed_limit"] == 0.05
+    assert data["tool"]["peak_speed"] == pytest.approx(0.05, rel=0.005)
+    assert run_cli(monkeypatch, [*argv, "--tool-speed", "0.05"]) in (0, 5)
+    last = capsys.readouterr().out.strip().splitlines()[-1]
+    assert last.strip().startswith("tool       peak") and "--tool-speed 0.05 m/s" in last
+    # without a tool limit the report is as it was
+    assert run_cli(monkeypatch, [*argv, "--json"]) in (0, 5)
+    assert "tool" not in __import__("json").loads(capsys.readouterr().out)

@@ -24,7 +24,7 @@ from typing import Any
 from robodcn.cli import keys, options, planning, releasing
 from robodcn.cli.exit_codes import exit_for_report
 from robodcn.cli.output import emit
-from robodcn.cli.report_text import approach_seconds, report_dict, report_text
+from robodcn.cli.report_text import approach_seconds, report_dict, report_text, tool_line
 from robodcn.errors import BusError
 
 #: Seconds the final read may wait for the arm to come to rest (a real servo, or the
@@ -249,15 +249,26 @@ def finish(args: argparse.Namespace, arm, traj, report, live: _LiveProgress, *,
     """Print the report (text or --json; ``released``: what ``--release`` did on an arm
     under gravity, as the JSON's ``release``), draw --plot, return the outcome's exit
     code."""
+    from robodcn.planner.tool_peak import tool_peak
+
     approach = approach_seconds(report, traj)
+    request = getattr(traj, "request", None)
+    # a plan under a tool limit: its peak tool speed and where the limit binds
+    tool = tool_peak(traj).to_dict() if request is not None and request.tool_limited \
+        else None
     if args.json:
         data = report_dict(report, approach)
         if released is not None:
             data["release"] = released.to_dict()
             data["released"] = released.released
+        if tool is not None:
+            data["tool"] = tool
         emit(json.dumps(data, indent=2) + "\n")
     else:
-        emit(report_text(report, approach) + "\n")
+        text = report_text(report, approach)
+        if tool is not None:
+            text += "\n" + tool_line(tool, getattr(traj, "pose_keys", None))
+        emit(text + "\n")
     plot(args.plot, arm, traj, samples=live.samples, report=report, waypoints=waypoints)
     return exit_for_report(report)
 
