@@ -48,15 +48,23 @@ def quantity(value: float, unit: str, units: Units) -> str:
     return f"{value:.4g}{_SI_UNITS.get(unit, ' ' + unit)}"
 
 
+#: Units whose value and limit always print with the same significant digits ("needs
+#: 2.807 N·m, limit 2.800 N·m"): a torque limit is a round figure the value is read against.
+SAME_DIGITS = frozenset({"N*m"})
+
+
 def quantity_pair(value: float, limit: float, unit: str, units: Units) -> tuple[str, str]:
-    """``value`` and ``limit`` as :func:`quantity` words them, with more digits where those
-    would read alike: d significant digits (decimals of a degree) from d = ⌈−log₁₀ of the
+    """``value`` and ``limit`` as :func:`quantity` words them (both with the same
+    significant digits for :data:`SAME_DIGITS`), with more digits where those would read
+    alike: d significant digits (decimals of a degree) from d = ⌈−log₁₀ of the
     relative gap |value − limit| / |limit|⌉ + 1 up until the two differ, so "needs 2.800011
     N·m, limit 2.800000 N·m" tells a value 3.9e-6 above its limit from the limit."""
     a, b = quantity(value, unit, units), quantity(limit, unit, units)
-    if a != b or value == limit or not (math.isfinite(value) and math.isfinite(limit)):
+    if not (math.isfinite(value) and math.isfinite(limit)) or (
+            unit not in SAME_DIGITS and (a != b or value == limit)):
         return a, b
-    gap = abs(value - limit) / max(abs(limit), abs(value))
+    scale = max(abs(limit), abs(value))
+    gap = abs(value - limit) / scale if scale > 0 and value != limit else 1.0
     name, factor = _CLI_UNITS.get(unit, (unit, 1.0)) if units == "cli" else (None, 1.0)
     suffix = f" {name}".rstrip() if units == "cli" else _SI_UNITS.get(unit, " " + unit)
     whole = len(str(int(abs(limit * factor))))
@@ -66,7 +74,7 @@ def quantity_pair(value: float, limit: float, unit: str, units: Units) -> tuple[
             a, b = (f"{round(x * factor, places) + 0.0:.{places}f}°" for x in (value, limit))
         else:
             a, b = (f"{x * factor:#.{digits}g}{suffix}" for x in (value, limit))
-        if a != b:
+        if a != b or value == limit:
             break
     return a, b
 

@@ -111,3 +111,11 @@ def test_a_value_and_its_limit_never_read_alike(limit, gap, units, unit):
     if messages.quantity(value, unit, units) == messages.quantity(limit, unit, units):
         # the digits added: the limit reads within the gap of itself
         assert abs(y - limit * factor) <= abs(value - limit) * factor
+
+
+def test_a_torque_and_its_limit_read_with_the_same_digits():
+    """"needs 2.807 N·m, limit 2.8 N·m" read as if the limit were rounder than the value."""
+    assert messages.quantity_pair(2.807, 2.8, "N*m", "cli") == ("2.807 N·m", "2.800 N·m")
+    assert messages.quantity_pair(2.8, 2.8, "N*m", "si") == ("2.800 N·m", "2.800 N·m")
+    # other units keep their own digits unless value and limit would read alike
+    assert messages.quantity_pair(5.77, 2.97, "rad/s", "cli") == ("330.6 deg/s", "170.2 deg/s")
