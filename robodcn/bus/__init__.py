@@ -44,16 +44,7 @@ from robodcn.bus.control_table import (
     FAST_SYNC_READ_MIN_FIRMWARE,
     GOAL_CURRENT_UNIT_A,
     HARDWARE_ERROR_BITS,
-    MODEL_NAMES,
-    MODEL_NUMBERS,
     MODEL_OPERATING_MODES,
-    OPERATING_MODE_CURRENT,
-    OPERATING_MODE_CURRENT_POSITION,
-    OPERATING_MODE_EXTENDED_POSITION,
-    OPERATING_MODE_NAMES,
-    OPERATING_MODE_POSITION,
-    OPERATING_MODE_PWM,
-    OPERATING_MODE_VELOCITY,
     POSITION_MODES,
     WATCHDOG_MAX,
     WATCHDOG_UNIT_MS,
@@ -75,6 +66,17 @@ from robodcn.bus.records import ServoInfo, StreamProfile
 from robodcn.bus.scan import scan
 from robodcn.bus.servo_bus import STRAGGLER_S, ServoBus
 from robodcn.bus.wire import cycle_wire_time, mean_cycle_wire_time
+from robodcn.servo_models import (
+    MODEL_NAMES,
+    MODEL_NUMBERS,
+    OPERATING_MODE_CURRENT,
+    OPERATING_MODE_CURRENT_POSITION,
+    OPERATING_MODE_EXTENDED_POSITION,
+    OPERATING_MODE_NAMES,
+    OPERATING_MODE_POSITION,
+    OPERATING_MODE_PWM,
+    OPERATING_MODE_VELOCITY,
+)
 
 # A library logs, the application decides where it goes: without a configured handler
 # (the CLI's -v/--log-level, the service's logging), nothing is printed.

@@ -29,13 +29,10 @@ from robodcn.bus.control_table import (
     ADDR_PROFILE_VELOCITY,
     ADDR_RETURN_DELAY_TIME,
     ADDR_TORQUE_ENABLE,
-    OPERATING_MODE_POSITION,
-    STALL_CURRENT_A,
 )
 from robodcn.bus.feedback import (
     ADDR_FEEDBACK,
     ADDR_INDIRECT_ADDRESS_29,
-    CURRENT_UNIT_A,
     FEEDBACK_LENGTH,
     decode_feedback,
     indirect_map,
@@ -43,6 +40,7 @@ from robodcn.bus.feedback import (
 from robodcn.bus.reads import Reads
 from robodcn.bus.records import StreamProfile
 from robodcn.errors import CommError, FeedbackMapError
+from robodcn.servo_models import OPERATING_MODE_POSITION, SERVO_SPECS, XL430_W250
 
 log = logging.getLogger("robodcn.bus")
 
@@ -126,11 +124,12 @@ class Configuration(Reads):
             gains.append(self._read_int(spec.id, ADDR_POSITION_P_GAIN, 2))
             i_gains.append(self._read_int(spec.id, ADDR_POSITION_I_GAIN, 2))
             d_gains.append(self._read_int(spec.id, ADDR_POSITION_D_GAIN, 2))
-            if spec.model == "xm430-w350":
+            model = SERVO_SPECS.get(spec.model, XL430_W250)
+            if model.goal_current_unit is not None:
                 limits.append(self._read_int(spec.id, ADDR_CURRENT_LIMIT, 2)
-                              * CURRENT_UNIT_A[spec.model])
+                              * model.goal_current_unit)
             else:
-                limits.append(STALL_CURRENT_A.get(spec.model, 1.4))
+                limits.append(model.stall_current)
         self.position_p_gains = tuple(gains)
         self.position_i_gains = tuple(i_gains)
         self.position_d_gains = tuple(d_gains)

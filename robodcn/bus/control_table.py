@@ -1,10 +1,21 @@
-"""X-series control table (Protocol 2.0): addresses, model numbers, baud and error codes.
+"""X-series control table (Protocol 2.0): addresses, baud and error codes.
+
+The servo models' facts (model numbers, modes, units) are :mod:`robodcn.servo_models`'s
+records; the tables here that name models are derived from them.
 
 Addresses and units follow the ROBOTIS e-manual for the XM430-W350 / XL430-W250
 (``/work/shared/dynamixel-notes.md`` §2).
 """
 
 from __future__ import annotations
+
+from robodcn.servo_models import (
+    OPERATING_MODE_CURRENT,
+    OPERATING_MODE_CURRENT_POSITION,
+    OPERATING_MODE_EXTENDED_POSITION,
+    OPERATING_MODE_POSITION,
+    SERVO_SPECS,
+)
 
 ADDR_MODEL_NUMBER = 0          # 2 bytes, R
 ADDR_FIRMWARE_VERSION = 6      # 1 byte, R
@@ -29,41 +40,28 @@ ADDR_GOAL_POSITION = 116       # 4 bytes, RAM
 ADDR_PRESENT_CURRENT = 126     # 2 bytes, R, signed (Present Load on the XL430)
 ADDR_PRESENT_POSITION = 132    # 4 bytes, R, signed
 
-#: Operating Mode (11) values (e-manual "Operating Mode"): current control (torque), velocity,
-#: position (one turn), extended position (multi-turn), current-based position, PWM.
-OPERATING_MODE_CURRENT = 0
-OPERATING_MODE_VELOCITY = 1
-OPERATING_MODE_POSITION = 3
-OPERATING_MODE_EXTENDED_POSITION = 4
-OPERATING_MODE_CURRENT_POSITION = 5
-OPERATING_MODE_PWM = 16
-OPERATING_MODE_NAMES: dict[int, str] = {0: "current", 1: "velocity", 3: "position",
-                                        4: "extended position", 5: "current-based position",
-                                        16: "PWM"}
-#: The modes each model offers: the XL430 has no current sensing (no modes 0 and 5).
+#: The modes each model offers (its record's ``operating_modes``): the XL430 has no current
+#: sensing (no modes 0 and 5).
 MODEL_OPERATING_MODES: dict[str, frozenset[int]] = {
-    "xm430-w350": frozenset({0, 1, 3, 4, 5, 16}), "xl430-w250": frozenset({1, 3, 4, 16})}
+    name: model.operating_modes for name, model in SERVO_SPECS.items()}
 #: Modes with a Goal Current (102): the goal itself (0) or the limit of the position loop (5).
 CURRENT_MODES = frozenset({OPERATING_MODE_CURRENT, OPERATING_MODE_CURRENT_POSITION})
 #: Modes with a Goal Position (116) that torque-on would move to.
 POSITION_MODES = frozenset({OPERATING_MODE_POSITION, OPERATING_MODE_EXTENDED_POSITION,
                             OPERATING_MODE_CURRENT_POSITION})
-#: Goal Current / Current Limit unit (A) of the models that have the items.
-GOAL_CURRENT_UNIT_A: dict[str, float] = {"xm430-w350": 2.69e-3}
+#: Goal Current / Current Limit unit (A) of the models that have the items (the records'
+#: ``goal_current_unit``).
+GOAL_CURRENT_UNIT_A: dict[str, float] = {
+    name: model.goal_current_unit for name, model in SERVO_SPECS.items()
+    if model.goal_current_unit is not None}
 #: Datasheet stall current at 12 V, A (the current limit of models without the item).
-STALL_CURRENT_A: dict[str, float] = {"xm430-w350": 2.3, "xl430-w250": 1.4}
+STALL_CURRENT_A: dict[str, float] = {name: model.stall_current
+                                     for name, model in SERVO_SPECS.items()}
 ALERT_BIT = 0x80
 WATCHDOG_UNIT_MS = 20
 WATCHDOG_MAX = 127
 #: Fast Sync Read needs X430/X540 firmware 45 or newer (e-manual, protocol2 "Fast Sync Read").
 FAST_SYNC_READ_MIN_FIRMWARE = 45
-
-#: Model numbers (e-manual); the first two are the models robodcn configs may name.
-MODEL_NUMBERS: dict[str, int] = {
-    "xm430-w350": 1020, "xl430-w250": 1060, "xm430-w210": 1030,
-    "xl330-m077": 1190, "xl330-m288": 1200, "xc330-t288": 1220,
-}
-MODEL_NAMES: dict[int, str] = {number: name for name, number in MODEL_NUMBERS.items()}
 
 #: Baud Rate item value → bits/s (address 8).
 BAUD_INDEX: dict[int, int] = {0: 9_600, 1: 57_600, 2: 115_200, 3: 1_000_000, 4: 2_000_000,

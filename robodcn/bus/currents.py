@@ -1,7 +1,8 @@
 """Current: Goal Current (102) writes, Present Current (126) reads, the Current Limit (38).
 
 Units (e-manual, XM430-W350 control table): Goal Current, Present Current and Current
-Limit count 2.69 mA a unit (:data:`~robodcn.bus.control_table.GOAL_CURRENT_UNIT_A`);
+Limit count 2.69 mA a unit (the model record's
+:attr:`~robodcn.servo_models.ServoModel.goal_current_unit`);
 Goal Current is signed and "can not be set larger than the Current Limit(38)" — a servo
 answers such a write with a Data Range Error, so it is refused here first, naming the
 servo, the current and the limit. The XL430-W250 has no current items (Present Load
@@ -29,19 +30,20 @@ from robodcn.bus.control_table import (
     ADDR_CURRENT_LIMIT,
     ADDR_GOAL_CURRENT,
     ADDR_PRESENT_CURRENT,
-    GOAL_CURRENT_UNIT_A,
 )
-from robodcn.bus.feedback import CURRENT_UNIT_A
+from robodcn.bus.feedback import current_units
 from robodcn.bus.reads import Reads
 from robodcn.bus.single import Servo, Single
 from robodcn.config import ServoSpec
 from robodcn.errors import CommError, InputError
+from robodcn.servo_models import SERVO_SPECS
 
 
 def current_unit(spec: ServoSpec) -> float:
     """Amperes a Goal Current unit of ``spec``'s model; InputError for a model without
     current control (field "servo", value its id)."""
-    unit = GOAL_CURRENT_UNIT_A.get(spec.model)
+    model = SERVO_SPECS.get(spec.model)
+    unit = None if model is None else model.goal_current_unit
     if unit is None:
         raise InputError(f"servo {spec.id} ({spec.model}) has no Goal Current (no current "
                          "control)", field="servo", value=spec.id)
@@ -94,15 +96,14 @@ class Currents(Reads, Single):
         current it stands for)."""
         spec = self.spec_of(servo)
         raw = self._read_int(spec.id, ADDR_PRESENT_CURRENT, 2, signed=True)
-        return raw * CURRENT_UNIT_A.get(spec.model, CURRENT_UNIT_A["xm430-w350"])
+        return raw * float(current_units([spec.model])[0])
 
     def read_currents(self, ids: Iterable[int] | None = None) -> NDArray[np.float64]:
         """Present Current of every servo (or of ``ids`` of this bus) in one (Fast) Sync
         Read, A, in bus (``ids``) order."""
         chosen = self._bus_ids(ids)
         raw = self.sync_read(ADDR_PRESENT_CURRENT, 2, chosen)
-        units = np.array([CURRENT_UNIT_A.get(self.spec_of(i).model,
-                                             CURRENT_UNIT_A["xm430-w350"]) for i in chosen])
+        units = current_units([self.spec_of(i).model for i in chosen])
         return np.frombuffer(b"".join(raw), dtype="<i2").astype(np.float64) * units
 
     def _current_group(self, ids: tuple[int, ...]) -> GroupSyncWrite:

@@ -16,6 +16,8 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
+from robodcn.servo_models import SERVO_SPECS, XM430_W350
+
 #: Indirect Address 29 and the Indirect Data 29 it serves.
 ADDR_INDIRECT_ADDRESS_29 = 578
 ADDR_FEEDBACK = 634
@@ -24,9 +26,11 @@ FEEDBACK_ITEMS: tuple[tuple[int, int], ...] = ((132, 4), (128, 4), (126, 2), (70
 FEEDBACK_LENGTH = sum(size for _, size in FEEDBACK_ITEMS)
 #: Present Velocity unit, rad/s (0.229 rpm).
 VELOCITY_UNIT_RAD_S = 0.229 * 2.0 * np.pi / 60.0
-#: Present Current unit of the XM430, A (2.69 mA); the XL430 reports Present Load in 0.1 %
-#: of its stall current (1.4 A at 12 V), shown as the current it stands for.
-CURRENT_UNIT_A = {"xm430-w350": 2.69e-3, "xl430-w250": 1.4e-3}
+#: Present Current unit per model, A (the records' ``present_current_unit``: 2.69 mA on the
+#: XM430; the XL430 reports Present Load in 0.1 % of its stall current, 1.4 A at 12 V, shown
+#: as the current it stands for).
+CURRENT_UNIT_A: dict[str, float] = {name: model.present_current_unit
+                                    for name, model in SERVO_SPECS.items()}
 
 
 def indirect_map() -> list[int]:
@@ -55,8 +59,9 @@ FEEDBACK_DTYPE = np.dtype([("position", "<i4"), ("velocity", "<i4"), ("current",
 
 
 def current_units(models: Sequence[str]) -> NDArray[np.float64]:
-    """Amperes per Present Current (or Present Load) unit of each servo model."""
-    return np.array([CURRENT_UNIT_A.get(m, CURRENT_UNIT_A["xm430-w350"]) for m in models])
+    """Amperes per Present Current (or Present Load) unit of each servo model (a model
+    robodcn does not know reads as an XM430)."""
+    return np.array([CURRENT_UNIT_A.get(m, XM430_W350.present_current_unit) for m in models])
 
 
 def decode_feedback(blocks: Sequence[bytes], units: NDArray[np.float64]) -> Feedback:

@@ -35,14 +35,13 @@ from robodcn.bus.control_table import (
     ADDR_TORQUE_ENABLE,
     CURRENT_MODES,
     MODEL_OPERATING_MODES,
-    OPERATING_MODE_CURRENT,
-    OPERATING_MODE_NAMES,
     POSITION_MODES,
 )
 from robodcn.bus.currents import Currents
 from robodcn.bus.single import Servo
 from robodcn.config import ServoSpec
 from robodcn.errors import CommError, InputError
+from robodcn.servo_models import OPERATING_MODE_CURRENT, OPERATING_MODE_NAMES
 
 log = logging.getLogger("robodcn.bus")
 

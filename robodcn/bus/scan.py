@@ -5,12 +5,13 @@ from __future__ import annotations
 from collections.abc import Iterable
 
 from robodcn import _checks
-from robodcn.bus.control_table import BAUD_INDEX, MODEL_NAMES
+from robodcn.bus.control_table import BAUD_INDEX
 from robodcn.bus.port import raw_port
 from robodcn.bus.records import ServoInfo
 from robodcn.bus.servo_bus import ServoBus
 from robodcn.config import ServoSpec
 from robodcn.errors import InputError
+from robodcn.servo_models import MODEL_NAMES
 
 
 def scan(port: str, bauds: Iterable[int] = (1_000_000,), *,

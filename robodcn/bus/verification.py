@@ -34,13 +34,12 @@ from robodcn.bus.control_table import (
     ADDR_MAX_POSITION_LIMIT,
     ADDR_MIN_POSITION_LIMIT,
     FAST_SYNC_READ_MIN_FIRMWARE,
-    MODEL_NAMES,
-    MODEL_NUMBERS,
 )
 from robodcn.bus.records import ServoInfo
 from robodcn.bus.transactions import Transactions
 from robodcn.config import ServoSpec
 from robodcn.errors import CommError, ServoMismatchError
+from robodcn.servo_models import MODEL_NAMES, MODEL_NUMBERS
 
 #: Parameters of a PING's status packet: Model Number (2 bytes), Firmware Version.
 PING_STATUS_PARAMS = 3

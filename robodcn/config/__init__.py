@@ -70,20 +70,18 @@ from robodcn.config._specs import (
     PLANAR_POSE,
     PLANES,
     RATE_RANGE,
-    SERVO_MODELS,
-    SERVO_SPECS,
     YAWED_POSE,
     Arm,
     BusSpec,
     GripperSpec,
     JointSpec,
     MassProperties,
-    ServoModel,
     ServoSpec,
     ToolSpec,
 )
 from robodcn.config._workspace import base_radius_of
 from robodcn.config._zones import BASE, FLOOR, KeepOutBox, Workspace
+from robodcn.servo_models import SERVO_MODELS, SERVO_SPECS, ServoModel
 
 __all__ = [
     "BASE",

@@ -12,13 +12,12 @@ from robodcn.config._specs import (
     MAX_JERK,
     MAX_SERVO_ID,
     RATE_RANGE,
-    SERVO_MODELS,
-    SERVO_SPECS,
     BusSpec,
     GripperSpec,
     JointSpec,
     ServoSpec,
 )
+from robodcn.servo_models import OPERATING_MODE_CURRENT_POSITION, SERVO_MODELS, SERVO_SPECS
 
 #: The ``[joints.servo]`` keys (also accepted in ``[gripper]``).
 SERVO_KEYS = {"id", "model", "ticks_per_turn", "zero_offset", "direction", "min_tick",
@@ -151,12 +150,21 @@ WIDTH_RANGE = (1e-3, 1.0)
 def gripper(r: Reader) -> GripperSpec:
     """The ``[gripper]`` table: the servo keys of ``[joints.servo]``, ``open`` | ``open_deg``
     and ``closed`` | ``closed_deg`` (servo angles), ``open_width_m`` | ``open_width_mm`` and
-    ``closed_width_m`` | ``closed_width_mm`` (jaw widths), ``grip_current_a``."""
+    ``closed_width_m`` | ``closed_width_mm`` (jaw widths), ``grip_current_a``. The servo's
+    model must offer current-based position mode (the mode :mod:`robodcn.workflow.gripper`
+    closes in), or the file is refused here rather than at the first gripper command."""
     keys = frozenset({"open", "open_deg", "closed", "closed_deg", "open_width_m",
                       "open_width_mm", "closed_width_m", "closed_width_mm", "grip_current_a"})
     r.only(SERVO_KEYS | keys)
     spec = servo(r, extra=keys)
     model = SERVO_SPECS[spec.model]
+    if not model.offers(OPERATING_MODE_CURRENT_POSITION):
+        raise r.fail("model", "a gripper closes in current-based position mode "
+                     f"({OPERATING_MODE_CURRENT_POSITION}) with grip_current_a as its goal "
+                     f"current, and a {spec.model} has no current-based position mode (no "
+                     "current control); drive the gripper with a model that has it "
+                     f"({', '.join(n for n, m in SERVO_SPECS.items() if m.current_control)})",
+                     spec.model)
     angles = {}
     for si, deg in (("open", "open_deg"), ("closed", "closed_deg")):
         angle = r.angle(si, deg)

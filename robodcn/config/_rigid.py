@@ -8,7 +8,8 @@ collision threshold and ``check-config --payload`` all see the same bodies.
 Where the ``[dynamics]`` table is silent, the defaults of a light Dynamixel arm apply:
 0.10 kg a link (its next servo included), the centre of mass mid-link, a slender rod's
 inertia m·l²/12 about it, and each servo's reflected rotor inertia J_rotor·N² from its
-datasheet figures (:data:`ROTOR_INERTIA`: the figure firmware_sim's motor uses, e.g.
+datasheet figures (:attr:`robodcn.servo_models.ServoModel.rotor_inertia`: the figure
+firmware_sim's motor uses, e.g.
 1.0e-7 kg·m² × 353.5² ≈ 0.0125 kg·m² for the XM430-W350; ../shared/omx.md).
 """
 
@@ -16,11 +17,13 @@ from __future__ import annotations
 
 from robodcn.config._specs import Arm
 from robodcn.dynamics import Link, RigidChain, Yaw
+from robodcn.servo_models import SERVO_SPECS
 
 #: Default mass of a chain link, kg (a bracket with the next servo's share).
 DEFAULT_LINK_MASS_KG = 0.10
-#: Reflected rotor inertia J_rotor·N² at the output shaft per servo model, kg·m².
-ROTOR_INERTIA = {"xm430-w350": 1.0e-7 * 353.5 ** 2, "xl430-w250": 6.0e-8 * 258.5 ** 2}
+#: Reflected rotor inertia J_rotor·N² at the output shaft per servo model, kg·m² (the
+#: records' :attr:`~robodcn.servo_models.ServoModel.rotor_inertia`).
+ROTOR_INERTIA = {name: model.rotor_inertia for name, model in SERVO_SPECS.items()}
 
 
 def rotor_inertias(arm: Arm) -> tuple[float, ...]:

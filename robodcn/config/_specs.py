@@ -1,4 +1,5 @@
-"""The validated arm: frozen dataclasses (SI inside) and the servo models robodcn knows."""
+"""The validated arm: frozen dataclasses (SI inside); the servo models robodcn knows are
+:mod:`robodcn.servo_models`'s records (re-exported here)."""
 
 from __future__ import annotations
 
@@ -11,56 +12,12 @@ from numpy.typing import NDArray
 
 from robodcn import kinematics
 from robodcn.config._zones import Workspace
+from robodcn.servo_models import PROFILE_ACCELERATION_MAX
 
-
-@dataclass(frozen=True)
-class ServoModel:
-    """What one Dynamixel model can do (ROBOTIS e-manual; shared/dynamixel-notes.md §2).
-
-    ticks_per_turn : position resolution (pulse/rev) in position mode (Operating Mode 3)
-    max_velocity : no-load speed at the highest rated voltage (rad/s): no joint driven by
-        this servo can be faster
-    max_acceleration : the largest Profile Acceleration the servo can express
-        (32 767 × 214.577 rev/min², rad/s²)
-    stall_torque : stall torque at 12 V (N·m)
-    stall_current : stall current at 12 V (A): the largest goal current worth asking
-    rated_speed : no-load speed at 12 V (rad/s), the other end of the torque–speed line
-    body : the case's width × length × height (m), the height along the horn axis (an
-        X-series XM430 / XL430: 28.5 × 46.5 × 34 mm, ROBOTIS e-manual "Dimensions")
-    axis_from_end : how far the horn axis lies from the near end of the case's length (m;
-        11.25 mm: ROBOTIS's OpenMANIPULATOR-X base link frame, at the yaw servo's centre,
-        sits 12 mm behind the yaw axis, 46.5/2 − 12; shared/omx.md)
-    """
-
-    ticks_per_turn: int
-    max_velocity: float
-    max_acceleration: float
-    stall_torque: float
-    stall_current: float
-    rated_speed: float
-    body: tuple[float, float, float] = (0.0285, 0.0465, 0.034)
-    axis_from_end: float = 0.01125
-
-    def available_torque(self, velocity: float) -> float:
-        """Torque (N·m) the servo delivers at ``velocity`` (rad/s) on its 12 V torque–speed
-        line: τ_stall · (1 − |ω| / ω_no-load), 0 beyond the no-load speed."""
-        return self.stall_torque * max(0.0, 1.0 - abs(velocity) / self.rated_speed)
-
-
-_RPM = 2.0 * math.pi / 60.0
-_PROFILE_ACCELERATION_MAX = 32_767 * 214.577 * 2.0 * math.pi / 3600.0  # ≈ 12 272 rad/s²
-#: Dynamixel models robodcn knows (X series, Protocol 2.0): name → capabilities.
-SERVO_SPECS = {
-    # XM430-W350: 57 rev/min no-load at 14.8 V; at 12 V 46 rev/min, stall 4.1 N·m at 2.3 A.
-    "xm430-w350": ServoModel(4096, 57 * _RPM, _PROFILE_ACCELERATION_MAX, 4.1, 2.3, 46 * _RPM),
-    # XL430-W250: 61 rev/min no-load at 12 V, stall 1.5 N·m at 1.4 A.
-    "xl430-w250": ServoModel(4096, 61 * _RPM, _PROFILE_ACCELERATION_MAX, 1.5, 1.4, 61 * _RPM),
-}
-SERVO_MODELS = tuple(SERVO_SPECS)
 #: Link lengths accepted (m): a Dynamixel arm, from a millimetre to ten metres.
 LINK_RANGE = (1e-3, 10.0)
 #: Largest jerk limit accepted (rad/s³): the largest acceleration reached within 1 ms.
-MAX_JERK = _PROFILE_ACCELERATION_MAX / 1e-3
+MAX_JERK = PROFILE_ACCELERATION_MAX / 1e-3
 #: Baud rates an X-series servo can be set to (Baud Rate register, address 8).
 BAUD_RATES = (9_600, 57_600, 115_200, 1_000_000, 2_000_000, 3_000_000, 4_000_000, 4_500_000)
 ELBOWS = ("up", "down")

@@ -24,8 +24,9 @@ from __future__ import annotations
 import math
 
 from robodcn.config._reader import Reader
-from robodcn.config._specs import LINK_RANGE, SERVO_SPECS, ServoModel
+from robodcn.config._specs import LINK_RANGE
 from robodcn.config._zones import BASE, BOX_RANGE, FLOOR, KeepOutBox, Workspace
+from robodcn.servo_models import SERVO_SPECS, ServoModel
 
 
 def base_radius_of(model: ServoModel) -> float:

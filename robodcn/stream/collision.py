@@ -47,8 +47,8 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from robodcn.bus.control_table import STALL_CURRENT_A
 from robodcn.config import Arm, ServoSpec
+from robodcn.servo_models import XM430_W350
 from robodcn.stream.compensation import plan_torques
 from robodcn.stream.servo_model import derivatives, motor_of
 
@@ -59,7 +59,7 @@ MARGIN_A = 0.5
 LIMIT_SHARE = 0.9
 #: The limit (A) a joint whose Current Limit is not a positive number is capped under:
 #: the XM430-W350's stall current, what a bus without Current Limit readings assumes.
-FALLBACK_LIMIT_A = STALL_CURRENT_A["xm430-w350"]
+FALLBACK_LIMIT_A = XM430_W350.stall_current
 #: Half-width of the window a sample's threshold takes its current from, s.
 WINDOW_S = 0.05
 #: How long after a goal the loop slewed the collision count stays at zero, s: while the

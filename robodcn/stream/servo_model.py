@@ -4,7 +4,8 @@ Used by the tracking compensation (:mod:`robodcn.stream.compensation`) and by th
 stop's current prediction (:mod:`robodcn.stream.collision`), both on the joint torques of
 the one inverse dynamics, :func:`robodcn.dynamics.inverse_dynamics` of
 :func:`robodcn.config.rigid_chain` (links, payload, gravity, the rotor's J_rotor·N²·q̈).
-Host-side and independent of the simulator: the same datasheet figures, restated.
+Host-side and independent of the simulator: the datasheet figures of the servo model's
+record (:mod:`robodcn.servo_models`); firmware_sim keeps its own.
 
 Motor (output-shaft referred, ROBOTIS e-manual datasheet at 12 V: stall torque τ_s, stall
 current I_s, no-load speed ω_nl, gear ratio N; friction from an assumed no-load current
@@ -26,10 +27,13 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
+from robodcn.servo_models import SERVO_SPECS, XM430_W350
+
 #: PWM item value of 100 % duty (e-manual).
 PWM_FULL = 885
-#: Position P Gain at the factory (e-manual: XM430 800, XL430 640).
-DEFAULT_P_GAIN = {"xm430-w350": 800, "xl430-w250": 640}
+#: Position P Gain at the factory per model (the records' ``default_p_gain``: e-manual,
+#: XM430 800, XL430 640).
+DEFAULT_P_GAIN: Mapping[str, int] = {name: m.default_p_gain for name, m in SERVO_SPECS.items()}
 
 
 @dataclass(frozen=True)
@@ -82,15 +86,17 @@ class MotorModel:
         return self.current_for(qd, self.inertia * qdd + load)
 
 
+#: The motor model of each servo model, from its record's datasheet figures.
 MOTORS: Mapping[str, MotorModel] = {
-    "xm430-w350": MotorModel.from_datasheet(4.1, 2.3, 46.0, 353.5, rotor_inertia=1.0e-7),
-    "xl430-w250": MotorModel.from_datasheet(1.5, 1.4, 61.0, 258.5, rotor_inertia=6.0e-8),
-}
+    name: MotorModel.from_datasheet(m.stall_torque, m.stall_current,
+                                    m.rated_speed * 60.0 / (2.0 * math.pi), m.gear_ratio,
+                                    rotor_inertia=m.motor_inertia)
+    for name, m in SERVO_SPECS.items()}
 
 
 def motor_of(model: str) -> MotorModel:
     """The motor model of a servo model name (XM430-W350 figures for unknown models)."""
-    return MOTORS.get(model, MOTORS["xm430-w350"])
+    return MOTORS.get(model, MOTORS[XM430_W350.name])
 
 
 def derivatives(joints: NDArray[np.float64],
