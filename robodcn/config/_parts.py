@@ -161,7 +161,7 @@ def gripper(r: Reader) -> GripperSpec:
     if not model.offers(OPERATING_MODE_CURRENT_POSITION):
         raise r.fail("model", "a gripper closes in current-based position mode "
                      f"({OPERATING_MODE_CURRENT_POSITION}) with grip_current_a as its goal "
-                     f"current, and a {spec.model} has no current-based position mode (no "
+                     f"current, and the {spec.model} has no current-based position mode (no "
                      "current control); drive the gripper with a model that has it "
                      f"({', '.join(n for n, m in SERVO_SPECS.items() if m.current_control)})",
                      spec.model)
