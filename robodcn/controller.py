@@ -634,10 +634,18 @@ class ArmController:
 
     def _state_from(self, ticks: Any, *, torque: bool | None, alerts: dict[int, int],
                     source: str, record: MoveRecord | None,
-                    gripper: GripperState | None = None) -> State:
+                    gripper: GripperState | None = None,
+                    feedback: tuple[Any, Any] | None = None) -> State:
+        """``feedback``: the (shaft velocities rad/s, currents A) read with ``ticks``, bus
+        order, signed as the servos report them (:func:`servo_units.joint_velocities`,
+        :func:`servo_units.joint_efforts`), or None."""
         ticks = np.asarray(ticks, dtype=np.int64)
         joints = servo_units.ticks_to_radians(ticks[None, :], self.arm.servos)[0]
         pose = poses.tool_pose(self.arm, joints)
+        velocities = efforts = None
+        if feedback is not None:
+            velocities = servo_units.joint_velocities(feedback[0], self.arm.servos).tolist()
+            efforts = servo_units.joint_efforts(feedback[1], self.arm.servos).tolist()
         return State(
             joints=joints.tolist(), pose=pose.tolist(), ticks=ticks.tolist(),
             joint_names=list(self.arm.joint_names), torque=torque,
@@ -647,11 +655,17 @@ class ArmController:
             paused=False if record is None else record.paused,
             speed_scale=None if record is None else record.speed_scale,
             gripper_width_m=None if gripper is None else gripper.width_m,
-            holding=None if gripper is None else gripper.holding)
+            holding=None if gripper is None else gripper.holding,
+            velocities=velocities, efforts=efforts)
 
     def _read_state(self) -> State:
         with self.bus.claim():
-            ticks = self.bus.read_positions()
+            feedback = None
+            if self.bus.feedback_mapped:    # the Indirect Data block: velocity and current
+                fb = self.bus.read_feedback()
+                ticks, feedback = fb.positions, (fb.velocities, fb.currents)
+            else:
+                ticks = self.bus.read_positions()
             torque = all(self.bus.torque_enabled().values())
             alerts = self.bus.hardware_errors()
             jaws = None if self.arm.gripper is None else \
@@ -659,7 +673,7 @@ class ArmController:
         with self._lock:
             self._last_ticks = tuple(int(v) for v in ticks)
         return self._state_from(ticks, torque=torque, alerts=alerts, source="bus", record=None,
-                                gripper=jaws)
+                                gripper=jaws, feedback=feedback)
 
     def state(self) -> State:
         """Present joints (rad), pose (FK), ticks, torque, hardware alerts.
@@ -676,9 +690,14 @@ class ArmController:
             ticks = self._last_ticks if record is not None else None
             if record is not None and ticks is None:
                 ticks = tuple(record.trajectory.ticks[0])
+            latest = None if record is None else record.latest
         if record is not None:
+            feedback = None
+            if latest is not None and latest.velocities is not None \
+                    and latest.present is not None:
+                feedback = (latest.velocities, latest.currents)
             return self._state_from(ticks, torque=True, alerts={}, source="stream",
-                                    record=record)
+                                    record=record, feedback=feedback)
         return self._worker.call(self._read_state, "reading the arm's state")
 
     def check_bus(self, timeout: float = HEALTH_TIMEOUT) -> None:

@@ -138,6 +138,14 @@ class State:
     holding: bool | None = field(default=None, metadata=_doc(
         "the gripper holds an object: torque on, the jaws at rest short of their goal, "
         "pushing with at least half the grip current; null as gripper_width_m"))
+    velocities: list[float] | None = field(default=None, metadata=_doc(
+        "joint velocities (rad/s, the joints' order and sense) from Present Velocity read "
+        "with the positions; null when the feedback does not give them (no feedback map "
+        "configured, or before a move's first read)"))
+    efforts: list[float] | None = field(default=None, metadata=_doc(
+        "joint torques (N·m, the joints' sense) the servos' Present Current stands for: "
+        "direction·K_t·i, K_t = stall torque / stall current of the servo model; null as "
+        "velocities"))
 
 
 @dataclass

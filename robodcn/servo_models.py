@@ -100,6 +100,13 @@ class ServoModel:
         line: τ_stall · (1 − |ω| / ω_no-load), 0 beyond the no-load speed."""
         return self.stall_torque * max(0.0, 1.0 - abs(velocity) / self.rated_speed)
 
+    @property
+    def torque_constant(self) -> float:
+        """K_t = τ_stall / I_stall (N·m/A at the output shaft, 12 V datasheet): the torque
+        a current stands for (ROBOTIS lists the same ratio, e.g. 1.659 N·m/A for the
+        XM540-W150)."""
+        return self.stall_torque / self.stall_current
+
 
 #: XM430-W350: 57 rev/min no-load at 14.8 V; at 12 V 46 rev/min, stall 4.1 N·m at 2.3 A;
 #: 2.69 mA a current unit; rotor 1.0e-7 kg·m² behind a 353.5:1 gear train.

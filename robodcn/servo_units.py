@@ -17,6 +17,7 @@ from numpy.typing import ArrayLike, NDArray
 from robodcn import _checks
 from robodcn.config import ServoSpec
 from robodcn.errors import InputError
+from robodcn.servo_models import SERVO_SPECS
 
 
 def _columns(servos: Sequence[ServoSpec]) -> tuple[NDArray[np.float64], ...]:
@@ -129,3 +130,29 @@ def ticks_to_radians(ticks: ArrayLike, servos: Sequence[ServoSpec]) -> NDArray[n
                          value=ticks)
     offset, direction, per_radian = _columns(servos)
     return direction * (raw - offset) / per_radian
+
+
+def joint_velocities(shaft: ArrayLike, servos: Sequence[ServoSpec]) -> NDArray[np.float64]:
+    """Joint velocities (rad/s) of the servos' shaft velocities (rad/s, signed as Present
+    Velocity: :class:`robodcn.bus.feedback.Feedback`): q̇ = direction·ω, the sense
+    :func:`ticks_to_radians` gives the angles (a servo's ticks are its shaft's).
+
+    shaft : (n, k) or (k,), one column per servo. Returns the same shape.
+    """
+    raw = np.asarray(shaft, dtype=np.float64)
+    _shape("velocities", raw, servos)
+    return _columns(servos)[1] * raw
+
+
+def joint_efforts(currents: ArrayLike, servos: Sequence[ServoSpec]) -> NDArray[np.float64]:
+    """Joint torques (N·m) the servos' currents (A, signed as Present Current) stand for:
+    τ = direction·K_t·i, K_t = τ_stall/I_stall of the servo model
+    (:attr:`robodcn.servo_models.ServoModel.torque_constant`) — the motor torque at the output,
+    friction and the rotor's inertia included.
+
+    currents : (n, k) or (k,), one column per servo. Returns the same shape.
+    """
+    raw = np.asarray(currents, dtype=np.float64)
+    _shape("currents", raw, servos)
+    kt = np.array([s.direction * SERVO_SPECS[s.model].torque_constant for s in servos])
+    return kt * raw

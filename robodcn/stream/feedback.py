@@ -30,6 +30,7 @@ from typing import Any, Protocol
 import numpy as np
 from numpy.typing import NDArray
 
+from robodcn.bus import Feedback as BusFeedback
 from robodcn.bus import ServoBus, describe_hardware_error
 from robodcn.errors import BusError, CommError
 from robodcn.planner import Trajectory
@@ -135,6 +136,8 @@ class Feedback:
         self.reads = 0
         self.health_polls = 0
         self.last_present: NDArray[np.int64] | None = None
+        #: the last feedback read's (signed) shaft velocities and currents, with the map
+        self.last_feedback: BusFeedback | None = None
         self.last_error: NDArray[np.float64] | None = None
         self.hardware: dict[int, int] = {}
         self.errors: list[NDArray[np.float64]] = []
@@ -215,6 +218,7 @@ class Feedback:
         self.trace.record(sample, self.clock.now() - timeline.t_start, present, error,
                           None if fb is None else fb.currents)
         if fb is not None:
+            self.last_feedback = fb
             self.velocities.append(np.abs(fb.velocities))
             self.currents.append(np.abs(fb.currents))
             self.feedback_samples.append(sample)

@@ -269,8 +269,11 @@ class Stream:
             present = tuple(int(v) for v in fb.last_present)
         if fb.last_error is not None:
             error = tuple(float(v) for v in np.abs(fb.last_error) * fb.rad_per_tick)
-        self.progress(Progress(i, self.n, now - self.t_start,
-                               tuple(int(v) for v in self.source.goal(i)), present, error))
+        last = fb.last_feedback
+        self.progress(Progress(
+            i, self.n, now - self.t_start, tuple(int(v) for v in self.source.goal(i)), present,
+            error, None if last is None else tuple(last.velocities.tolist()),
+            None if last is None else tuple(last.currents.tolist())))
 
 
 __all__ = ["PROGRESS_INTERVAL_S", "SentRecords", "Stream"]

@@ -88,7 +88,9 @@ class Progress:
     """What a progress callback receives: sample index (of n), seconds since the first write,
     last goals sent and last present positions read (ticks, bus order; None before any),
     and the tracking error of that read (rad per joint, :func:`tracking_error`; None before
-    any read) — the same definition the final report uses."""
+    any read) — the same definition the final report uses; with the feedback map, that
+    read's shaft velocities (rad/s) and currents (A), signed as the servos report them
+    (:class:`robodcn.bus.feedback.Feedback`; None before any or without the map)."""
 
     sample: int
     samples_total: int
@@ -96,6 +98,8 @@ class Progress:
     goals: tuple[int, ...]
     present: tuple[int, ...] | None
     tracking_error_rad: tuple[float, ...] | None = None
+    velocities: tuple[float, ...] | None = None
+    currents: tuple[float, ...] | None = None
 
 
 #: A limit counts as approached at this share of it (within 10 %).

@@ -93,8 +93,7 @@ def gravity_torques(arm: Arm, joints: NDArray[np.float64], payload_kg: float | N
 
 def torque_constant(joint: JointSpec) -> float:
     """K_t = τ_stall / I_stall of the joint's servo model (N·m/A, 12 V datasheet)."""
-    model = SERVO_SPECS[joint.servo.model]
-    return model.stall_torque / model.stall_current
+    return SERVO_SPECS[joint.servo.model].torque_constant
 
 
 # -- the loop ---------------------------------------------------------------------------------

@@ -1,8 +1,9 @@
 """``robodcn serve --ros2``: the service as the ROS 2 node ``robodcn_<arm>`` (Jazzy
 interfaces, rmw_zenoh's wire), without rclpy or a ROS installation.
 
-- ``/joint_states`` (``sensor_msgs/msg/JointState``): the arm's joint names and positions
-  (rad), with each state the Zenoh face publishes (100 Hz moving, 10 Hz at rest);
+- ``/joint_states`` (``sensor_msgs/msg/JointState``): the arm's joint names, positions
+  (rad), velocities (rad/s) and efforts (N·m; both empty where the feedback does not give
+  them), with each state the Zenoh face publishes (100 Hz moving, 10 Hz at rest);
 - ``/<controller>/joint_trajectory`` (``trajectory_msgs/msg/JointTrajectory``): played like
   the HTTP JointTrajectory body (``POST /v1/moves {"trajectory": …}``); a new one replaces
   the running one (that one stops smoothly first);
@@ -87,7 +88,9 @@ class RosNode:
         self._joint_states.publish({
             "header": {"stamp": stamp(), "frame_id": ""},
             "name": list(state["joint_names"]), "position": list(state["joints"]),
-            "velocity": [], "effort": []})
+            # empty when the feedback does not give them (JointState's convention)
+            "velocity": list(state.get("velocities") or ()),
+            "effort": list(state.get("efforts") or ())})
 
     def _play(self, message: dict[str, Any]) -> None:
         """A JointTrajectory from the topic: replaces the running move (and goal)."""
