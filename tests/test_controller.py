@@ -312,18 +312,18 @@ def test_a_lost_device_is_a_comm_error_and_the_next_read_reopens(rig: Any,
     import termios
 
     sa, controller = rig
-    real = controller.bus.read_positions
+    real = controller.bus.sync_read   # under the state's read (positions or feedback)
     calls = {"n": 0}
 
-    def lost() -> Any:
+    def lost(*args: Any, **kwargs: Any) -> Any:
         calls["n"] += 1
         raise termios.error(5, "Input/output error")
 
-    monkeypatch.setattr(controller.bus, "read_positions", lost)
+    monkeypatch.setattr(controller.bus, "sync_read", lost)
     with pytest.raises(CommError) as exc:
         controller.state()
     assert "reopen" in exc.value.message  # the bus (or the controller) says it is reopened
-    monkeypatch.setattr(controller.bus, "read_positions", real)
+    monkeypatch.setattr(controller.bus, "sync_read", real)
     state = controller.state()  # reopens and re-verifies the port first
     assert state.ticks == present(sa) and calls["n"] == 1
 
