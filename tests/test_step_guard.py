@@ -10,11 +10,11 @@ import numpy as np
 from conftest import ARM3R, lockstep_arm
 from stream_helpers import Jumping
 
-from robodcn.bus.groups import encode_rows
+from robodcn.bus.groups import decode_row, encode_rows
 from robodcn.planner import plan
 from robodcn.stream import execute
 from robodcn.stream.compensation import compensated_ticks, max_steps
-from robodcn.stream.step_guard import StepGuard, decode_row
+from robodcn.stream.step_guard import StepGuard
 
 MOVE = [(0.25, 0.10, 0.0), (0.12, 0.24, math.radians(60))]
 

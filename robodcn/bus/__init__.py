@@ -52,6 +52,7 @@ from robodcn.bus.control_table import (
 )
 from robodcn.bus.currents import current_unit
 from robodcn.bus.feedback import ADDR_FEEDBACK, FEEDBACK_LENGTH, Feedback, decode_feedback
+from robodcn.bus.groups import decode_row, encode_row
 from robodcn.bus.latency import (
     SYSFS_USB_SERIAL,
     LatencyResult,
@@ -98,6 +99,6 @@ __all__ = [
     "SERIAL_ERRORS", "STRAGGLER_S", "SYSFS_USB_SERIAL", "WATCHDOG_MAX", "WATCHDOG_UNIT_MS",
     "Feedback", "LatencyResult", "LatencyTimerWarning", "ModeSwitch", "ServoBus", "ServoInfo",
     "StreamProfile", "check_latency_timer", "current_unit", "cycle_wire_time",
-    "decode_feedback", "describe_hardware_error", "latency_timer_ms", "lower_latency_timer",
-    "mean_cycle_wire_time", "scan",
+    "decode_feedback", "decode_row", "describe_hardware_error", "encode_row",
+    "latency_timer_ms", "lower_latency_timer", "mean_cycle_wire_time", "scan",
 ]

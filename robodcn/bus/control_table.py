@@ -19,6 +19,7 @@ from robodcn.servo_models import (
 
 ADDR_MODEL_NUMBER = 0          # 2 bytes, R
 ADDR_FIRMWARE_VERSION = 6      # 1 byte, R
+ADDR_ID = 7                    # 1 byte, EEPROM
 ADDR_BAUD_RATE = 8             # 1 byte, EEPROM
 ADDR_RETURN_DELAY_TIME = 9     # 1 byte, EEPROM, 2 µs a unit
 ADDR_OPERATING_MODE = 11       # 1 byte, EEPROM
@@ -39,6 +40,8 @@ ADDR_PROFILE_VELOCITY = 112
 ADDR_GOAL_POSITION = 116       # 4 bytes, RAM
 ADDR_PRESENT_CURRENT = 126     # 2 bytes, R, signed (Present Load on the XL430)
 ADDR_PRESENT_POSITION = 132    # 4 bytes, R, signed
+ADDR_PRESENT_INPUT_VOLTAGE = 144  # 2 bytes, R, 0.1 V a unit
+ADDR_PRESENT_TEMPERATURE = 146    # 1 byte, R, °C
 
 #: The modes each model offers (its record's ``operating_modes``): the XL430 has no current
 #: sensing (no modes 0 and 5).

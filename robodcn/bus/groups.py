@@ -65,3 +65,18 @@ def encode_rows(rows: NDArray[np.int64]) -> list[list[list[int]]]:
     """Goal rows (n, k) → per sample, per servo, the 4 little-endian bytes (int32) to send."""
     n, k = rows.shape
     return rows.astype("<i4").view(np.uint8).reshape(n, k, 4).tolist()
+
+
+def decode_row(row: Sequence[Sequence[int]]) -> list[int]:
+    """Goal ticks (k,) of one encoded Sync Write row (4 little-endian bytes per servo,
+    int32: one sample of :func:`encode_rows`)."""
+    out = []
+    for b in row:
+        v = b[0] | b[1] << 8 | b[2] << 16 | b[3] << 24
+        out.append(v - (1 << 32) if v & 0x80000000 else v)
+    return out
+
+
+def encode_row(goals: Sequence[int]) -> list[list[int]]:
+    """One Sync Write row of goal ticks (k,): the inverse of :func:`decode_row`."""
+    return [list((int(g) & 0xFFFFFFFF).to_bytes(4, "little")) for g in goals]

@@ -30,6 +30,7 @@ from robodcn.bus.control_table import (
     ADDR_BUS_WATCHDOG,
     ADDR_GOAL_POSITION,
     ADDR_HARDWARE_ERROR,
+    ADDR_POSITION_I_GAIN,
     ADDR_PRESENT_POSITION,
     ADDR_PROFILE_VELOCITY,
     ADDR_STATUS_RETURN_LEVEL,
@@ -186,6 +187,12 @@ class Reads(Transactions):
                                 f"{velocity} as Profile Velocity (0..32767): a reply to "
                                 "another read", field=f"servo[{servo_id}]", value=velocity)
         return raw
+
+    def read_position_i_gains(self) -> tuple[int, ...]:
+        """Position I Gain (82) of every servo, bus order (one Sync Read; a configured bus
+        has them as ``position_i_gains`` already)."""
+        raw = self.sync_read(ADDR_POSITION_I_GAIN, 2)
+        return tuple(int.from_bytes(data, "little") for data in raw)
 
     def watchdog_status(self) -> dict[int, int]:
         """Bus Watchdog (address 98) per servo id, signed: -1 means it expired."""

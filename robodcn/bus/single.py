@@ -18,8 +18,14 @@ from numpy.typing import NDArray
 
 from robodcn import _checks
 from robodcn.bus.control_table import (
+    ADDR_BAUD_RATE,
     ADDR_GOAL_POSITION,
+    ADDR_HARDWARE_ERROR,
+    ADDR_ID,
+    ADDR_OPERATING_MODE,
+    ADDR_PRESENT_INPUT_VOLTAGE,
     ADDR_PRESENT_POSITION,
+    ADDR_PRESENT_TEMPERATURE,
     ADDR_TORQUE_ENABLE,
 )
 from robodcn.bus.transactions import Transactions
@@ -98,6 +104,42 @@ class Single(Transactions):
             raise TickLimitError(f"servo {spec.id} goal {int(tick)} is outside its limits "
                                  f"[{low}, {high}] ticks", field="ticks", value=int(tick))
         self._write_int(spec.id, ADDR_GOAL_POSITION, int(tick), 4)
+
+    def hold_in_place(self, servo: Servo) -> int:
+        """Goal Position (116) := Present Position (132) of one servo, so torque-on (or an
+        overload recovery) holds it where it is instead of jumping to a stale goal. Not
+        checked against the tick limits: the servo is at that tick already. Returns it."""
+        spec = self.spec_of(servo)
+        present = self._read_int(spec.id, ADDR_PRESENT_POSITION, 4, signed=True)
+        self._write_int(spec.id, ADDR_GOAL_POSITION, present, 4)
+        return present
+
+    def read_operating_mode(self, servo: Servo) -> int:
+        """Operating Mode (11) of one servo (:data:`robodcn.servo_models.OPERATING_MODE_NAMES`)."""
+        return self._read_int(self.spec_of(servo).id, ADDR_OPERATING_MODE, 1)
+
+    def read_hardware_error(self, servo: Servo) -> int:
+        """Hardware Error Status (70) bits of one servo (0: none)."""
+        return self._read_int(self.spec_of(servo).id, ADDR_HARDWARE_ERROR, 1)
+
+    def read_input_voltage(self, servo: Servo) -> float:
+        """Present Input Voltage (144) of one servo, V (0.1 V a unit)."""
+        return self._read_int(self.spec_of(servo).id, ADDR_PRESENT_INPUT_VOLTAGE, 2) / 10.0
+
+    def read_temperature(self, servo: Servo) -> int:
+        """Present Temperature (146) of one servo, °C."""
+        return self._read_int(self.spec_of(servo).id, ADDR_PRESENT_TEMPERATURE, 1)
+
+    def write_id(self, servo: Servo, new_id: int) -> None:
+        """ID (7, EEPROM) of one servo := ``new_id``; its torque must be off (EEPROM lock).
+        The caller checks that ``new_id`` is free and that the servo answers at it after."""
+        self._write_int(self.spec_of(servo).id, ADDR_ID, int(new_id), 1)
+
+    def write_baud_index(self, servo: Servo, index: int) -> None:
+        """Baud Rate (8, EEPROM) of one servo := item value ``index``
+        (:data:`~robodcn.bus.control_table.BAUD_INDEX`); its torque must be off. The servo
+        answers at the new rate from then on."""
+        self._write_int(self.spec_of(servo).id, ADDR_BAUD_RATE, int(index), 1)
 
 
 __all__ = ["Servo", "Single"]

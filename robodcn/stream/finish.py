@@ -27,7 +27,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from robodcn.bus import ADDR_GOAL_POSITION, ADDR_PRESENT_POSITION, ADDR_TORQUE_ENABLE, ServoBus
+from robodcn.bus import ServoBus
 from robodcn.errors import BusError
 from robodcn.stream.clock import Clock
 
@@ -150,11 +150,8 @@ def _recover(bus: ServoBus, hardware: dict[int, int]) -> list[dict[str, Any]]:
         entry: dict[str, Any] = {"servo_id": servo_id, "hardware_error": int(hardware[servo_id])}
         try:
             bus.reboot([servo_id])
-            present = int.from_bytes(bus.read(servo_id, ADDR_PRESENT_POSITION, 4),
-                                     "little", signed=True)
-            bus.write(servo_id, ADDR_GOAL_POSITION, list(present.to_bytes(4, "little",
-                                                                          signed=True)))
-            bus.write(servo_id, ADDR_TORQUE_ENABLE, [1])
+            present = bus.hold_in_place(servo_id)
+            bus.write_torque_enabled(servo_id, True)
             entry.update(recovered=True, position=present)
         except BusError as exc:
             entry.update(recovered=False, error=exc.message)

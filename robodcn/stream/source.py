@@ -20,14 +20,6 @@ from robodcn.errors import BusError
 from robodcn.planner import Trajectory
 from robodcn.stream.compensation import compensated_ticks
 
-#: Position I Gain (2 bytes, RAM; e-manual X-series control table). robodcn.bus reads the P
-#: and D gains only; the lead reads this one itself (0 where it cannot be read).
-ADDR_POSITION_I_GAIN = 82
-
-
-def _signed(raw: bytes) -> int:
-    return int.from_bytes(raw, "little", signed=True)
-
 
 def servo_state(bus: ServoBus, present: NDArray[np.int64] | None = None
                 ) -> tuple[NDArray[np.int64] | None, NDArray[np.int64] | None,
@@ -35,12 +27,6 @@ def servo_state(bus: ServoBus, present: NDArray[np.int64] | None = None
     """What the lead starts from: the Goal Position the servos hold and their Present
     Position (ticks, bus order; ``present`` when the caller has just read it) and Position
     I Gains, each None where it cannot be read."""
-    def read(address: int, length: int) -> list[int] | None:
-        try:
-            return [_signed(raw) for raw in bus.sync_read(address, length)]
-        except BusError:
-            return None
-
     try:
         goal: list[int] | None = [int(g) for g in bus.read_goals()]  # no straggler passes
     except BusError:
@@ -52,8 +38,10 @@ def servo_state(bus: ServoBus, present: NDArray[np.int64] | None = None
             present = None
     i_gains = getattr(bus, "position_i_gains", None)
     if i_gains is None:
-        read_i = read(ADDR_POSITION_I_GAIN, 2)
-        i_gains = None if read_i is None else tuple(read_i)
+        try:
+            i_gains = bus.read_position_i_gains()
+        except BusError:
+            i_gains = None
     return (None if goal is None else np.array(goal, dtype=np.int64), present,
             None if i_gains is None else tuple(int(g) for g in i_gains))
 

@@ -33,23 +33,10 @@ from collections.abc import Sequence
 import numpy as np
 from numpy.typing import ArrayLike
 
+from robodcn.bus import decode_row, encode_row
+
 #: Ticks of rounding a planned goal may add to a step (module notes).
 ROUNDING_TICKS = 1
-
-
-def decode_row(row: Sequence[Sequence[int]]) -> list[int]:
-    """Goal ticks (k,) of one encoded Sync Write row (4 little-endian bytes per servo,
-    int32: :func:`robodcn.bus.groups.encode_rows`)."""
-    out = []
-    for b in row:
-        v = b[0] | b[1] << 8 | b[2] << 16 | b[3] << 24
-        out.append(v - (1 << 32) if v & 0x80000000 else v)
-    return out
-
-
-def encode_row(goals: Sequence[int]) -> list[list[int]]:
-    """One Sync Write row of goal ticks (k,): the inverse of :func:`decode_row`."""
-    return [list((int(g) & 0xFFFFFFFF).to_bytes(4, "little")) for g in goals]
 
 
 class StepGuard:
@@ -121,4 +108,4 @@ class StepGuard:
         return self.row(i, encode_row(self.target))
 
 
-__all__ = ["ROUNDING_TICKS", "StepGuard", "decode_row", "encode_row"]
+__all__ = ["ROUNDING_TICKS", "StepGuard"]

@@ -19,31 +19,18 @@ from numpy.typing import NDArray
 
 from robodcn import servo_units
 from robodcn.bus import (
-    ADDR_BAUD_RATE,
-    ADDR_GOAL_POSITION,
-    ADDR_HARDWARE_ERROR,
-    ADDR_OPERATING_MODE,
-    ADDR_TORQUE_ENABLE,
     BAUD_INDEX,
-    MODEL_NAMES,
-    MODEL_NUMBERS,
     ServoBus,
     describe_hardware_error,
 )
 from robodcn.config import MAX_SERVO_ID, Arm, ServoSpec
 from robodcn.errors import CommError, InputError
+from robodcn.servo_models import MODEL_NAMES, MODEL_NUMBERS, OPERATING_MODE_NAMES
 from robodcn.workflow.gripper import GripperState, read_gripper_state
 from robodcn.workflow.poses import tool_pose
 
 log = logging.getLogger(__name__)
 
-ADDR_ID = 7                     # 1 byte, EEPROM
-ADDR_PRESENT_INPUT_VOLTAGE = 144  # 2 bytes, 0.1 V
-ADDR_PRESENT_TEMPERATURE = 146    # 1 byte, °C
-#: Operating Mode item values (address 11) → names.
-OPERATING_MODES: dict[int, str] = {0: "current", 1: "velocity", 3: "position",
-                                   4: "extended position", 5: "current-based position",
-                                   16: "PWM"}
 
 
 # -- present state -----------------------------------------------------------------------------
@@ -97,10 +84,8 @@ def set_torque(bus: ServoBus, arm: Arm, on: bool, joint: str | None = None) -> t
     """
     ids = joint_ids(arm, joint)
     if on:
-        present = dict(zip(bus.ids, bus.read_positions().tolist(), strict=True))
         for servo_id in ids:
-            bus.write(servo_id, ADDR_GOAL_POSITION,
-                      int(present[servo_id]).to_bytes(4, "little", signed=True))
+            bus.hold_in_place(servo_id)
     bus.torque(on, None if ids == bus.ids else ids)
     log.info("torque %s on servo(s) %s", "on" if on else "off", list(ids))
     return ids
@@ -124,19 +109,18 @@ def servo_info(bus: ServoBus) -> list[dict[str, Any]]:
         if info is None:
             out.append({"id": servo_id, "answered": False})
             continue
-        mode = bus.read(servo_id, ADDR_OPERATING_MODE, 1)[0]
-        errors = bus.read(servo_id, ADDR_HARDWARE_ERROR, 1)[0]
-        volts = int.from_bytes(bus.read(servo_id, ADDR_PRESENT_INPUT_VOLTAGE, 2), "little")
+        mode = bus.read_operating_mode(servo_id)
+        errors = bus.read_hardware_error(servo_id)
         out.append({
             "id": servo_id, "answered": True, "model": info.model,
             "model_number": info.model_number, "firmware": info.firmware,
             "baud": bus.baud, "operating_mode": mode,
-            "operating_mode_name": OPERATING_MODES.get(mode, f"mode {mode}"),
-            "torque": bool(bus.read(servo_id, ADDR_TORQUE_ENABLE, 1)[0]),
+            "operating_mode_name": OPERATING_MODE_NAMES.get(mode, f"mode {mode}"),
+            "torque": bus.read_torque_enabled(servo_id),
             "hardware_error": errors,
             "hardware_error_names": describe_hardware_error(errors) if errors else "",
-            "voltage_v": volts / 10.0,
-            "temperature_c": bus.read(servo_id, ADDR_PRESENT_TEMPERATURE, 1)[0],
+            "voltage_v": bus.read_input_voltage(servo_id),
+            "temperature_c": bus.read_temperature(servo_id),
         })
     return out
 
@@ -206,8 +190,8 @@ def set_id(port: str, baud: int, old: int, new: int) -> None:
         if bus.ping(new) is not None:
             raise InputError(f"NEW: id {new} is already taken on {port}: pick a free id",
                              field="new", value=new)
-        bus.write(old, ADDR_TORQUE_ENABLE, [0])
-        bus.write(old, ADDR_ID, [new])
+        bus.write_torque_enabled(old, False)
+        bus.write_id(old, new)
         if bus.ping(new) is None:
             raise CommError(f"servo {old} took id {new} but does not answer at it",
                             field="new", value=new)
@@ -246,8 +230,8 @@ def set_baud(port: str, baud: int, new_baud: int, ids: Sequence[int]) -> None:
             raise InputError(f"servo id(s) {missing} do not answer on {port} at {baud} baud",
                              field="ids", value=missing)
         for servo_id in ids:
-            bus.write(servo_id, ADDR_TORQUE_ENABLE, [0])
-            bus.write(servo_id, ADDR_BAUD_RATE, [index])
+            bus.write_torque_enabled(servo_id, False)
+            bus.write_baud_index(servo_id, index)
     with _probe(port, new_baud, ids) as probe:
         silent = [i for i in ids if probe.ping(i) is None]
     if silent:
