@@ -7,6 +7,7 @@ against the holding torque of :mod:`robodcn.dynamics` on the OM-X at rest."""
 from __future__ import annotations
 
 import dataclasses
+import json
 import time
 from typing import Any
 
@@ -104,7 +105,10 @@ def test_joint_states_carry_velocity_and_effort_during_a_move() -> None:
         time.sleep(0.3)
         rp = RosPeer(s)
         got = rp.subscribe("/joint_states", "sensor_msgs/msg/JointState")
-        wait_for(lambda: got, 5, "a joint state at rest")
+        native: list[dict[str, Any]] = []
+        s.declare_subscriber("robodcn/left/state",
+                             lambda m: native.append(json.loads(m.payload.to_bytes())))
+        wait_for(lambda: got and native, 5, "a joint state at rest")
         q0 = list(server.controller.state().joints)
         target = [q0[0] + 0.6, q0[1] - 0.5, q0[2] + 0.4]
         rp.publish("/arm_controller/joint_trajectory", "trajectory_msgs/msg/JointTrajectory",
@@ -115,13 +119,17 @@ def test_joint_states_carry_velocity_and_effort_during_a_move() -> None:
         wait_for(lambda: server.controller.moves() and not server.controller.busy
                  and server.controller.moves()[-1].status in ("done", "degraded"), 15,
                  "the trajectory to be played")
-    moving = [m for _, m, _ in got if m["velocity"]]
-    assert len(moving) > 50
-    assert all(len(m["velocity"]) == len(m["effort"]) == 3 for m in moving)
-    assert any(np.abs(m["effort"]).max() > 0 for m in moving)
-    t = np.array([_stamp(m) for m in moving])
-    q = np.array([m["position"] for m in moving])
-    v = np.array([m["velocity"] for m in moving])
+    # the Zenoh state key carries them too (the GET /v1/state JSON)
+    streamed = [st for st in native if st["moving"] and st["velocities"] is not None]
+    assert len(streamed) > 20 and max(np.abs(st["velocities"]).max() for st in streamed) > 0.2
+    assert all(len(st["efforts"]) == 3 for st in streamed)
+    fed = [m for _, m, _ in got if m["velocity"]]   # at rest too (zeros from the bus read)
+    assert len(fed) > 50
+    assert all(len(m["velocity"]) == len(m["effort"]) == 3 for m in fed)
+    assert any(np.abs(m["effort"]).max() > 0 for m in fed)
+    t = np.array([_stamp(m) for m in fed])
+    q = np.array([m["position"] for m in fed])
+    v = np.array([m["velocity"] for m in fed])
     k = 5                                   # central differences over ±5 messages (~0.1 s)
     fd = (q[2 * k:] - q[:-2 * k]) / (t[2 * k:] - t[:-2 * k])[:, None]
     mean = np.array([v[i - k:i + k + 1].mean(axis=0) for i in range(k, len(v) - k)])
