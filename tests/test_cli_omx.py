@@ -254,7 +254,8 @@ def test_gripper_close_on_an_object_holds_it_on_the_wire(monkeypatch, capsys):
 
 
 @pytest.mark.parametrize("argv, words", [
-    (["gripper", "90", "--arm", "omx", "--sim"], "90.0 mm is outside the stroke 20.0–75.0 mm"),
+    (["gripper", "90", "--arm", "omx", "--sim"],
+     "WIDTH_MM 90 mm is outside the gripper's stroke 20..75 mm"),
     (["gripper", "squeeze", "--arm", "omx", "--sim"], "COMMAND must be open, close or a jaw"),
     (["gripper", "open", "--arm", "arm3r", "--sim"], "arm 'arm3r' has no [gripper] table"),
 ])

@@ -128,7 +128,7 @@ def test_trajectory_json_round_trip() -> None:
         assert back.request.payload_kg == 0.2
     data = t.to_dict()
     assert data["pose_keys"] == ["x", "y", "z", "pitch"] and len(data["poses"][0]) == 4
-    assert t.to_csv().splitlines()[0].startswith("t,x,y,z,pitch,q_yaw,")
+    assert t.to_csv().splitlines()[0].startswith("t_s,x_m,y_m,z_m,pitch_rad,q_yaw_rad,")
     planar = robodcn.load_arm("configs/arm3r.toml")
     with pytest.raises(InputError) as info:
         Trajectory.from_json(t.to_json(), planar)
