@@ -337,11 +337,7 @@ def test_serve_logs_at_info_by_default(capsys, monkeypatch):
         logging.getLogger("robodcn.http").info("GET /healthz 200")
         logging.getLogger("robodcn.http").debug("detail")
 
-    for name in ("robodcn.http_server", "robodcn.http"):  # wherever serve_cmd takes serve from
-        try:
-            monkeypatch.setattr(importlib.import_module(name), "serve", serve)
-        except ImportError:
-            pass
+    monkeypatch.setattr(importlib.import_module("robodcn.http"), "serve", serve)
     assert main(capsys, "serve", "--arm", str(ARM3R), "--sim", "--port", "0")[2] == \
         "robodcn: INFO: robodcn.http: GET /healthz 200\n"
     assert main(capsys, "serve", "--arm", str(ARM3R), "--sim", "--log-level", "warning")[2] == ""

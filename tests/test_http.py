@@ -34,10 +34,11 @@ from http_helpers import (  # arm_server: a fixture
 from hypothesis import HealthCheck, event, given, settings
 from hypothesis import strategies as st
 
-from robodcn import kinematics
+from robodcn import contract, kinematics
 from robodcn.config import arm_from_dict
 from robodcn.errors import InputError, PlanError
-from robodcn.http import MAX_BODY, PLAN_FIELDS, ROUTES, make_server
+from robodcn.http import MAX_BODY, ROUTES, make_server
+from robodcn.http.planbody import parse_plan
 from robodcn.planner import MAX_SAMPLES, Trajectory, plan
 
 pytest_plugins = ["http_helpers"]     # fixtures: arm_server
@@ -309,19 +310,13 @@ def test_any_body_gets_a_json_answer_not_a_crash(planner_server: Any, body: Any)
     if status == 200:
         traj = Trajectory.from_json(json.dumps(data), ARM)
         assert traj.request is not None
-        assert traj.request == parse_plan_body_for_test(body)
+        assert traj.request == parse_plan(ARM, body)
     else:
         err = error_of(data)
         if isinstance(body, dict) and err["field"] is not None:
             # The field named is the body field at fault (or an element of it).
-            known = set(body) | set(PLAN_FIELDS) | {"body"}
+            known = set(body) | set(contract.request_schema()["properties"]) | {"body"}
             assert err["field"] in known or err["field"].split("[")[0] in known
-
-
-def parse_plan_body_for_test(body: dict[str, Any]) -> Any:
-    from robodcn.http import parse_plan_body
-
-    return parse_plan_body(ARM, body)
 
 
 # -- OpenAPI --------------------------------------------------------------------------------------
@@ -373,7 +368,7 @@ def test_openapi_matches_the_routes_answered(planner_server: Any) -> None:
 def test_openapi_body_schema_is_what_the_parser_accepts(planner_server: Any) -> None:
     _, _, doc = call(planner_server, "GET", "/openapi.json")
     props = doc["components"]["schemas"]["PlanBody"]["properties"]
-    assert set(props) == set(PLAN_FIELDS)
+    assert set(props) == set(contract.request_schema()["properties"])
     # Every documented field is accepted (a valid value of each, all at once).
     body = {"waypoints": [HOME, TARGET], "method": "seplerp", "beta": 1.0, "turn": "ccw",
             "duration": 1.5, "profile": "trapezoid", "rate_hz": 50, "blend": False,

@@ -54,13 +54,11 @@ from robodcn.http.framing import HTTPError
 from robodcn.http.limits import MAX_BODY, MAX_CONNECTIONS, MAX_PER_CLIENT, REQUEST_TIMEOUT
 from robodcn.http.listen import ListenError, make_server
 from robodcn.http.openapi import openapi, schemas
-from robodcn.http.planbody import MOVE_FIELDS, PLAN_FIELDS, parse_plan_body
 from robodcn.http.prefork import PreforkServer, WorkerExitError
 from robodcn.http.routes import ROUTES, Route
 from robodcn.http.server import RobodcnHTTPServer
 from robodcn.http.service import serve
 
-__all__ = ["MAX_BODY", "MAX_CONNECTIONS", "MAX_PER_CLIENT", "MOVE_FIELDS", "PLAN_FIELDS",
-           "REQUEST_TIMEOUT", "ROUTES", "TOKEN_ENV", "HTTPError", "ListenError",
-           "PreforkServer", "RobodcnHTTPServer", "Route", "WorkerExitError", "make_server",
-           "openapi", "parse_plan_body", "schemas", "serve"]
+__all__ = ["MAX_BODY", "MAX_CONNECTIONS", "MAX_PER_CLIENT", "REQUEST_TIMEOUT", "ROUTES",
+           "TOKEN_ENV", "HTTPError", "ListenError", "PreforkServer", "RobodcnHTTPServer", "Route",
+           "WorkerExitError", "make_server", "openapi", "schemas", "serve"]

@@ -95,23 +95,6 @@ def check_move(body: Any) -> None:
     contract.check_body(body, contract.MOVE_OMIT)
 
 
-def _fields(omit: tuple[str, ...] = ()) -> dict[str, tuple[dict[str, Any], str]]:
-    props = contract.request_schema(omit=omit)["properties"]
-    return {name: ({k: v for k, v in s.items() if k != "description"}, s["description"])
-            for name, s in props.items()}
-
-
-#: name → (JSON schema, description) of a plan body (derived from the contract).
-PLAN_FIELDS = _fields()
-#: The same for a move body.
-MOVE_FIELDS = _fields(contract.MOVE_OMIT)
-
-
-def parse_plan_body(arm: Arm, body: Any, fields: dict[str, Any] = PLAN_FIELDS) -> PlanRequest:
-    """Compatibility: :func:`parse_plan`, or :func:`parse_move` for ``MOVE_FIELDS``."""
-    return parse_move(arm, body) if "start_joints" not in fields else parse_plan(arm, body)
-
-
 # -- a move of a given trajectory ---------------------------------------------------------------
 
 #: Fields of a ``POST /v1/moves`` body that plays a trajectory instead of planning one.

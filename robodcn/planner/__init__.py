@@ -53,8 +53,8 @@ validate, one retry loop, one assembly; :func:`plan`), :mod:`~robodcn.planner.un
 (segments, blending, IK), :mod:`~robodcn.planner.search` (auto timing of uniform laws),
 :mod:`~robodcn.planner.validate` (checks that return :class:`~robodcn.errors.Violation`
 data), :mod:`~robodcn.planner.trajectory` (Trajectory, JSON/CSV). PlanRequest and StartState
-are the contract's (:mod:`robodcn.contract.request`; :mod:`~robodcn.planner.request`
-re-exports them); a moving start joins its path by :mod:`robodcn.path_timing.moving_start`.
+are the contract's (:mod:`robodcn.contract.request`; this package re-exports them); a
+moving start joins its path by :mod:`robodcn.path_timing.moving_start`.
 """
 
 from robodcn.contract import MAX_SAMPLES
