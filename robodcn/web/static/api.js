@@ -95,6 +95,14 @@ export function detectFeatures() {
   f.moveTrajectory = !!op("/v1/moves/{id}/trajectory", "get");
   f.pause = !!op("/v1/pause", "post");
   f.resume = !!op("/v1/resume", "post");
+  // Follow sessions (a drag moves the arm live): follow_open, follow_target and follow_end,
+  // with pose targets.
+  const opened = op("/v1/follow", "post"), sent = op("/v1/follow/target", "put");
+  const ended = op("/v1/follow", "delete");
+  f.follow = !!(opened && opened.operationId === "follow_open" && sent &&
+    sent.operationId === "follow_target" && ended && ended.operationId === "follow_end" &&
+    enumOf(bodyProps("/v1/follow", "post").space).includes("pose") &&
+    "pose" in bodyProps("/v1/follow/target", "put"));
   const speed = bodyProps("/v1/speed", "put");
   f.speed = op("/v1/speed", "put") ? (Object.keys(speed).find((k) =>
     ["number", "integer"].includes(speed[k].type)) || "speed") : null;

@@ -1,17 +1,28 @@
 // Pointer, wheel and keyboard on the arm's drawings: drag the target frame's ring to move
 // it, its handle (or the mouse wheel) to turn it; a click elsewhere puts the target there;
-// on a yawed arm's top view a click or drag turns its yaw. Keys jog (Escape stops).
+// on a yawed arm's top view a click or drag turns its yaw. Where the service offers follow
+// sessions and no move runs, a drag moves the arm live (follow.js); else the drop previews.
+// Keys jog (Escape stops).
 import { S, $, DEG } from "./state.js";
 import { fromPlane, poseYaw } from "./geometry.js";
 import { canvasPoint, handlePoint, targetPlane, toCanvas, toWorld } from "./canvas.js";
 import { topToWorld } from "./top_view.js";
 import { schedulePreview, setTarget } from "./plan.js";
+import { redraw } from "./draw.js";
 import { jog, stop } from "./control.js";
+import { followEnd, followStart, followTarget } from "./follow.js";
 
 /** The target moved to plane point (u, v) or turned to angle a, at the target's yaw. */
 function setPlane(u, v, a) {
   const yaw = poseYaw(S.model, S.target, S.state ? S.state.joints[0] : 0);
   setTarget(fromPlane(S.model, [u, v, a], yaw));
+}
+
+/** The end of a drag: the arm rests at a followed target (the plans drawn before the drag
+ * are stale: dropped), else the drop previews. */
+function dropped() {
+  S.drag = null;
+  if (followEnd()) { S.plans = {}; S.planOrder = []; redraw(); } else schedulePreview();
 }
 
 function bindArmCanvas() {
@@ -32,6 +43,7 @@ function bindArmCanvas() {
       const [nx, ny] = toCanvas(...targetPlane().slice(0, 2));
       S.dragOffset = [px - nx, py - ny];
     }
+    followStart();
     c.setPointerCapture(ev.pointerId);
     ev.preventDefault();
   });
@@ -46,8 +58,9 @@ function bindArmCanvas() {
       const [wu, wv] = toWorld(px - S.dragOffset[0], py - S.dragOffset[1]);
       setPlane(wu, wv, a);
     }
+    followTarget(S.target);
   });
-  const end = () => { if (S.drag) { S.drag = null; schedulePreview(); } };
+  const end = () => { if (S.drag && S.drag !== "yaw") dropped(); };
   c.addEventListener("pointerup", end);
   c.addEventListener("pointercancel", end);
   c.addEventListener("wheel", (ev) => {
@@ -71,11 +84,14 @@ function bindTopView() {
     if (!S.target || !S.model.yawed) return;
     S.drag = "yaw";
     turn(ev);
+    followStart();
     c.setPointerCapture(ev.pointerId);
     ev.preventDefault();
   });
-  c.addEventListener("pointermove", (ev) => { if (S.drag === "yaw") turn(ev); });
-  const end = () => { if (S.drag === "yaw") { S.drag = null; schedulePreview(); } };
+  c.addEventListener("pointermove", (ev) => {
+    if (S.drag === "yaw") { turn(ev); followTarget(S.target); }
+  });
+  const end = () => { if (S.drag === "yaw") dropped(); };
   c.addEventListener("pointerup", end);
   c.addEventListener("pointercancel", end);
 }

@@ -5,8 +5,8 @@ export const DEG = Math.PI / 180;
 export const COLORS = { sclerp: "#2457c5", kenlerp: "#c2410c", seplerp: "#15803d", dlb: "#7e22ce" };
 export const NAMES = { sclerp: "ScLERP", kenlerp: "KenLERP", seplerp: "SEP-LERP", dlb: "DLB" };
 export const JOINT_COLORS = ["#2457c5", "#c2410c", "#15803d", "#7e22ce", "#0e7490", "#a16207"];
-/** Move statuses of a move that has not ended. */
-export const ACTIVE = ["queued", "running"];
+/** Move statuses of a move that has not ended (following: a follow session, a live drag). */
+export const ACTIVE = ["queued", "running", "following"];
 
 export const S = {
   api: null, arm: null, features: {}, hasArm: true,

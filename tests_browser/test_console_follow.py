@@ -1,0 +1,176 @@
+"""Dragging the target moves the arm live: one follow session in pose space per drag.
+
+Headless Chromium drags the target frame on the arm canvas of a real ``robodcn serve
+--sim`` (arm3r) with the pointer (selenium's ActionChains); the service is asked on its
+own API, mid-drag and after the drop, what the arm and its moves did: one move with status
+``following`` for the whole drag, the present joints heading for the dragged target before
+the pointer is released, the move ending at the last target after it.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from typing import Any
+
+from test_console import FINISHED, el, forget_earlier_pages, open_console, severe_logs, \
+    type_target
+
+HOME = (0.25, 0.10, 0.0)       # m, m, deg: arm3r's home
+DRAG_TO = (0.18, 0.18)         # m: in reach at θ = 0
+OUT_OF_REACH = (0.45, 0.10)    # m: beyond the 0.40 m the links reach
+
+
+def canvas_px(driver: Any, x: float, y: float) -> tuple[float, float]:
+    """Client-pixel offset from the arm canvas's centre of base-frame point (x, y)."""
+    return driver.execute_script("""
+        const c = window.robodcnConsole, el = document.getElementById('arm-canvas');
+        const [px, py] = c.toCanvas(arguments[0], arguments[1]);
+        const r = el.getBoundingClientRect();
+        return [px * r.width / el.width - r.width / 2, py * r.height / el.height - r.height / 2];
+        """, x, y)
+
+
+def press_and_drag(driver: Any, start: tuple[float, float], end: tuple[float, float],
+                   steps: int = 12, pause_s: float = 0.06, press: bool = True) -> None:
+    """Press the pointer on the canvas at base-frame ``start`` and drag it in ``steps`` to
+    ``end``, a pause between steps (a hand's pace); the button stays down. ``press=False``:
+    the pointer is already down at ``start`` (a drag going on)."""
+    from selenium.webdriver.common.action_chains import ActionChains
+
+    canvas = el(driver, "arm-canvas")
+    x0, y0 = canvas_px(driver, *start)
+    x1, y1 = canvas_px(driver, *end)
+    chain = ActionChains(driver, duration=20)
+    if press:
+        chain.move_to_element_with_offset(canvas, round(x0), round(y0)).click_and_hold()
+    done = (round(x0), round(y0))
+    for k in range(1, steps + 1):
+        at = (round(x0 + (x1 - x0) * k / steps), round(y0 + (y1 - y0) * k / steps))
+        chain.move_by_offset(at[0] - done[0], at[1] - done[1]).pause(pause_s)
+        done = at
+    chain.perform()
+
+
+def release(driver: Any) -> None:
+    from selenium.webdriver.common.action_chains import ActionChains
+
+    ActionChains(driver).release().perform()
+
+
+def move_of(service: Any, move_id: int) -> dict[str, Any]:
+    status, info = service.call("GET", f"/v1/moves/{move_id}")
+    assert status == 200, info
+    return info
+
+
+def present_pose(service: Any) -> list[float]:
+    status, state = service.call("GET", "/v1/state")
+    assert status == 200, state
+    return state["pose"]
+
+
+def shown_target(driver: Any) -> list[float]:
+    return driver.execute_script("return window.robodcnConsole.S.target.slice()")
+
+
+def start_at_home(driver: Any, until: Any, service: Any) -> int:
+    """The page open with the arm resting at home (typed and moved there with Move, the
+    click-a-button flow) and the target on it; the number of moves recorded so far."""
+    forget_earlier_pages(driver)
+    open_console(driver, until, service)
+    service.wait_idle()
+    if math.dist(present_pose(service)[:2], HOME[:2]) > 0.002:
+        type_target(driver, HOME)
+        el(driver, "move").click()
+        until(lambda d: el(d, "move-status").text in FINISHED, 20, "the move home never ended")
+        service.wait_idle()
+    type_target(driver, HOME)
+    until(lambda d: math.dist(shown_target(d)[:2], HOME[:2]) < 1e-6, 5)
+    driver.execute_script("document.activeElement.blur()")   # keys go to the page
+    return service.move_count()
+
+
+def test_a_drag_follows_live_as_one_move_and_rests_at_the_drop(driver: Any, until: Any,
+                                                               service: Any) -> None:
+    before = start_at_home(driver, until, service)
+    start = present_pose(service)
+    press_and_drag(driver, HOME[:2], DRAG_TO)
+    # Mid-drag, the button still down: one move, following, and the arm on its way.
+    session = before + 1
+    until(lambda d: service.move_count() == session, 10, "no follow session was opened")
+    assert move_of(service, session)["status"] == "following"
+    dragged = shown_target(driver)
+    assert math.dist(dragged[:2], DRAG_TO) < 0.01, dragged
+    until(lambda d: math.dist(present_pose(service)[:2], dragged[:2])
+          < 0.25 * math.dist(start[:2], dragged[:2]), 10,
+          "the arm did not head for the dragged target before the drop")
+    assert move_of(service, session)["status"] == "following"
+    assert service.move_count() == session
+    assert el(driver, "move-status").text == "following"
+    release(driver)
+    # After the drop: the session ends at rest at the last target, the only move.
+    until(lambda d: move_of(service, session)["status"] not in ("following",), 20,
+          "the session never ended")
+    info = move_of(service, session)
+    assert info["status"] in FINISHED, info
+    service.wait_idle()
+    rest = present_pose(service)
+    assert math.dist(rest[:2], dragged[:2]) < 0.003, (rest, dragged)
+    assert abs(rest[2] - dragged[2]) < math.radians(1.5), (rest, dragged)
+    assert service.move_count() == session
+    until(lambda d: el(d, "move-status").text in FINISHED, 10)
+    assert el(driver, "error").text == ""
+    assert severe_logs(driver) == []
+
+
+def test_an_unreachable_drag_says_pose_and_the_arm_rests_at_the_last_valid_target(
+        driver: Any, until: Any, service: Any) -> None:
+    before = start_at_home(driver, until, service)
+    press_and_drag(driver, HOME[:2], OUT_OF_REACH, steps=14)
+    until(lambda d: "pose" in el(d, "error").text, 10,
+          "the page shows no refusal of the out-of-reach target: it shows "
+          f"{el(driver, 'error').text!r}, target {shown_target(driver)}, "
+          f"move {move_of(service, before + 1) if service.move_count() > before else None}; "
+          f"the service's log:\n{service.log_tail()}")
+    assert "reach" in el(driver, "error").text
+    release(driver)
+    session = before + 1
+    until(lambda d: move_of(service, session)["status"] != "following", 20)
+    assert move_of(service, session)["status"] in FINISHED
+    service.wait_idle()
+    # The arm went on to the last target the service took, short of the refused ones.
+    taken = driver.execute_script("const S = window.robodcnConsole.S;"
+                                  "return S.sent && S.sent.id == arguments[0] && S.sent.pose",
+                                  str(session))
+    assert taken, "the page kept no taken target"
+    rest = present_pose(service)
+    # (near full stretch the servos settle a few ticks off: millimetres at the tool)
+    assert math.dist(rest[:2], taken[:2]) < 0.006, (rest, taken, move_of(service, session))
+    assert math.hypot(*rest[:2]) < 0.401
+    assert math.dist(rest[:2], OUT_OF_REACH) > 0.04
+    assert service.move_count() == session
+
+
+def test_escape_mid_drag_stops_the_session_and_the_drop_starts_nothing(
+        driver: Any, until: Any, service: Any) -> None:
+    from selenium.webdriver.common.action_chains import ActionChains
+    from selenium.webdriver.common.keys import Keys
+
+    before = start_at_home(driver, until, service)
+    press_and_drag(driver, HOME[:2], DRAG_TO, steps=6)
+    session = before + 1
+    until(lambda d: service.move_count() == session, 10)
+    ActionChains(driver).send_keys(Keys.ESCAPE).perform()   # the page's smooth Stop
+    until(lambda d: move_of(service, session)["status"] == "stopped", 10,
+          "Escape did not stop the follow session: "
+          f"{move_of(service, session)}, the page's error {el(driver, 'error').text!r}, "
+          f"focus on {driver.execute_script('return document.activeElement.tagName')}; "
+          f"the service's log:\n{service.log_tail()}")
+    # Dragging on and dropping: the targets find no session; nothing new starts.
+    press_and_drag(driver, DRAG_TO, (0.2, 0.05), steps=4, press=False)
+    release(driver)
+    time.sleep(0.5)
+    assert service.move_count() == session
+    assert move_of(service, session)["status"] == "stopped"
+    assert el(driver, "error").text == ""
