@@ -13,40 +13,49 @@ import math
 import time
 from typing import Any
 
-from test_console import FINISHED, el, forget_earlier_pages, open_console, severe_logs, \
-    type_target
+from test_console import FINISHED, el, forget_earlier_pages, open_console, severe_logs, type_target
 
 HOME = (0.25, 0.10, 0.0)       # m, m, deg: arm3r's home
 DRAG_TO = (0.18, 0.18)         # m: in reach at θ = 0
 OUT_OF_REACH = (0.45, 0.10)    # m: beyond the 0.40 m the links reach
+#: m: how near the target the arm rests: a joint that settles 7 ticks (0.6°) short moves
+#: the tool up to ~4 mm at 0.4 m
+SETTLED = 0.006
 
 
-def canvas_px(driver: Any, x: float, y: float) -> tuple[float, float]:
-    """Client-pixel offset from the arm canvas's centre of base-frame point (x, y)."""
+def canvas_px(driver: Any, x: float, y: float, view: str = "arm-canvas") -> tuple[float, float]:
+    """Client-pixel offset from the centre of canvas ``view`` (the side view, or "arm-top")
+    of its drawing's point (x, y) (metres)."""
     return driver.execute_script("""
-        const c = window.robodcnConsole, el = document.getElementById('arm-canvas');
-        const [px, py] = c.toCanvas(arguments[0], arguments[1]);
+        const c = window.robodcnConsole, el = document.getElementById(arguments[2]);
+        const to = arguments[2] === 'arm-top' ? c.topToCanvas : c.toCanvas;
+        const [px, py] = to(arguments[0], arguments[1]);
         const r = el.getBoundingClientRect();
         return [px * r.width / el.width - r.width / 2, py * r.height / el.height - r.height / 2];
-        """, x, y)
+        """, x, y, view)
 
 
 def press_and_drag(driver: Any, start: tuple[float, float], end: tuple[float, float],
-                   steps: int = 12, pause_s: float = 0.06, press: bool = True) -> None:
-    """Press the pointer on the canvas at base-frame ``start`` and drag it in ``steps`` to
-    ``end``, a pause between steps (a hand's pace); the button stays down. ``press=False``:
-    the pointer is already down at ``start`` (a drag going on)."""
+                   steps: int = 12, pause_s: float = 0.06, press: bool = True,
+                   view: str = "arm-canvas", path: Any = None) -> None:
+    """Press the pointer on canvas ``view`` at drawing point ``start`` and drag it in
+    ``steps`` to ``end`` (along ``path(s)``, s in (0, 1], where given; else straight), a
+    pause between steps (a hand's pace); the button stays down. ``press=False``: the
+    pointer is already down at ``start`` (a drag going on)."""
     from selenium.webdriver.common.action_chains import ActionChains
 
-    canvas = el(driver, "arm-canvas")
-    x0, y0 = canvas_px(driver, *start)
-    x1, y1 = canvas_px(driver, *end)
+    canvas = el(driver, view)
+    x0, y0 = canvas_px(driver, *start, view)
+    if path is None:
+        path = lambda s: (start[0] + (end[0] - start[0]) * s,  # noqa: E731
+                          start[1] + (end[1] - start[1]) * s)
     chain = ActionChains(driver, duration=20)
     if press:
         chain.move_to_element_with_offset(canvas, round(x0), round(y0)).click_and_hold()
     done = (round(x0), round(y0))
     for k in range(1, steps + 1):
-        at = (round(x0 + (x1 - x0) * k / steps), round(y0 + (y1 - y0) * k / steps))
+        px, py = canvas_px(driver, *path(k / steps), view)
+        at = (round(px), round(py))
         chain.move_by_offset(at[0] - done[0], at[1] - done[1]).pause(pause_s)
         done = at
     chain.perform()
@@ -99,13 +108,15 @@ def test_a_drag_follows_live_as_one_move_and_rests_at_the_drop(driver: Any, unti
     # Mid-drag, the button still down: one move, following, and the arm on its way.
     session = before + 1
     until(lambda d: service.move_count() == session, 10, "no follow session was opened")
-    assert move_of(service, session)["status"] == "following"
+    info = move_of(service, session)
+    assert info["status"] == "following", (info, service.log_tail())
     dragged = shown_target(driver)
     assert math.dist(dragged[:2], DRAG_TO) < 0.01, dragged
     until(lambda d: math.dist(present_pose(service)[:2], dragged[:2])
           < 0.25 * math.dist(start[:2], dragged[:2]), 10,
           "the arm did not head for the dragged target before the drop")
-    assert move_of(service, session)["status"] == "following"
+    info = move_of(service, session)
+    assert info["status"] == "following", (info, service.log_tail())
     assert service.move_count() == session
     assert el(driver, "move-status").text == "following"
     release(driver)
@@ -113,10 +124,12 @@ def test_a_drag_follows_live_as_one_move_and_rests_at_the_drop(driver: Any, unti
     until(lambda d: move_of(service, session)["status"] not in ("following",), 20,
           "the session never ended")
     info = move_of(service, session)
-    assert info["status"] in FINISHED, info
+    assert info["status"] in FINISHED, (info, service.log_tail())
     service.wait_idle()
     rest = present_pose(service)
-    assert math.dist(rest[:2], dragged[:2]) < 0.003, (rest, dragged)
+    # within SETTLED: the servos' own position loop stops a few ticks short (the move's
+    # report names them "out of position")
+    assert math.dist(rest[:2], dragged[:2]) < SETTLED, (rest, dragged)
     assert abs(rest[2] - dragged[2]) < math.radians(1.5), (rest, dragged)
     assert service.move_count() == session
     until(lambda d: el(d, "move-status").text in FINISHED, 10)
@@ -145,8 +158,7 @@ def test_an_unreachable_drag_says_pose_and_the_arm_rests_at_the_last_valid_targe
                                   str(session))
     assert taken, "the page kept no taken target"
     rest = present_pose(service)
-    # (near full stretch the servos settle a few ticks off: millimetres at the tool)
-    assert math.dist(rest[:2], taken[:2]) < 0.006, (rest, taken, move_of(service, session))
+    assert math.dist(rest[:2], taken[:2]) < SETTLED, (rest, taken, move_of(service, session))
     assert math.hypot(*rest[:2]) < 0.401
     assert math.dist(rest[:2], OUT_OF_REACH) > 0.04
     assert service.move_count() == session
@@ -174,3 +186,42 @@ def test_escape_mid_drag_stops_the_session_and_the_drop_starts_nothing(
     assert service.move_count() == session
     assert move_of(service, session)["status"] == "stopped"
     assert el(driver, "error").text == ""
+
+
+def test_a_yaw_drag_on_the_omx_top_view_turns_the_arm_live(driver: Any, until: Any,
+                                                           omx_service: Any) -> None:
+    from test_console_omx import open_omx
+
+    forget_earlier_pages(driver)
+    omx_service.wait_idle()
+    open_omx(driver, until, omx_service)
+    driver.execute_script("document.activeElement.blur()")
+    before = omx_service.move_count()
+    start = omx_service.call("GET", "/v1/state")[1]
+    target = shown_target(driver)
+    radius, yaw0 = math.hypot(*target[:2]), math.atan2(target[1], target[0])
+    turn = math.radians(35)
+
+    def arc(s: float) -> tuple[float, float]:
+        return radius * math.cos(yaw0 + turn * s), radius * math.sin(yaw0 + turn * s)
+
+    press_and_drag(driver, arc(0), arc(1), steps=10, view="arm-top", path=arc)
+    session = before + 1
+    until(lambda d: omx_service.move_count() == session, 10, "no follow session was opened")
+    dragged = shown_target(driver)
+    want = math.atan2(dragged[1], dragged[0])
+    assert abs(want - (yaw0 + turn)) < math.radians(3), (want, yaw0 + turn)
+    # Mid-drag: following, the yaw well on its way (the base joint is the yaw).
+    until(lambda d: abs(omx_service.call("GET", "/v1/state")[1]["joints"][0] - want)
+          < 0.3 * abs(start["joints"][0] - want), 10, "the yaw did not follow the drag")
+    info = move_of(omx_service, session)
+    assert info["status"] == "following", (info, omx_service.log_tail())
+    release(driver)
+    until(lambda d: move_of(omx_service, session)["status"] != "following", 20)
+    info = move_of(omx_service, session)
+    assert info["status"] in FINISHED, (info, omx_service.log_tail())
+    omx_service.wait_idle()
+    rest = omx_service.call("GET", "/v1/state")[1]
+    assert abs(rest["joints"][0] - want) < math.radians(1.5), (rest["joints"], want)
+    assert math.dist(rest["pose"][:3], dragged[:3]) < SETTLED, (rest["pose"], dragged)
+    assert omx_service.move_count() == session
