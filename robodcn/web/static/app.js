@@ -2,12 +2,15 @@
 // service it is served by: GET /openapi.json (what it offers, and the ranges of its body
 // fields), GET /v1/arm, GET /v1/events (SSE), POST /v1/trajectories (preview), POST
 // /v1/moves, GET /v1/moves/{id}/trajectory (the plan a move runs), POST /v1/stop, and
-// pause/resume/speed/torque/gripper where the OpenAPI document lists them. SI units on the
+// pause/resume/speed/torque/gripper and follow sessions (POST /v1/follow, PUT
+// /v1/follow/target, DELETE /v1/follow: a drag of the target) where the OpenAPI document
+// lists them. SI units on the
 // wire; degrees and millimetres in the UI.
 //
 // Modules: state (S), api (requests, OpenAPI features), geometry (the arm model), canvas,
 // arm_view, top_view, plots, draw (drawings), plan, plan_table (the plan form), status
-// (readouts, the move), control (buttons), events (SSE), input (pointer and keys).
+// (readouts, the move), control (buttons), follow (a drag moves the arm live), events
+// (SSE), input (pointer and keys).
 import { S, $ } from "./state.js";
 import { api, detectFeatures } from "./api.js";
 import { clearError, setLink, showError, showTokenBox } from "./ui.js";
