@@ -12,6 +12,7 @@ from __future__ import annotations
 import itertools
 import math
 import time
+from pathlib import Path
 from typing import Any
 
 from test_console import (
@@ -24,6 +25,7 @@ from test_console import (
     type_target,
 )
 
+ROOT = Path(__file__).resolve().parent.parent
 HOME = (0.25, 0.10, 0.0)       # m, m, deg: arm3r's home
 DRAG_TO = (0.18, 0.18)         # m: in reach at θ = 0
 OUT_OF_REACH = (0.45, 0.10)    # m: beyond the 0.40 m the links reach
@@ -264,3 +266,31 @@ def test_a_yaw_drag_on_the_omx_top_view_turns_the_arm_live(driver: Any, until: A
     assert abs(rest["joints"][0] - want) < math.radians(1.5), (rest["joints"], want)
     assert math.dist(rest["pose"][:3], dragged[:3]) < SETTLED, (rest["pose"], dragged)
     assert omx_service.move_count() == session
+
+
+def test_without_follow_in_the_contract_a_drag_only_previews(driver: Any, until: Any,
+                                                             stub: Any) -> None:
+    """A service whose OpenAPI document lists no follow_open (an older one): the drag moves
+    the target only, and the drop previews the plan to it (POST /v1/trajectories)."""
+    import copy
+
+    from test_console_stubbed import arm_info, open_stub, stub_state
+
+    from robodcn.config import load_arm
+    from robodcn.http.openapi import openapi
+
+    arm = load_arm(ROOT / "configs" / "arm3r.toml")
+    doc = copy.deepcopy(openapi(arm))
+    for path in ("/v1/follow", "/v1/follow/target"):
+        del doc["paths"][path]
+    forget_earlier_pages(driver)
+    fake = stub({"/openapi.json": doc, "/v1/arm": arm_info(arm),
+                 "/v1/state": stub_state([0.3, -0.6, 0.2], [*HOME[:2], 0.0],
+                                         list(arm.joint_names))})
+    open_stub(driver, until, fake)
+    until(lambda d: math.dist(shown_target(d)[:2], HOME[:2]) < 1e-6, 5)
+    press_and_drag(driver, HOME[:2], DRAG_TO, steps=6)
+    release(driver)
+    until(lambda d: fake.posted("/v1/trajectories"), 10, "the drop previewed nothing")
+    assert math.dist(fake.posted("/v1/trajectories")[-1]["waypoints"][-1][:2], DRAG_TO) < 0.01
+    assert not [r for r in fake.requests if r[1].startswith("/v1/follow")], fake.requests
