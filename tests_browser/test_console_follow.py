@@ -268,6 +268,24 @@ def test_a_yaw_drag_on_the_omx_top_view_turns_the_arm_live(driver: Any, until: A
     assert omx_service.move_count() == session
 
 
+def test_leaving_the_page_mid_drag_ends_the_session(driver: Any, until: Any,
+                                                    service: Any) -> None:
+    before = start_at_home(driver, until, service)
+    press_and_drag(driver, HOME[:2], DRAG_TO, steps=6)
+    session = before + 1
+    until(lambda d: service.move_count() == session, 10)
+    until(lambda d: move_of(service, session)["status"] == "following", 10)
+    driver.get("about:blank")               # the tab goes elsewhere, the button still down
+    release(driver)
+    until(lambda d: move_of(service, session)["status"] != "following", 10,
+          "the session outlived the page")
+    assert move_of(service, session)["status"] in FINISHED
+    service.wait_idle()
+    status, info = service.call("POST", "/v1/follow", {"space": "pose"})   # the arm is free
+    assert status == 201, info
+    assert service.call("DELETE", "/v1/follow", {})[0] == 200
+
+
 def test_without_follow_in_the_contract_a_drag_only_previews(driver: Any, until: Any,
                                                              stub: Any) -> None:
     """A service whose OpenAPI document lists no follow_open (an older one): the drag moves

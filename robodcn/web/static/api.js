@@ -6,8 +6,9 @@ import { showTokenBox } from "./ui.js";
 
 /** A JSON request; throws {status, error} with the service's error body on failure. Every
  * request that changes something (POST, PUT, DELETE) carries a JSON body, {} when it has no
- * fields: the service refuses any other (415), so that no foreign page can send one. */
-export async function api(method, path, body) {
+ * fields: the service refuses any other (415), so that no foreign page can send one.
+ * `keepalive`: the request outlives the page (sent as it closes). */
+export async function api(method, path, body, { keepalive = false } = {}) {
   if (method !== "GET" && body === undefined) body = {};
   if (method !== "GET" && S.tokenRequired && !S.token) {
     showTokenBox();
@@ -17,7 +18,7 @@ export async function api(method, path, body) {
   const headers = {};
   if (body !== undefined) headers["Content-Type"] = "application/json";
   if (method !== "GET" && S.token) headers.Authorization = "Bearer " + S.token;
-  const r = await fetch(path, { method, headers,
+  const r = await fetch(path, { method, headers, keepalive,
     body: body === undefined ? undefined : JSON.stringify(body) });
   let data = null;
   try { data = await r.json(); } catch (_) { data = null; }

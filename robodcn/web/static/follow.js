@@ -95,11 +95,19 @@ function pump(s) {
   });
 }
 
-function close(s) {
+/** The page closing mid-drag (a tab closed, a reload): the session ends as on a drop, so
+ * that it does not hold the arm against every later move. */
+window.addEventListener("pagehide", () => {
+  const s = drag;
+  drag = null;
+  if (s && s.ready && !s.closed && !s.gone) close(s, true);
+});
+
+function close(s, keepalive = false) {
   s.closed = true;
   // where the arm comes to rest: jogging goes on from there (control.js: jogBase)
   if (s.taken) S.sent = { id: s.id, pose: s.taken.slice() };
-  api("DELETE", "/v1/follow", {}).then(setMove).catch((e) => {
+  api("DELETE", "/v1/follow", {}, { keepalive }).then(setMove).catch((e) => {
     if (e.status !== 409) showError(e.error, "follow");   // 409: it had ended already
   });
 }
