@@ -7,6 +7,7 @@ from __future__ import annotations
 import functools
 import itertools
 import json
+import math
 import subprocess
 import sys
 import threading
@@ -116,13 +117,17 @@ def test_a_move_over_zenoh_and_its_state(left: Any) -> None:
                               else None)(query(session, f"robodcn/left/op/get_move?id={move_id}")),
                      10, "the move to end")
     assert final["body"]["status"] in ("done", "degraded")
+    time.sleep(1.2)            # at rest again: at least two publications read off the bus
     sub.undeclare()
     moving = [t for t, s in states if s["moving"]]
     assert len(moving) >= 2
     gaps = sorted(b - a for a, b in itertools.pairwise(moving))
     assert gaps[len(gaps) // 2] <= 1 / 50 + 0.005, f"median gap {gaps[len(gaps) // 2]:.4f} s"
+    # the key carries GET /v1/state's answer: the newest publication at rest against a read
+    # made after it (a settling servo may still move by a tick in between)
+    assert states[-1][1]["moving"] is False
     assert states[-1][1]["joints"] == pytest.approx(
-        http_call(server, "GET", "/v1/state")[2]["joints"], abs=1e-9)
+        http_call(server, "GET", "/v1/state")[2]["joints"], abs=2 * math.pi / 4096 + 1e-9)
 
 
 def test_fleet_ls_lists_two_arms() -> None:
