@@ -59,21 +59,32 @@ def _no_arm_in_the_environment(monkeypatch):
 
 
 def wire_state(sim) -> dict[int, tuple]:
-    """Per servo (the gripper too): every goal it accepted, its present position, torque."""
-    return {i: (tuple(sim.goal_history(i)), sim.servo(i).present_position,
-                sim.servo(i).torque_enabled)
+    """Per servo (the gripper too): every goal it accepted and its torque: what a command
+    would change (a held servo's present position settles by a tick or two under gravity
+    whatever is sent; :func:`positions` has it)."""
+    return {i: (tuple(sim.goal_history(i)), sim.servo(i).torque_enabled)
             for i in (*OMX.servo_ids, OMX.gripper.servo.id)}
+
+
+def positions(sim) -> list[int]:
+    return [sim.servo(i).present_position for i in (*OMX.servo_ids, OMX.gripper.servo.id)]
+
+
+def still(before: list[int], after: list[int]) -> bool:
+    """Nothing moved: every present position within 2 ticks (a held servo settling)."""
+    return max(abs(a - b) for a, b in zip(before, after, strict=True)) <= 2
 
 
 def test_a_later_leg_the_torque_cannot_carry_moves_nothing(held_omx, monkeypatch, capsys,
                                                            tmp_path):
     path = tmp_path / "pick.toml"
     path.write_text(PICK.format(payload=3.0))
-    before = wire_state(held_omx)
+    before, where = wire_state(held_omx), positions(held_omx)
     code = run_cli(monkeypatch, ["run", str(path), "--device", held_omx.port_path])
     err = capsys.readouterr().err
     assert code == 3, err
     assert wire_state(held_omx) == before           # no goal, no gripper action, no torque
+    assert still(where, positions(held_omx))
     # refused before timing (planner.holding): the waypoint the arm cannot hold, numbered
     # as the file numbers it
     assert err.startswith(f"robodcn: {path}: leg 2 of 2 (waypoints 1..3): waypoint 1 "
