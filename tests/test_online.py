@@ -57,6 +57,9 @@ def test_a_switch_is_sent_on_time_the_swap_does_not_delay_the_loop(sa):
     def ops(ex):
         for k, g in enumerate(goals):
             _wait_sample(ex, 200 + 60 * k)
+            # a stream that ended early says why (a fault, a stall past the watchdog), not
+            # only that the retarget found it ended
+            assert not ex.done, (k, ex.sample, ex.error, ex.report and ex.report.headline)
             ex.retarget([None, g])
 
     report, ex, wire = _run(sa, traj, ops)
