@@ -36,20 +36,49 @@ log = logging.getLogger(__name__)
 def take_over_stale_link(link: str, own_pty: str) -> None:
     """Remove ``link`` if it is a symlink left by a simulator that died (``kill -9``).
 
-    A link whose pty is gone (a dangling symlink), or names the pty this simulator was just
-    given (the kernel reuses a freed pty's number), is stale and removed; a link to another
-    pty that exists may belong to a running simulator, and anything that is not a symlink is
-    somebody's file: both raise FileExistsError naming the path, as ``os.symlink`` would.
+    Each simulator records its pid beside its link (``LINK.pid``): a link whose recorded
+    process is gone is stale and removed, whatever its pty became (the kernel reuses a freed
+    pty's number for the next one opened, by any process). Without a pid file, a dangling
+    link or one naming the pty this simulator was just given is stale. A link of a live
+    simulator, or to another pty that exists, and anything that is not a symlink raise
+    FileExistsError naming the path, as ``os.symlink`` would.
     """
     if not os.path.islink(link):
         return                                  # nothing there, or a file symlink() refuses
-    if os.readlink(link) != own_pty and os.path.exists(link):
+    owner = _recorded_pid(link)
+    if owner is not None:
+        stale = not _alive(owner)
+    else:
+        stale = os.readlink(link) == own_pty or not os.path.exists(link)
+    if not stale:
         raise FileExistsError(errno.EEXIST,
                               f"{link} links to {os.readlink(link)}, which is still open "
                               "(another firmware_sim?)", link)
-    log.info("removing the stale link %s (its pty %s is gone)", link, os.readlink(link))
-    with contextlib.suppress(FileNotFoundError):
-        os.unlink(link)
+    log.info("removing the stale link %s (its simulator is gone)", link)
+    for path in (link, link + ".pid"):
+        with contextlib.suppress(FileNotFoundError):
+            os.unlink(path)
+
+
+def _recorded_pid(link: str) -> int | None:
+    try:
+        with open(link + ".pid", encoding="ascii") as f:
+            return int(f.read().strip())
+    except (OSError, ValueError):
+        return None
+
+
+def _alive(pid: int) -> bool:
+    if pid == os.getpid():
+        return False                            # our own earlier link: ours to replace
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except PermissionError:
+        return True
+    return True
+
 
 class PtyPort:
     """One pty: :attr:`path` for the client, the master end for the sim.
@@ -81,6 +110,8 @@ class PtyPort:
                 take_over_stale_link(self.link, self.path)
                 os.symlink(self.path, self.link)
                 self._link_made = True
+                with open(self.link + ".pid", "w", encoding="ascii") as f:
+                    f.write(f"{os.getpid()}\n")
         except BaseException:
             os.close(master)
             os.close(slave)
@@ -94,8 +125,9 @@ class PtyPort:
                 os.close(fd)
         self._master = self._slave = None
         if self._link_made and self.link:
-            with contextlib.suppress(FileNotFoundError):
-                os.unlink(self.link)
+            for path in (self.link, self.link + ".pid"):
+                with contextlib.suppress(FileNotFoundError):
+                    os.unlink(path)
             self._link_made = False
 
     def rate(self) -> int | None:

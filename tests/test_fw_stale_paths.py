@@ -43,7 +43,12 @@ def test_a_killed_simulator_s_link_and_socket_are_taken_over(tmp_path):
     first.send_signal(signal.SIGKILL)
     first.communicate(timeout=10)
     assert os.path.islink(link) and ctl.exists()        # what kill -9 leaves behind
+    # another process opens a pty now: the kernel hands it the dead one's number, so the
+    # stale link leads to a live pty that is nobody's simulator
+    other = os.openpty()
     second = _start(link, ctl)
+    for fd in other:
+        os.close(fd)
     try:
         assert _answers(ctl).startswith("ok")
         assert os.path.exists(link)                       # the new link leads to a live pty
